@@ -1,0 +1,103 @@
+"""File helpers: CSV tables with row-numbered errors, and atomic writes."""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .errors import BadPlanFile
+
+
+def read_numeric_csv(
+    path: str | os.PathLike, what: str = "plan", error: type[Exception] = BadPlanFile
+) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """Read a CSV file with one header row and numeric rows.
+
+    Blank lines and lines starting with ``#`` are skipped. Every other row must have as many cells
+    as the header, all finite numbers.
+
+    Returns:
+        (header names, (rows, columns) float array, (rows,) line number of each row in the file).
+
+    Raises:
+        ``error`` naming the file and the line of the first bad row.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise error(f"{what} file {str(path)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(f"cannot read {what} file {str(path)!r}: {exc}") from None
+    lines = [
+        (n, row)
+        for n, row in enumerate(csv.reader(io.StringIO(text)), start=1)
+        if row and any(c.strip() for c in row) and not row[0].lstrip().startswith("#")
+    ]
+    if not lines:
+        raise error(f"{what} file {str(path)!r} is empty: expected a header row of column names")
+    _, header = lines[0]
+    header = [h.strip() for h in header]
+    if any(_is_number(h) for h in header):
+        raise error(
+            f"{what} file {str(path)!r}: the first row must be a header of column names, "
+            f"got {','.join(header)}"
+        )
+    if len(set(header)) != len(header):
+        dup = sorted({h for h in header if header.count(h) > 1})
+        raise error(f"{what} file {str(path)!r}: duplicate column(s) {', '.join(dup)}")
+    rows, numbers = [], []
+    for n, row in lines[1:]:
+        if len(row) != len(header):
+            raise error(
+                f"{what} file {str(path)!r}, line {n}: {len(row)} values, expected {len(header)} "
+                f"({','.join(header)})"
+            )
+        values = []
+        for name, cell in zip(header, row):
+            try:
+                v = float(cell)
+            except ValueError:
+                raise error(
+                    f"{what} file {str(path)!r}, line {n}: column {name} is {cell.strip()!r}, "
+                    f"not a number"
+                ) from None
+            if not np.isfinite(v):
+                raise error(
+                    f"{what} file {str(path)!r}, line {n}: column {name} is {cell.strip()} "
+                    f"(must be finite)"
+                )
+            values.append(v)
+        rows.append(values)
+        numbers.append(n)
+    if not rows:
+        raise error(f"{what} file {str(path)!r} has a header but no rows")
+    return header, np.array(rows, dtype=float), np.array(numbers, dtype=int)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` to ``path`` through a temporary file and a rename: never half-written."""
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", newline="") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path

@@ -1,0 +1,72 @@
+"""The ``pincal`` command line.
+
+``main(argv)`` parses, runs one subcommand and returns its exit code: 0 on success, 2 on bad input
+(a one-line ``pincal: error: ...`` on stderr, never a traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..errors import PincalError
+from . import evaluate, params, robots
+from ._common import join_negative_values
+
+# One module per subcommand, each with add_parser(subparsers); the order is the --help order.
+COMMANDS = [params, evaluate, robots]
+
+DESCRIPTION = """\
+pincal chooses the measurement configurations of a robot calibration so that the robot is most
+accurate where you work (a test pose), evaluates plans, and calibrates.
+"""
+
+EPILOG = """\
+examples:
+  pincal params kr270 --marker 0.1,0.05,0.2
+  pincal evaluate kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --sigma 3e-5
+  pincal robots
+
+Units: metres and radians; --deg reads and prints joint values in degrees.
+'pincal COMMAND --help' describes each command.
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="pincal",
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    from .. import __version__
+
+    parser.add_argument("--version", action="version", version=f"pincal {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for command in COMMANDS:
+        command.add_parser(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI on ``argv`` (default ``sys.argv[1:]``); return the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    args = parser.parse_args(join_negative_values(argv))  # exits 2 on bad usage
+    if not getattr(args, "run", None):
+        parser.print_help()
+        return 2
+    try:
+        return args.run(args)
+    except PincalError as exc:
+        print(f"pincal: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("pincal: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

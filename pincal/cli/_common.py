@@ -1,0 +1,150 @@
+"""What the CLI commands share: robot options, parsing of joint values, output."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+
+from ..errors import BadConfiguration, PincalError
+from ..parameters import ParameterSet
+from ..plan import Plan, check_limits, to_radians
+from ..robot import Robot, load_robot
+
+DEFAULT_PARAMS = "full,offsets"
+
+# Options whose value may start with "-" (negative numbers): "--test-pose -45,20" is rewritten
+# "--test-pose=-45,20" before argparse sees it.
+VALUE_OPTIONS = ("--test-pose", "--marker")
+
+
+def join_negative_values(argv: list[str]) -> list[str]:
+    """Glue options in VALUE_OPTIONS to a following value that starts with '-' and a digit."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        arg = argv[i]
+        if arg in VALUE_OPTIONS and i + 1 < len(argv):
+            nxt = argv[i + 1]
+            if len(nxt) > 1 and nxt[0] == "-" and (nxt[1].isdigit() or nxt[1] == "."):
+                out.append(f"{arg}={nxt}")
+                i += 2
+                continue
+        out.append(arg)
+        i += 1
+    return out
+
+
+def add_robot_arguments(parser: argparse.ArgumentParser, params: bool = True) -> None:
+    """ROBOT, --tip, --marker (and --params)."""
+    parser.add_argument(
+        "robot",
+        metavar="ROBOT",
+        help="URDF path, shipped robot (kr270, planar_2r) or example-robot-data name (ur10, panda, ...)",
+    )
+    parser.add_argument("--tip", help="tip frame carrying the markers (default: tool0, else the last frame)")
+    parser.add_argument(
+        "--marker",
+        action="append",
+        metavar="X,Y,Z",
+        help="measured point in the tip frame, metres; repeat for several (default: the tip origin)",
+    )
+    if params:
+        parser.add_argument(
+            "--params",
+            metavar="SPEC",
+            help="parameters: groups (offsets, lengths, full, base, markers) and/or names, "
+            f"comma-separated (default: the identifiable base set of {DEFAULT_PARAMS})",
+        )
+
+
+def add_output_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+
+
+def parse_floats(text: str, what: str) -> list[float]:
+    """Comma-separated numbers, or a clear error naming ``what``."""
+    cells = [c.strip() for c in text.split(",")]
+    try:
+        values = [float(c) for c in cells]
+    except ValueError:
+        raise BadConfiguration(f"{what} {text!r}: expected comma-separated numbers") from None
+    if not all(np.isfinite(values)):
+        raise BadConfiguration(f"{what} {text!r}: values must be finite")
+    return values
+
+
+def robot_from_args(args: argparse.Namespace) -> Robot:
+    markers = None
+    if args.marker:
+        markers = []
+        for text in args.marker:
+            xyz = parse_floats(text, "--marker")
+            if len(xyz) != 3:
+                raise BadConfiguration(f"--marker {text!r}: expected X,Y,Z (three numbers, metres)")
+            markers.append(xyz)
+    return load_robot(args.robot, tip=args.tip, markers=markers)
+
+
+def params_from_args(robot: Robot, args: argparse.Namespace) -> tuple[ParameterSet, str]:
+    """The parameter set asked for, and a description of where it came from.
+
+    Without --params: the identifiable base set of ``full,offsets``. With --params: that set,
+    which must be identifiable (the error names the dropped parameters and the fix).
+    """
+    spec = getattr(args, "params", None)
+    if spec is None:
+        ident = robot.parameters(DEFAULT_PARAMS).identifiable()
+        return ident.identifiable, f"identifiable base set of {DEFAULT_PARAMS}"
+    params = robot.parameters(spec)
+    ident = params.identifiable()
+    if ident.dropped:
+        names = list(ident.dropped)
+        shown = ", ".join(names[:8]) + (f", ... ({len(names)} in all)" if len(names) > 8 else "")
+        raise PincalError(
+            f"--params {spec}: {len(names)} parameter(s) cannot be identified from position "
+            f"measurements ({shown}); use the identifiable set --params "
+            f"{','.join(ident.identifiable.names)} (see 'pincal params {args.robot}')"
+        )
+    return params, spec
+
+
+def parse_configuration(robot: Robot, text: str, degrees: bool, what: str) -> np.ndarray:
+    """One configuration from 'v1,v2,...' (radians, or degrees), checked against limits."""
+    values = parse_floats(text, what)
+    if len(values) != robot.nq:
+        raise BadConfiguration(
+            f"{what} {text!r}: {len(values)} values, expected {robot.nq} "
+            f"({', '.join(robot.joint_names)})"
+        )
+    q = to_radians(robot, values) if degrees else np.array(values)
+    check_limits(robot, q[None, :], [f"{what} {text}"], degrees)
+    return robot.configurations(q, what=what)[0]
+
+
+def test_poses_from_args(robot: Robot, args: argparse.Namespace) -> np.ndarray:
+    return np.array(
+        [parse_configuration(robot, t, args.deg, "--test-pose") for t in args.test_pose]
+    )
+
+
+def read_plan(robot: Robot, path: str, degrees: bool) -> Plan:
+    return Plan.from_csv(path, robot=robot, degrees=degrees)
+
+
+def positive(value: float, name: str) -> float:
+    if not (np.isfinite(value) and value > 0):
+        raise PincalError(f"{name} must be a positive number, got {value}")
+    return value
+
+
+def emit_json(payload: dict) -> None:
+    json.dump(payload, sys.stdout, indent=2, allow_nan=False)
+    sys.stdout.write("\n")
+
+
+def fmt_length(metres: float) -> str:
+    """A length for people: mm below one metre, with 4 significant digits."""
+    return f"{metres * 1e3:.4g} mm" if abs(metres) < 1 else f"{metres:.4g} m"

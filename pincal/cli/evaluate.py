@@ -1,0 +1,96 @@
+"""pincal evaluate: ρ0 and the classic criteria of a plan."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from ..criteria import criteria, rho0
+from ._common import (
+    add_output_arguments,
+    add_robot_arguments,
+    emit_json,
+    fmt_length,
+    params_from_args,
+    positive,
+    read_plan,
+    robot_from_args,
+    test_poses_from_args,
+)
+
+HELP = "criteria of a measurement plan: rho0 at the test pose(s), D, A, E, cond, O1-O4"
+EXAMPLES = """\
+examples:
+  pincal evaluate kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --sigma 3e-5
+  pincal evaluate planar_2r --plan plan.csv --test-pose=0.3,1.2 --params joint2.tx,tip.tx --json
+  pincal evaluate robots/kr270.urdf --plan plan.csv --test-pose=-0.5,-1.2,1.0,0,0.8,0 \\
+      --test-pose=0.5,-1.2,1.0,0,0.8,0 --worst
+
+PLAN.csv: a header row of joint names, one configuration per row, radians (degrees with --deg).
+rho0 is in metres for the given --sigma (noise per coordinate, metres; default 1, so rho0/sigma).
+"""
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "evaluate",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_robot_arguments(p)
+    p.add_argument("--plan", required=True, metavar="PLAN.csv", help="the configurations to evaluate")
+    p.add_argument(
+        "--test-pose",
+        action="append",
+        required=True,
+        metavar="Q0",
+        help="comma-separated joint values of a test pose; repeat for several",
+    )
+    p.add_argument("--worst", action="store_true", help="with several test poses, report the worst, not the mean")
+    p.add_argument("--sigma", type=float, default=1.0, help="measurement noise per coordinate [m] (default 1)")
+    p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
+    add_output_arguments(p)
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    sigma = positive(args.sigma, "--sigma")
+    robot = robot_from_args(args)
+    params, source = params_from_args(robot, args)
+    plan = read_plan(robot, args.plan, args.deg)
+    q0 = test_poses_from_args(robot, args)
+    each = rho0(params, plan, q0, sigma=sigma, aggregate="each")
+    value = float(each.max()) if args.worst else float(np.sqrt(np.mean(each**2)))
+    crit = criteria(params, plan)
+    if args.json:
+        emit_json(
+            {
+                "robot": robot.name,
+                "tip": robot.tip,
+                "markers": robot.markers.tolist(),
+                "m": len(plan),
+                "sigma": sigma,
+                "rho0": value,
+                "rho0_aggregate": "worst" if args.worst else "mean",
+                "rho0_per_test_pose": each.tolist(),
+                "n_params": len(params),
+                "params": list(params.names),
+                "criteria": crit.as_dict(),
+            }
+        )
+        return 0
+    agg = "worst" if args.worst else "root mean square"
+    print(f"{robot.name}: {len(plan)} configurations, {len(params)} parameters ({source}), sigma = {sigma:g} m")
+    if len(each) == 1:
+        print(f"rho0 at the test pose: {fmt_length(value)}  ({value:.6g} m)")
+    else:
+        print(f"rho0 over {len(each)} test poses ({agg}): {fmt_length(value)}  ({value:.6g} m)")
+        for i, r in enumerate(each):
+            print(f"  test pose {i}: {fmt_length(r)}")
+    print("criteria (lower is better: log_det, trace, max_eig, cond; higher: O1-O4):")
+    for name, v in crit.as_dict().items():
+        print(f"  {name:8s} {v:.6g}")
+    return 0

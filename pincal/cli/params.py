@@ -1,0 +1,59 @@
+"""pincal params: the parameters of a robot and which are identifiable."""
+
+from __future__ import annotations
+
+import argparse
+
+from ._common import DEFAULT_PARAMS, add_output_arguments, add_robot_arguments, emit_json, robot_from_args
+
+HELP = "list geometric parameters and report which are identifiable, and why not"
+EXAMPLES = """\
+examples:
+  pincal params kr270                               # full,offsets on the flange centre
+  pincal params kr270 --marker 0.1,0.05,0.2 --params full
+  pincal params ur10 --params lengths,offsets --json
+
+Names: <joint>.tx|ty|tz (origin xyz error, parent link coordinates, m), <joint>.rx|ry|rz (rotation
+about the joint frame's axes, rad), <joint>.offset, <tip>.tx..rz, marker<k>.x|y|z, base.tx..rz.
+Groups: offsets, lengths, full, base, markers; mix them and names with commas.
+"""
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "params",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_robot_arguments(p, params=False)
+    p.add_argument("--params", metavar="SPEC", default=DEFAULT_PARAMS, help=f"parameters to examine (default {DEFAULT_PARAMS})")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random configurations (default 0)")
+    add_output_arguments(p)
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    robot = robot_from_args(args)
+    params = robot.parameters(args.params)
+    ident = params.identifiable(seed=args.seed)
+    if args.json:
+        emit_json(
+            {
+                "robot": robot.name,
+                "tip": robot.tip,
+                "joints": list(robot.joint_names),
+                "markers": robot.markers.tolist(),
+                "params": list(params.names),
+                "units": dict(zip(params.names, params.units)),
+                "identifiable": list(ident.identifiable.names),
+                "rank": ident.rank,
+                "dropped": ident.dropped,
+                "combinations": ident.combinations,
+            }
+        )
+        return 0
+    print(f"{robot.name}: joints {', '.join(robot.joint_names)}; tip {robot.tip}; markers {robot.markers.tolist()}")
+    print(ident.report())
+    return 0

@@ -1,0 +1,113 @@
+"""Exceptions raised by pincal.
+
+Every error pincal raises on purpose derives from :class:`PincalError`. Messages say what was
+wrong, what was expected and, where there is a finite list, the valid choices. The CLI prints
+``str(error)`` on one line and exits with code 2.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+
+def _choices(valid: Iterable[str], limit: int = 30) -> str:
+    valid = list(valid)
+    shown = ", ".join(valid[:limit])
+    return shown + (f", ... ({len(valid)} in all)" if len(valid) > limit else "")
+
+
+def _close(name: str, valid: Iterable[str]) -> list[str]:
+    return difflib.get_close_matches(name, list(valid), n=5, cutoff=0.5)
+
+
+class PincalError(Exception):
+    """Root of every error pincal raises on purpose."""
+
+
+class RobotNotFound(PincalError):
+    """A robot given by name is neither a file, a shipped robot nor an example-robot-data robot."""
+
+    def __init__(self, name: str, valid: Iterable[str]):
+        self.name = name
+        self.valid = sorted(valid)
+        close = _close(name, self.valid)
+        hint = f"; did you mean {', '.join(close)}?" if close else ""
+        super().__init__(
+            f"unknown robot {name!r}: not a URDF file, a shipped robot or an example-robot-data "
+            f"robot{hint} Valid names: {_choices(self.valid, 80)}"
+        )
+
+
+class UrdfError(PincalError):
+    """A URDF file is missing, unreadable or not a valid robot description."""
+
+
+class UnknownName(PincalError):
+    """A frame, joint, parameter or group name that the robot does not have."""
+
+    def __init__(self, kind: str, name: str, valid: Iterable[str]):
+        self.kind = kind
+        self.name = name
+        self.valid = list(valid)
+        close = _close(name, self.valid)
+        hint = f" (did you mean {', '.join(close)}?)" if close else ""
+        super().__init__(f"unknown {kind} {name!r}{hint}; valid: {_choices(self.valid)}")
+
+
+class FrameNotFound(UnknownName):
+    """The requested tip frame is not in the model (or is not moved by any joint)."""
+
+    def __init__(self, name: str, valid: Iterable[str], kind: str = "frame"):
+        super().__init__(kind, name, valid)
+
+
+class UnknownParameter(UnknownName):
+    """A parameter name or group that the parameter space does not have."""
+
+    def __init__(self, name: str, valid: Iterable[str]):
+        super().__init__("parameter or group", name, valid)
+
+
+class UnsupportedJoint(PincalError):
+    """A joint on the measured chain that is not a one-dof (revolute or prismatic) joint."""
+
+
+class BadConfiguration(PincalError):
+    """Joint values of the wrong shape, non-finite, non-numeric or outside the joint limits."""
+
+
+class BadPlanFile(PincalError):
+    """A plan / configuration CSV file that cannot be read as documented."""
+
+
+class SingularPlan(PincalError):
+    """A plan whose information matrix is singular: the criterion is not finite.
+
+    Attributes:
+        n_params: number of parameters to identify.
+        rows_per_configuration: measured coordinates per configuration (3 per marker).
+        min_configurations: the fewest configurations that could identify ``n_params``.
+        m: the number of configurations of the plan.
+        rank: numerical rank of the information matrix.
+    """
+
+    def __init__(self, n_params: int, rows_per_configuration: int, m: int, rank: int | None = None):
+        self.n_params = n_params
+        self.rows_per_configuration = rows_per_configuration
+        self.min_configurations = -(-n_params // rows_per_configuration)
+        self.m = m
+        self.rank = rank
+        if m < self.min_configurations:
+            msg = (
+                f"singular plan: {m} configuration(s) give {m * rows_per_configuration} measured "
+                f"coordinates for {n_params} parameters; at least {self.min_configurations} "
+                f"configurations are needed"
+            )
+        else:
+            msg = (
+                f"singular plan: the {m} configurations are degenerate (information matrix rank "
+                f"{rank} < {n_params} parameters); choose more varied configurations (at least "
+                f"{self.min_configurations} are needed) or fewer parameters"
+            )
+        super().__init__(msg)

@@ -1,0 +1,131 @@
+"""Identifiability: which parameters position measurements can determine (SPEC §2).
+
+The parameter Jacobian is stacked over many random configurations within the joint limits and its
+columns normalised. The numerical rank (SVD) is the number of identifiable parameters. The base set
+is chosen greedily in a fixed order of preference — joint offsets, then the lengths (non-zero origin
+components), then other translations, rotations, markers, base — keeping a parameter when its
+column is not in the span of those kept before (QR, i.e. Gram–Schmidt, in that order). Each
+dropped parameter is reported either as *invisible* (its column is zero: nothing it does moves the
+measured points) or as a *combination* of kept ones, with the coefficients.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .parameters import LENGTH_TOLERANCE, ParameterSet
+
+
+@dataclass(frozen=True, eq=False)
+class Identifiability:
+    """The identifiability report of a parameter set.
+
+    Attributes:
+        params: the set examined.
+        identifiable: the base set kept (a ParameterSet, canonical order).
+        dropped: ``{name: reason}`` for each parameter not kept.
+        combinations: ``{name: {kept name: coefficient}}`` for the redundant ones: the dropped
+            column equals Σ coefficient × kept column (units: dropped unit / kept unit).
+        rank: numerical rank of the stacked Jacobian (== len(identifiable)).
+        singular_values: of the column-normalised stacked Jacobian, decreasing.
+        n_configurations: random configurations used.
+    """
+
+    params: ParameterSet
+    identifiable: ParameterSet
+    dropped: dict[str, str]
+    combinations: dict[str, dict[str, float]]
+    rank: int
+    singular_values: np.ndarray
+    n_configurations: int
+
+    def report(self) -> str:
+        """A human-readable text report."""
+        lines = [
+            f"{len(self.params)} parameters, {self.rank} identifiable from position measurements "
+            f"({self.n_configurations} random configurations):",
+            "  identifiable: " + ", ".join(self.identifiable.names),
+        ]
+        if self.dropped:
+            lines.append("  dropped:")
+            lines += [f"    {name}: {reason}" for name, reason in self.dropped.items()]
+        return "\n".join(lines)
+
+
+def _preference(params: ParameterSet) -> list[int]:
+    """Indices of ``params`` in the order the base set prefers them."""
+    origins = params.robot.origins
+
+    def rank(p) -> int:
+        if p.kind == "offset":
+            return 0
+        if p.kind == "placement" and p.component < 3:
+            length = abs(origins[p.index].origin.translation[p.component]) > LENGTH_TOLERANCE
+            return 1 if length else 2
+        if p.kind == "placement":
+            return 3
+        return 4 if p.kind == "marker" else 5
+
+    return sorted(range(len(params)), key=lambda i: (rank(params.parameters[i]), i))
+
+
+def identifiability(
+    params: ParameterSet, n_configurations: int = 200, seed: int = 0, tol: float = 1e-8
+) -> Identifiability:
+    """Identifiability report of ``params`` (see module doc).
+
+    Args:
+        params: the parameter set to examine.
+        n_configurations: random configurations within the joint limits.
+        seed: seed of the random configurations (same seed, same report).
+        tol: relative threshold on normalised columns and residuals.
+    """
+    robot = params.robot
+    qs = robot.random_configurations(n_configurations, np.random.default_rng(seed))
+    J = params.jacobian(qs, frame="tip").reshape(-1, len(params))
+    norms = np.linalg.norm(J, axis=0)
+    scale = norms.max() if norms.max() > 0 else 1.0
+    visible = norms > tol * scale
+    A = np.where(visible, J / np.where(visible, norms, 1.0), 0.0)
+    singular_values = np.linalg.svd(A, compute_uv=False)
+    rank = int(np.sum(singular_values > tol * max(singular_values[0], 1e-300) * np.sqrt(A.shape[1])))
+
+    kept: list[int] = []
+    basis = np.zeros((A.shape[0], 0))
+    for i in _preference(params):
+        if not visible[i]:
+            continue
+        residual = A[:, i] - basis @ (basis.T @ A[:, i])
+        residual -= basis @ (basis.T @ residual)  # re-orthogonalise once
+        size = np.linalg.norm(residual)
+        if size > 1e-6:
+            kept.append(i)
+            basis = np.column_stack([basis, residual / size])
+    kept.sort()
+    names = params.names
+    dropped: dict[str, str] = {}
+    combinations: dict[str, dict[str, float]] = {}
+    for i in range(len(params)):
+        if i in kept:
+            continue
+        if not visible[i]:
+            dropped[names[i]] = "invisible: it does not move the measured point(s) in any configuration"
+            continue
+        coef, *_ = np.linalg.lstsq(J[:, kept], J[:, i], rcond=None)
+        big = np.abs(coef) > 1e-6 * max(np.abs(coef).max(), 1e-300)
+        combo = {names[kept[k]]: float(round(coef[k], 9)) for k in np.flatnonzero(big)}
+        combinations[names[i]] = combo
+        terms = " ".join(f"{'+' if c >= 0 else '-'} {abs(c):.6g}·{n}" for n, c in combo.items())
+        terms = terms[2:] if terms.startswith("+ ") else "-" + terms[2:]
+        dropped[names[i]] = f"redundant: equals {terms}"
+    return Identifiability(
+        params=params,
+        identifiable=ParameterSet(robot, tuple(params.parameters[i] for i in kept)),
+        dropped=dropped,
+        combinations=combinations,
+        rank=rank,
+        singular_values=singular_values,
+        n_configurations=n_configurations,
+    )

@@ -1,0 +1,180 @@
+"""Parameter Jacobians J = ∂p/∂Π of the measured points (SPEC §2).
+
+Analytic: a perturbation of origin j moves the tip like a virtual 6-dof joint at F_j = oM_parent(j)·M_j
+(before joint j's motion). Pinocchio's kinematic regressor gives, in one call per configuration
+(after one forward-kinematics pass), the tip's twist for a twist of *every* joint placement. Each
+parameter is then a constant combination of those columns:
+
+* ``tx|ty|tz`` of origin j: the twist (R_Lᵀ e, 0) of placement j, R_L the URDF origin's rotation;
+* ``rx|ry|rz``: the twist (0, e);
+* ``offset``: the joint's motion axis S_j (the joint's own Jacobian column);
+* the tip's own placement: a twist of the tip frame itself (identity columns);
+
+and a marker m_k moves by v + ω × m_k for a tip twist (v, ω). So, in the tip frame,
+J_i = G · Reg_i · C + const, with G = [I, −[m_k]×] stacked over markers and C, const fixed for the
+parameter set. World rows are those rotated by the tip's orientation.
+
+Finite differences: central differences of the measured points of perturbed robot *copies*
+(:meth:`ParameterSet.apply`), step 1e-6, for checking.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+FD_STEP = 1e-6
+"""Central finite-difference step [m or rad]."""
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    x, y, z = v
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+class JacobianEngine:
+    """Precomputed constant parts of the analytic parameter Jacobian of one ParameterSet.
+
+    Holds its own ``pinocchio.Data``: use one engine per thread.
+    """
+
+    def __init__(self, params) -> None:
+        robot = params.robot
+        self.robot = robot
+        self.model = robot.model
+        self.data = robot.model.createData()
+        self.joint = robot.tip_joint
+        self.placement = pin.SE3(robot.model.frames[robot.tip_frame].placement)
+        self.offsets = np.array(robot.joint_offsets)
+        self.has_offsets = bool(self.offsets.any())
+        # One frame per marker: the tip frame moved to the marker (same axes).
+        self.points = [self.placement * pin.SE3(np.eye(3), m) for m in robot.markers]
+        nj, n_params, n_markers = robot.nq, len(params), robot.n_markers
+        self.rows = 3 * n_markers
+        self.n_params = n_params
+
+        C = np.zeros((6 * nj, n_params))
+        tip_twist = np.zeros((6, n_params))
+        const = np.zeros((self.rows, n_params))
+        base_cols: list[tuple[int, int]] = []
+        for col, p in enumerate(params.parameters):
+            if p.kind == "placement":
+                twist = np.zeros(6)
+                if p.component < 3:
+                    twist[:3] = robot.origins[p.index].origin.rotation[p.component]  # R_Lᵀ e_c
+                else:
+                    twist[p.component] = 1.0
+                if p.index < nj:
+                    C[6 * p.index : 6 * p.index + 6, col] = twist
+                else:
+                    tip_twist[:, col] = twist
+            elif p.kind == "offset":
+                C[6 * p.index : 6 * p.index + 6, col] = robot.motion_axes[p.index + 1]
+            elif p.kind == "marker":
+                const[3 * p.index + p.component, col] = 1.0
+            else:
+                base_cols.append((col, p.component))
+        self.G = np.vstack([np.hstack([np.eye(3), -_skew(m)]) for m in robot.markers])
+        self.C = C
+        self.const = self.G @ tip_twist + const
+        self.base_cols = base_cols
+        self.needs_pose = bool(base_cols)
+        # J_i = [Reg_i, I] @ [C; const]: one matrix product for all configurations.
+        self.C_ext = np.vstack([C, self.const])
+        self._buffers: dict[int, tuple] = {}
+
+    def _buffer(self, m: int) -> tuple[np.ndarray, list[list[np.ndarray]]]:
+        """A reusable (m, 3K, 6·nq + 3K) regressor buffer and views of its per-marker blocks."""
+        cached = self._buffers.get(m)
+        if cached is None:
+            n = 6 * self.model.nq
+            buf = np.zeros((m, self.rows, n + self.rows))
+            buf[:, :, n:] = np.eye(self.rows)
+            views = [[buf[i, 3 * k : 3 * k + 3, :n] for k in range(self.rows // 3)] for i in range(m)]
+            if len(self._buffers) > 16:
+                self._buffers.clear()
+            cached = self._buffers[m] = (buf, views)
+        return cached
+
+    def regressors(self, qs: np.ndarray, pose: bool = False):
+        """Linear rows of the kinematic regressor at each marker, in the tip frame's axes.
+
+        Returns:
+            (m, 3K, 6·nq + 3K) regressors: a twist of joint placement j moves marker k by
+            ``reg[i, 3k:3k+3, 6(j-1):6j] @ twist``; the last 3K columns are an identity (they carry
+            the constant columns). With ``pose``, also the tip's world rotations (m, 3, 3) and
+            positions (m, 3) in the robot base frame, else None, None. The array is a buffer of
+            the engine's, overwritten by the next call.
+        """
+        model, data, joint = self.model, self.data, self.joint
+        m = len(qs)
+        reg, views = self._buffer(m)
+        rot = np.empty((m, 3, 3)) if pose else None
+        pos = np.empty((m, 3)) if pose else None
+        regressor, fk, local = pin.computeJointKinematicRegressor, pin.forwardKinematics, pin.LOCAL
+        points = self.points
+        for i, (q, row) in enumerate(zip(qs + self.offsets if self.has_offsets else qs, views)):
+            fk(model, data, q)
+            for view, point in zip(row, points):
+                view[...] = regressor(model, data, joint, local, point)[:3]
+            if pose:
+                tip = data.oMi[joint] * self.placement
+                rot[i] = tip.rotation
+                pos[i] = tip.translation
+        return reg, rot, pos
+
+    def jacobian(self, qs: np.ndarray, frame: str = "tip") -> np.ndarray:
+        """(m, 3K, P) parameter Jacobian at configurations ``qs`` (validated by the caller).
+
+        Args:
+            qs: (m, nq) joint values.
+            frame: ``"tip"``: each configuration's rows in its own tip frame (enough for every
+                criterion: M = Σ JᵢᵀJᵢ is unchanged by a rotation of each configuration's rows);
+                ``"world"``: in the instrument's frame.
+        """
+        pose = frame == "world" or self.needs_pose
+        reg, rot, pos = self.regressors(qs, pose=pose)
+        J = (reg.reshape(-1, reg.shape[2]) @ self.C_ext).reshape(len(qs), self.rows, self.n_params)
+        if not pose:
+            return J
+        base = self.robot.base
+        # World rotation of each configuration's tip frame (instrument <- tip).
+        world = np.matmul(base.rotation, rot)
+        if self.base_cols:
+            K = self.robot.n_markers
+            # Points in robot-base coordinates, (m, K, 3).
+            points = pos[:, None, :] + np.einsum("mij,kj->mki", rot, self.robot.markers)
+            for col, c in self.base_cols:
+                if c < 3:
+                    d_world = np.broadcast_to(np.eye(3)[c], (len(qs), K, 3))
+                else:
+                    axis = np.eye(3)[c - 3]
+                    d_world = np.cross(axis, points) @ base.rotation.T
+                # Express in each configuration's tip frame: Rwᵀ d.
+                J[:, :, col] = np.einsum("mji,mkj->mki", world, d_world).reshape(len(qs), -1)
+        if frame == "world":
+            K = self.robot.n_markers
+            J = np.einsum("mij,mkjp->mkip", world, J.reshape(len(qs), K, 3, -1)).reshape(J.shape)
+        return J
+
+
+def analytic_jacobian(params, qs: np.ndarray, frame: str = "world") -> np.ndarray:
+    """(m, 3K, P) analytic parameter Jacobian (see :meth:`ParameterSet.jacobian`)."""
+    if frame not in ("world", "tip"):
+        from .errors import PincalError
+
+        raise PincalError(f"unknown Jacobian frame {frame!r}; valid: world, tip")
+    return JacobianEngine(params).jacobian(qs, frame=frame)
+
+
+def finite_difference_jacobian(params, qs: np.ndarray, step: float = FD_STEP) -> np.ndarray:
+    """(m, 3K, P) world-frame Jacobian by central differences on perturbed robot copies."""
+    m, n = len(qs), len(params)
+    J = np.empty((m, 3 * params.robot.n_markers, n))
+    for col in range(n):
+        dx = np.zeros(n)
+        dx[col] = step
+        plus = params.apply(dx)._points(qs)
+        minus = params.apply(-dx)._points(qs)
+        J[:, :, col] = ((plus - minus) / (2 * step)).reshape(m, -1)
+    return J

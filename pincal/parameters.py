@@ -1,0 +1,299 @@
+"""Geometric parameters: the errors a calibration identifies, with stable readable names.
+
+Conventions (SPEC §2, chosen to match URDF):
+
+* ``<joint>.tx|ty|tz``: error of the joint's URDF ``<origin>`` xyz, in the parent link's
+  coordinates (t ← t + δt) [m].
+* ``<joint>.rx|ry|rz``: small rotation about the joint frame's own axes (R ← R·exp3(δω)) [rad].
+* ``<joint>.offset``: joint zero error, q ← q + Δq [rad, or m for a prismatic joint].
+* ``<tip>.tx ... rz``: the same six for the tip frame's placement on the last link (the URDF
+  fixed joint whose child is the tip).
+* ``marker<k>.x|y|z``: error of measured point k, in the tip frame [m].
+* ``base.tx ... rz``: placement of the robot base in the instrument frame (translation in the
+  instrument's coordinates, rotation about the base's own axes) — for measurements expressed in
+  the instrument's frame.
+
+Groups: ``offsets`` (one per joint), ``lengths`` (each non-zero component of each origin's xyz on
+the chain, the tip's included), ``full`` (all six of every origin, the tip's included), ``base``,
+``markers``; any mix of groups and names, separated by commas. Whatever the order asked, a set
+keeps the canonical order: chain order, tx ty tz rx ry rz offset per joint, then tip, markers, base.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import PincalError, UnknownParameter
+from .robot import Robot
+
+COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
+GROUPS = ("offsets", "lengths", "full", "base", "markers")
+LENGTH_TOLERANCE = 1e-9
+"""An origin component counts as a length when |xyz component| exceeds this [m]."""
+
+# Parameter kinds, as small integers for vectorised code.
+PLACEMENT, OFFSET, MARKER, BASE = 0, 1, 2, 3
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One geometric parameter.
+
+    Attributes:
+        name: stable readable name, e.g. ``joint_a2.tx``.
+        kind: ``"placement"``, ``"offset"``, ``"marker"`` or ``"base"``.
+        index: origin index (placement: joints in chain order, then the tip), joint index
+            (offset, 0-based in configuration order), marker index, or 0 (base).
+        component: 0..5 for tx ty tz rx ry rz; 0..2 for a marker's x y z; 0 for an offset.
+        unit: ``"m"`` or ``"rad"``.
+    """
+
+    name: str
+    kind: str
+    index: int
+    component: int
+    unit: str
+
+    @property
+    def is_length(self) -> bool:
+        """True when the parameter is in metres."""
+        return self.unit == "m"
+
+
+def _catalogue(robot: Robot) -> list[Parameter]:
+    """Every parameter of ``robot``, in canonical order."""
+    out: list[Parameter] = []
+    n_joints = robot.nq
+    prismatic = np.linalg.norm(robot.motion_axes[1:, 3:], axis=1) < 0.5
+    for o, origin in enumerate(robot.origins):
+        for c, comp in enumerate(COMPONENTS):
+            out.append(Parameter(f"{origin.name}.{comp}", "placement", o, c, "m" if c < 3 else "rad"))
+        if o < n_joints:
+            out.append(Parameter(f"{origin.name}.offset", "offset", o, 0, "m" if prismatic[o] else "rad"))
+    for k in range(robot.n_markers):
+        for c, comp in enumerate("xyz"):
+            out.append(Parameter(f"marker{k}.{comp}", "marker", k, c, "m"))
+    for c, comp in enumerate(COMPONENTS):
+        out.append(Parameter(f"base.{comp}", "base", 0, c, "m" if c < 3 else "rad"))
+    return out
+
+
+def _group(robot: Robot, catalogue: list[Parameter], group: str) -> list[Parameter]:
+    if group == "offsets":
+        return [p for p in catalogue if p.kind == "offset"]
+    if group == "full":
+        return [p for p in catalogue if p.kind == "placement"]
+    if group == "lengths":
+        xyz = [o.origin.translation for o in robot.origins]
+        return [
+            p
+            for p in catalogue
+            if p.kind == "placement" and p.component < 3 and abs(xyz[p.index][p.component]) > LENGTH_TOLERANCE
+        ]
+    if group == "base":
+        return [p for p in catalogue if p.kind == "base"]
+    if group == "markers":
+        return [p for p in catalogue if p.kind == "marker"]
+    raise AssertionError(group)
+
+
+def _split(spec: str | Iterable[str]) -> list[str]:
+    items = spec.split(",") if isinstance(spec, str) else list(spec)
+    return [s.strip() for item in items for s in str(item).split(",") if s.strip()]
+
+
+@dataclass(frozen=True, eq=False)
+class ParameterSet:
+    """An ordered set of geometric parameters of one robot.
+
+    Build one with :meth:`Robot.parameters` (``robot.parameters("lengths,offsets")``). Values of
+    the parameters are always *errors*, ΔΠ, relative to the robot's current geometry.
+
+    Attributes:
+        robot: the robot whose geometry is perturbed.
+        parameters: the parameters, in canonical order.
+    """
+
+    robot: Robot
+    parameters: tuple[Parameter, ...]
+
+    @classmethod
+    def from_spec(cls, robot: Robot, spec: str | Iterable[str]) -> ParameterSet:
+        """Parameters named by groups and/or names, comma-separated (see module doc)."""
+        catalogue = _catalogue(robot)
+        by_name = {p.name: p for p in catalogue}
+        chosen: set[str] = set()
+        tokens = _split(spec)
+        if not tokens:
+            raise UnknownParameter("", list(GROUPS) + list(by_name))
+        for token in tokens:
+            if token in GROUPS:
+                chosen.update(p.name for p in _group(robot, catalogue, token))
+            elif token in by_name:
+                chosen.add(token)
+            else:
+                raise UnknownParameter(token, list(GROUPS) + list(by_name))
+        if not chosen:
+            raise PincalError(f"parameter set {spec!r} is empty for robot {robot.name!r}")
+        return cls(robot, tuple(p for p in catalogue if p.name in chosen))
+
+    # ---------------------------------------------------------------------- naming
+    @cached_property
+    def names(self) -> tuple[str, ...]:
+        """Parameter names, in order."""
+        return tuple(p.name for p in self.parameters)
+
+    def __len__(self) -> int:
+        return len(self.parameters)
+
+    def __iter__(self):
+        return iter(self.parameters)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.names
+
+    def index(self, name: str) -> int:
+        """Position of parameter ``name`` in this set."""
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise UnknownParameter(name, self.names) from None
+
+    def select(self, names: str | Iterable[str]) -> ParameterSet:
+        """The subset named by ``names`` (names or groups, as in :meth:`Robot.parameters`)."""
+        sub = ParameterSet.from_spec(self.robot, names)
+        outside = [n for n in sub.names if n not in self.names]
+        if outside:
+            raise UnknownParameter(outside[0], self.names)
+        return sub
+
+    def on(self, robot: Robot) -> ParameterSet:
+        """The same parameters on another robot of the same structure (e.g. a perturbed one)."""
+        return ParameterSet(robot, self.parameters)
+
+    @cached_property
+    def units(self) -> tuple[str, ...]:
+        """Unit of each parameter (``"m"`` or ``"rad"``)."""
+        return tuple(p.unit for p in self.parameters)
+
+    def __repr__(self) -> str:
+        return f"ParameterSet({len(self)} parameters of {self.robot.name!r}: {', '.join(self.names)})"
+
+    # -------------------------------------------------------------------- applying
+    def _values(self, values: Sequence[float] | np.ndarray) -> np.ndarray:
+        try:
+            arr = np.array(values, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise PincalError(f"parameter values must be numbers, got {values!r}") from None
+        if arr.shape != (len(self),):
+            raise PincalError(f"expected {len(self)} parameter values ({', '.join(self.names)}), got {arr.size}")
+        if not np.all(np.isfinite(arr)):
+            raise PincalError("parameter values must be finite")
+        return arr
+
+    def as_dict(self, values: Sequence[float] | np.ndarray) -> dict[str, float]:
+        """``{name: value}`` for a vector of values of this set."""
+        return dict(zip(self.names, map(float, self._values(values))))
+
+    def apply(self, values: Sequence[float] | np.ndarray) -> Robot:
+        """A new Robot whose geometry is this robot's with errors ``values`` added.
+
+        The caller's robot and model are not touched. Translations add; rotations compose on the
+        right (R ← R·exp3(δω)); offsets and marker errors add.
+        """
+        dx = self._values(values)
+        robot = self.robot
+        n_origins = len(robot.origins)
+        placement = np.zeros((n_origins, 6))
+        offsets = np.array(robot.joint_offsets)
+        markers = np.array(robot.markers)
+        base = np.zeros(6)
+        for p, v in zip(self.parameters, dx):
+            if p.kind == "placement":
+                placement[p.index, p.component] += v
+            elif p.kind == "offset":
+                offsets[p.index] += v
+            elif p.kind == "marker":
+                markers[p.index, p.component] += v
+            else:
+                base[p.component] += v
+        model = pin.Model(robot.model)
+        for o, origin in enumerate(robot.origins):
+            if not placement[o].any():
+                continue
+            new = origin.parent * _perturb(origin.origin, placement[o])
+            if o < robot.nq:
+                model.jointPlacements[origin.joint] = new
+            else:
+                _move_tip(model, robot.tip_frame, new)
+        return robot.replace(
+            model=model,
+            joint_offsets=offsets,
+            markers=markers,
+            base=_perturb(robot.base, base),
+        )
+
+    # ---------------------------------------------------------------- derivatives
+    def jacobian(self, plan: object, method: str = "analytic", frame: str = "world") -> np.ndarray:
+        """Parameter Jacobian ∂p/∂Π at each configuration of ``plan``.
+
+        Args:
+            plan: (nq,) or (m, nq) joint values, or a :class:`~pincal.Plan`.
+            method: ``"analytic"`` (Pinocchio's kinematic regressor, one forward-kinematics pass
+                per configuration) or ``"fd"`` (central finite differences on perturbed copies).
+            frame: ``"world"`` (the instrument's frame) or ``"tip"`` (each configuration's rows in
+                its tip frame: the same information matrix, cheaper).
+
+        Returns:
+            (m, 3K, P) array: for configuration i, rows 3k..3k+2 are marker k's x, y, z;
+            ``J.reshape(-1, P)`` is the stacked Jacobian.
+        """
+        from .jacobian import analytic_jacobian, finite_difference_jacobian
+
+        qs = self.robot.configurations(plan)
+        if method == "analytic":
+            return analytic_jacobian(self, qs, frame=frame)
+        if method == "fd":
+            if frame != "world":
+                raise PincalError("finite differences give world-frame rows only (frame='world')")
+            return finite_difference_jacobian(self, qs)
+        raise PincalError(f"unknown Jacobian method {method!r}; valid: analytic, fd")
+
+    def identifiable(self, n_configurations: int = 200, seed: int = 0, tol: float = 1e-8):
+        """Which of these parameters position measurements can identify.
+
+        See :func:`pincal.identifiability.identifiability`.
+        """
+        from .identifiability import identifiability
+
+        return identifiability(self, n_configurations=n_configurations, seed=seed, tol=tol)
+
+
+def _perturb(placement: pin.SE3, twist: np.ndarray) -> pin.SE3:
+    """(R·exp3(δω), t + δt) for twist = (δt, δω): the SPEC §2 convention."""
+    return pin.SE3(
+        placement.rotation @ pin.exp3(np.asarray(twist[3:], dtype=float)),
+        placement.translation + np.asarray(twist[:3], dtype=float),
+    )
+
+
+def _move_tip(model: pin.Model, tip_frame: int, placement: pin.SE3) -> None:
+    """Set the tip frame's placement (and its URDF fixed-joint frame's, which coincides)."""
+    tip = model.frames[tip_frame]
+    old = pin.SE3(tip.placement)
+    parent = tip.parentFrame
+    if (
+        0 < parent < len(model.frames)
+        and model.frames[parent].type == pin.FIXED_JOINT
+        and model.frames[parent].placement.isApprox(old)
+    ):
+        fixed = model.frames[parent]
+        fixed.placement = placement
+        model.frames[parent] = fixed
+    tip.placement = placement
+    model.frames[tip_frame] = tip

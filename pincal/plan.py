@@ -1,0 +1,170 @@
+"""Measurement plans: the configurations at which the robot is measured.
+
+A :class:`Plan` is an immutable (m, nq) array of joint values [rad or m] with the joint names of
+its columns. Permuting a plan changes no criterion; repeating it k times divides ρ0² by k.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._io import atomic_write_text, read_numeric_csv
+from .errors import BadConfiguration, BadPlanFile
+
+
+@dataclass(frozen=True, eq=False)
+class Plan:
+    """m configurations of the chain joints.
+
+    Attributes:
+        q: (m, nq) joint values [rad or m], read-only.
+        joint_names: the joint of each column.
+    """
+
+    q: np.ndarray
+    joint_names: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        q = np.array(self.q, dtype=float, copy=True)
+        if q.ndim == 1:
+            q = q[None, :]
+        names = tuple(self.joint_names)
+        if q.ndim != 2 or q.shape[1] != len(names):
+            raise BadPlanFile(
+                f"a plan needs one column per joint ({len(names)}: {', '.join(names)}), "
+                f"got shape {np.shape(self.q)}"
+            )
+        q.flags.writeable = False
+        object.__setattr__(self, "q", q)
+        object.__setattr__(self, "joint_names", names)
+
+    @classmethod
+    def for_robot(cls, robot, q: object) -> Plan:
+        """A plan for ``robot`` from (m, nq) joint values, checked against its limits."""
+        return cls(robot.configurations(q), robot.joint_names)
+
+    def __len__(self) -> int:
+        return len(self.q)
+
+    @property
+    def m(self) -> int:
+        """Number of configurations."""
+        return len(self.q)
+
+    def __array__(self, dtype=None, copy=None):
+        return np.array(self.q, dtype=dtype)
+
+    def repeat(self, k: int) -> Plan:
+        """The whole plan measured ``k`` times (ρ0² is divided by k exactly)."""
+        if int(k) != k or k < 1:
+            raise BadPlanFile(f"repeat count must be a positive integer, got {k!r}")
+        return Plan(np.tile(self.q, (int(k), 1)), self.joint_names)
+
+    def concat(self, *others: Plan) -> Plan:
+        """This plan followed by ``others`` (same joints)."""
+        for other in others:
+            if tuple(other.joint_names) != self.joint_names:
+                raise BadPlanFile(
+                    f"cannot concatenate plans of different joints: {list(self.joint_names)} "
+                    f"and {list(other.joint_names)}"
+                )
+        return Plan(np.vstack([self.q, *(o.q for o in others)]), self.joint_names)
+
+    __add__ = concat
+
+    # -------------------------------------------------------------------------- I/O
+    def to_csv_text(self, degrees: bool = False) -> str:
+        """CSV text: a header of joint names, one configuration per row."""
+        values = np.degrees(self.q) if degrees else self.q
+        out = io.StringIO()
+        out.write(",".join(self.joint_names) + "\n")
+        for row in values:
+            out.write(",".join(repr(float(v)) for v in row) + "\n")
+        return out.getvalue()
+
+    def to_csv(self, path: str | os.PathLike, degrees: bool = False) -> None:
+        """Write the plan as CSV (radians, or degrees if asked), atomically."""
+        atomic_write_text(path, self.to_csv_text(degrees))
+
+    @classmethod
+    def from_csv(
+        cls, path: str | os.PathLike, robot=None, degrees: bool = False, what: str = "plan"
+    ) -> Plan:
+        """Read a plan CSV: header of joint names, one configuration per row.
+
+        Args:
+            path: the file.
+            robot: if given, columns are matched to its joints by name (any order) and the values
+                checked against its limits.
+            degrees: the file holds degrees (converted to radians; prismatic joints untouched).
+        """
+        header, rows, lines = read_numeric_csv(path, what=what)
+        if robot is None:
+            q = np.radians(rows) if degrees else rows
+            return cls(q, tuple(header))
+        names = robot.joint_names
+        missing = [n for n in names if n not in header]
+        extra = [h for h in header if h not in names]
+        if missing or extra:
+            raise BadPlanFile(
+                f"{what} file {str(path)!r}: columns must be the joints {','.join(names)}"
+                + (f"; missing {', '.join(missing)}" if missing else "")
+                + (f"; unknown {', '.join(extra)}" if extra else "")
+            )
+        q = rows[:, [header.index(n) for n in names]]
+        if degrees:
+            q = to_radians(robot, q)
+        check_limits(robot, q, [f"{what} file {str(path)!r}, line {n}" for n in lines], degrees)
+        return cls.for_robot(robot, q)
+
+    def to_json(self) -> dict:
+        """A JSON-ready dict: ``{"joint_names": [...], "q": [[...], ...]}`` (radians)."""
+        return {"joint_names": list(self.joint_names), "q": self.q.tolist()}
+
+    @classmethod
+    def from_json(cls, data: dict | str) -> Plan:
+        """Inverse of :meth:`to_json` (a dict or its JSON text)."""
+        if isinstance(data, str):
+            data = json.loads(data)
+        try:
+            return cls(np.asarray(data["q"], dtype=float), tuple(data["joint_names"]))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise BadPlanFile(f"not a plan: expected keys joint_names and q ({exc})") from None
+
+
+def check_limits(robot, q: np.ndarray, labels: Sequence[str], degrees: bool) -> None:
+    """Raise BadConfiguration naming (by ``labels[row]``) the first value outside the joint limits,
+    in the user's unit."""
+    from .robot import LIMIT_TOLERANCE
+
+    lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+    out = (q < lo - LIMIT_TOLERANCE) | (q > hi + LIMIT_TOLERANCE)
+    if not out.any():
+        return
+    i, j = np.argwhere(out)[0]
+    unit = "degrees" if degrees else "radians"
+    conv = np.degrees if degrees and revolute_mask(robot)[j] else (lambda v: v)
+    hint = ""
+    if not degrees and np.abs(q[:, revolute_mask(robot)]).max(initial=0) > 2 * np.pi + 1e-9:
+        hint = "; the values look like degrees: add --deg (degrees=True)"
+    raise BadConfiguration(
+        f"{labels[i]}: joint {robot.joint_names[j]} = {conv(q[i, j]):.6g} is outside its "
+        f"limits [{conv(lo[j]):.6g}, {conv(hi[j]):.6g}] ({unit}){hint}"
+    )
+
+
+def revolute_mask(robot) -> np.ndarray:
+    """(nq,) True where the joint is revolute (its values are angles)."""
+    return np.linalg.norm(robot.motion_axes[1:, 3:], axis=1) > 0.5
+
+
+def to_radians(robot, values: Sequence[float] | np.ndarray) -> np.ndarray:
+    """Convert joint values given in degrees to radians (prismatic joints stay in metres)."""
+    values = np.array(values, dtype=float)
+    return np.where(revolute_mask(robot), np.radians(values), values)

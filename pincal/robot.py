@@ -1,0 +1,437 @@
+"""Robots and the points measured on them.
+
+A :class:`Robot` is the kinematic chain from the base to a *tip* frame, with one or more measured
+points (markers) fixed in the tip frame, as Pinocchio sees it. It is loaded from a URDF file, the
+name of a robot pincal ships (``kr270``, ``planar_2r``), the name of an example-robot-data robot
+(``ur10``, ``panda``, ...), or an existing ``pinocchio.Model``.
+
+Joints that do not move the tip (grippers, other branches) are locked at their neutral value, so a
+configuration holds exactly the joints of the chain, in chain order. A Robot never changes: the
+perturbed robots of identification and simulation are new Robots holding their own model copy.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import (
+    BadConfiguration,
+    FrameNotFound,
+    RobotNotFound,
+    UnsupportedJoint,
+    UrdfError,
+)
+
+_PACKAGE = Path(__file__).resolve().parent
+ROBOTS_DIR = _PACKAGE / "robots" if (_PACKAGE / "robots").is_dir() else _PACKAGE.parent / "robots"
+"""Where the URDFs pincal ships live (``robots/`` in a checkout, ``pincal/robots`` installed)."""
+
+LIMIT_TOLERANCE = 1e-9
+"""Slack [rad or m] allowed when checking configurations against joint limits."""
+
+
+def shipped_robots() -> dict[str, Path]:
+    """The robots pincal ships, by name: ``{name: path to URDF}``."""
+    return {p.stem: p for p in sorted(ROBOTS_DIR.glob("*.urdf"))}
+
+
+def example_robot_data_names() -> list[str]:
+    """Names of the example-robot-data robots (empty if the loaders are not installed)."""
+    try:
+        from example_robot_data.robots_loader import ROBOTS
+    except ImportError:  # pragma: no cover - a declared dependency
+        return []
+    return sorted(ROBOTS)
+
+
+def _example_robot_data_urdf(name: str) -> Path | None:
+    try:
+        from example_robot_data.robots_loader import ROBOTS, getModelPath
+    except ImportError:  # pragma: no cover - a declared dependency
+        return None
+    loader = ROBOTS.get(name)
+    if loader is None or not loader.urdf_filename:
+        return None
+    relative = os.path.join(loader.path, loader.urdf_subpath, loader.urdf_filename)
+    return Path(getModelPath(relative)) / relative
+
+
+def _build_from_urdf(path: Path) -> pin.Model:
+    if not path.is_file():
+        raise UrdfError(f"URDF file {str(path)!r} does not exist")
+    try:
+        return pin.buildModelFromUrdf(str(path))
+    except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UrdfError(f"cannot read URDF {str(path)!r}: {first}") from None
+
+
+def _resolve_source(source: object) -> tuple[pin.Model, Path | None, str]:
+    """(model, urdf path or None, display name) for what load_robot accepts."""
+    if isinstance(source, pin.Model):
+        return pin.Model(source), None, source.name or "model"
+    if hasattr(source, "model") and isinstance(source.model, pin.Model):  # a RobotWrapper
+        return pin.Model(source.model), None, source.model.name or "model"
+    if not isinstance(source, (str, os.PathLike)):
+        raise RobotNotFound(repr(source), list(shipped_robots()) + example_robot_data_names())
+    text = os.fspath(source)
+    path = Path(text)
+    if path.suffix.lower() == ".urdf" or path.exists() or os.sep in text:
+        return _build_from_urdf(path), path.resolve(), path.stem
+    shipped = shipped_robots()
+    if text in shipped:
+        return _build_from_urdf(shipped[text]), shipped[text], text
+    urdf = _example_robot_data_urdf(text)
+    if urdf is not None:
+        return _build_from_urdf(urdf), urdf, text
+    raise RobotNotFound(text, list(shipped) + example_robot_data_names())
+
+
+def _frame_names(model: pin.Model) -> list[str]:
+    return [f.name for f in model.frames]
+
+
+def _default_tip(model: pin.Model) -> str:
+    names = _frame_names(model)
+    return "tool0" if "tool0" in names else names[-1]
+
+
+def _reduce_to_chain(model: pin.Model, tip_joint: int) -> pin.Model:
+    """Lock every joint that is not on the path from the root to ``tip_joint``."""
+    chain = set(model.supports[tip_joint])
+    locked = [j for j in range(1, model.njoints) if j not in chain]
+    if not locked:
+        return model
+    return pin.buildReducedModel(model, locked, pin.neutral(model))
+
+
+def _motion_axis(model: pin.Model, joint: int) -> np.ndarray:
+    """Motion subspace S (6,) of a one-dof joint, in the joint frame: motion = exp6(S q)."""
+    data = model.createData()
+    q = pin.neutral(model)
+    step = 1e-3
+    q[model.idx_qs[joint]] += step
+    pin.forwardKinematics(model, data, q)
+    motion = model.jointPlacements[joint].inverse() * data.liMi[joint]
+    return pin.log6(motion).vector / step
+
+
+def _origin_parent(model: pin.Model, frame_id: int, joint: int) -> pin.SE3:
+    """Placement P of the parent link of a URDF origin, relative to ``joint``.
+
+    Pinocchio stores the placement of a joint (or of a frame) relative to the previous *joint*;
+    the URDF ``<origin>`` is relative to the parent *link*. The two differ by the fixed joints
+    between them: placement = P * origin.
+    """
+    if frame_id < 0:
+        return pin.SE3.Identity()
+    parent = model.frames[frame_id].parentFrame
+    if 0 < parent < len(model.frames) and model.frames[parent].parentJoint == joint:
+        return pin.SE3(model.frames[parent].placement)
+    return pin.SE3.Identity()
+
+
+@dataclass(frozen=True, eq=False)
+class Origin:
+    """One placement on the chain that carries geometric errors.
+
+    Attributes:
+        name: the joint name (or the tip frame name) used in parameter names.
+        urdf_joint: the URDF joint whose ``<origin>`` this is (None if there is none).
+        joint: Pinocchio joint id the placement belongs to (the joint itself, or the tip's joint).
+        parent: placement P of the parent link relative to the previous joint.
+        origin: the URDF origin L (parent link -> this frame); the Pinocchio placement is P * L.
+    """
+
+    name: str
+    urdf_joint: str | None
+    joint: int
+    parent: pin.SE3
+    origin: pin.SE3
+
+
+@dataclass(frozen=True, eq=False)
+class Robot:
+    """A kinematic chain from the base to a tip frame, and the points measured on it.
+
+    Build one with :func:`load_robot`. All lengths in [m], angles in [rad].
+
+    Attributes:
+        model: the Pinocchio model of the chain (a private copy; never modify it).
+        tip: name of the tip frame the markers are fixed to.
+        markers: (K, 3) measured points in the tip frame [m].
+        name: display name (URDF stem or robot name).
+        urdf_path: the URDF this robot came from, if any (used by URDF export).
+        joint_offsets: (nq,) joint zero errors [rad or m] added to every configuration.
+        base: placement of the robot base in the measuring instrument's frame.
+    """
+
+    model: pin.Model
+    tip: str
+    markers: np.ndarray
+    name: str = "robot"
+    urdf_path: Path | None = None
+    joint_offsets: np.ndarray = field(default=None)  # type: ignore[assignment]
+    base: pin.SE3 = field(default_factory=pin.SE3.Identity)
+
+    def __post_init__(self) -> None:
+        markers = np.array(self.markers, dtype=float, copy=True).reshape(-1, 3)
+        markers.flags.writeable = False
+        object.__setattr__(self, "markers", markers)
+        offsets = (
+            np.zeros(self.model.nq)
+            if self.joint_offsets is None
+            else np.array(self.joint_offsets, dtype=float, copy=True)
+        )
+        offsets.flags.writeable = False
+        object.__setattr__(self, "joint_offsets", offsets)
+
+    # ----------------------------------------------------------------- structure
+    @cached_property
+    def tip_frame(self) -> int:
+        """Pinocchio frame id of the tip."""
+        return self.model.getFrameId(self.tip)
+
+    @cached_property
+    def tip_joint(self) -> int:
+        """Pinocchio id of the joint the tip frame is attached to."""
+        return self.model.frames[self.tip_frame].parentJoint
+
+    @property
+    def nq(self) -> int:
+        """Number of joints on the chain."""
+        return self.model.nq
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Names of the chain joints, in configuration order."""
+        return tuple(self.model.names[1:])
+
+    @property
+    def lower(self) -> np.ndarray:
+        """Lower joint limits [rad or m]."""
+        return self.model.lowerPositionLimit.copy()
+
+    @property
+    def upper(self) -> np.ndarray:
+        """Upper joint limits [rad or m]."""
+        return self.model.upperPositionLimit.copy()
+
+    @property
+    def n_markers(self) -> int:
+        """Number of measured points K (each gives 3 coordinates per configuration)."""
+        return len(self.markers)
+
+    @cached_property
+    def motion_axes(self) -> np.ndarray:
+        """(njoints, 6) motion subspace of each joint in its own frame (row 0 unused)."""
+        axes = np.zeros((self.model.njoints, 6))
+        for j in range(1, self.model.njoints):
+            axes[j] = _motion_axis(self.model, j)
+        return axes
+
+    @cached_property
+    def origins(self) -> tuple[Origin, ...]:
+        """The placements carrying errors: one per chain joint, then the tip frame's."""
+        model = self.model
+        frames = _frame_names(model)
+        out = []
+        for j in range(1, model.njoints):
+            name = model.names[j]
+            fid = next(
+                (i for i, f in enumerate(model.frames) if f.name == name and f.type == pin.JOINT),
+                -1,
+            )
+            parent = _origin_parent(model, fid, model.parents[j])
+            placement = model.jointPlacements[j]
+            out.append(Origin(name, name, j, parent, parent.inverse() * placement))
+        tip = model.frames[self.tip_frame]
+        # The URDF fixed joint whose child is the tip link has a frame of its own, the tip's parent.
+        fixed = tip.parentFrame
+        urdf_joint = None
+        anchor = self.tip_frame
+        if (
+            0 < fixed < len(frames)
+            and model.frames[fixed].type == pin.FIXED_JOINT
+            and model.frames[fixed].placement.isApprox(tip.placement)
+        ):
+            urdf_joint = model.frames[fixed].name
+            anchor = fixed
+        parent = _origin_parent(model, anchor, self.tip_joint)
+        out.append(Origin(self.tip, urdf_joint, self.tip_joint, parent, parent.inverse() * tip.placement))
+        return tuple(out)
+
+    # ------------------------------------------------------------- configurations
+    def configurations(self, q: object, what: str = "configuration") -> np.ndarray:
+        """Validate joint values; return a new (m, nq) float array.
+
+        Args:
+            q: (nq,) or (m, nq) joint values [rad or m], or a :class:`~pincal.plan.Plan`.
+            what: word used in error messages ("configuration", "test pose", ...).
+
+        Raises:
+            BadConfiguration: wrong shape, non-numeric or non-finite values, or a value outside
+                its joint limits (the message names the joint, the value and the limits).
+        """
+        values = getattr(q, "q", q)
+        try:
+            arr = np.array(values, dtype=float, copy=True)
+        except (TypeError, ValueError):
+            raise BadConfiguration(f"{what}: joint values must be numbers, got {values!r}") from None
+        if arr.ndim == 1:
+            arr = arr[None, :]
+        if arr.ndim != 2 or arr.shape[1] != self.nq:
+            raise BadConfiguration(
+                f"{what}: expected {self.nq} joint values ({', '.join(self.joint_names)}), "
+                f"got shape {np.shape(values)}"
+            )
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            i, j = np.argwhere(bad)[0]
+            raise BadConfiguration(
+                f"{what} {i}: joint {self.joint_names[j]} is {arr[i, j]} (must be finite)"
+            )
+        lo, hi = self.model.lowerPositionLimit, self.model.upperPositionLimit
+        out = (arr < lo - LIMIT_TOLERANCE) | (arr > hi + LIMIT_TOLERANCE)
+        if out.any():
+            i, j = np.argwhere(out)[0]
+            raise BadConfiguration(
+                f"{what} {i}: joint {self.joint_names[j]} = {arr[i, j]:.6g} is outside its limits "
+                f"[{lo[j]:.6g}, {hi[j]:.6g}] (radians or metres)"
+            )
+        return arr
+
+    def random_configurations(
+        self, n: int, rng: np.random.Generator | int | None = None, margin: float = 0.0
+    ) -> np.ndarray:
+        """Draw (n, nq) configurations uniformly within the joint limits shrunk by ``margin``.
+
+        Args:
+            n: number of configurations.
+            rng: a numpy Generator or a seed (None draws fresh entropy).
+            margin: distance kept from each limit [rad or m].
+        """
+        rng = np.random.default_rng(rng)
+        lo = np.maximum(self.model.lowerPositionLimit, -np.pi) + margin
+        hi = np.minimum(self.model.upperPositionLimit, np.pi) - margin
+        if np.any(hi < lo):
+            j = int(np.argmax(lo - hi))
+            raise BadConfiguration(
+                f"margin {margin} leaves no room between the limits of joint {self.joint_names[j]}"
+            )
+        return lo + (hi - lo) * rng.random((n, self.nq))
+
+    # ------------------------------------------------------------------ kinematics
+    def points(self, q: object) -> np.ndarray:
+        """Measured points at configurations ``q``, in the instrument (base) frame.
+
+        Args:
+            q: (nq,) or (m, nq) joint values.
+
+        Returns:
+            (m, K, 3) positions [m] (the leading axis is kept even for one configuration).
+        """
+        qs = self.configurations(q)
+        return self._points(qs)
+
+    def _points(self, qs: np.ndarray) -> np.ndarray:
+        model, data = self.model, self.model.createData()
+        out = np.empty((len(qs), self.n_markers, 3))
+        placement = model.frames[self.tip_frame].placement
+        for i, qi in enumerate(qs + self.joint_offsets):
+            pin.forwardKinematics(model, data, qi)
+            tip = self.base * data.oMi[self.tip_joint] * placement
+            out[i] = self.markers @ tip.rotation.T + tip.translation
+        return out
+
+    def replace(self, **changes: object) -> Robot:
+        """A new Robot with some fields changed (the model is copied if given)."""
+        fields = {
+            "model": self.model,
+            "tip": self.tip,
+            "markers": self.markers,
+            "name": self.name,
+            "urdf_path": self.urdf_path,
+            "joint_offsets": self.joint_offsets,
+            "base": self.base,
+        }
+        fields.update(changes)
+        return Robot(**fields)  # type: ignore[arg-type]
+
+    def parameters(self, spec: str | list[str] | tuple[str, ...] = "full,offsets"):
+        """The geometric parameters named by ``spec`` (see :class:`pincal.ParameterSet`)."""
+        from .parameters import ParameterSet
+
+        return ParameterSet.from_spec(self, spec)
+
+    def __repr__(self) -> str:
+        return (
+            f"Robot({self.name!r}, tip={self.tip!r}, joints={list(self.joint_names)}, "
+            f"markers={self.markers.tolist()})"
+        )
+
+
+def _parse_markers(markers: object) -> np.ndarray:
+    if markers is None:
+        return np.zeros((1, 3))
+    try:
+        arr = np.array(markers, dtype=float)
+    except (TypeError, ValueError):
+        raise BadConfiguration(f"markers must be (x, y, z) triples in metres, got {markers!r}") from None
+    if arr.ndim == 1 and arr.size == 3:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 3 or len(arr) == 0:
+        raise BadConfiguration(
+            f"markers must be (x, y, z) triples in metres, got shape {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise BadConfiguration("markers must be finite numbers")
+    return arr
+
+
+def load_robot(source: object, tip: str | None = None, markers: object = None) -> Robot:
+    """Load a robot and choose what is measured on it.
+
+    Args:
+        source: a URDF path, the name of a shipped robot (``kr270``, ``planar_2r``), the name of an
+            example-robot-data robot (``ur10``, ``panda``, ...), a ``pinocchio.Model`` or a
+            ``RobotWrapper`` (copied, never modified).
+        tip: frame the markers are fixed to; default ``tool0`` if the model has one, else its last
+            frame. Give it explicitly for robots with branches (grippers, several arms).
+        markers: one (x, y, z) or a list of them [m], expressed in the tip frame; default the tip
+            frame origin.
+
+    Returns:
+        the Robot: the chain from the base to ``tip`` (other joints locked at neutral).
+
+    Raises:
+        RobotNotFound, UrdfError, FrameNotFound, UnsupportedJoint, BadConfiguration.
+
+    Example:
+        >>> robot = load_robot("kr270", tip="tool0", markers=[(0.1, 0.05, 0.2)])
+        >>> robot.joint_names
+        ('joint_a1', 'joint_a2', 'joint_a3', 'joint_a4', 'joint_a5', 'joint_a6')
+    """
+    model, urdf, name = _resolve_source(source)
+    tip = _default_tip(model) if tip is None else tip
+    if not model.existFrame(tip):
+        raise FrameNotFound(tip, _frame_names(model))
+    tip_joint = model.frames[model.getFrameId(tip)].parentJoint
+    if tip_joint == 0:
+        movable = [f.name for f in model.frames if f.parentJoint != 0]
+        raise FrameNotFound(tip, movable, kind="tip frame (it is fixed to the base)")
+    for j in model.supports[tip_joint][1:]:
+        if model.nqs[j] != 1 or model.nvs[j] != 1:
+            raise UnsupportedJoint(
+                f"joint {model.names[j]!r} ({model.joints[j].shortname()}) on the chain to "
+                f"{tip!r} is not a one-dof revolute or prismatic joint; pincal calibrates "
+                f"fixed-base serial chains (continuous joints: give them limits in the URDF)"
+            )
+    chain = _reduce_to_chain(model, tip_joint)
+    return Robot(chain, tip, _parse_markers(markers), name=name, urdf_path=urdf)
