@@ -36,6 +36,9 @@ RCOND = 1e-14
 """A plan is singular when the Jacobi-scaled information matrix has a reciprocal condition
 number below this (its stacked Jacobian, below its square root 1e-7)."""
 
+ZERO_COLUMN = 1e-9
+"""A Jacobian column this much smaller than the largest is taken as zero (a hidden parameter)."""
+
 AGGREGATES = ("mean", "worst", "each")
 
 
@@ -50,22 +53,28 @@ def _factor(M: np.ndarray, rows: int, m: int) -> np.ndarray:
     """Lower Cholesky factor L of M (M = L Lᵀ).
 
     The test for singularity is scale-free: L_ii²/M_ii are the pivots of the Jacobi-scaled
-    M/(d dᵀ), d = sqrt(diag M), whose reciprocal condition number their ratio estimates.
+    M/(d dᵀ), d = sqrt(diag M), whose reciprocal condition number their ratio estimates; and a
+    column of J whose norm is below ZERO_COLUMN times the largest is a zero column (rounding
+    noise, as for the offset of a joint whose axis passes through the measured point).
 
     Raises SingularPlan when M is singular or numerically so.
     """
     L, info = _potrf(M, lower=1, clean=1, overwrite_a=0)
     if info == 0:
-        pivots = L.diagonal() ** 2 / M.diagonal()
-        if pivots.min() >= RCOND * pivots.max():
+        diag = M.diagonal()
+        pivots = L.diagonal() ** 2 / diag
+        if pivots.min() >= RCOND * pivots.max() and diag.min() >= ZERO_COLUMN**2 * diag.max():
             return L
     raise SingularPlan(len(M), rows, m, _rank(M))
 
 
 def _rank(M: np.ndarray) -> int:
     d = np.sqrt(np.abs(np.diag(M)))
-    d[d == 0] = 1.0
-    w = np.linalg.eigvalsh(M / np.outer(d, d))
+    zero = d <= ZERO_COLUMN * d.max()
+    d[zero] = 1.0
+    scaled = M / np.outer(d, d)
+    scaled[zero, :] = scaled[:, zero] = 0.0
+    w = np.linalg.eigvalsh(scaled)
     return int(np.sum(w > RCOND * max(w.max(), 1e-300)))
 
 

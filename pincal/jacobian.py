@@ -113,7 +113,14 @@ class JacobianEngine:
         pos = np.empty((m, 3)) if pose else None
         regressor, fk, local = pin.computeJointKinematicRegressor, pin.forwardKinematics, pin.LOCAL
         points = self.points
-        for i, (q, row) in enumerate(zip(qs + self.offsets if self.has_offsets else qs, views)):
+        configurations = qs + self.offsets if self.has_offsets else qs
+        if not pose and len(points) == 1:  # the hot path of searches: one marker, no pose
+            point = points[0]
+            for q, (view,) in zip(configurations, views):
+                fk(model, data, q)
+                view[...] = regressor(model, data, joint, local, point)[:3]
+            return reg, None, None
+        for i, (q, row) in enumerate(zip(configurations, views)):
             fk(model, data, q)
             for view, point in zip(row, points):
                 view[...] = regressor(model, data, joint, local, point)[:3]

@@ -1,0 +1,32 @@
+"""The public surface: every name in __all__ imports, and the README's Python example runs."""
+
+from __future__ import annotations
+
+import re
+
+import pincal
+
+from .conftest import ROOT
+
+
+def test_all_names_import():
+    for name in pincal.__all__:
+        assert hasattr(pincal, name), name
+    assert pincal.__all__ == sorted(pincal.__all__)
+    assert isinstance(pincal.__version__, str)
+
+
+def test_errors_share_one_root():
+    for name in pincal.__all__:
+        obj = getattr(pincal, name)
+        if isinstance(obj, type) and issubclass(obj, Exception):
+            assert issubclass(obj, pincal.PincalError), name
+
+
+def test_readme_python_blocks_run(tmp_path, monkeypatch):
+    readme = (ROOT / "README.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", readme, flags=re.S)
+    assert blocks, "the README has Python examples"
+    monkeypatch.chdir(ROOT)
+    for block in blocks:
+        exec(compile(block, "README.md", "exec"), {"__name__": "readme"})
