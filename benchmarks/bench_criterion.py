@@ -26,7 +26,9 @@ from pincal.criteria import TestPoseCriterion
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--number", type=int, default=2000)
     args = parser.parse_args()
@@ -60,11 +62,15 @@ def main() -> None:
             timings[name].append(timeit.timeit(func, number=args.number) / args.number)
     best = {name: min(t) for name, t in timings.items()}
 
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cpus, "
-          f"python {platform.python_version()}, pinocchio {pin.__version__}, numpy {np.__version__}")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cpus, "
+        f"python {platform.python_version()}, pinocchio {pin.__version__}, numpy {np.__version__}"
+    )
     print(f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '(unset)')}")
-    print(f"problem: kr270, {len(params)} parameters, m = {len(qs)}, 1 test pose; "
-          f"best of {args.repeat} x {args.number} calls")
+    print(
+        f"problem: kr270, {len(params)} parameters, m = {len(qs)}, 1 test pose; "
+        f"best of {args.repeat} x {args.number} calls"
+    )
     print(f"rho0 = {criterion(qs):.6e} m")
     for name in ("bare", "inner", "public"):
         print(f"  {name:7s} {best[name] * 1e6:8.2f} us per evaluation")

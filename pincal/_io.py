@@ -64,13 +64,11 @@ def read_numeric_csv(
                 v = float(cell)
             except ValueError:
                 raise error(
-                    f"{what} file {str(path)!r}, line {n}: column {name} is {cell.strip()!r}, "
-                    f"not a number"
+                    f"{what} file {str(path)!r}, line {n}: column {name} is {cell.strip()!r}, not a number"
                 ) from None
             if not np.isfinite(v):
                 raise error(
-                    f"{what} file {str(path)!r}, line {n}: column {name} is {cell.strip()} "
-                    f"(must be finite)"
+                    f"{what} file {str(path)!r}, line {n}: column {name} is {cell.strip()} (must be finite)"
                 )
             values.append(v)
         rows.append(values)
@@ -88,12 +86,25 @@ def _is_number(text: str) -> bool:
     return True
 
 
+def _umask() -> int:
+    """The process umask, read without changing it (Linux), else the usual 0o022."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except OSError:
+        pass
+    return 0o022
+
+
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     """Write ``text`` to ``path`` through a temporary file and a rename: never half-written."""
     path = Path(path)
     directory = path.parent if str(path.parent) else Path(".")
     fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        # mkstemp makes owner-only files; give the result the permissions a plain open() would.
+        os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "w", newline="") as handle:
             handle.write(text)
         os.replace(tmp, path)

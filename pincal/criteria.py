@@ -29,15 +29,12 @@ from scipy.linalg.lapack import dpotrf as _potrf
 from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from .errors import PincalError, SingularPlan
-from .jacobian import JacobianEngine
+from .jacobian import ZERO_COLUMN, JacobianEngine
 from .parameters import ParameterSet
 
 RCOND = 1e-14
 """A plan is singular when the Jacobi-scaled information matrix has a reciprocal condition
 number below this (its stacked Jacobian, below its square root 1e-7)."""
-
-ZERO_COLUMN = 1e-9
-"""A Jacobian column this much smaller than the largest is taken as zero (a hidden parameter)."""
 
 AGGREGATES = ("mean", "worst", "each")
 

@@ -111,3 +111,21 @@ class SingularPlan(PincalError):
                 f"{self.min_configurations} are needed) or fewer parameters"
             )
         super().__init__(msg)
+
+
+class BadMeasurementData(PincalError):
+    """Measurements that cannot be used as documented: a malformed CSV, columns that do not match
+    the robot's joints or markers, or arrays of the wrong shape."""
+
+
+class IdentificationFailed(PincalError):
+    """An identification that did not produce a calibrated robot (rank deficient data, no
+    convergence). ``result`` is the :class:`~pincal.identify.IdentificationResult`."""
+
+    def __init__(self, result: object):
+        self.result = result
+        super().__init__(getattr(result, "message", "identification failed"))
+
+
+class OverwriteRefused(PincalError):
+    """An output path that is one of the inputs (pincal never overwrites its inputs)."""

@@ -1,21 +1,24 @@
 """Identifiability: which parameters position measurements can determine (SPEC §2).
 
 The parameter Jacobian is stacked over many random configurations within the joint limits and its
-columns normalised. The numerical rank (SVD) is the number of identifiable parameters. The base set
+columns normalised. The base set
 is chosen greedily in a fixed order of preference — joint offsets, then the lengths (non-zero origin
 components), then other translations, rotations, markers, base — keeping a parameter when its
-column is not in the span of those kept before (QR, i.e. Gram–Schmidt, in that order). Each
+column is not in the span of those kept before (QR, i.e. Gram–Schmidt, in that order); the
+number kept is the numerical rank. Each
 dropped parameter is reported either as *invisible* (its column is zero: nothing it does moves the
 measured points) or as a *combination* of kept ones, with the coefficients.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
-from .parameters import LENGTH_TOLERANCE, ParameterSet
+from .jacobian import ZERO_COLUMN
+from .parameters import LENGTH_TOLERANCE, ParameterSet, _split
 
 
 @dataclass(frozen=True, eq=False)
@@ -29,7 +32,8 @@ class Identifiability:
         combinations: ``{name: {kept name: coefficient}}`` for the redundant ones: the dropped
             column equals Σ coefficient × kept column (units: dropped unit / kept unit).
         rank: numerical rank of the stacked Jacobian (== len(identifiable)).
-        singular_values: of the column-normalised stacked Jacobian, decreasing.
+        singular_values: of the column-normalised stacked Jacobian, decreasing (how close to
+            dependent the set is: the smallest ones belong to redundant combinations).
         n_configurations: random configurations used.
     """
 
@@ -54,11 +58,13 @@ class Identifiability:
         return "\n".join(lines)
 
 
-def _preference(params: ParameterSet) -> list[int]:
-    """Indices of ``params`` in the order the base set prefers them."""
+def _preference(params: ParameterSet, prefer: frozenset[str] = frozenset()) -> list[int]:
+    """Indices of ``params`` in the order the base set prefers them (names in ``prefer`` first)."""
     origins = params.robot.origins
 
     def rank(p) -> int:
+        if p.name in prefer:
+            return -1
         if p.kind == "offset":
             return 0
         if p.kind == "placement" and p.component < 3:
@@ -72,7 +78,11 @@ def _preference(params: ParameterSet) -> list[int]:
 
 
 def identifiability(
-    params: ParameterSet, n_configurations: int = 200, seed: int = 0, tol: float = 1e-8
+    params: ParameterSet,
+    n_configurations: int = 200,
+    seed: int = 0,
+    tol: float = 1e-6,
+    prefer: str | Iterable[str] = (),
 ) -> Identifiability:
     """Identifiability report of ``params`` (see module doc).
 
@@ -80,27 +90,31 @@ def identifiability(
         params: the parameter set to examine.
         n_configurations: random configurations within the joint limits.
         seed: seed of the random configurations (same seed, same report).
-        tol: relative threshold on normalised columns and residuals.
+        tol: a unit-normalised column whose distance to the span of the kept ones is below
+            this is redundant (~1e-13 for exact dependencies, ≥ 1e-4 for weak but real
+            independence). Columns below ZERO_COLUMN × the largest norm are invisible.
+        prefer: names and/or groups kept before the default order (if in ``params``), e.g. ``"base"``
+            when measurements are in the instrument's frame (the base is then identified and the
+            chain parameters it makes redundant are dropped).
     """
     robot = params.robot
     qs = robot.random_configurations(n_configurations, np.random.default_rng(seed))
     J = params.jacobian(qs, frame="tip").reshape(-1, len(params))
     norms = np.linalg.norm(J, axis=0)
-    scale = norms.max() if norms.max() > 0 else 1.0
-    visible = norms > tol * scale
+    visible = norms > ZERO_COLUMN * max(norms.max(), 1e-300)
     A = np.where(visible, J / np.where(visible, norms, 1.0), 0.0)
     singular_values = np.linalg.svd(A, compute_uv=False)
-    rank = int(np.sum(singular_values > tol * max(singular_values[0], 1e-300) * np.sqrt(A.shape[1])))
 
     kept: list[int] = []
     basis = np.zeros((A.shape[0], 0))
-    for i in _preference(params):
+    preferred = frozenset(ParameterSet.from_spec(robot, prefer).names) if _split(prefer) else frozenset()
+    for i in _preference(params, preferred):
         if not visible[i]:
             continue
         residual = A[:, i] - basis @ (basis.T @ A[:, i])
         residual -= basis @ (basis.T @ residual)  # re-orthogonalise once
         size = np.linalg.norm(residual)
-        if size > 1e-6:
+        if size > tol:
             kept.append(i)
             basis = np.column_stack([basis, residual / size])
     kept.sort()
@@ -125,7 +139,7 @@ def identifiability(
         identifiable=ParameterSet(robot, tuple(params.parameters[i] for i in kept)),
         dropped=dropped,
         combinations=combinations,
-        rank=rank,
+        rank=len(kept),
         singular_values=singular_values,
         n_configurations=n_configurations,
     )

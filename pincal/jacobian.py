@@ -26,6 +26,10 @@ import pinocchio as pin
 FD_STEP = 1e-6
 """Central finite-difference step [m or rad]."""
 
+ZERO_COLUMN = 1e-9
+"""A Jacobian column this much smaller than the largest is zero: rounding noise, as for the offset
+of a joint whose axis passes through the measured point (a hidden parameter)."""
+
 
 def _skew(v: np.ndarray) -> np.ndarray:
     x, y, z = v

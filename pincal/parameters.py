@@ -191,7 +191,9 @@ class ParameterSet:
         except (TypeError, ValueError):
             raise PincalError(f"parameter values must be numbers, got {values!r}") from None
         if arr.shape != (len(self),):
-            raise PincalError(f"expected {len(self)} parameter values ({', '.join(self.names)}), got {arr.size}")
+            raise PincalError(
+                f"expected {len(self)} parameter values ({', '.join(self.names)}), got {arr.size}"
+            )
         if not np.all(np.isfinite(arr)):
             raise PincalError("parameter values must be finite")
         return arr
@@ -264,14 +266,16 @@ class ParameterSet:
             return finite_difference_jacobian(self, qs)
         raise PincalError(f"unknown Jacobian method {method!r}; valid: analytic, fd")
 
-    def identifiable(self, n_configurations: int = 200, seed: int = 0, tol: float = 1e-8):
+    def identifiable(
+        self, n_configurations: int = 200, seed: int = 0, tol: float = 1e-6, prefer: str | Iterable[str] = ()
+    ):
         """Which of these parameters position measurements can identify.
 
         See :func:`pincal.identifiability.identifiability`.
         """
         from .identifiability import identifiability
 
-        return identifiability(self, n_configurations=n_configurations, seed=seed, tol=tol)
+        return identifiability(self, n_configurations=n_configurations, seed=seed, tol=tol, prefer=prefer)
 
 
 def _perturb(placement: pin.SE3, twist: np.ndarray) -> pin.SE3:

@@ -93,9 +93,7 @@ class Plan:
         atomic_write_text(path, self.to_csv_text(degrees))
 
     @classmethod
-    def from_csv(
-        cls, path: str | os.PathLike, robot=None, degrees: bool = False, what: str = "plan"
-    ) -> Plan:
+    def from_csv(cls, path: str | os.PathLike, robot=None, degrees: bool = False, what: str = "plan") -> Plan:
         """Read a plan CSV: header of joint names, one configuration per row.
 
         Args:

@@ -238,7 +238,8 @@ class Robot:
 
     @cached_property
     def origins(self) -> tuple[Origin, ...]:
-        """The placements carrying errors: one per chain joint, then the tip frame's."""
+        """The placements carrying errors: one per chain joint, then the tip frame's (named after
+        the tip frame, or ``tip`` when the tip frame is named like a chain joint)."""
         model = self.model
         frames = _frame_names(model)
         out = []
@@ -264,7 +265,9 @@ class Robot:
             urdf_joint = model.frames[fixed].name
             anchor = fixed
         parent = _origin_parent(model, anchor, self.tip_joint)
-        out.append(Origin(self.tip, urdf_joint, self.tip_joint, parent, parent.inverse() * tip.placement))
+        # A tip named like a chain joint (tip="joint_a6") would repeat that joint's names.
+        name = "tip" if self.tip in self.joint_names else self.tip
+        out.append(Origin(name, urdf_joint, self.tip_joint, parent, parent.inverse() * tip.placement))
         return tuple(out)
 
     # ------------------------------------------------------------- configurations
@@ -294,9 +297,7 @@ class Robot:
         bad = ~np.isfinite(arr)
         if bad.any():
             i, j = np.argwhere(bad)[0]
-            raise BadConfiguration(
-                f"{what} {i}: joint {self.joint_names[j]} is {arr[i, j]} (must be finite)"
-            )
+            raise BadConfiguration(f"{what} {i}: joint {self.joint_names[j]} is {arr[i, j]} (must be finite)")
         lo, hi = self.model.lowerPositionLimit, self.model.upperPositionLimit
         out = (arr < lo - LIMIT_TOLERANCE) | (arr > hi + LIMIT_TOLERANCE)
         if out.any():
@@ -387,9 +388,7 @@ def _parse_markers(markers: object) -> np.ndarray:
     if arr.ndim == 1 and arr.size == 3:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != 3 or len(arr) == 0:
-        raise BadConfiguration(
-            f"markers must be (x, y, z) triples in metres, got shape {arr.shape}"
-        )
+        raise BadConfiguration(f"markers must be (x, y, z) triples in metres, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise BadConfiguration("markers must be finite numbers")
     return arr

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 
+import pytest
+
 import pincal
 
 from .conftest import ROOT
@@ -23,6 +25,7 @@ def test_errors_share_one_root():
             assert issubclass(obj, pincal.PincalError), name
 
 
+@pytest.mark.filterwarnings("ignore::pincal.DegenerateOptimumWarning")  # the README explains it
 def test_readme_python_blocks_run(tmp_path, monkeypatch):
     readme = (ROOT / "README.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", readme, flags=re.S)
@@ -30,3 +33,13 @@ def test_readme_python_blocks_run(tmp_path, monkeypatch):
     monkeypatch.chdir(ROOT)
     for block in blocks:
         exec(compile(block, "README.md", "exec"), {"__name__": "readme"})
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    import pincal.robot
+
+    for module in (pincal, pincal.robot):
+        result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
+        assert result.attempted > 0 and result.failed == 0, module.__name__

@@ -35,7 +35,19 @@ def run_json(capsys, argv):
 def test_evaluate_json_matches_library(capsys, kr_plan, kr270_marker):
     out = run_json(
         capsys,
-        ["evaluate", "kr270", "--plan", str(kr_plan), "--deg", "--test-pose", KR_Q0, "--marker", "0.1,0.05,0.2", "--sigma", "3e-5"],
+        [
+            "evaluate",
+            "kr270",
+            "--plan",
+            str(kr_plan),
+            "--deg",
+            "--test-pose",
+            KR_Q0,
+            "--marker",
+            "0.1,0.05,0.2",
+            "--sigma",
+            "3e-5",
+        ],
     )
     params = kr270_marker.parameters("full,offsets").identifiable().identifiable
     plan = pincal.Plan.from_csv(kr_plan, robot=kr270_marker, degrees=True)
@@ -49,7 +61,10 @@ def test_evaluate_json_matches_library(capsys, kr_plan, kr270_marker):
 def test_evaluate_planar_closed_form_and_negative_test_pose(capsys, planar_plan):
     # --test-pose=-0.3,1.2 (and the space-separated form) must parse negative values.
     for form in (["--test-pose=-0.3,1.2"], ["--test-pose", "-0.3,1.2"]):
-        out = run_json(capsys, ["evaluate", "planar_2r", "--plan", str(planar_plan), "--params", "joint2.tx,tip.tx"] + form)
+        out = run_json(
+            capsys,
+            ["evaluate", "planar_2r", "--plan", str(planar_plan), "--params", "joint2.tx,tip.tx"] + form,
+        )
         q2 = np.array([1.0, -1.0, 2.0])
         m, S = 3, np.cos(q2).sum()
         assert out["rho0"] ** 2 == pytest.approx(2 * (m - np.cos(1.2) * S) / (m * m - S * S), rel=1e-10)
@@ -57,7 +72,16 @@ def test_evaluate_planar_closed_form_and_negative_test_pose(capsys, planar_plan)
 
 
 def test_evaluate_several_test_poses_mean_and_worst(capsys, planar_plan):
-    argv = ["evaluate", "planar_2r", "--plan", str(planar_plan), "--params", "lengths", "--test-pose=0,0.5", "--test-pose=0,2.5"]
+    argv = [
+        "evaluate",
+        "planar_2r",
+        "--plan",
+        str(planar_plan),
+        "--params",
+        "lengths",
+        "--test-pose=0,0.5",
+        "--test-pose=0,2.5",
+    ]
     mean = run_json(capsys, argv)
     worst = run_json(capsys, argv + ["--worst"])
     each = np.array(mean["rho0_per_test_pose"])
@@ -66,7 +90,24 @@ def test_evaluate_several_test_poses_mean_and_worst(capsys, planar_plan):
 
 
 def test_evaluate_text_output(capsys, kr_plan):
-    assert main(["evaluate", "kr270", "--plan", str(kr_plan), "--deg", "--test-pose", KR_Q0, "--marker", "0.1,0.05,0.2", "--sigma", "3e-5"]) == 0
+    assert (
+        main(
+            [
+                "evaluate",
+                "kr270",
+                "--plan",
+                str(kr_plan),
+                "--deg",
+                "--test-pose",
+                KR_Q0,
+                "--marker",
+                "0.1,0.05,0.2",
+                "--sigma",
+                "3e-5",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "rho0 at the test pose" in out and "mm" in out and "O4" in out
 
@@ -108,16 +149,112 @@ BAD = [
     (lambda t: ["params", "kr270", "--params", "full,offsetz"], "unknown parameter or group 'offsetz'"),
     (lambda t: ["params", "kr270", "--params", "joint_a9.tx"], "valid:"),
     (lambda t: ["params", "kr270", "--marker", "0.1,0.2"], "X,Y,Z"),
-    (lambda t: ["evaluate", "planar_2r", "--plan", _write(t, "p.csv", "joint1,joint2\n0.1,0.2,0.3\n"), "--test-pose=0,1"], "line 2: 3 values, expected 2"),
-    (lambda t: ["evaluate", "planar_2r", "--plan", _write(t, "p.csv", "joint1,joint2\n0.1,x\n"), "--test-pose=0,1"], "not a number"),
-    (lambda t: ["evaluate", "planar_2r", "--plan", _write(t, "p.csv", "joint1,joint2\n0.1,nan\n"), "--test-pose=0,1"], "must be finite"),
-    (lambda t: ["evaluate", "planar_2r", "--plan", _write(t, "p.csv", "joint1,joint2\n0.1,4\n"), "--test-pose=0,1"], "joint2 = 4 is outside its limits"),
-    (lambda t: ["evaluate", "planar_2r", "--plan", _write(t, "p.csv", "joint1,joint2\n0.1,0.5\n"), "--test-pose=0,1,2"], "expected 2"),
-    (lambda t: ["evaluate", "planar_2r", "--plan", _write(t, "p.csv", "joint1,joint2\n0.1,0.5\n"), "--test-pose=0,inf"], "finite"),
-    (lambda t: ["evaluate", "planar_2r", "--plan", _write(t, "p.csv", "joint1,joint2\n0.1,0\n0.2,0\n"), "--test-pose=0,1", "--params", "lengths"], "degenerate"),
-    (lambda t: ["evaluate", "kr270", "--plan", _write(t, "p.csv", "joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6\n0,-1,1,0,1,0\n"), "--test-pose=0,-1,1,0,1,0"], "at least 9 configurations"),
-    (lambda t: ["evaluate", "planar_2r", "--plan", _write(t, "p.csv", "joint1,joint2\n0.1,0.5\n"), "--test-pose=0,1", "--params", "full"], "cannot be identified"),
-    (lambda t: ["evaluate", "planar_2r", "--plan", _write(t, "p.csv", "joint1,joint2\n0.1,0.5\n"), "--test-pose=0,1", "--sigma", "-1"], "--sigma must be a positive"),
+    (
+        lambda t: [
+            "evaluate",
+            "planar_2r",
+            "--plan",
+            _write(t, "p.csv", "joint1,joint2\n0.1,0.2,0.3\n"),
+            "--test-pose=0,1",
+        ],
+        "line 2: 3 values, expected 2",
+    ),
+    (
+        lambda t: [
+            "evaluate",
+            "planar_2r",
+            "--plan",
+            _write(t, "p.csv", "joint1,joint2\n0.1,x\n"),
+            "--test-pose=0,1",
+        ],
+        "not a number",
+    ),
+    (
+        lambda t: [
+            "evaluate",
+            "planar_2r",
+            "--plan",
+            _write(t, "p.csv", "joint1,joint2\n0.1,nan\n"),
+            "--test-pose=0,1",
+        ],
+        "must be finite",
+    ),
+    (
+        lambda t: [
+            "evaluate",
+            "planar_2r",
+            "--plan",
+            _write(t, "p.csv", "joint1,joint2\n0.1,4\n"),
+            "--test-pose=0,1",
+        ],
+        "joint2 = 4 is outside its limits",
+    ),
+    (
+        lambda t: [
+            "evaluate",
+            "planar_2r",
+            "--plan",
+            _write(t, "p.csv", "joint1,joint2\n0.1,0.5\n"),
+            "--test-pose=0,1,2",
+        ],
+        "expected 2",
+    ),
+    (
+        lambda t: [
+            "evaluate",
+            "planar_2r",
+            "--plan",
+            _write(t, "p.csv", "joint1,joint2\n0.1,0.5\n"),
+            "--test-pose=0,inf",
+        ],
+        "finite",
+    ),
+    (
+        lambda t: [
+            "evaluate",
+            "planar_2r",
+            "--plan",
+            _write(t, "p.csv", "joint1,joint2\n0.1,0\n0.2,0\n"),
+            "--test-pose=0,1",
+            "--params",
+            "lengths",
+        ],
+        "degenerate",
+    ),
+    (
+        lambda t: [
+            "evaluate",
+            "kr270",
+            "--plan",
+            _write(t, "p.csv", "joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6\n0,-1,1,0,1,0\n"),
+            "--test-pose=0,-1,1,0,1,0",
+        ],
+        "at least 9 configurations",
+    ),
+    (
+        lambda t: [
+            "evaluate",
+            "planar_2r",
+            "--plan",
+            _write(t, "p.csv", "joint1,joint2\n0.1,0.5\n"),
+            "--test-pose=0,1",
+            "--params",
+            "full",
+        ],
+        "cannot be identified",
+    ),
+    (
+        lambda t: [
+            "evaluate",
+            "planar_2r",
+            "--plan",
+            _write(t, "p.csv", "joint1,joint2\n0.1,0.5\n"),
+            "--test-pose=0,1",
+            "--sigma",
+            "-1",
+        ],
+        "--sigma must be a positive",
+    ),
 ]
 
 
@@ -149,7 +286,10 @@ def test_console_script_and_module_entry_points():
     scripts = {e.name: e.value for e in entry_points(group="console_scripts")}
     assert scripts.get("pincal") == "pincal.cli:main"
     result = subprocess.run(
-        [sys.executable, "-m", "pincal", "params", "planar_2r", "--json"], capture_output=True, text=True, check=False
+        [sys.executable, "-m", "pincal", "params", "planar_2r", "--json"],
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert result.returncode == 0, result.stderr
     assert json.loads(result.stdout)["robot"] == "planar_2r"

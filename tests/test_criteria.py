@@ -93,7 +93,9 @@ def test_several_test_poses(kr270_marker):
     singles = [pincal.rho0(params, plan, q, sigma=SIGMA) for q in q0]
     np.testing.assert_allclose(each, singles, rtol=1e-12)
     assert pincal.rho0(params, plan, q0, sigma=SIGMA) == pytest.approx(np.sqrt(np.mean(each**2)), rel=1e-12)
-    assert pincal.rho0(params, plan, q0, sigma=SIGMA, aggregate="worst") == pytest.approx(each.max(), rel=1e-12)
+    assert pincal.rho0(params, plan, q0, sigma=SIGMA, aggregate="worst") == pytest.approx(
+        each.max(), rel=1e-12
+    )
     with pytest.raises(PincalError, match="mean, worst, each"):
         pincal.rho0(params, plan, q0, aggregate="median")
 

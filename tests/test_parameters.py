@@ -67,7 +67,9 @@ def test_translation_is_in_parent_link_coordinates(tmp_path):
     # parent's x, not the joint frame's.
     urdf = tmp_path / "r.urdf"
     urdf.write_text(
-        (pincal.shipped_robots()["planar_2r"]).read_text().replace(
+        (pincal.shipped_robots()["planar_2r"])
+        .read_text()
+        .replace(
             '<origin xyz="1.0 0 0" rpy="0 0 0"/>', '<origin xyz="1.0 0 0" rpy="0 0 1.5707963267948966"/>'
         )
     )
@@ -82,11 +84,13 @@ def test_rotation_about_own_axes_and_marker_and_base(kr270_marker):
     q = r.random_configurations(3, 1)
     # base.tz shifts everything up
     up = r.parameters("base.tz").apply([0.002])
-    np.testing.assert_allclose(up.points(q) - r.points(q), np.broadcast_to([0, 0, 0.002], (3, 1, 3)), atol=1e-14)
+    np.testing.assert_allclose(
+        up.points(q) - r.points(q), np.broadcast_to([0, 0, 0.002], (3, 1, 3)), atol=1e-14
+    )
     # marker0.x moves the point along the tip frame's x
     moved = r.parameters("marker0.x").apply([0.001])
     data = r.model.createData()
-    for i, qi in enumerate(q):
+    for qi in q:
         pin.framesForwardKinematics(r.model, data, qi)
         x_axis = data.oMf[r.tip_frame].rotation[:, 0]
         np.testing.assert_allclose(moved.points(qi)[0, 0] - r.points(qi)[0, 0], 0.001 * x_axis, atol=1e-14)
@@ -117,3 +121,10 @@ def test_select_and_on(kr270):
 def test_units(kr270):
     p = kr270.parameters("joint_a1.tx,joint_a1.rx,joint_a1.offset")
     assert p.units == ("m", "rad", "rad")
+
+
+def test_tip_named_like_a_joint_gets_unique_names():
+    robot = pincal.load_robot("kr270", tip="joint_a6")
+    names = robot.parameters("full,offsets").names
+    assert len(names) == len(set(names))
+    assert "tip.tx" in names

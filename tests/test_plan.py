@@ -52,7 +52,10 @@ def test_bad_plan_files(tmp_path, planar, text, match):
 def test_out_of_limits_names_line_joint_and_limits(tmp_path, kr270):
     path = tmp_path / "p.csv"
     path.write_text(",".join(kr270.joint_names) + "\n0,-60,30,0,0,0\n0,-60,30,0,130,0\n")
-    with pytest.raises(BadConfiguration, match=r"line 3: joint joint_a5 = 130 is outside its limits \[-122.5, 122.5\] \(degrees\)"):
+    with pytest.raises(
+        BadConfiguration,
+        match=r"line 3: joint joint_a5 = 130 is outside its limits \[-122.5, 122.5\] \(degrees\)",
+    ):
         pincal.Plan.from_csv(path, robot=kr270, degrees=True)
     with pytest.raises(BadConfiguration, match="look like degrees: add --deg"):
         pincal.Plan.from_csv(path, robot=kr270)
@@ -99,3 +102,14 @@ def test_atomic_write_leaves_no_partial_file(tmp_path, planar, monkeypatch):
         plan.to_csv(target)
     assert target.read_text() == "previous"
     assert [p.name for p in tmp_path.iterdir()] == ["out.csv"]
+
+
+def test_written_files_get_ordinary_permissions(tmp_path):
+    import os
+    import stat
+
+    plan = pincal.Plan([[0.1, 0.2]], ("joint1", "joint2"))
+    plan.to_csv(tmp_path / "out.csv")
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE((tmp_path / "out.csv").stat().st_mode) == 0o666 & ~umask

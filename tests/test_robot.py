@@ -117,8 +117,10 @@ def test_tip_fixed_to_base_is_refused():
 
 
 def test_unsupported_joint(tmp_path):
-    urdf = (ROOT / "robots" / "planar_2r.urdf").read_text().replace(
-        '<joint name="joint2" type="revolute">', '<joint name="joint2" type="continuous">'
+    urdf = (
+        (ROOT / "robots" / "planar_2r.urdf")
+        .read_text()
+        .replace('<joint name="joint2" type="revolute">', '<joint name="joint2" type="continuous">')
     )
     path = tmp_path / "cont.urdf"
     path.write_text(urdf)
@@ -137,7 +139,9 @@ def test_configurations_validation(kr270):
         kr270.configurations(np.zeros(5))
     with pytest.raises(BadConfiguration, match="finite"):
         kr270.configurations([0, -1, 0, np.nan, 0, 0])
-    with pytest.raises(BadConfiguration, match=r"joint_a2 = 0 is outside its limits \[-2.44346, -0.0872665\]"):
+    with pytest.raises(
+        BadConfiguration, match=r"joint_a2 = 0 is outside its limits \[-2.44346, -0.0872665\]"
+    ):
         kr270.configurations(np.zeros(6))
     q = np.array([0.1, -1.0, 0.2, 0.0, 0.3, 0.0])
     out = kr270.configurations(q)

@@ -10,11 +10,11 @@ import argparse
 import sys
 
 from ..errors import PincalError
-from . import evaluate, params, robots
+from . import baseline, design, evaluate, identify, measure_sim, params, robots, show, simulate
 from ._common import join_negative_values
 
 # One module per subcommand, each with add_parser(subparsers); the order is the --help order.
-COMMANDS = [params, evaluate, robots]
+COMMANDS = [params, evaluate, design, baseline, simulate, measure_sim, identify, show, robots]
 
 DESCRIPTION = """\
 pincal chooses the measurement configurations of a robot calibration so that the robot is most
@@ -25,6 +25,11 @@ EPILOG = """\
 examples:
   pincal params kr270 --marker 0.1,0.05,0.2
   pincal evaluate kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --sigma 3e-5
+  pincal simulate kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2
+  pincal measure-sim kr270 --plan plan.csv --error-std 1e-3,1e-3 --sigma 3e-5 --out m.csv \\
+      --marker 0.1,0.05,0.2
+  pincal identify kr270 --data m.csv --marker 0.1,0.05,0.2 --out kr270_calibrated.urdf
+  pincal show kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --html plan.html
   pincal robots
 
 Units: metres and radians; --deg reads and prints joint values in degrees.

@@ -17,7 +17,7 @@ DEFAULT_PARAMS = "full,offsets"
 
 # Options whose value may start with "-" (negative numbers): "--test-pose -45,20" is rewritten
 # "--test-pose=-45,20" before argparse sees it.
-VALUE_OPTIONS = ("--test-pose", "--marker")
+VALUE_OPTIONS = ("--test-pose", "--marker", "--base-pose", "--instrument")
 
 
 def join_negative_values(argv: list[str]) -> list[str]:
@@ -35,6 +35,30 @@ def join_negative_values(argv: list[str]) -> list[str]:
         out.append(arg)
         i += 1
     return out
+
+
+def add_command(
+    sub: argparse._SubParsersAction, name: str, help: str, examples: str
+) -> argparse.ArgumentParser:
+    """A subcommand parser whose --help ends with ``examples`` (kept as written)."""
+    return sub.add_parser(
+        name,
+        help=help,
+        description=help + ".",
+        epilog=examples,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+
+
+def add_test_pose_argument(parser: argparse.ArgumentParser, required: bool = True) -> None:
+    """--test-pose Q0, repeatable (parsed by :func:`test_poses_from_args`)."""
+    parser.add_argument(
+        "--test-pose",
+        action="append",
+        required=required,
+        metavar="Q0",
+        help="comma-separated joint values of a test pose; repeat for several",
+    )
 
 
 def add_robot_arguments(parser: argparse.ArgumentParser, params: bool = True) -> None:
@@ -116,8 +140,7 @@ def parse_configuration(robot: Robot, text: str, degrees: bool, what: str) -> np
     values = parse_floats(text, what)
     if len(values) != robot.nq:
         raise BadConfiguration(
-            f"{what} {text!r}: {len(values)} values, expected {robot.nq} "
-            f"({', '.join(robot.joint_names)})"
+            f"{what} {text!r}: {len(values)} values, expected {robot.nq} ({', '.join(robot.joint_names)})"
         )
     q = to_radians(robot, values) if degrees else np.array(values)
     check_limits(robot, q[None, :], [f"{what} {text}"], degrees)
@@ -125,9 +148,7 @@ def parse_configuration(robot: Robot, text: str, degrees: bool, what: str) -> np
 
 
 def test_poses_from_args(robot: Robot, args: argparse.Namespace) -> np.ndarray:
-    return np.array(
-        [parse_configuration(robot, t, args.deg, "--test-pose") for t in args.test_pose]
-    )
+    return np.array([parse_configuration(robot, t, args.deg, "--test-pose") for t in args.test_pose])
 
 
 def read_plan(robot: Robot, path: str, degrees: bool) -> Plan:

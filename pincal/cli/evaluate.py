@@ -8,8 +8,10 @@ import numpy as np
 
 from ..criteria import criteria, rho0
 from ._common import (
+    add_command,
     add_output_arguments,
     add_robot_arguments,
+    add_test_pose_argument,
     emit_json,
     fmt_length,
     params_from_args,
@@ -33,24 +35,16 @@ rho0 is in metres for the given --sigma (noise per coordinate, metres; default 1
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "evaluate",
-        help=HELP,
-        description=HELP + ".",
-        epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = add_command(sub, "evaluate", HELP, EXAMPLES)
     add_robot_arguments(p)
     p.add_argument("--plan", required=True, metavar="PLAN.csv", help="the configurations to evaluate")
+    add_test_pose_argument(p)
     p.add_argument(
-        "--test-pose",
-        action="append",
-        required=True,
-        metavar="Q0",
-        help="comma-separated joint values of a test pose; repeat for several",
+        "--worst", action="store_true", help="with several test poses, report the worst, not the mean"
     )
-    p.add_argument("--worst", action="store_true", help="with several test poses, report the worst, not the mean")
-    p.add_argument("--sigma", type=float, default=1.0, help="measurement noise per coordinate [m] (default 1)")
+    p.add_argument(
+        "--sigma", type=float, default=1.0, help="measurement noise per coordinate [m] (default 1)"
+    )
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
     add_output_arguments(p)
     p.set_defaults(run=run)
@@ -83,7 +77,9 @@ def run(args: argparse.Namespace) -> int:
         )
         return 0
     agg = "worst" if args.worst else "root mean square"
-    print(f"{robot.name}: {len(plan)} configurations, {len(params)} parameters ({source}), sigma = {sigma:g} m")
+    print(
+        f"{robot.name}: {len(plan)} configurations, {len(params)} parameters ({source}), sigma = {sigma:g} m"
+    )
     if len(each) == 1:
         print(f"rho0 at the test pose: {fmt_length(value)}  ({value:.6g} m)")
     else:

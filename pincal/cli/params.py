@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import DEFAULT_PARAMS, add_output_arguments, add_robot_arguments, emit_json, robot_from_args
+from ._common import (
+    DEFAULT_PARAMS,
+    add_command,
+    add_output_arguments,
+    add_robot_arguments,
+    emit_json,
+    robot_from_args,
+)
 
 HELP = "list geometric parameters and report which are identifiable, and why not"
 EXAMPLES = """\
@@ -20,15 +27,14 @@ Groups: offsets, lengths, full, base, markers; mix them and names with commas.
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "params",
-        help=HELP,
-        description=HELP + ".",
-        epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = add_command(sub, "params", HELP, EXAMPLES)
     add_robot_arguments(p, params=False)
-    p.add_argument("--params", metavar="SPEC", default=DEFAULT_PARAMS, help=f"parameters to examine (default {DEFAULT_PARAMS})")
+    p.add_argument(
+        "--params",
+        metavar="SPEC",
+        default=DEFAULT_PARAMS,
+        help=f"parameters to examine (default {DEFAULT_PARAMS})",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the random configurations (default 0)")
     add_output_arguments(p)
     p.set_defaults(run=run)
@@ -54,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
             }
         )
         return 0
-    print(f"{robot.name}: joints {', '.join(robot.joint_names)}; tip {robot.tip}; markers {robot.markers.tolist()}")
+    joints = ", ".join(robot.joint_names)
+    print(f"{robot.name}: joints {joints}; tip {robot.tip}; markers {robot.markers.tolist()}")
     print(ident.report())
     return 0

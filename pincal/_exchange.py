@@ -1,0 +1,183 @@
+"""Exchange search: the best m configurations of a pool of feasible candidates (Fedorov-style).
+
+Starting from m pool configurations, each configuration of the plan in turn is exchanged for the
+pool candidate that improves the criterion most, until no exchange improves it. An exchange
+(remove i, add c) changes M by a rank-6K term, M' = M + U C Uᵀ with U = [J_cᵀ, J_iᵀ] and
+C = diag(I, −I); with H = C + Uᵀ M⁻¹ U (6K×6K, K markers), Sherman–Morrison–Woodbury gives
+
+    M'⁻¹ = M⁻¹ − M⁻¹ U H⁻¹ Uᵀ M⁻¹,       det M' / det M = (−1)^{3K} det H,
+
+so every candidate is scored at once from a few batched 6K×6K solves — no P×P inversion:
+trace criteria from tr(W M'⁻¹) = tr(W M⁻¹) − ⟨Q, H⁻¹Q⟩ with Q = Uᵀ M⁻¹ J0ᵀ, D from the
+determinant ratio, E and cond from the eigenvalues of M' itself. An accepted exchange updates
+M⁻¹ the same way; M⁻¹ is recomputed from M once per sweep to keep rounding from drifting.
+Candidates already in the plan, or closer than the minimum spacing to another configuration of
+it, are not considered, nor an exchange that would take the plan's conditioning (see
+:func:`pincal._continuous.conditioning`) below the floor.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import cho_solve
+
+from ._continuous import conditioning
+from ._objective import Objective, TraceObjective
+from .criteria import _factor
+
+TOLERANCE = 1e-10
+"""An exchange must lower the objective F (a log) by more than this."""
+
+LOG_MIN_RATIO = np.log(1e-12)
+"""Exchanges that shrink det M by more than this factor are taken as singular."""
+
+
+@dataclass(frozen=True)
+class ExchangeOutcome:
+    """The end of one start of the exchange search.
+
+    Attributes:
+        index: (m,) pool indices of the plan.
+        F: objective value (exact).
+        sweeps: passes over the plan.
+        swaps: exchanges made.
+        time_s: wall time [s].
+    """
+
+    index: np.ndarray
+    F: float
+    sweeps: int
+    swaps: int
+    time_s: float
+
+
+def _inverse(M: np.ndarray, rows: int, m: int) -> np.ndarray:
+    L = _factor(M, rows, m)
+    return cho_solve((L, True), np.eye(len(M)))
+
+
+def _best_regular(values, F, cand, M, J_pool, Ji, floor, tries: int = 32) -> int | None:
+    """Index (into ``values``) of the best improving exchange that keeps the conditioning above
+    ``floor``; None if there is none among the ``tries`` best."""
+    improving = np.flatnonzero(values < F - TOLERANCE)
+    if not len(improving):
+        return None
+    order = improving[np.argsort(values[improving], kind="stable")][:tries]
+    if floor <= 0:
+        return int(order[0])
+    for k in order:
+        Jc = J_pool[cand[k]]
+        if conditioning(M + Jc.T @ Jc - Ji.T @ Ji) > floor:
+            return int(k)
+    return None
+
+
+def fedorov(
+    objective: Objective,
+    J_pool: np.ndarray,
+    pool: np.ndarray,
+    index: np.ndarray,
+    spacing: float = 0.0,
+    floor: float = 0.0,
+    max_sweeps: int = 100,
+) -> ExchangeOutcome:
+    """Exchange search from the plan ``pool[index]``.
+
+    Args:
+        objective: the criterion.
+        J_pool: (N, 3K, P) tip-frame Jacobians of the pool.
+        pool: (N, nq) the candidate configurations.
+        index: (m,) pool indices of the starting plan (its M must be regular).
+        spacing: minimum joint-space distance between configurations of the plan [rad].
+        floor: smallest conditioning an exchange may leave the plan with.
+        max_sweeps: passes over the plan allowed.
+    """
+    t0 = time.perf_counter()
+    N, r, P = J_pool.shape
+    index = np.array(index)
+    m = len(index)
+    flat = J_pool.reshape(N * r, P)
+    JtJ = np.einsum("nrp,nrs->nps", J_pool, J_pool) if objective.family == "spectral" else None
+    trace = isinstance(objective, TraceObjective)
+
+    def exact() -> tuple[np.ndarray, np.ndarray, float, np.ndarray | None]:
+        Jd = J_pool[index].reshape(-1, P)
+        M = Jd.T @ Jd
+        Minv = _inverse(M, r, m)
+        return M, Minv, objective.value(M, m), objective.traces(M, m) if trace else None
+
+    M, Minv, F, t = exact()
+    used = np.zeros(N, dtype=bool)
+    used[index] = True
+    dist = np.linalg.norm(pool[:, None, :] - pool[index][None], axis=2) if spacing > 0 else None
+    sign_c = (-1.0) ** r
+    sweeps = swaps = 0
+    stale = True
+    while sweeps < max_sweeps:
+        sweeps += 1
+        improved = False
+        for i in range(m):
+            if stale:
+                A = (flat @ Minv).reshape(N, r, P)  # J_c M⁻¹
+                S_cc = np.einsum("nrp,nsp->nrs", A, J_pool)
+                AJ0 = (flat @ (Minv @ objective.J0T)).reshape(N, r, -1) if trace else None
+                stale = False
+            Ji = J_pool[index[i]]
+            Ai = Ji @ Minv
+            H = np.empty((N, 2 * r, 2 * r))
+            H[:, :r, :r] = S_cc + np.eye(r)
+            H[:, :r, r:] = A @ Ji.T
+            H[:, r:, :r] = np.swapaxes(H[:, :r, r:], 1, 2)
+            H[:, r:, r:] = Ai @ Ji.T - np.eye(r)
+            allowed = ~used
+            if dist is not None:
+                others = np.delete(dist, i, axis=1)
+                allowed &= np.all(others >= spacing, axis=1)
+            sign, logdet = np.linalg.slogdet(H)
+            ok = allowed & (sign * sign_c > 0) & (logdet > LOG_MIN_RATIO)
+            if not ok.any():
+                continue
+            cand = np.flatnonzero(ok)
+            new_t = None
+            if objective.family == "logdet":
+                values = F - logdet[cand]
+            elif trace:
+                Q = np.concatenate(
+                    [AJ0[cand], np.broadcast_to(Ji @ (Minv @ objective.J0T), (len(cand), r, AJ0.shape[2]))],
+                    axis=1,
+                )
+                Y = np.linalg.solve(H[cand], Q)
+                red = np.einsum("nar,nar->nr", Q, Y).reshape(len(cand), objective.k, -1).sum(axis=2)
+                new_t = t - red
+                values = objective.from_traces(new_t)
+                values[~np.all(new_t > 0, axis=1)] = np.inf
+            else:
+                Mc = M + JtJ[cand] - Ji.T @ Ji
+                values = objective.from_eigenvalues(np.linalg.eigvalsh(Mc))
+            best = _best_regular(values, F, cand, M, J_pool, Ji, floor)
+            if best is None:
+                continue
+            c = int(cand[best])
+            UtMinv = np.concatenate([A[c], Ai])  # Uᵀ M⁻¹, (2r, P)
+            Minv = Minv - UtMinv.T @ np.linalg.solve(H[c], UtMinv)
+            Minv = 0.5 * (Minv + Minv.T)
+            M = M + J_pool[c].T @ J_pool[c] - Ji.T @ Ji
+            used[index[i]] = False
+            used[c] = True
+            index[i] = c
+            if dist is not None:
+                dist[:, i] = np.linalg.norm(pool - pool[c], axis=1)
+            F = float(values[best])
+            if new_t is not None:
+                t = new_t[best]
+            swaps += 1
+            improved = True
+            stale = True
+        M, Minv, F, t = exact()
+        stale = True
+        if not improved:
+            break
+    return ExchangeOutcome(index, F, sweeps, swaps, time.perf_counter() - t0)

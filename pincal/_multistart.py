@@ -1,0 +1,195 @@
+"""Running the starts of a design: picklable work items, a per-process problem cache, executors.
+
+A work item is a module-level function and a :class:`ProblemSpec` (plain data: the parameter set
+with its robot and pinocchio.Model, the test poses, the constraints, the pool), so that any
+``concurrent.futures.Executor`` can run it: a process pool on one machine, or for a cluster
+``dask.distributed.Client(...).get_executor()`` or Ray's ``RayExecutor``. Each process builds the
+problem (Jacobian engine, objective, constraint data) once per spec and keeps it in a small
+thread-local cache. Results come back in submission order, whatever finishes first: the same seed
+gives the same design whatever the executor and the number of workers.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import uuid
+from collections.abc import Callable, Sequence
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from . import _continuous, _exchange
+from ._objective import TEST_POSE_CRITERIA, Objective, make_objective
+from .constraints import AnyConstraint, Feasibility
+from .jacobian import JacobianEngine
+from .parameters import ParameterSet
+
+
+@dataclass(frozen=True, eq=False)
+class ProblemSpec:
+    """Everything a worker needs to rebuild a design problem (picklable).
+
+    Attributes:
+        params: the parameter set (carries the robot and its model).
+        m: number of configurations.
+        criterion: canonical criterion name.
+        test_poses: (k, nq) test poses, or None.
+        sigma: measurement noise per coordinate [m].
+        constraints: the constraint objects.
+        pool: (N, nq) candidate configurations (exchange), or None.
+        floor: smallest conditioning of a plan (see :func:`pincal._continuous.conditioning`).
+        key: identifies the spec in the workers' caches.
+    """
+
+    params: ParameterSet
+    m: int
+    criterion: str
+    test_poses: np.ndarray | None
+    sigma: float
+    constraints: tuple[AnyConstraint, ...]
+    pool: np.ndarray | None = None
+    floor: float = 1e-6
+    key: str = field(default_factory=lambda: uuid.uuid4().hex)
+
+
+class Problem:
+    """A design problem built from a spec, in one process."""
+
+    def __init__(self, spec: ProblemSpec) -> None:
+        self.spec = spec
+        self.engine = JacobianEngine(spec.params)
+        J0 = None
+        if spec.test_poses is not None and spec.criterion in TEST_POSE_CRITERIA:
+            J0 = self.engine.jacobian(spec.test_poses, frame="tip").copy()
+        self.objective: Objective = make_objective(
+            spec.criterion, len(spec.params), self.engine.rows, J0, spec.sigma
+        )
+        self.feasibility = Feasibility(spec.params.robot, spec.constraints)
+        self.function = _continuous.PlanFunction(
+            self.engine, self.objective, self.feasibility, spec.m, spec.floor
+        )
+
+    @cached_property
+    def pool_jacobians(self) -> np.ndarray:
+        return self.engine.jacobian(self.spec.pool, frame="tip").copy()
+
+
+_LOCAL = threading.local()
+_CACHE_SIZE = 4
+
+
+def problem(spec: ProblemSpec) -> Problem:
+    """The problem of ``spec``, built once per thread and cached."""
+    cache = getattr(_LOCAL, "cache", None)
+    if cache is None:
+        cache = _LOCAL.cache = {}
+    built = cache.get(spec.key)
+    if built is None:
+        if len(cache) >= _CACHE_SIZE:
+            cache.pop(next(iter(cache)))
+        built = cache[spec.key] = Problem(spec)
+    return built
+
+
+def forget(spec: ProblemSpec) -> None:
+    """Drop ``spec`` from this thread's cache."""
+    getattr(_LOCAL, "cache", {}).pop(spec.key, None)
+
+
+_CONTROLLER = None
+
+
+def single_threaded_blas():
+    """A context in which BLAS runs on one thread.
+
+    The matrices of a design are small: threaded BLAS only adds overhead, and on a busy machine
+    its spinning threads make every call many times slower. Parallelism comes from the starts.
+    """
+    global _CONTROLLER
+    if _CONTROLLER is None:
+        from threadpoolctl import ThreadpoolController
+
+        _CONTROLLER = ThreadpoolController()
+    return _CONTROLLER.limit(limits=1, user_api="blas")
+
+
+# ------------------------------------------------------------------------ work items
+def screen_task(spec: ProblemSpec, q0: np.ndarray, iterations: int) -> _continuous.Outcome:
+    """A few continuous iterations from q0."""
+    with single_threaded_blas():
+        return _continuous.screen(problem(spec).function, q0, iterations)
+
+
+def polish_task(spec: ProblemSpec, q0: np.ndarray, anchor: np.ndarray, maxiter: int) -> _continuous.Outcome:
+    """The continuous search from q0 to convergence (feasible, repaired towards ``anchor``)."""
+    with single_threaded_blas():
+        return _continuous.polish(problem(spec).function, q0, anchor, maxiter)
+
+
+def exchange_task(spec: ProblemSpec, index: np.ndarray) -> _exchange.ExchangeOutcome:
+    """The exchange search over the spec's pool from the plan pool[index]."""
+    with single_threaded_blas():
+        p = problem(spec)
+        return _exchange.fedorov(
+            p.objective, p.pool_jacobians, spec.pool, index, p.feasibility.spacing, spec.floor
+        )
+
+
+# ------------------------------------------------------------------------- executors
+def default_workers() -> int:
+    """CPUs this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+@contextmanager
+def executor_for(executor: Executor | None, workers: int, tasks: int):
+    """The executor to use: the caller's, a process pool of ``workers``, or None (serial)."""
+    if executor is not None:
+        yield executor
+        return
+    if workers <= 1 or tasks <= 1:
+        yield None
+        return
+    # The platform's default start method (fork on Linux before Python 3.14: fast, and scripts
+    # need no ``if __name__ == "__main__"`` guard; elsewhere the usual guard applies).
+    pool = ProcessPoolExecutor(max_workers=min(workers, tasks))
+    try:
+        yield pool
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def run(
+    executor: Executor | None,
+    function: Callable,
+    items: Sequence[tuple],
+    done: Callable[[object], None] | None = None,
+) -> list:
+    """``[function(*item) for item in items]``, on ``executor`` if given; ``done`` sees each result
+    as it arrives. Results are in the order of ``items``."""
+    if executor is None:
+        out = []
+        for item in items:
+            out.append(function(*item))
+            if done is not None:
+                done(out[-1])
+        return out
+    futures = {executor.submit(function, *item): i for i, item in enumerate(items)}
+    results: list = [None] * len(items)
+    try:
+        for future in as_completed(futures):
+            results[futures[future]] = future.result()
+            if done is not None:
+                done(results[futures[future]])
+    except BaseException:
+        for future in futures:
+            future.cancel()
+        raise
+    return results

@@ -1,0 +1,77 @@
+"""``--plot FILE.png`` of the design command: a figure of the design, saved, never shown."""
+
+from __future__ import annotations
+
+import argparse
+
+PLOT_HELP = (
+    "save a figure: with --baseline, rho0 of the designed and D-optimal plans against the random "
+    "plans (histogram, log scale); without, the criterion against search time per start"
+)
+
+
+def add_plot_argument(parser: argparse.ArgumentParser) -> None:
+    """``--plot FILE.png``."""
+    parser.add_argument("--plot", metavar="FILE.png", help=PLOT_HELP)
+
+
+def save_design_plot(path: str, result, baseline=None) -> None:
+    """Save the figure of a design (see :data:`PLOT_HELP`) to ``path`` (format from its suffix).
+
+    Args:
+        path: the image file to write.
+        result: the :class:`pincal.design.DesignResult`.
+        baseline: ``(RandomPlans, D-optimal DesignResult or None)`` or None.
+    """
+    from ..plots import rho0_histogram, search_progress
+
+    if baseline is not None and result.rho0 is not None:
+        randoms, d_optimal = baseline
+        plans = {"designed": result.rho0}
+        if d_optimal is not None and d_optimal.rho0 is not None:
+            plans["D-optimal"] = d_optimal.rho0
+        fig = rho0_histogram(randoms.values, plans)
+    else:
+        is_rho0 = result.criterion in ("test-pose", "test-pose-worst")
+        fig = search_progress(
+            result,
+            ylabel="ρ0 [mm]" if is_rho0 else result.criterion,
+            scale=1e3 if is_rho0 else 1.0,
+        )
+    fig.savefig(path, dpi=120)
+
+
+def add_simulation_plot_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--plot FILE.png`` and ``--compare PLAN.csv`` (repeatable) of the simulate command."""
+    parser.add_argument(
+        "--plot",
+        metavar="FILE.png",
+        help="save a figure of the position errors at the test pose after calibration, this plan and "
+        "the --compare plans side by side, with their predicted rho0",
+    )
+    parser.add_argument(
+        "--compare",
+        action="append",
+        metavar="PLAN.csv",
+        help="another plan (a random one, a D-optimal one) to simulate alongside in --plot; repeat",
+    )
+
+
+def save_simulation_plot(args: argparse.Namespace, params, q0, sigma: float, error_std, result) -> None:
+    """Simulate each ``--compare`` plan like the main one and save the side-by-side figure."""
+    from pathlib import Path
+
+    from ..plots import error_comparison
+    from ..simulate import monte_carlo
+    from ._common import read_plan
+
+    results = {Path(args.plan).stem: result}
+    for path in args.compare or ():
+        plan = read_plan(params.robot, path, args.deg)
+        label = Path(path).stem
+        while label in results:
+            label += "'"
+        results[label] = monte_carlo(
+            params, plan, q0, sigma, trials=args.trials, seed=args.seed, error_std=error_std
+        )
+    error_comparison(results).savefig(args.plot, dpi=120)

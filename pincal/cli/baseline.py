@@ -1,0 +1,100 @@
+"""pincal baseline: ρ0 over random feasible plans (and of the D-optimal plan), to compare designs to."""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+
+from ..design import METHODS, design, random_plans
+from ._common import (
+    add_command,
+    add_output_arguments,
+    emit_json,
+    params_from_args,
+    positive,
+    robot_from_args,
+    test_poses_from_args,
+)
+from .design import add_design_arguments, constraints_from_args, print_baseline, print_warnings
+
+HELP = (
+    "rho0 at the test pose(s) over random feasible plans (min, median, mean, max), and the D-optimal plan's"
+)
+EXAMPLES = """\
+examples:
+  pincal baseline kr270 -m 12 --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --random 10000 \\
+      --sigma 3e-5
+  pincal baseline planar_2r -m 2 --test-pose=0.3,1.2 --params joint2.tx,tip.tx --random 1000 \\
+      --d-optimal --json
+
+Random plans: configurations drawn uniformly within the joint limits, kept if they satisfy
+--constraints. Singular plans (no finite rho0) are counted, not averaged. rho0 in metres for --sigma.
+"""
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = add_command(sub, "baseline", HELP, EXAMPLES)
+    add_design_arguments(p)
+    p.add_argument("--random", type=int, required=True, metavar="N", help="number of random plans")
+    p.add_argument(
+        "--worst", action="store_true", help="with several test poses, the worst rho0, not the mean"
+    )
+    p.add_argument(
+        "--d-optimal", action="store_true", help="also design the D-optimal plan and report its rho0"
+    )
+    p.add_argument(
+        "--method",
+        default="exchange",
+        metavar="NAME",
+        help=f"search for --d-optimal: {' or '.join(METHODS)}",
+    )
+    p.add_argument("--starts", type=int, default=16, help="starts of the --d-optimal search (default 16)")
+    p.add_argument("--workers", type=int, help="processes for the --d-optimal search (default: all CPUs)")
+    add_output_arguments(p)
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    sigma = positive(args.sigma, "--sigma")
+    robot = robot_from_args(args)
+    params, _ = params_from_args(robot, args)
+    q0 = test_poses_from_args(robot, args)
+    constraints = constraints_from_args(args)
+    criterion = "test-pose-worst" if args.worst else "test-pose"
+    with warnings.catch_warnings(record=True) as records:
+        warnings.simplefilter("always")
+        randoms = random_plans(
+            params,
+            args.m,
+            args.random,
+            q0,
+            criterion=criterion,
+            sigma=sigma,
+            constraints=constraints,
+            seed=args.seed,
+        )
+        d_opt = None
+        if args.d_optimal:
+            d_opt = design(
+                params,
+                args.m,
+                q0,
+                "D",
+                method=args.method,
+                constraints=constraints,
+                sigma=sigma,
+                seed=args.seed,
+                starts=args.starts,
+                workers=args.workers,
+            )
+    print_warnings(records)
+    if args.json:
+        payload = {"robot": robot.name, "params": list(params.names), "random": randoms.as_dict()}
+        if d_opt is not None:
+            payload["d_optimal"] = d_opt.rho0
+            payload["d_optimal_plan"] = d_opt.plan.q.tolist()
+        emit_json(payload)
+        return 0
+    print(f"{robot.name}: {len(params)} parameters, m = {args.m}, sigma = {sigma:g} m")
+    print_baseline(randoms, d_opt)
+    return 0

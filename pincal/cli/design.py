@@ -1,0 +1,255 @@
+"""pincal design: the measurement plan that minimises ρ0 (or another criterion) at the test pose(s)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+
+import numpy as np
+
+from ..constraints import load_constraints
+from ..design import CRITERIA, METHODS, MIN_CONDITIONING, DesignResult, RandomPlans, design, random_plans
+from ..errors import PincalError
+from ..plan import Plan, revolute_mask
+from ._common import (
+    add_command,
+    add_output_arguments,
+    add_robot_arguments,
+    add_test_pose_argument,
+    emit_json,
+    fmt_length,
+    params_from_args,
+    positive,
+    read_plan,
+    robot_from_args,
+    test_poses_from_args,
+)
+from ._plot import add_plot_argument, save_design_plot
+
+HELP = "design a measurement plan: the m configurations that make the robot most accurate at the test pose(s)"
+EXAMPLES = """\
+examples:
+  pincal design kr270 -m 12 --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --sigma 3e-5 \\
+      --params lengths,offsets --out plan.csv --baseline 1000
+  pincal design planar_2r -m 2 --test-pose=0.3,1.2 --params joint2.tx,tip.tx --json
+  pincal design ur10 -m 12 --test-pose=0,-1.2,1.5,-1,-1.5,0 --method exchange --pool taught.csv
+  pincal design kr270 -m 8 --test-pose=0,-90,90,0,45,0 --deg --constraints cell.yaml --starts 128
+
+Criteria (--criterion): test-pose (rho0, root mean square over several --test-pose), test-pose-worst
+(the worst test pose; --worst is the same), D, A, E, cond. Methods: exchange (the default: best m of
+a pool of feasible configurations, then refined by the continuous search unless --no-polish; --pool
+gives your own, e.g. taught poses, in the plan CSV format, and keeps the plan on them), continuous
+(all joint values at once, L-BFGS-B from many random starts).
+--constraints FILE.yaml: joint_limits, workspace_box, half_space, visibility, self_collision,
+min_spacing (see pincal.constraints.load_constraints for the layout).
+Units: metres and radians; --deg reads test poses and --pool, and writes --out and prints the plan,
+in degrees. The JSON plan is always in radians; rho0 is in metres for --sigma (default 1).
+"""
+
+
+def add_design_arguments(p: argparse.ArgumentParser) -> None:
+    """Arguments design and baseline share: robot, parameters, m, test poses, constraints, noise."""
+    add_robot_arguments(p)
+    p.add_argument("-m", type=int, required=True, metavar="M", help="number of configurations to measure")
+    add_test_pose_argument(p)
+    p.add_argument("--constraints", metavar="FILE.yaml", help="workcell constraints (YAML)")
+    p.add_argument(
+        "--sigma", type=float, default=1.0, help="measurement noise per coordinate [m] (default 1)"
+    )
+    p.add_argument(
+        "--deg", action="store_true", help="joint values in degrees (test poses, pool, plan output)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0)")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = add_command(sub, "design", HELP, EXAMPLES)
+    add_design_arguments(p)
+    p.add_argument(
+        "--criterion", default="test-pose", metavar="NAME", help=f"{', '.join(CRITERIA)} (default test-pose)"
+    )
+    p.add_argument(
+        "--worst", action="store_true", help="with several test poses, minimise the worst (test-pose-worst)"
+    )
+    p.add_argument(
+        "--method", default="exchange", metavar="NAME", help=f"{' or '.join(METHODS)} (default exchange)"
+    )
+    p.add_argument("--pool", metavar="FILE.csv", help="exchange over these configurations (plan CSV format)")
+    p.add_argument(
+        "--pool-size", type=int, metavar="N", help="random feasible candidates to draw (default 2000)"
+    )
+    p.add_argument(
+        "--polish",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="exchange: refine the best plans with the continuous search (default: on, off with --pool)",
+    )
+    p.add_argument("--starts", type=int, default=32, help="number of starts (default 32)")
+    p.add_argument("--workers", type=int, help="processes running the starts (default: all CPUs; 1: serial)")
+    p.add_argument(
+        "--min-conditioning",
+        type=float,
+        default=MIN_CONDITIONING,
+        metavar="X",
+        help=f"floor of the plan's conditioning, the smallest eigenvalue of its Jacobi-scaled information "
+        f"matrix (default {MIN_CONDITIONING:g})",
+    )
+    p.add_argument(
+        "--out", metavar="PLAN.csv", help="write the plan (radians, degrees with --deg), atomically"
+    )
+    p.add_argument(
+        "--baseline", type=int, metavar="N", help="also report N random feasible plans and the D-optimal plan"
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    add_plot_argument(p)
+    add_output_arguments(p)
+    p.set_defaults(run=run)
+
+
+def constraints_from_args(args: argparse.Namespace) -> tuple:
+    return load_constraints(args.constraints) if args.constraints else ()
+
+
+def print_warnings(records: list) -> None:
+    for w in records:
+        print(f"pincal: warning: {w.message}", file=sys.stderr)
+
+
+def run(args: argparse.Namespace) -> int:
+    sigma = positive(args.sigma, "--sigma")
+    robot = robot_from_args(args)
+    params, source = params_from_args(robot, args)
+    q0 = test_poses_from_args(robot, args)
+    constraints = constraints_from_args(args)
+    criterion = "test-pose-worst" if args.worst else args.criterion
+    if args.worst and args.criterion not in ("test-pose", "test-pose-worst"):
+        raise PincalError(f"--worst applies to the test-pose criterion, not {args.criterion!r}")
+    if args.pool and args.pool_size is not None:
+        raise PincalError("give --pool FILE.csv or --pool-size N, not both")
+    pool = read_plan(robot, args.pool, args.deg) if args.pool else args.pool_size
+    progress = not args.no_progress and sys.stderr.isatty()
+    common = dict(
+        constraints=constraints, sigma=sigma, seed=args.seed, workers=args.workers, progress=progress
+    )
+    with warnings.catch_warnings(record=True) as records:
+        warnings.simplefilter("always")
+        result = design(
+            params,
+            args.m,
+            q0,
+            criterion,
+            method=args.method,
+            pool=pool,
+            starts=args.starts,
+            polish=args.polish,
+            min_conditioning=args.min_conditioning,
+            **common,
+        )
+        baseline = None
+        if args.baseline is not None:
+            randoms = random_plans(
+                params,
+                args.m,
+                args.baseline,
+                q0,
+                criterion=_rho0_criterion(criterion),
+                sigma=sigma,
+                constraints=constraints,
+                seed=args.seed,
+            )
+            d_opt = design(
+                params,
+                args.m,
+                q0,
+                "D",
+                method=args.method,
+                pool=pool,
+                starts=args.starts,
+                polish=args.polish,
+                min_conditioning=args.min_conditioning,
+                **common,
+            )
+            baseline = (randoms, d_opt)
+    if args.out:
+        result.plan.to_csv(args.out, degrees=args.deg)
+    if args.plot:
+        save_design_plot(args.plot, result, baseline)
+    if args.json:
+        emit_json(design_json(robot, params, result, baseline, args.out))
+    else:
+        print_design(robot, params, source, result, args.deg)
+        if baseline is not None:
+            print_baseline(*baseline)
+        if args.out:
+            print(f"wrote {args.out} ({'degrees' if args.deg else 'radians'})")
+    sys.stdout.flush()
+    print_warnings(records)  # last, where they are seen
+    return 0
+
+
+def _rho0_criterion(criterion: str) -> str:
+    return "test-pose-worst" if criterion == "test-pose-worst" else "test-pose"
+
+
+def design_json(robot, params, result: DesignResult, baseline, out: str | None) -> dict:
+    payload = {
+        "robot": robot.name,
+        "tip": robot.tip,
+        "markers": robot.markers.tolist(),
+        "params": list(params.names),
+        "n_params": len(params),
+    }
+    payload.update(result.as_dict())
+    payload["out"] = out
+    if baseline is not None:
+        randoms, d_opt = baseline
+        payload["baseline"] = {
+            "random": randoms.as_dict(),
+            "d_optimal": d_opt.rho0,
+            "d_optimal_plan": d_opt.plan.q.tolist(),
+        }
+    return payload
+
+
+def format_plan(robot, plan: Plan, degrees: bool) -> list[str]:
+    values = np.where(revolute_mask(robot), np.degrees(plan.q), plan.q) if degrees else plan.q
+    names = plan.joint_names
+    width = max(10, *(len(n) for n in names))
+    lines = ["  " + " ".join(f"{n:>{width}}" for n in names)]
+    lines += ["  " + " ".join(f"{v:>{width}.4f}" for v in row) for row in values]
+    return lines
+
+
+def print_design(robot, params, source: str, result: DesignResult, degrees: bool) -> None:
+    print(
+        f"{robot.name}: {result.m} configurations designed for {result.criterion} ({result.method}, "
+        f"{result.starts} starts, {result.continued} run to convergence, {result.time_s:.3g} s)"
+    )
+    print(f"{len(params)} parameters ({source}); sigma = {result.sigma:g} m")
+    if result.rho0_each is not None and len(result.rho0_each) > 1:
+        agg = "worst" if result.criterion == "test-pose-worst" else "root mean square"
+        print(
+            f"rho0 over {len(result.rho0_each)} test poses ({agg}): {fmt_length(result.rho0)}  "
+            f"({result.rho0:.6g} m)"
+        )
+        for i, r in enumerate(result.rho0_each):
+            print(f"  test pose {i}: {fmt_length(r)}")
+    elif result.rho0 is not None:
+        print(f"rho0 at the test pose: {fmt_length(result.rho0)}  ({result.rho0:.6g} m)")
+    if result.criterion not in ("test-pose", "test-pose-worst"):
+        print(f"{result.criterion} = {result.value:.6g}")
+    print(f"conditioning {result.conditioning:.3g}")
+    print(f"plan ({'degrees' if degrees else 'radians'}):")
+    for line in format_plan(robot, result.plan, degrees):
+        print(line)
+
+
+def print_baseline(randoms: RandomPlans, d_opt: DesignResult | None) -> None:
+    singular = f", {randoms.n_singular} singular" if randoms.n_singular else ""
+    print(
+        f"baseline, {randoms.n} random feasible plans{singular}: rho0 min {fmt_length(randoms.min)}, "
+        f"median {fmt_length(randoms.median)}, mean {fmt_length(randoms.mean)}, max {fmt_length(randoms.max)}"
+    )
+    if d_opt is not None:
+        print(f"baseline, D-optimal plan: rho0 {fmt_length(d_opt.rho0)}")

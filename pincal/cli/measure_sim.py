@@ -1,0 +1,120 @@
+"""pincal measure-sim: simulated measurements, to rehearse a calibration without hardware."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import BadConfiguration, OverwriteRefused, PincalError, UrdfError
+from ..export import export_urdf
+from ..plan import revolute_mask
+from ..robot import load_robot
+from ..simulate import random_errors, simulate_measurements
+from ._common import (
+    add_command,
+    add_robot_arguments,
+    params_from_args,
+    parse_floats,
+    read_plan,
+    robot_from_args,
+)
+from .simulate import parse_error_std
+
+HELP = "simulate the measurements of a plan on a 'true' robot, to rehearse a calibration"
+EXAMPLES = """\
+examples:
+  pincal measure-sim kr270 --plan plan.csv --true kr270_true.urdf --sigma 3e-5 --out meas.csv \\
+      --marker 0.1,0.05,0.2
+  pincal measure-sim kr270 --plan plan.csv --error-std 1e-3,1e-3 --save-true true.urdf --sigma 3e-5 \\
+      --out meas.csv --mm --marker 0.1,0.05,0.2 --seed 3
+  pincal measure-sim kr270 --plan plan.csv --true true.urdf --sigma 3e-5 --out tracker.csv \\
+      --base-pose=2.5,-1.0,0.2,0,0,1.2 --marker 0.1,0.05,0.2    # in an instrument's frame
+
+The "true" robot is TRUE.urdf (same joints as ROBOT) or, with --error-std LEN,ANG, ROBOT with
+random errors of --params (std LEN metres, ANG radians; --save-true writes it as a URDF to compare
+with the calibration). Points are measured at the plan's configurations with Gaussian noise --sigma
+per coordinate (metres; 0 for exact points), in the robot base frame or, with --base-pose
+X,Y,Z,ROLL,PITCH,YAW (metres, radians or degrees with --deg), in an instrument's frame.
+MEAS.csv is what 'pincal identify' reads: joint columns (radians, degrees with --deg), then x,y,z
+(or x0,y0,z0,x1,... for several markers) in metres, millimetres with --mm.
+"""
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = add_command(sub, "measure-sim", HELP, EXAMPLES)
+    add_robot_arguments(p)
+    p.add_argument("--plan", required=True, metavar="PLAN.csv", help="the configurations to measure")
+    truth = p.add_mutually_exclusive_group(required=True)
+    truth.add_argument("--true", metavar="TRUE.urdf", help="the 'real' robot, a URDF with the same joints")
+    truth.add_argument("--error-std", metavar="LEN,ANG", help="or: ROBOT with random errors of this std")
+    p.add_argument(
+        "--save-true", metavar="TRUE.urdf", help="with --error-std: write the true robot as a URDF"
+    )
+    p.add_argument("--sigma", type=float, required=True, help="measurement noise per coordinate [m]")
+    p.add_argument("--out", required=True, metavar="MEAS.csv", help="the measurement file to write")
+    p.add_argument("--base-pose", metavar="X,Y,Z,R,P,Y", help="robot base in the instrument's frame")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--mm", action="store_true", help="write coordinates in millimetres")
+    p.add_argument("--deg", action="store_true", help="plan (and written joint values) in degrees")
+    p.set_defaults(run=run)
+
+
+def _base_pose(text: str | None, degrees: bool) -> pin.SE3:
+    if text is None:
+        return pin.SE3.Identity()
+    values = parse_floats(text, "--base-pose")
+    if len(values) != 6:
+        raise BadConfiguration(f"--base-pose {text!r}: expected X,Y,Z,ROLL,PITCH,YAW (six numbers)")
+    rpy = np.radians(values[3:]) if degrees else np.array(values[3:])
+    return pin.SE3(pin.rpy.rpyToMatrix(*rpy), np.array(values[:3]))
+
+
+def _refuse_inputs(out: str, inputs: dict[str, object]) -> None:
+    target = Path(out).resolve()
+    for what, path in inputs.items():
+        if path is not None and Path(path).resolve() == target:
+            raise OverwriteRefused(f"output {out} is the {what}: choose another output path")
+
+
+def run(args: argparse.Namespace) -> int:
+    if not (np.isfinite(args.sigma) and args.sigma >= 0):
+        raise PincalError(f"--sigma must be a non-negative number of metres, got {args.sigma}")
+    if args.save_true and not args.error_std:
+        raise PincalError("--save-true needs --error-std (the true robot is then drawn at random)")
+    robot = robot_from_args(args)
+    inputs = {"plan file": args.plan, "ROBOT URDF": robot.urdf_path, "true URDF": args.true}
+    _refuse_inputs(args.out, inputs)
+    if args.save_true:
+        _refuse_inputs(args.save_true, {**inputs, "measurement output": args.out})
+    plan = read_plan(robot, args.plan, args.deg)
+    rng = np.random.default_rng(args.seed)
+    if args.true:
+        true_robot = load_robot(args.true, tip=robot.tip, markers=robot.markers)
+        if true_robot.joint_names != robot.joint_names:
+            raise UrdfError(
+                f"--true {args.true}: its chain to {robot.tip!r} has joints "
+                f"{', '.join(true_robot.joint_names)}; "
+                f"{robot.name} has {', '.join(robot.joint_names)}"
+            )
+        description = f"true robot {args.true}"
+    else:
+        params, source = params_from_args(robot, args)
+        truth = random_errors(params, parse_error_std(args.error_std), rng)
+        true_robot = truth.robot
+        description = f"random errors of {len(params)} parameters ({source}), seed {args.seed}"
+        if args.save_true:
+            export_urdf(true_robot, args.save_true)
+            description += f", saved to {args.save_true}"
+    true_robot = true_robot.replace(base=_base_pose(args.base_pose, args.deg))
+    data = simulate_measurements(true_robot, plan, args.sigma, rng)
+    data.to_csv(args.out, degrees=args.deg, millimetres=args.mm, robot=robot)
+    unit = "mm" if args.mm else "m"
+    angles = "degrees" if args.deg and revolute_mask(robot).any() else "radians"
+    print(
+        f"{args.out}: {data.m} configurations x {data.n_markers} marker(s), noise {args.sigma:g} m, "
+        f"{description}; joints in {angles}, points in {unit}"
+    )
+    return 0

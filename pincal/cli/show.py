@@ -1,0 +1,200 @@
+"""pincal show: a meshcat scene of a plan against the test pose (HTML file or live server), and
+the plan's ρ0 against random plans as a figure."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+import time
+
+import numpy as np
+
+from ..constraints import Visibility, load_constraints
+from ..criteria import rho0
+from ..errors import BadConfiguration, PincalError
+from ._common import (
+    add_command,
+    add_output_arguments,
+    add_robot_arguments,
+    add_test_pose_argument,
+    emit_json,
+    fmt_length,
+    params_from_args,
+    parse_floats,
+    positive,
+    read_plan,
+    robot_from_args,
+    test_poses_from_args,
+)
+
+HELP = "see a plan: meshcat scene of the measurement poses and the test pose's error ellipsoid"
+EXAMPLES = """\
+examples:
+  pincal show kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 \\
+      --sigma 3e-5 --html scene.html          # one self-contained file, opens offline
+  pincal show kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2
+                                              # starts a meshcat server; Ctrl-C to stop
+  pincal show planar_2r --plan plan.csv --test-pose=0.3,1.2 --params joint2.tx,tip.tx \\
+      --plot rho0.png --baseline 2000         # the plan's rho0 against 2000 random plans
+
+The scene: the robot at the test pose (opaque), one translucent numbered ghost per configuration
+with its measured points, the 3-sigma ellipsoid of the predicted error at the test pose after
+calibration (drawn larger than life by the stated factor), the instrument if --instrument is given.
+"""
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = add_command(sub, "show", HELP, EXAMPLES)
+    add_robot_arguments(p)
+    p.add_argument("--plan", required=True, metavar="PLAN.csv", help="the measurement configurations")
+    add_test_pose_argument(p, required=False)
+    p.add_argument(
+        "--sigma", type=float, default=1.0, help="measurement noise per coordinate [m] (default 1)"
+    )
+    p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
+    p.add_argument(
+        "--instrument",
+        metavar="X,Y,Z",
+        help="instrument position in the base frame [m] (default: the tracker of --constraints)",
+    )
+    p.add_argument(
+        "--constraints",
+        metavar="FILE.yaml",
+        help="workcell constraints as for 'pincal design': the visibility constraint's tracker is drawn, "
+        "and --plot's random plans respect them",
+    )
+    p.add_argument(
+        "--scale",
+        type=float,
+        help="draw the error ellipsoid this many times larger than life (default: a visible size)",
+    )
+    p.add_argument(
+        "--html",
+        metavar="FILE.html",
+        help="write the scene as one self-contained HTML file (without --html or --plot: start a "
+        "meshcat server, print its URL and wait for Ctrl-C)",
+    )
+    p.add_argument(
+        "--plot",
+        metavar="FILE.png",
+        help="save a figure of the plan's rho0 against random plans of the same size (needs --test-pose)",
+    )
+    p.add_argument(
+        "--baseline", type=int, default=1000, metavar="N", help="random plans for --plot (default 1000)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the random plans (default 0)")
+    add_output_arguments(p)
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..visualize import scene
+
+    sigma = positive(args.sigma, "--sigma")
+    if args.scale is not None:
+        positive(args.scale, "--scale")
+    if args.plot and not args.test_pose:
+        raise PincalError("--plot compares rho0 at the test pose: give --test-pose")
+    if args.baseline < 1:
+        raise PincalError(f"--baseline must be a positive number of random plans, got {args.baseline}")
+    robot = robot_from_args(args)
+    params, _ = params_from_args(robot, args)
+    plan = read_plan(robot, args.plan, args.deg)
+    q0 = test_poses_from_args(robot, args) if args.test_pose else None
+    constraints = load_constraints(args.constraints) if args.constraints else ()
+    visible = [c for c in constraints if isinstance(c, Visibility)]
+    instrument = visible[0] if visible else None
+    if args.instrument:
+        instrument = parse_floats(args.instrument, "--instrument")
+        if len(instrument) != 3:
+            raise BadConfiguration(
+                f"--instrument {args.instrument!r}: expected X,Y,Z (three numbers, metres)"
+            )
+
+    serve = not (args.html or args.plot)
+    viewer = _start_server() if serve else "static"
+    built = scene(params, plan, q0, sigma, instrument, args.scale, viewer=viewer)
+    summary: dict = {
+        "robot": robot.name,
+        "m": len(plan),
+        "sigma": sigma,
+        "rho0": None if built.rho0 is None else built.rho0.tolist(),
+        "ellipsoid_radii": None if built.ellipsoid_radii is None else built.ellipsoid_radii.tolist(),
+        "ellipsoid_scale": built.ellipsoid_scale,
+        "html": None,
+        "plot": None,
+        "url": None,
+        "note": built.note,
+    }
+    if args.html:
+        built.save_html(args.html)
+        summary["html"] = args.html
+    if args.plot:
+        summary["plot"] = args.plot
+        summary["random_rho0"] = _plot_baseline(params, plan, q0, sigma, constraints, args)
+    if serve:
+        summary["url"] = built.viewer.url()
+
+    try:
+        if args.json:
+            emit_json(summary)
+        else:
+            _print_summary(summary)
+        sys.stdout.flush()
+        while serve:  # until Ctrl-C; meshcat stops its server when pincal exits
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        print("stopped", flush=True)
+    return 0
+
+
+def _start_server():
+    """A meshcat Visualizer on a new server; meshcat's own messages go to stderr."""
+    from .._optional import require
+
+    meshcat = require("meshcat", "pincal show", "meshcat")
+    with contextlib.redirect_stdout(sys.stderr):
+        return meshcat.Visualizer()
+
+
+def _plot_baseline(params, plan, q0: np.ndarray, sigma: float, constraints, args) -> dict:
+    """Evaluate --baseline random feasible plans of the plan's size (as ``pincal baseline`` does),
+    save the histogram; return their summary."""
+    from ..design import random_plans
+    from ..plots import rho0_histogram
+
+    randoms = random_plans(
+        params, len(plan), args.baseline, q0, sigma=sigma, constraints=constraints, seed=args.seed
+    )
+    if randoms.n_singular == randoms.n:
+        raise PincalError(
+            f"none of the {randoms.n} random plans of {len(plan)} configurations is identifiable"
+        )
+    fig = rho0_histogram(randoms.values, {"this plan": float(rho0(params, plan, q0, sigma=sigma))})
+    fig.savefig(args.plot, dpi=120)
+    return randoms.as_dict()
+
+
+def _print_summary(s: dict) -> None:
+    print(f"{s['robot']}: {s['m']} configurations, sigma = {s['sigma']:g} m")
+    if s["rho0"] is not None:
+        for k, (r, radii) in enumerate(zip(s["rho0"], s["ellipsoid_radii"], strict=True)):
+            axes = ", ".join(fmt_length(a) for a in np.ravel(radii))
+            print(
+                f"test pose {k + 1}: rho0 = {fmt_length(r)}; 3-sigma ellipsoid semi-axes {axes}, "
+                f"drawn x{s['ellipsoid_scale']:g}"
+            )
+    if s["note"]:
+        print(s["note"])
+    if s["html"]:
+        print(f"wrote {s['html']}: one self-contained file, open it in any browser (no server needed)")
+    if s["plot"]:
+        b = s["random_rho0"]
+        print(
+            f"wrote {s['plot']}: rho0 against {b['n']} random feasible plans ({b['n_singular']} singular; "
+            f"min {fmt_length(b['min'])}, "
+            f"mean {fmt_length(b['mean'])}, max {fmt_length(b['max'])})"
+        )
+    if s["url"]:
+        print(f"meshcat scene at {s['url']}  (Ctrl-C to stop)", flush=True)

@@ -1,0 +1,114 @@
+"""pincal simulate: Monte-Carlo check of a plan against the predicted ρ0."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..errors import PincalError
+from ..simulate import DEFAULT_ERROR_STD, monte_carlo
+from ._common import (
+    add_command,
+    add_output_arguments,
+    add_robot_arguments,
+    add_test_pose_argument,
+    emit_json,
+    fmt_length,
+    params_from_args,
+    parse_floats,
+    positive,
+    read_plan,
+    robot_from_args,
+    test_poses_from_args,
+)
+from ._plot import add_simulation_plot_arguments, save_simulation_plot
+
+HELP = "Monte-Carlo simulation of a calibration with a plan: empirical vs predicted rho0"
+EXAMPLES = """\
+examples:
+  pincal simulate kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2
+  pincal simulate kr270 --plan plan.csv --test-pose=0,-1.57,1.57,0,0.78,0 --marker 0.1,0.05,0.2 \\
+      --trials 1000 --sigma 3e-5 --error-std 1e-3,1e-3 --seed 7 --json
+  pincal simulate planar_2r --plan plan.csv --test-pose=0.3,1.2 --params joint2.tx,tip.tx --sigma 1e-4
+
+Each trial draws a "true" robot with random errors of the parameters (Gaussian, std LEN metres for
+lengths and ANG radians for angles; default 1e-3,1e-3), simulates measurements at the plan with
+noise --sigma per coordinate (metres; default 3e-5, a laser tracker), identifies the parameters and
+measures the remaining position error at the test pose(s). rho0_empirical (RMS of that error) must
+match rho0_predicted within its statistical error when the errors are small; the report says how
+nonlinearity shows when they are not. PLAN.csv: a header row of joint names, one configuration per
+row, radians (degrees with --deg).
+"""
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = add_command(sub, "simulate", HELP, EXAMPLES)
+    add_robot_arguments(p)
+    p.add_argument("--plan", required=True, metavar="PLAN.csv", help="the configurations to simulate")
+    add_test_pose_argument(p)
+    p.add_argument("--trials", type=int, default=200, help="Monte-Carlo trials (default 200)")
+    p.add_argument(
+        "--sigma", type=float, default=3e-5, help="measurement noise per coordinate [m] (default 3e-5)"
+    )
+    p.add_argument(
+        "--error-std",
+        metavar="LEN,ANG",
+        default=f"{DEFAULT_ERROR_STD['length']:g},{DEFAULT_ERROR_STD['angle']:g}",
+        help="std of the random geometric errors, metres and radians (default 1e-3,1e-3)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
+    add_simulation_plot_arguments(p)
+    add_output_arguments(p)
+    p.set_defaults(run=run)
+
+
+def parse_error_std(text: str) -> dict[str, float]:
+    """'LEN,ANG' (metres, radians) as the error_std of :func:`pincal.monte_carlo`."""
+    values = parse_floats(text, "--error-std")
+    if len(values) != 2 or min(values) < 0:
+        raise PincalError(
+            f"--error-std {text!r}: expected LEN,ANG, two non-negative numbers (metres, radians)"
+        )
+    return {"length": values[0], "angle": values[1]}
+
+
+def run(args: argparse.Namespace) -> int:
+    sigma = positive(args.sigma, "--sigma")
+    if args.trials < 2:
+        raise PincalError(f"--trials must be at least 2, got {args.trials}")
+    error_std = parse_error_std(args.error_std)
+    robot = robot_from_args(args)
+    params, source = params_from_args(robot, args)
+    plan = read_plan(robot, args.plan, args.deg)
+    q0 = test_poses_from_args(robot, args)
+    mc = monte_carlo(params, plan, q0, sigma, trials=args.trials, seed=args.seed, error_std=error_std)
+    if args.plot:
+        save_simulation_plot(args, params, q0, sigma, error_std, mc)
+    if args.json:
+        emit_json(
+            {
+                "robot": robot.name,
+                "tip": robot.tip,
+                "markers": robot.markers.tolist(),
+                "m": len(plan),
+                "n_params": len(params),
+                "params": list(params.names),
+                "seed": args.seed,
+                **mc.as_dict(),
+            }
+        )
+        return 0
+    print(
+        f"{robot.name}: {len(plan)} configurations, {len(params)} parameters ({source}), "
+        f"sigma = {sigma:g} m, "
+        f"errors {error_std['length']:g} m / {error_std['angle']:g} rad, {mc.trials} trials"
+    )
+    print(f"rho0 predicted: {fmt_length(mc.rho0_predicted)}")
+    print(f"rho0 empirical: {fmt_length(mc.rho0_empirical)} ± {fmt_length(mc.rho0_empirical_se)}")
+    print(f"error before calibration (RMS): {fmt_length(mc.as_dict()['error_before_rms'])}")
+    print(
+        "error after calibration, quantiles: "
+        + ", ".join(f"{q:g}: {fmt_length(v)}" for q, v in mc.quantiles.items())
+    )
+    print(mc.note)
+    return 0

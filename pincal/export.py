@@ -1,0 +1,285 @@
+"""Calibrated URDF export: the user's URDF with the identified geometry written into it.
+
+What :func:`export_urdf` writes, precisely:
+
+* For each joint of the measured chain, its ``<origin xyz rpy>`` becomes the calibrated origin
+  L' = (R·exp3(δω), t + δt) (SPEC §2) with the joint offset Δq folded in,
+  L'' = L'·exp(S·Δq), S the joint's motion axis in its own frame: a rotation by Δq about the
+  joint's axis (revolute), a translation by Δq along it (prismatic). A joint value q on the
+  calibrated URDF then places the child link where q + Δq placed it on the identified model, so a
+  controller using the calibrated URDF needs no offset table: its joint zeros are the real ones.
+* The ``<origin>`` of the tip's fixed joint (the joint whose child is the tip frame's link)
+  becomes the calibrated tip placement.
+* Nothing else changes: links, visuals, collisions, meshes, inertias, limits, the other joints,
+  tags pincal does not know (``<gazebo>``, ``<transmission>``, ...) and comments are kept as they
+  are. (yourdfpy reads and checks the source and the result; the edit itself is made on the XML
+  tree, because yourdfpy's writer drops the tags and comments it does not model.) Relative mesh
+  file names are rewritten relative to the new file's directory so that they still resolve;
+  ``package://`` and absolute names are kept.
+* Marker errors and the base placement are not robot geometry: they are written in an XML comment
+  at the top of ``<robot>`` (with the identified parameters and standard errors when a result is
+  exported), and are available as ``result.robot.markers`` and ``result.robot.base``.
+
+Before writing, the new URDF is loaded back with Pinocchio and must reproduce the calibrated
+model's points at random configurations to 1e-9 m; the file is then written through a temporary
+file and a rename. The source URDF is never overwritten.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import yourdfpy
+from lxml import etree
+
+from ._io import atomic_write_text
+from .errors import IdentificationFailed, OverwriteRefused, PincalError, UrdfError
+from .identify import IdentificationResult
+from .robot import Robot, load_robot
+
+ROUND_TRIP_TOLERANCE = 1e-9
+"""Largest point distance [m] allowed between the exported URDF and the calibrated model."""
+
+
+def export_urdf(
+    calibrated: IdentificationResult | Robot,
+    path: str | os.PathLike,
+    source_urdf: str | os.PathLike | None = None,
+) -> Path:
+    """Write the calibrated robot as a URDF (what is written: see the module doc).
+
+    Args:
+        calibrated: a successful :class:`~pincal.identify.IdentificationResult`, or a Robot (e.g.
+            a perturbed one, ``params.apply(values)`` or ``random_errors(...).robot``).
+        path: the URDF file to write; must not be the source.
+        source_urdf: the URDF to start from; default the robot's own (``robot.urdf_path``).
+
+    Returns:
+        the path written.
+
+    Raises:
+        IdentificationFailed: ``calibrated`` is a result that did not converge.
+        OverwriteRefused: ``path`` is the source URDF.
+        UrdfError: no source URDF, or one that does not hold the robot's chain, or that cannot
+            reproduce the calibrated model.
+    """
+    result = calibrated if isinstance(calibrated, IdentificationResult) else None
+    robot = calibrated.robot if result is not None else calibrated
+    if result is not None and not result.success:
+        raise IdentificationFailed(result)
+    if not isinstance(robot, Robot):
+        raise PincalError(
+            f"export_urdf needs an IdentificationResult or a Robot, got {type(calibrated).__name__}"
+        )
+    source = source_urdf if source_urdf is not None else robot.urdf_path
+    if source is None:
+        raise UrdfError(
+            f"robot {robot.name!r} was not loaded from a URDF file: give source_urdf, the URDF to "
+            f"write the calibrated origins into"
+        )
+    source, out = Path(source), Path(path)
+    if _same_file(source, out):
+        raise OverwriteRefused(
+            f"refusing to overwrite the source URDF {str(source)!r}: choose another output path"
+        )
+    if not source.is_file():
+        raise UrdfError(f"URDF file {str(source)!r} does not exist")
+    text = source.read_bytes()
+    tree = _parse(text, source)
+    _check_with_yourdfpy(tree, source)
+    root = tree.getroot()
+    joints = {j.get("name"): j for j in root.findall("joint")}
+    origins = _calibrated_origins(robot)
+    missing = [name for name in origins if name not in joints]
+    if missing:
+        raise UrdfError(
+            f"URDF {str(source)!r} does not hold the robot's chain: no joint(s) "
+            f"{', '.join(missing)} (its joints: {', '.join(joints) or 'none'})"
+        )
+    changed = [name for name, placement in origins.items() if _set_origin(joints[name], placement)]
+    _rebase_mesh_paths(root, source.resolve().parent, out.resolve().parent)
+    _add_comment(root, robot, result, source, changed)
+    new = _serialise(root, text)
+    _verify(new, robot, origins, source)
+    return atomic_write_text(out, new)
+
+
+def _serialise(root: etree._Element, original: bytes) -> str:
+    """The document as text: the source's XML declaration, top-level comments one per line."""
+    head = original.lstrip()
+    declaration = '<?xml version="1.0"?>'
+    if head.startswith(b"<?xml"):
+        declaration = head[: head.index(b"?>") + 2].decode("utf-8", "replace")
+    parts = [declaration]
+    parts += [_text(node) for node in reversed(list(root.itersiblings(preceding=True)))]
+    parts.append(_text(root))
+    parts += [_text(node) for node in root.itersiblings()]
+    return "\n".join(parts) + "\n"
+
+
+def _text(node: etree._Element) -> str:
+    return etree.tostring(node, encoding="unicode", with_tail=False)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _parse(text: bytes, source: Path) -> etree._ElementTree:
+    """The XML tree of a URDF, comments kept; tolerates what Pinocchio tolerates (e.g. '--' in a
+    comment) by lxml's recovering parser."""
+    try:
+        tree = etree.parse(io.BytesIO(text), etree.XMLParser(remove_comments=False))
+    except etree.XMLSyntaxError as exc:
+        tree = etree.parse(io.BytesIO(text), etree.XMLParser(remove_comments=False, recover=True))
+        if tree.getroot() is None:
+            raise UrdfError(f"cannot read URDF {str(source)!r}: {exc}") from None
+    if tree.getroot().tag != "robot":
+        raise UrdfError(f"URDF {str(source)!r}: the root element is <{tree.getroot().tag}>, not <robot>")
+    return tree
+
+
+def _check_with_yourdfpy(tree: etree._ElementTree, source: Path) -> yourdfpy.URDF:
+    """Read the URDF with yourdfpy (comments stripped: yourdfpy does not use them)."""
+    root = etree.fromstring(etree.tostring(tree), etree.XMLParser(remove_comments=True, recover=True))
+    try:
+        urdf = yourdfpy.URDF.load(
+            io.BytesIO(etree.tostring(root)),
+            build_scene_graph=False,
+            load_meshes=False,
+            load_collision_meshes=False,
+        )
+    except Exception as exc:  # yourdfpy raises many types on bad files
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UrdfError(f"cannot read URDF {str(source)!r}: {first}") from None
+    if urdf.robot is None or not urdf.robot.joints:
+        raise UrdfError(f"URDF {str(source)!r} has no joints")
+    return urdf
+
+
+def _calibrated_origins(robot: Robot) -> dict[str, pin.SE3]:
+    """``{URDF joint name: calibrated origin}`` for the chain joints (offsets folded) and the tip."""
+    out: dict[str, pin.SE3] = {}
+    for o, origin in enumerate(robot.origins):
+        if o < robot.nq:
+            dq = float(robot.joint_offsets[o])
+            motion = pin.exp6(pin.Motion(robot.motion_axes[origin.joint] * dq))
+            out[origin.urdf_joint] = origin.origin * motion
+        elif origin.urdf_joint is not None:
+            out[origin.urdf_joint] = pin.SE3(origin.origin)
+    return out
+
+
+def _read_origin(joint: etree._Element) -> pin.SE3:
+    element = joint.find("origin")
+    if element is None:
+        return pin.SE3.Identity()
+    xyz = [float(v) for v in (element.get("xyz") or "0 0 0").split()]
+    rpy = [float(v) for v in (element.get("rpy") or "0 0 0").split()]
+    return pin.SE3(pin.rpy.rpyToMatrix(*rpy), np.array(xyz))
+
+
+def _set_origin(joint: etree._Element, placement: pin.SE3) -> bool:
+    """Write ``placement`` into the joint's <origin> (created if absent); False if unchanged."""
+    current = _read_origin(joint)
+    if np.allclose(current.homogeneous, placement.homogeneous, rtol=0.0, atol=1e-15):
+        return False
+    element = joint.find("origin")
+    if element is None:
+        element = etree.Element("origin")
+        joint.insert(0, element)
+        element.tail = joint.text
+    element.set("xyz", " ".join(repr(float(v)) for v in placement.translation))
+    element.set("rpy", " ".join(repr(float(v)) for v in pin.rpy.matrixToRpy(placement.rotation)))
+    return True
+
+
+def _rebase_mesh_paths(root: etree._Element, source_dir: Path, out_dir: Path) -> None:
+    if source_dir == out_dir:
+        return
+    for mesh in root.iter("mesh"):
+        name = mesh.get("filename")
+        if not name or "://" in name or os.path.isabs(name):
+            continue
+        mesh.set("filename", os.path.relpath(source_dir / name, out_dir))
+
+
+def _comment_text(robot: Robot, result: IdentificationResult | None, source: Path, changed: list[str]) -> str:
+    from . import __version__
+
+    base = robot.base
+    lines = [
+        f"Calibrated by pincal {__version__} from {source.name}.",
+        "Corrected <origin> of: " + (", ".join(changed) or "nothing (no geometric error)") + ".",
+        "Joint offsets dq are folded into the origins: origin <- origin * exp(S dq), S the joint's",
+        "motion axis; a joint value q on this URDF means what q + dq meant on the source.",
+        "Not robot geometry, not written as URDF elements:",
+        f"  markers in frame {robot.tip} [m]: "
+        + "; ".join("(" + ", ".join(f"{v:.9g}" for v in m) + ")" for m in robot.markers),
+        '  robot base in the instrument frame: xyz="'
+        + " ".join(f"{v + 0.0:.9g}" for v in base.translation)
+        + '" rpy="'
+        + " ".join(f"{v + 0.0:.9g}" for v in pin.rpy.matrixToRpy(base.rotation))
+        + '"',
+    ]
+    if result is not None:
+        lines.append(
+            f"Identified from {result.data.m} configurations: residual RMS "
+            f"{result.residual_rms_before:.4g} m "
+            f"before, {result.residual_rms_after:.4g} m after; errors relative to the source "
+            f"(value +/- std, m or rad):"
+        )
+        lines += [
+            f"  {n} = {v:.6g} +/- {s:.3g}"
+            for n, v, s in zip(result.names, result.values, result.std, strict=True)
+        ]
+    text = "\n    ".join(lines)
+    while "--" in text:
+        text = text.replace("--", "- -")
+    return f"\n    {text}\n  "
+
+
+def _add_comment(
+    root: etree._Element, robot: Robot, result: IdentificationResult | None, source: Path, changed: list[str]
+) -> None:
+    comment = etree.Comment(_comment_text(robot, result, source, changed))
+    comment.tail = root.text if root.text and not root.text.strip() else "\n  "
+    root.insert(0, comment)
+    if root.text is None or root.text.strip():
+        root.text = "\n  "
+
+
+def _verify(text: str, robot: Robot, origins: dict[str, pin.SE3], source: Path) -> None:
+    """The new URDF must reproduce the calibrated model: checked with yourdfpy and Pinocchio."""
+    urdf = _check_with_yourdfpy(_parse(text.encode("utf-8"), source), source)
+    for name, placement in origins.items():
+        written = urdf.joint_map[name].origin
+        if written is None or not np.allclose(written, placement.homogeneous, atol=1e-12):
+            raise UrdfError(f"exported origin of joint {name!r} does not read back (internal error)")
+    try:
+        model = pin.buildModelFromXML(text)
+    except Exception as exc:  # Pinocchio raises several types with long texts
+        raise UrdfError(f"the exported URDF does not load in Pinocchio: {str(exc).strip()[:200]}") from None
+    exported = load_robot(model, tip=robot.tip, markers=robot.markers).replace(base=robot.base)
+    if exported.joint_names != robot.joint_names:
+        raise UrdfError(
+            f"URDF {str(source)!r} does not match the robot: its chain to {robot.tip!r} has joints "
+            f"{', '.join(exported.joint_names)}, the robot {', '.join(robot.joint_names)}"
+        )
+    qs = robot.random_configurations(20, np.random.default_rng(0))
+    error = float(np.max(np.linalg.norm(exported.points(qs) - robot.points(qs), axis=-1)))
+    if error > ROUND_TRIP_TOLERANCE:
+        raise UrdfError(
+            f"the URDF written from {str(source)!r} would not reproduce the calibrated model (points "
+            f"differ by up to {error:.3g} m): the source does not describe this robot, or the tip "
+            f"frame {robot.tip!r} has no fixed joint of its own to carry its corrected placement"
+        )

@@ -1,0 +1,258 @@
+"""Measurements: the points an instrument measured at known joint values.
+
+A :class:`MeasurementData` holds m configurations (m, nq) [rad or m] and the K measured points at
+each, (m, K, 3) [m], expressed in the instrument's frame (or the robot base frame when the
+instrument is registered to it).
+
+CSV format (read by :meth:`MeasurementData.from_csv`, written by :meth:`MeasurementData.to_csv`):
+
+* one header row, then one row per configuration; blank lines and lines starting with ``#`` are
+  skipped; columns in any order;
+* one column per chain joint, named as the URDF's joints: radians (metres for prismatic joints),
+  or degrees with ``degrees=True`` (``--deg``);
+* the measured coordinates: ``x,y,z`` for one marker, ``x0,y0,z0,x1,y1,z1,...`` for several
+  (``x0,y0,z0`` is accepted for one), in metres, or millimetres with ``millimetres=True``
+  (``--mm``); marker k is the k-th ``--marker`` of the robot;
+* a row with a missing, empty, non-numeric, NaN or infinite cell, the wrong number of cells, or a
+  joint value outside the joint limits is an error naming the file and its line; nothing is
+  silently dropped.
+
+Example (kr270, one marker, radians and metres)::
+
+    joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6,x,y,z
+    0.1,-1.2,0.9,0.3,0.8,-0.4,1.7362,-0.1591,1.9021
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._io import atomic_write_text, read_numeric_csv
+from .errors import BadMeasurementData
+from .plan import check_limits, revolute_mask, to_radians
+from .robot import Robot
+
+_MEASURED = re.compile(r"^([xyz])(\d*)$")
+
+
+@dataclass(frozen=True, eq=False)
+class MeasurementData:
+    """Measured points at m configurations.
+
+    Attributes:
+        q: (m, nq) joint values [rad or m], read-only.
+        points: (m, K, 3) measured points [m], read-only.
+        joint_names: the joint of each column of ``q``.
+        lines: the line of each configuration in its source file (for messages), or None.
+        source: the file the data came from, or None.
+    """
+
+    q: np.ndarray
+    points: np.ndarray
+    joint_names: tuple[str, ...]
+    lines: tuple[int, ...] | None = None
+    source: str | None = None
+
+    def __post_init__(self) -> None:
+        try:
+            q = np.array(self.q, dtype=float, copy=True)
+            points = np.array(self.points, dtype=float, copy=True)
+        except (TypeError, ValueError):
+            raise BadMeasurementData("measurements: joint values and points must be numbers") from None
+        if q.ndim == 1:
+            q = q[None, :]
+        if points.ndim == 2 and points.shape[-1] == 3 and len(points) == len(q):
+            points = points[:, None, :]
+        names = tuple(self.joint_names)
+        if q.ndim != 2 or q.shape[1] != len(names) or len(q) == 0:
+            raise BadMeasurementData(
+                f"measurements: joint values must be (m, {len(names)}) for joints {', '.join(names)}, "
+                f"got shape {np.shape(self.q)}"
+            )
+        if points.ndim != 3 or points.shape[0] != len(q) or points.shape[2] != 3 or points.shape[1] == 0:
+            raise BadMeasurementData(
+                f"measurements: points must be (m, K, 3) with m = {len(q)} configurations, "
+                f"got shape {np.shape(self.points)}"
+            )
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(points))):
+            raise BadMeasurementData("measurements: joint values and points must be finite")
+        lines = None if self.lines is None else tuple(int(n) for n in self.lines)
+        if lines is not None and len(lines) != len(q):
+            raise BadMeasurementData(f"measurements: {len(lines)} line numbers for {len(q)} rows")
+        q.flags.writeable = False
+        points.flags.writeable = False
+        object.__setattr__(self, "q", q)
+        object.__setattr__(self, "points", points)
+        object.__setattr__(self, "joint_names", names)
+        object.__setattr__(self, "lines", lines)
+
+    def __len__(self) -> int:
+        return len(self.q)
+
+    @property
+    def m(self) -> int:
+        """Number of configurations."""
+        return len(self.q)
+
+    @property
+    def n_markers(self) -> int:
+        """Number of measured points K per configuration."""
+        return self.points.shape[1]
+
+    def labels(self) -> list[str]:
+        """How messages name each row: the file and line, or the row index."""
+        if self.lines is not None and self.source is not None:
+            return [f"measurement file {self.source!r}, line {n}" for n in self.lines]
+        return [f"measurement {i}" for i in range(self.m)]
+
+    def for_robot(self, robot: Robot) -> MeasurementData:
+        """These data with columns in ``robot``'s joint order, checked against the robot.
+
+        Raises:
+            BadMeasurementData: the joint names or the number of markers do not match (both
+                listed).
+            BadConfiguration: a joint value outside its limits (naming the row).
+        """
+        names = robot.joint_names
+        _check_joint_names(self.joint_names, names, self._where())
+        _check_markers(self.n_markers, robot, self._where())
+        q = self.q[:, [self.joint_names.index(n) for n in names]]
+        check_limits(robot, q, self.labels(), degrees=False)
+        if names == self.joint_names:
+            return self
+        return MeasurementData(q, self.points, names, self.lines, self.source)
+
+    def _where(self) -> str:
+        return f"measurement file {self.source!r}" if self.source else "the measurements"
+
+    # -------------------------------------------------------------------------- I/O
+    @classmethod
+    def from_csv(
+        cls,
+        path: str | os.PathLike,
+        robot: Robot,
+        degrees: bool = False,
+        millimetres: bool = False,
+    ) -> MeasurementData:
+        """Read measurements for ``robot`` from a CSV file (format: see the module doc).
+
+        Args:
+            path: the file.
+            robot: the robot measured: its joint names, markers and limits.
+            degrees: revolute joint values are in degrees (converted to radians).
+            millimetres: coordinates are in millimetres (converted to metres).
+
+        Returns:
+            the data, in the robot's joint order, values in radians and metres.
+
+        Raises:
+            BadMeasurementData: missing, empty or malformed file, columns that do not match the
+                joints or markers (listed), a bad row (its line is named).
+            BadConfiguration: a joint value outside its limits (its line is named).
+        """
+        source = str(path)
+        header, rows, lines = read_numeric_csv(path, what="measurement", error=BadMeasurementData)
+        where = f"measurement file {source!r}"
+        measured = [h for h in header if _MEASURED.match(h)]
+        joints = [h for h in header if not _MEASURED.match(h)]
+        _check_joint_names(tuple(joints), robot.joint_names, where)
+        columns = _measured_columns(measured, where)
+        K = len(columns) // 3
+        q = rows[:, [header.index(n) for n in robot.joint_names]]
+        if degrees:
+            q = to_radians(robot, q)
+        points = rows[:, [header.index(c) for c in columns]].reshape(len(rows), K, 3)
+        if millimetres:
+            points = points / 1000.0
+        _check_markers(K, robot, where)
+        data = cls(q, points, robot.joint_names, tuple(lines), source)
+        check_limits(robot, q, data.labels(), degrees)
+        return data
+
+    def to_csv_text(
+        self, degrees: bool = False, millimetres: bool = False, robot: Robot | None = None
+    ) -> str:
+        """CSV text of these data (format: see the module doc).
+
+        Args:
+            degrees: write joint values in degrees (only revolute joints if ``robot`` is given,
+                else every joint).
+            millimetres: write coordinates in millimetres.
+            robot: the robot, to tell revolute from prismatic joints when writing degrees.
+        """
+        q = np.array(self.q)
+        if degrees:
+            mask = revolute_mask(robot) if robot is not None else np.ones(q.shape[1], dtype=bool)
+            q = np.where(mask, np.degrees(q), q)
+        points = self.points * (1000.0 if millimetres else 1.0)
+        K = self.n_markers
+        coords = ["x", "y", "z"] if K == 1 else [f"{c}{k}" for k in range(K) for c in "xyz"]
+        out = io.StringIO()
+        out.write(",".join(list(self.joint_names) + coords) + "\n")
+        for qi, pi in zip(q, points.reshape(len(points), -1), strict=True):
+            out.write(",".join(repr(float(v)) for v in (*qi, *pi)) + "\n")
+        return out.getvalue()
+
+    def to_csv(
+        self,
+        path: str | os.PathLike,
+        degrees: bool = False,
+        millimetres: bool = False,
+        robot: Robot | None = None,
+    ) -> None:
+        """Write the data as CSV, atomically (see :meth:`to_csv_text`)."""
+        atomic_write_text(path, self.to_csv_text(degrees=degrees, millimetres=millimetres, robot=robot))
+
+
+def _check_joint_names(found: tuple[str, ...], expected: tuple[str, ...], where: str) -> None:
+    missing = [n for n in expected if n not in found]
+    unknown = [n for n in found if n not in expected]
+    if missing or unknown:
+        raise BadMeasurementData(
+            f"{where}: the joint columns must be the robot's joints {','.join(expected)}"
+            + (f"; missing {', '.join(missing)}" if missing else "")
+            + (f"; unknown column(s) {', '.join(unknown)}" if unknown else "")
+            + " (measured columns are x,y,z or x0,y0,z0,x1,...)"
+        )
+
+
+def _check_markers(K: int, robot: Robot, where: str) -> None:
+    if K != robot.n_markers:
+        raise BadMeasurementData(
+            f"{where}: {K} measured point(s) per configuration but the robot has "
+            f"{robot.n_markers} marker(s); give one --marker (markers=[...]) per measured point, "
+            f"in the order of the columns"
+        )
+
+
+def _measured_columns(measured: list[str], where: str) -> list[str]:
+    """The measured column names in marker order (x0 y0 z0 x1 ...), checked complete."""
+    if not measured:
+        raise BadMeasurementData(
+            f"{where}: no measured columns; expected x,y,z (one marker) or x0,y0,z0,x1,... (several)"
+        )
+    plain = [c for c in measured if c in ("x", "y", "z")]
+    if plain:
+        if sorted(measured) != ["x", "y", "z"]:
+            raise BadMeasurementData(
+                f"{where}: measured columns {','.join(measured)}: use x,y,z for one marker or "
+                f"x0,y0,z0,x1,... for several, not a mix"
+            )
+        return ["x", "y", "z"]
+    indices = sorted({int(_MEASURED.match(c).group(2)) for c in measured})
+    expected = [f"{c}{k}" for k in range(len(indices)) for c in "xyz"]
+    if sorted(measured) != sorted(expected):
+        missing = [c for c in expected if c not in measured]
+        extra = [c for c in measured if c not in expected]
+        raise BadMeasurementData(
+            f"{where}: measured columns must be x0,y0,z0,...,x{len(indices) - 1},y{len(indices) - 1},"
+            f"z{len(indices) - 1}"
+            + (f"; missing {', '.join(missing)}" if missing else "")
+            + (f"; unexpected {', '.join(extra)}" if extra else "")
+        )
+    return expected

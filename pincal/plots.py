@@ -1,0 +1,247 @@
+"""Figures of a calibration design (matplotlib, optional: ``pip install 'pincal[plot]'``).
+
+Each function takes numbers computed elsewhere (ρ0 of plans, Monte-Carlo errors, search traces),
+draws one figure and returns it: nothing is shown (no ``plt.show()``) and nothing is written;
+save with ``fig.savefig(path)``. Lengths come in metres and are drawn in ``unit`` (``"mm"`` by
+default). matplotlib is imported when a function is called, never when pincal is imported.
+
+* :func:`rho0_histogram`: ρ0 of the designed plan(s) against the distribution of random plans.
+* :func:`error_comparison`: Monte-Carlo position errors at the test pose, plans side by side.
+* :func:`search_progress`: the criterion against search time, start by start.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ._optional import require
+from .errors import PincalError
+
+if TYPE_CHECKING:  # matplotlib is optional: imported when a figure is drawn
+    from matplotlib.figure import Figure
+
+UNITS = {"m": 1.0, "mm": 1e3, "um": 1e6, "µm": 1e6}
+"""Length units a figure can be drawn in, with their factor from metres."""
+
+_COLORS = ("#7f7f7f", "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf")
+
+
+def _pyplot():
+    return require("matplotlib.pyplot", "pincal.plots", "pincal[plot]")
+
+
+def _factor(unit: str) -> float:
+    if unit not in UNITS:
+        raise PincalError(f"unknown unit {unit!r}; valid: {', '.join(UNITS)}")
+    return UNITS[unit]
+
+
+def _figure(figsize: tuple[float, float]) -> Figure:
+    """A new Figure that pyplot does not keep (it is freed with its last reference)."""
+    from matplotlib.figure import Figure
+
+    _pyplot()  # a clear error if matplotlib is missing
+    return Figure(figsize=figsize, layout="constrained")
+
+
+def _finite_positive(values: object, what: str) -> np.ndarray:
+    arr = np.asarray(values, dtype=float).reshape(-1)
+    arr = arr[np.isfinite(arr)]
+    if arr.size == 0 or np.any(arr <= 0):
+        raise PincalError(f"{what}: expected positive finite lengths in metres, got {arr.size} usable values")
+    return arr
+
+
+def rho0_histogram(
+    random_rho0: object,
+    plans: Mapping[str, float] | float,
+    unit: str = "mm",
+    bins: int = 40,
+    title: str | None = None,
+) -> Figure:
+    """ρ0 of designed plan(s) against the distribution of ρ0 over random plans (log scale).
+
+    Args:
+        random_rho0: (n,) ρ0 of n random plans of the same size [m] (non-finite values, from
+            singular plans, are left out).
+        plans: ``{label: ρ0 [m]}`` of the plans to compare (the designed plan, a D-optimal plan),
+            or one ρ0 (labelled "designed plan").
+        unit: length unit of the axis (``"mm"``, ``"um"``, ``"m"``).
+        bins: number of logarithmically spaced bins.
+        title: figure title (default: a summary of the comparison).
+
+    Returns:
+        the matplotlib Figure (x: ρ0 on a log scale; y: number of random plans).
+    """
+    f = _factor(unit)
+    random = _finite_positive(random_rho0, "random_rho0") * f
+    marks = {"designed plan": plans} if np.isscalar(plans) else dict(plans)  # type: ignore[arg-type]
+    if not marks:
+        raise PincalError("plans: give at least one plan's rho0")
+    values = {k: float(_finite_positive(v, f"plans[{k!r}]")[0]) * f for k, v in marks.items()}
+    lo = min(random.min(), *values.values())
+    hi = max(random.max(), *values.values())
+    edges = np.geomspace(lo / 1.05, hi * 1.05, bins + 1)
+    fig = _figure((7.0, 5.0))
+    ax = fig.add_subplot()
+    ax.hist(random, bins=edges, color="#c7c7c7", edgecolor="#7f7f7f", linewidth=0.5,
+            label=f"{len(random)} random plans")  # fmt: skip
+    ax.set_xscale("log")
+    median = float(np.median(random))
+    for i, (label, v) in enumerate(values.items()):
+        share = 100.0 * np.mean(random < v)
+        versus = f"{median / v:.2g}× better" if v <= median else f"{v / median:.2g}× worse"
+        ax.axvline(v, color=_COLORS[1 + i % (len(_COLORS) - 1)], linewidth=2,
+                   label=f"{label}: {v:.3g} {unit}, {versus} than the median random plan; "
+                         f"{share:.1f}% of random plans do better")  # fmt: skip
+    ax.axvline(median, color="#7f7f7f", linestyle="--", linewidth=1, label=f"median {median:.3g} {unit}")
+    ax.set_xlabel(f"ρ0, expected position error at the test pose after calibration [{unit}]")
+    ax.set_ylabel("random plans")
+    ax.legend(fontsize="small", loc="upper center", bbox_to_anchor=(0.5, -0.15))
+    ax.set_title(
+        title
+        or f"random plans: min {random.min():.3g}, mean {random.mean():.3g}, max {random.max():.3g} {unit}",
+        fontsize="medium",
+    )
+    return fig
+
+
+def error_comparison(
+    errors: Mapping[str, Any],
+    predicted: Mapping[str, float] | None = None,
+    unit: str = "mm",
+    title: str | None = None,
+) -> Figure:
+    """Monte-Carlo position errors at the test pose after calibration, plans side by side.
+
+    The classic figure of the method: for each plan (say random, D-optimal, designed for the test
+    pose) the distribution of the error ‖g(q0, Π̂) − g(q0, Π)‖ over simulated calibrations, its
+    root mean square (the empirical ρ0) and the predicted ρ0, with the gain over the first plan.
+
+    Args:
+        errors: ``{label: errors}``, each (n,) errors [m] or a result with ``errors`` and
+            ``rho0_predicted`` attributes (:class:`pincal.simulate.MonteCarloResult`). The first
+            plan is the reference for the gains.
+        predicted: ``{label: predicted ρ0 [m]}`` (taken from the results when they carry it).
+        unit: length unit of the axis.
+        title: figure title.
+
+    Returns:
+        the matplotlib Figure (one column per plan: the errors as points and a box, ρ0 as bars).
+    """
+    f = _factor(unit)
+    if not errors:
+        raise PincalError("errors: give at least one plan's Monte-Carlo errors")
+    samples, expected = {}, dict(predicted or {})
+    for label, value in errors.items():
+        samples[label] = _finite_positive(getattr(value, "errors", value), f"errors[{label!r}]") * f
+        if label not in expected and hasattr(value, "rho0_predicted"):
+            expected[label] = value.rho0_predicted
+    labels = list(samples)
+    rms = {k: float(np.sqrt(np.mean(v**2))) for k, v in samples.items()}
+    fig = _figure((1.2 + 2.0 * len(labels), 4.2))
+    ax = fig.add_subplot()
+    rng = np.random.default_rng(0)  # jitter of the points only
+    for i, label in enumerate(labels):
+        color = _COLORS[i % len(_COLORS)]
+        y = samples[label]
+        ax.scatter(i + 0.25 * (rng.random(y.size) - 0.5), y, s=6, alpha=0.35, color=color, linewidths=0)
+        ax.boxplot([y], positions=[i], widths=0.5, showfliers=False,
+                   medianprops={"color": "black"}, boxprops={"color": color},
+                   whiskerprops={"color": color}, capprops={"color": color})  # fmt: skip
+        ax.hlines(rms[label], i - 0.35, i + 0.35, color="black", linewidth=2,
+                  label="RMS error (empirical ρ0)" if i == 0 else None)  # fmt: skip
+        if label in expected:
+            ax.hlines(float(expected[label]) * f, i - 0.35, i + 0.35, color="#ff7f0e", linewidth=2,
+                      linestyle=":", label="predicted ρ0" if i == 0 else None)  # fmt: skip
+        change = 100.0 * (1.0 - rms[label] / rms[labels[0]])
+        gain = "" if i == 0 else f"\n{abs(change):.0f}% {'below' if change >= 0 else 'above'} {labels[0]}"
+        ax.annotate(f"ρ0 = {rms[label]:.3g} {unit}{gain}", (i, 1.0), xycoords=("data", "axes fraction"),
+                    ha="center", va="top", fontsize="small")  # fmt: skip
+    top = max(np.quantile(v, 0.995) for v in samples.values())
+    ax.set_ylim(0, 1.3 * top)
+    ax.set_xticks(range(len(labels)), labels)
+    ax.set_xlim(-0.6, len(labels) - 0.4)
+    ax.set_ylabel(f"position error at the test pose after calibration [{unit}]")
+    ax.legend(fontsize="small", loc="center right")
+    n = ", ".join(str(v.size) for v in samples.values())
+    ax.set_title(title or f"Monte-Carlo calibrations ({n} trials)", fontsize="medium")
+    return fig
+
+
+def search_progress(
+    history: Any,
+    ylabel: str = "criterion",
+    scale: float = 1.0,
+    best: float | None = None,
+    title: str | None = None,
+) -> Figure:
+    """The criterion against search time, start by start, of a multi-start search.
+
+    Args:
+        history: a :class:`pincal.design.DesignResult` (its ``history``), or a sequence with one
+            entry per start: a record with ``time_s`` and ``value`` (a
+            :class:`pincal.design.StartRecord`: a point per start; ``continued=False`` marks a
+            start dropped after screening), or a ``(times [s], values)`` pair of arrays, or an
+            object with ``times`` and ``values``, for a start's whole trace (a line: the best
+            value so far).
+        ylabel: name and unit of the criterion for the axis.
+        scale: factor applied to the values before drawing (1e3 for ρ0 in metres drawn as mm).
+        best: a reference value (the best found, a known optimum), drawn as a dashed line;
+            default the best value of the history.
+        title: figure title.
+
+    Returns:
+        the matplotlib Figure (x: wall time of the start [s]; y: the criterion, on a log scale
+        when the values are positive and span more than a factor 10).
+    """
+    entries = list(getattr(history, "history", history))
+    if not entries:
+        raise PincalError("history: give at least one start")
+    fig = _figure((7.0, 4.0))
+    ax = fig.add_subplot()
+    points: list[tuple[float, float, bool]] = []
+    finals = []
+    for i, entry in enumerate(entries):
+        if hasattr(entry, "time_s"):
+            v = float(entry.value) * scale
+            if np.isfinite(v):
+                points.append((float(entry.time_s), v, bool(getattr(entry, "continued", True))))
+                finals.append(v)
+            continue
+        times, values = (entry.times, entry.values) if hasattr(entry, "times") else entry
+        t = np.asarray(times, dtype=float).reshape(-1)
+        v = np.asarray(values, dtype=float).reshape(-1) * scale
+        if t.size != v.size or t.size == 0:
+            raise PincalError(f"history[{i}]: times and values must be non-empty and of equal length")
+        keep = np.isfinite(v)
+        if keep.any():
+            t, v = t[keep], np.minimum.accumulate(v[keep])
+            ax.step(t, v, where="post", linewidth=1, alpha=0.7, color=_COLORS[1 + i % (len(_COLORS) - 1)])
+            finals.append(v[-1])
+    if not finals:
+        raise PincalError("history: no start has a finite criterion value")
+    if points:
+        t, v, continued = (np.array(c) for c in zip(*points, strict=True))
+        ax.scatter(t[continued], v[continued], s=18, color=_COLORS[1], label="run to convergence")
+        if (~continued).any():
+            ax.scatter(t[~continued], v[~continued], s=18, facecolors="none", edgecolors=_COLORS[0],
+                       label="dropped after screening")  # fmt: skip
+    reference = min(finals) if best is None else best * scale
+    ax.axhline(reference, color="black", linestyle="--", linewidth=1,
+               label=f"{'best' if best is None else 'reference'} {reference:.4g}")  # fmt: skip
+    ax.legend(fontsize="small")
+    drawn = [v for line in ax.get_lines() for v in line.get_ydata()] + [v for _, v, _ in points]
+    if min(drawn) > 0 and max(drawn) > 10 * min(drawn):  # a log scale only for a wide spread
+        ax.set_yscale("log")
+    ax.set_xlabel("wall time of the start [s]")
+    ax.set_ylabel(ylabel)
+    finals_arr = np.array(finals)
+    ax.set_title(
+        title or f"{len(finals)} starts: final values {finals_arr.min():.4g} … {finals_arr.max():.4g}",
+        fontsize="medium",
+    )
+    return fig

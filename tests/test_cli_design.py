@@ -1,0 +1,171 @@
+"""pincal design and pincal baseline on the command line."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import pincal
+from pincal.cli import main
+
+PLANAR = ["planar_2r", "--params", "joint2.tx,tip.tx", "--workers", "1", "--starts", "4"]
+KR = [
+    "kr270",
+    "--marker",
+    "0.1,0.05,0.2",
+    "--params",
+    "lengths",
+    "--test-pose=0,-90,90,0,45,0",
+    "--deg",
+    "--workers",
+    "1",
+]
+
+
+def run_json(capsys, argv):
+    assert main(argv + ["--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def fails(capsys, argv, match):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("pincal: error: ") and "\n" not in err and "Traceback" not in err
+    assert match in err, err
+    return err
+
+
+def test_design_json_reaches_the_closed_form(capsys, tmp_path):
+    out_csv = tmp_path / "plan.csv"
+    q20 = 1.2
+    data = run_json(
+        capsys,
+        [
+            "design",
+            *PLANAR,
+            "-m",
+            "2",
+            "--test-pose",
+            f"0.3,{q20}",
+            "--sigma",
+            "3e-5",
+            "--baseline",
+            "100",
+            "--out",
+            str(out_csv),
+        ],
+    )
+    assert data["rho0"] ** 2 == pytest.approx(3e-5**2 / 2 * (1 + math.sin(q20)), rel=1e-6)
+    assert data["criterion"] == "test-pose" and data["value"] == data["rho0"] and data["starts"] == 4
+    assert data["time_s"] > 0 and len(data["plan"]) == 2 and len(data["plan"][0]) == 2
+    base = data["baseline"]
+    assert set(base["random"]) >= {"min", "mean", "median", "max"}
+    assert base["random"]["min"] >= data["rho0"] * (1 - 1e-9)
+    assert base["d_optimal"] == pytest.approx(3e-5, rel=1e-6)  # 2σ²/m at S = 0
+    plan = pincal.Plan.from_csv(out_csv)
+    np.testing.assert_allclose(plan.q, data["plan"], rtol=0, atol=0)  # radians, exactly
+
+
+def test_design_text_in_degrees_and_out_file(capsys, tmp_path):
+    out_csv = tmp_path / "plan.csv"
+    assert (
+        main(
+            [
+                "design",
+                *PLANAR,
+                "-m",
+                "3",
+                "--test-pose=10,70",
+                "--deg",
+                "--criterion",
+                "D",
+                "--out",
+                str(out_csv),
+            ]
+        )
+        == 0
+    )
+    text = capsys.readouterr().out
+    assert "plan (degrees)" in text and "D = " in text and f"wrote {out_csv} (degrees)" in text
+    robot = pincal.load_robot("planar_2r")
+    plan = pincal.Plan.from_csv(out_csv, robot=robot, degrees=True)
+    assert abs(np.cos(plan.q[:, 1]).sum()) < 1e-4  # D-optimal: Σ cos q2 = 0
+
+
+def test_design_exchange_over_a_user_pool(capsys, tmp_path, kr270_marker):
+    pool = kr270_marker.random_configurations(25, np.random.default_rng(4))
+    path = tmp_path / "taught.csv"
+    pincal.Plan.for_robot(kr270_marker, pool).to_csv(path, degrees=True)
+    data = run_json(
+        capsys, ["design", *KR, "-m", "4", "--method", "exchange", "--pool", str(path), "--starts", "3"]
+    )
+    rows = {tuple(np.round(q, 9)) for q in pool}
+    assert all(tuple(np.round(q, 9)) in rows for q in data["plan"])
+    assert data["method"] == "exchange" and data["pool_size"] == 25
+
+
+def test_design_with_constraints_file(capsys, tmp_path, kr270_marker):
+    cell = tmp_path / "cell.yaml"
+    cell.write_text(
+        "workspace_box: {lower: [0.8, -2, 0.4], upper: [3, 2, 2.6]}\nmin_spacing: {distance_deg: 15}\n"
+    )
+    data = run_json(capsys, ["design", *KR, "-m", "4", "--starts", "3", "--constraints", str(cell)])
+    cons = pincal.load_constraints(cell)
+    assert pincal.constraints.satisfied(kr270_marker, data["plan"], cons).all()
+
+
+@pytest.mark.parametrize(
+    "argv, match",
+    [
+        (["-m", "1"], "at least 2 configurations are needed"),
+        (["-m", "4", "--criterion", "best"], "unknown criterion 'best'"),
+        (["-m", "4", "--method", "anneal"], "valid: continuous, exchange"),
+        (["-m", "4", "--pool", "nope.csv", "--method", "exchange"], "does not exist"),
+    ],
+)
+def test_design_bad_input_one_line(capsys, argv, match):
+    fails(capsys, ["design", *KR, *argv], match)
+
+
+def test_design_bad_constraints_one_line(capsys, tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("workspace_box: {lower: [0, 0\n")
+    fails(capsys, ["design", *KR, "-m", "4", "--constraints", str(bad)], "not valid YAML")
+    far = tmp_path / "far.yaml"
+    far.write_text("workspace_box: {lower: [8, 8, 8], upper: [9, 9, 9]}\n")
+    fails(capsys, ["design", *KR, "-m", "4", "--constraints", str(far)], "workspace_box rejected")
+
+
+def test_design_out_is_not_written_on_error(capsys, tmp_path):
+    out_csv = tmp_path / "plan.csv"
+    fails(capsys, ["design", *KR, "-m", "1", "--out", str(out_csv)], "at least 2")
+    assert not out_csv.exists() and not list(tmp_path.iterdir())
+
+
+def test_design_warns_on_one_line_at_a_singular_limit(capsys):
+    assert main(["design", *PLANAR, "-m", "2", "--test-pose=0.3,0"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("pincal: warning:") and "not attained" in err[0]
+
+
+def test_baseline_json(capsys):
+    data = run_json(
+        capsys, ["baseline", *PLANAR, "-m", "2", "--test-pose=0.3,1.0", "--random", "200", "--d-optimal"]
+    )
+    assert data["random"]["n"] == 200 and data["random"]["min"] <= data["random"]["median"]
+    assert data["random"]["min"] >= math.sqrt((1 + math.sin(1.0)) / 2) * (1 - 1e-9)
+    assert data["d_optimal"] == pytest.approx(1.0, rel=1e-6)
+    assert main(["baseline", *PLANAR, "-m", "2", "--test-pose=0.3,1.0", "--random", "50"]) == 0
+    assert "random feasible plans" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", ["design", "baseline"])
+def test_help_has_examples(capsys, command):
+    with pytest.raises(SystemExit) as info:
+        main([command, "--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    assert "examples:" in out and f"pincal {command} kr270" in out

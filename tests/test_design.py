@@ -1,0 +1,320 @@
+"""The design engine: known optima (SPEC §6), every criterion with both methods, gradients,
+exchange updates, constraints, determinism across executors, baselines."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import warnings
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize_scalar
+
+import pincal
+from pincal import _exchange, _multistart
+from pincal._objective import CRITERIA, make_objective
+from pincal.constraints import HalfSpace, MinSpacing, Visibility, WorkspaceBox, satisfied
+from pincal.design import DegenerateOptimum, DegenerateOptimumWarning, design, random_plans
+
+KR_Q0 = np.radians([0, -90, 90, 0, 45, 0])
+# Plans at the conditioning floor warn (asserted where it matters, with pytest.warns).
+pytestmark = pytest.mark.filterwarnings("ignore::pincal.DegenerateOptimumWarning")
+FAST = dict(workers=1, starts=4)
+
+
+@pytest.fixture(scope="module")
+def lengths(planar):
+    """(Δl1, Δl2) of the planar 2R arm: the SPEC §6 closed form holds."""
+    return planar.parameters("joint2.tx,tip.tx")
+
+
+@pytest.fixture(scope="module")
+def kr_params(kr270_marker):
+    return kr270_marker.parameters("lengths,offsets").identifiable().identifiable
+
+
+def rho0_min_squared(q20: float, m: int, sigma: float = 1.0) -> float:
+    """SPEC §6: (σ²/m)·cos²q20/(1 − |sin q20|) = (σ²/m)(1 + |sin q20|)."""
+    return sigma**2 / m * (1.0 + abs(math.sin(q20)))
+
+
+def cos_sum(plan) -> float:
+    return float(np.cos(np.asarray(plan)[:, 1]).sum())
+
+
+# ------------------------------------------------------------------- known optima (SPEC §6)
+@pytest.mark.parametrize("method", ["continuous", "exchange"])
+@pytest.mark.parametrize("deg", [5, 30, 60, 90, 120, 150, 175, -40])
+def test_both_methods_reach_the_closed_form_minimum(lengths, deg, method):
+    q20 = math.radians(deg)
+    sigma = 3e-5
+    result = design(lengths, 2, test_pose=[0.7, q20], sigma=sigma, seed=abs(deg), method=method, **FAST)
+    assert result.rho0**2 == pytest.approx(rho0_min_squared(q20, 2, sigma), rel=1e-6)
+    # The optimum's structure: S = Σ cos q2i = m(1 − |sin q20|)/cos q20.
+    if abs(deg) != 90:
+        assert cos_sum(result.plan) == pytest.approx(2 * (1 - abs(math.sin(q20))) / math.cos(q20), abs=1e-4)
+    assert result.value == result.rho0
+    assert result.rho0 == pytest.approx(pincal.rho0(lengths, result.plan, [0.7, q20], sigma=sigma), rel=1e-12)
+
+
+@pytest.mark.parametrize("method", ["continuous", "exchange"])
+@pytest.mark.parametrize("q20", [0.0, math.pi])
+def test_singular_limit_is_reported_not_returned_silently(lengths, q20, method):
+    with pytest.warns(DegenerateOptimumWarning, match="not attained"):
+        result = design(lengths, 2, test_pose=[0.2, q20], method=method, **FAST)
+    # The plan returned is regular (above the floor) but at it, and close to the infimum σ²/m.
+    assert 1e-4 < result.conditioning < 2e-4
+    assert result.rho0**2 == pytest.approx(0.5, rel=1e-3)
+    assert "conditioning floor" in result.message
+
+
+def test_mean_over_test_poses_reaches_its_closed_form(lengths):
+    # mean ρ0² = 2σ²(m − c̄S)/(m² − S²), c̄ the mean cos q20: minimum (σ²/m)(1 + sqrt(1 − c̄²)).
+    poses = np.array([[0.1, 0.4], [1.0, 1.3], [-0.5, 2.2]])
+    cbar = np.cos(poses[:, 1]).mean()
+    for method in ("continuous", "exchange"):
+        result = design(lengths, 3, test_pose=poses, method=method, **FAST)
+        assert result.rho0**2 == pytest.approx((1 + math.sqrt(1 - cbar**2)) / 3, rel=1e-6)
+
+
+def test_worst_test_pose_reaches_the_numerical_minimax(lengths):
+    poses = np.array([[0.0, 0.5], [0.0, 2.0]])
+    m = 2
+
+    def worst(S):
+        return max(2 * (m - math.cos(q) * S) / (m**2 - S**2) for q in poses[:, 1])
+
+    best = minimize_scalar(
+        worst, bounds=(-m + 1e-9, m - 1e-9), method="bounded", options={"xatol": 1e-12}
+    ).fun
+    continuous = design(lengths, m, test_pose=poses, criterion="worst", method="continuous", **FAST)
+    exchange = design(lengths, m, test_pose=poses, criterion="test-pose-worst", **FAST)
+    for result in (continuous, exchange):
+        assert result.criterion == "test-pose-worst"
+        # The gradient search minimises a power mean (p up to 32768) standing for the maximum.
+        assert best <= result.rho0**2 * (1 + 1e-12) and result.rho0**2 == pytest.approx(best, rel=3e-5)
+        assert result.rho0 == pytest.approx(result.rho0_each.max())
+
+
+CLASSIC_OPTIMA = {
+    "D": lambda m: -2 * math.log(m),
+    "A": lambda m: 2 / m,
+    "E": lambda m: 1 / m,
+    "cond": lambda m: 1.0,
+}
+
+
+@pytest.mark.parametrize("criterion", ["D", "A", "E", "cond"])
+@pytest.mark.parametrize("method", ["continuous", "exchange"])
+def test_classic_criteria_reach_sum_cos_zero(lengths, criterion, method):
+    # M = [[m, S], [S, m]]: every classic criterion is best at S = Σ cos q2i = 0.
+    m = 3
+    kw = dict(polish=True) if method == "exchange" else {}
+    result = design(lengths, m, test_pose=[0.3, 1.0], criterion=criterion, method=method, **FAST, **kw)
+    assert result.value == pytest.approx(CLASSIC_OPTIMA[criterion](m), rel=1e-6, abs=1e-7)
+    assert abs(cos_sum(result.plan)) < (1e-5 if criterion not in ("E", "cond") else 1e-3)
+    # The value is the core's own criterion of the plan; ρ0 is reported too (2σ²/m at S = 0).
+    core = pincal.criteria(lengths, result.plan).as_dict()
+    key = {"D": "log_det", "A": "trace", "E": "max_eig", "cond": "cond"}[criterion]
+    assert result.value == pytest.approx(core[key], rel=1e-12)
+    if criterion in ("D", "A"):
+        assert result.rho0**2 == pytest.approx(2 / m, rel=1e-6)
+
+
+def test_exchange_and_continuous_agree(lengths, kr_params):
+    q0 = [0.3, 1.1]
+    exact = rho0_min_squared(1.1, 2)
+    continuous = design(lengths, 2, test_pose=q0, method="continuous", **FAST)
+    exchange = design(lengths, 2, test_pose=q0, method="exchange", polish=False, **FAST)
+    polished = design(lengths, 2, test_pose=q0, method="exchange", **FAST)
+    assert continuous.rho0**2 == pytest.approx(exact, rel=1e-6)
+    assert exact <= exchange.rho0**2 <= exact * 1.01  # a 2000-candidate pool: close, not exact
+    assert polished.rho0**2 == pytest.approx(exact, rel=1e-6)
+    # kr270, 12 parameters, m = 12, few starts: both far below the random median, within 10 %.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DegenerateOptimumWarning)
+        a = design(kr_params, 12, test_pose=KR_Q0, starts=6, workers=1, seed=1, method="continuous")
+        b = design(
+            kr_params, 12, test_pose=KR_Q0, starts=6, workers=1, seed=1, method="exchange", polish=True
+        )
+    assert abs(a.value - b.value) < 0.1 * min(a.value, b.value)
+    median = random_plans(kr_params, 12, 300, KR_Q0, seed=1).median
+    assert max(a.value, b.value) < 0.6 * median
+
+
+# ------------------------------------------------------------------- interface and internals
+@pytest.mark.parametrize("criterion", CRITERIA)
+def test_plan_gradient_matches_finite_differences(kr_params, kr270_marker, criterion):
+    poses = np.vstack([KR_Q0, KR_Q0 + 0.3])
+    spec = _multistart.ProblemSpec(kr_params, 5, criterion, poses, 1.0, ())
+    fn = _multistart.problem(spec).function
+    fn.set_power(16.0)
+    x = kr270_marker.random_configurations(5, np.random.default_rng(3)).ravel()
+    f, g = fn(x)
+    h = 1e-6
+    fd = np.array([(fn(x + h * e)[0] - fn(x - h * e)[0]) / (2 * h) for e in np.eye(len(x))])
+    assert np.abs(g - fd).max() < 1e-5 * max(1.0, np.abs(fd).max())
+    _multistart.forget(spec)
+
+
+def test_batch_values_match_the_core(kr_params, kr270_marker):
+    engine = pincal.jacobian.JacobianEngine(kr_params)
+    plans = kr270_marker.random_configurations(5 * 6, np.random.default_rng(0)).reshape(5, 6, -1)
+    J = engine.jacobian(plans.reshape(-1, 6), frame="tip").reshape(5, -1, len(kr_params))
+    Ms = np.einsum("nrp,nrs->nps", J, J)
+    J0 = engine.jacobian(KR_Q0[None], frame="tip")
+    for criterion in CRITERIA:
+        obj = make_objective(criterion, len(kr_params), 3, J0, sigma=2.0)
+        batch = obj.report(obj.batch_values(Ms))
+        one = [obj.report(obj.value(M, 6)) for M in Ms]
+        np.testing.assert_allclose(batch, one, rtol=1e-9)
+    rho = [pincal.rho0(kr_params, p, KR_Q0, sigma=2.0) for p in plans]
+    obj = make_objective("test-pose", len(kr_params), 3, J0, sigma=2.0)
+    np.testing.assert_allclose(obj.report(obj.batch_values(Ms)), rho, rtol=1e-9)
+
+
+@pytest.mark.parametrize("criterion", ["test-pose", "test-pose-worst", "D", "A", "E"])
+def test_exchange_updates_are_exact_and_locally_optimal(kr_params, kr270_marker, criterion):
+    pool = kr270_marker.random_configurations(40, np.random.default_rng(7))
+    engine = pincal.jacobian.JacobianEngine(kr_params)
+    J_pool = engine.jacobian(pool, frame="tip")
+    J0 = engine.jacobian(np.vstack([KR_Q0, KR_Q0 + 0.2]), frame="tip")
+    obj = make_objective(criterion, len(kr_params), 3, J0)
+    out = _exchange.fedorov(obj, J_pool, pool, np.arange(5))
+    assert out.swaps > 0
+
+    def value(index):
+        J = J_pool[list(index)].reshape(-1, len(kr_params))
+        try:
+            return obj.value(J.T @ J, len(index))
+        except pincal.SingularPlan:
+            return math.inf
+
+    assert out.F == pytest.approx(value(out.index), rel=1e-9, abs=1e-9)
+    # No single exchange improves (brute force over every swap).
+    for i, c in itertools.product(range(5), range(len(pool))):
+        if c in out.index:
+            continue
+        trial = out.index.copy()
+        trial[i] = c
+        assert value(trial) >= out.F - 1e-9
+
+
+def test_history_and_screening(kr_params):
+    result = design(
+        kr_params, 5, test_pose=KR_Q0, starts=8, keep=0.25, workers=1, seed=2, method="continuous"
+    )
+    assert result.starts == len(result.history) == 8
+    assert result.continued == 2 == sum(h.continued for h in result.history)
+    kept = [h for h in result.history if h.continued]
+    dropped = [h for h in result.history if not h.continued]
+    # The kept starts were the best two after screening.
+    assert max(h.screen_value for h in kept) <= min(h.screen_value for h in dropped)
+    assert result.value == pytest.approx(min(h.value for h in kept), rel=1e-9)
+    assert result.as_dict()["plan"] == result.plan.q.tolist()
+
+
+def test_repeating_a_plan_divides_rho0_squared(kr_params):
+    result = design(kr_params, 5, test_pose=KR_Q0, **FAST)
+    repeated = pincal.rho0(kr_params, result.plan.repeat(3), KR_Q0)
+    assert repeated**2 == pytest.approx(result.rho0**2 / 3, rel=1e-10)
+
+
+# ------------------------------------------------------------------- constraints
+def test_every_returned_configuration_satisfies_every_constraint(kr_params, kr270_marker):
+    constraints = (
+        pincal.JointLimits(math.radians(5)),
+        WorkspaceBox((0.8, -1.5, 0.3), (3.0, 1.5, 2.5)),
+        HalfSpace((0, 0, 1), 0.5),
+        Visibility(
+            (5.0, 0.0, 1.0), max_range=4.5, min_range=1.0, normal=(0, 0, 1), max_angle=math.radians(70)
+        ),
+        MinSpacing(math.radians(20)),
+    )
+    free = design(kr_params, 6, test_pose=KR_Q0, **FAST)
+    assert not satisfied(kr270_marker, free.plan, constraints).all()  # the constraints bind
+    for method in ("continuous", "exchange"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DegenerateOptimumWarning)  # the floor may bind here
+            result = design(kr_params, 6, test_pose=KR_Q0, method=method, constraints=constraints, **FAST)
+        assert satisfied(kr270_marker, result.plan, constraints).all()
+        for c in constraints:
+            assert c.satisfied(kr270_marker, result.plan).all(), (method, c)
+
+
+def test_user_pool_exchange_picks_from_the_pool(kr_params, kr270_marker):
+    pool = kr270_marker.random_configurations(30, np.random.default_rng(5))
+    box = WorkspaceBox((-3, -3, 0.9), (3, 3, 4))
+    ok = satisfied(kr270_marker, pool, [box])
+    result = design(kr_params, 5, test_pose=KR_Q0, method="exchange", pool=pool, constraints=[box], **FAST)
+    assert result.pool_rejected == int((~ok).sum()) > 0
+    rows = {tuple(q) for q in pool[ok]}
+    assert all(tuple(q) in rows for q in result.plan.q)
+
+
+# ------------------------------------------------------------------- parallel & determinism
+def test_same_seed_same_plan_whatever_the_executor(kr_params):
+    for method in ("continuous", "exchange"):
+        kw = dict(test_pose=KR_Q0, starts=4, seed=11, method=method)
+        serial = design(kr_params, 4, workers=1, **kw)
+        threads = design(kr_params, 4, executor=ThreadPoolExecutor(2), **kw)
+        processes = design(kr_params, 4, workers=2, **kw)
+        np.testing.assert_array_equal(serial.plan.q, threads.plan.q)
+        np.testing.assert_array_equal(serial.plan.q, processes.plan.q)
+        assert serial.value == processes.value
+        other = design(kr_params, 4, workers=1, **{**kw, "seed": 12})
+        assert not np.array_equal(serial.plan.q, other.plan.q)
+
+
+# ------------------------------------------------------------------- baselines
+def test_random_plans_statistics(lengths):
+    stats = random_plans(lengths, 2, 400, [0.3, 1.0], seed=0, sigma=2.0)
+    assert len(stats.values) + stats.n_singular == 400
+    floor = math.sqrt(rho0_min_squared(1.0, 2, 2.0))
+    assert stats.min >= floor * (1 - 1e-9)
+    assert stats.min <= stats.median <= stats.max and stats.min <= stats.mean <= stats.max
+    assert stats.as_dict()["median"] == stats.median
+    again = random_plans(lengths, 2, 400, [0.3, 1.0], seed=0, sigma=2.0)
+    np.testing.assert_array_equal(stats.values, again.values)
+
+
+def test_random_plans_respect_constraints_and_count_singular(planar):
+    params = planar.parameters("joint1.offset,joint2.offset,joint2.tx,tip.tx")
+    # One configuration gives 2 useful coordinates for 4 parameters: every plan is singular.
+    stats = random_plans(params, 1, 50, [0.3, 1.0], seed=0)
+    assert stats.n_singular == 50 and len(stats.values) == 0 and math.isnan(stats.median)
+
+
+# ------------------------------------------------------------------- bad input
+def test_bad_input_is_named(lengths, kr_params):
+    with pytest.raises(pincal.SingularPlan, match="at least 4 configurations"):
+        design(kr_params, 3, test_pose=KR_Q0, **FAST)
+    with pytest.raises(pincal.UnknownName, match="valid: test-pose, test-pose-worst, D, A, E, cond"):
+        design(lengths, 2, test_pose=[0, 1], criterion="best", **FAST)
+    with pytest.raises(pincal.PincalError, match="method"):
+        design(lengths, 2, test_pose=[0, 1], method="genetic", **FAST)
+    with pytest.raises(pincal.PincalError, match="needs a test pose"):
+        design(lengths, 2, **FAST)
+    with pytest.raises(pincal.PincalError, match="exchange"):
+        design(lengths, 2, test_pose=[0, 1], pool=np.zeros((5, 2)), method="continuous", **FAST)
+    with pytest.raises(pincal.PincalError, match="taught poses|off the given pool"):
+        design(lengths, 2, test_pose=[0, 1], pool=np.zeros((5, 2)), polish=True, **FAST)
+    with pytest.raises(pincal.Infeasible, match="workspace_box"):
+        design(lengths, 2, test_pose=[0, 1], constraints=[WorkspaceBox((5, 5, 5), (6, 6, 6))], **FAST)
+    with pytest.raises(pincal.BadConfiguration):
+        design(lengths, 2, test_pose=[0, 7], **FAST)
+    # D-optimality of a plan whose infimum is singular cannot happen; DegenerateOptimum exists for
+    # the exchange, when every pool plan is below the floor.
+    assert issubclass(DegenerateOptimum, pincal.PincalError)
+
+
+def test_docstring_examples_run():
+    import doctest
+    import sys
+
+    for name in ("pincal.design", "pincal.constraints"):
+        result = doctest.testmod(sys.modules[name])
+        assert result.failed == 0, name
+    assert doctest.testmod(sys.modules["pincal.design"]).attempted > 0

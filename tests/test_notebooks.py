@@ -1,0 +1,58 @@
+"""The notebooks in notebooks/ run from top to bottom (so they never go stale) and leave nothing
+behind in the repository."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from .conftest import ROOT
+
+nbformat = pytest.importorskip("nbformat")
+nbclient = pytest.importorskip("nbclient")
+pytest.importorskip("ipykernel")
+
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
+TIMEOUT_S = 300
+"""Longest a cell may run [s] (each notebook takes seconds to well under a minute)."""
+
+
+def _tree(root) -> set[str]:
+    """Every file under ``root`` except the git database and caches."""
+    skip = {".git", "__pycache__", ".pytest_cache", ".ipynb_checkpoints"}
+    out = set()
+    for dirpath, dirnames, filenames in os.walk(root):
+        dirnames[:] = [d for d in dirnames if d not in skip]
+        out.update(os.path.relpath(os.path.join(dirpath, f), root) for f in filenames)
+    return out
+
+
+def test_the_three_notebooks_are_there():
+    assert [p.name for p in NOTEBOOKS] == ["01_planar_2link.ipynb", "02_kr270.ipynb", "03_your_robot.ipynb"]
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+def test_notebook_runs(path, tmp_path):
+    notebook = nbformat.read(path, as_version=4)
+    assert not any(cell.get("outputs") for cell in notebook.cells if cell.cell_type == "code"), (
+        "commit notebooks without outputs: the test suite runs them"
+    )
+    before, original = _tree(ROOT), path.read_bytes()
+    client = nbclient.NotebookClient(
+        notebook,
+        timeout=TIMEOUT_S,
+        kernel_name="python3",
+        resources={"metadata": {"path": str(tmp_path)}},  # the kernel's working directory
+    )
+    client.execute()  # raises CellExecutionError, with the cell and the traceback, on any error
+    errors = [
+        output
+        for cell in notebook.cells
+        if cell.cell_type == "code"
+        for output in cell.outputs
+        if output.output_type == "error"
+    ]
+    assert not errors
+    assert _tree(ROOT) == before, "the notebook wrote files into the repository"
+    assert path.read_bytes() == original, "the notebook file itself is left as it was"
