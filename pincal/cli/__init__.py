@@ -22,18 +22,20 @@ accurate where you work (a test pose), evaluates plans, and calibrates.
 """
 
 EPILOG = """\
-examples:
+a whole calibration, rehearsed on the shipped KUKA KR 270 (joint values in degrees):
   pincal params kr270 --marker 0.1,0.05,0.2
-  pincal evaluate kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --sigma 3e-5
-  pincal simulate kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2
-  pincal measure-sim kr270 --plan plan.csv --error-std 1e-3,1e-3 --sigma 3e-5 --out m.csv \\
-      --marker 0.1,0.05,0.2
-  pincal identify kr270 --data m.csv --marker 0.1,0.05,0.2 --out kr270_calibrated.urdf
-  pincal show kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --html plan.html
+  pincal design kr270 -m 12 --test-pose=0,-60,60,0,45,0 --deg --marker 0.1,0.05,0.2 --sigma 3e-5 \\
+      --baseline 1000 --out plan.csv
+  pincal evaluate kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 --sigma 3e-5
+  pincal simulate kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 --sigma 3e-5
+  pincal show kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 --sigma 3e-5 --html plan.html
+  pincal measure-sim kr270 --plan plan.csv --deg --marker 0.1,0.05,0.2 --error-std 1e-3,1e-3 \\
+      --sigma 3e-5 --out meas.csv
+  pincal identify kr270 --data meas.csv --deg --marker 0.1,0.05,0.2 --out kr270_calibrated.urdf
   pincal robots
 
-Units: metres and radians; --deg reads and prints joint values in degrees.
-'pincal COMMAND --help' describes each command.
+Units: metres and radians; --deg reads and writes joint values in degrees.
+'pincal COMMAND --help' describes each command; --json prints one JSON object for scripts.
 """
 
 
