@@ -28,7 +28,8 @@ a whole calibration, rehearsed on the shipped KUKA KR 270 (joint values in degre
       --baseline 1000 --out plan.csv
   pincal evaluate kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 --sigma 3e-5
   pincal simulate kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 --sigma 3e-5
-  pincal show kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 --sigma 3e-5 --html plan.html
+  pincal show kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 --sigma 3e-5 \\
+      --html plan.html
   pincal measure-sim kr270 --plan plan.csv --deg --marker 0.1,0.05,0.2 --error-std 1e-3,1e-3 \\
       --sigma 3e-5 --out meas.csv
   pincal identify kr270 --data meas.csv --deg --marker 0.1,0.05,0.2 --out kr270_calibrated.urdf
