@@ -6,7 +6,7 @@ the joint values: the Jacobians at qᵢ ± h e_j for every configuration and joi
 one batch with the plan's own (m·(2nq+1) configurations, one forward-kinematics pass each).
 
 Joint limits (with their margin) are the optimiser's box bounds. The other constraints add a
-truncated logarithmic barrier (see :meth:`pincal.constraints.Feasibility.barrier`): starts are
+truncated logarithmic barrier (see :meth:`pincal._feasibility.Feasibility.barrier`): starts are
 strictly feasible and a step that leaves the feasible set gets a huge value, so the line search
 never accepts it and every iterate stays feasible. The same kind of barrier keeps the plan
 regular: the smallest eigenvalue of the Jacobi-scaled information matrix (the conditioning, see
@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
+from ._feasibility import Feasibility
 from ._objective import Objective, TraceObjective
-from .constraints import Feasibility
 from .errors import SingularPlan
 from .jacobian import JacobianEngine
 

@@ -23,8 +23,9 @@ from functools import cached_property
 import numpy as np
 
 from . import _continuous, _exchange
+from ._feasibility import Feasibility
 from ._objective import TEST_POSE_CRITERIA, Objective, make_objective
-from .constraints import AnyConstraint, Feasibility
+from .constraints import AnyConstraint
 from .jacobian import JacobianEngine
 from .parameters import ParameterSet
 

@@ -43,8 +43,9 @@ import numpy as np
 
 from . import _multistart
 from ._continuous import conditioning
+from ._feasibility import Feasibility
 from ._objective import CRITERIA, TEST_POSE_CRITERIA, criterion_name, make_objective
-from .constraints import AnyConstraint, Feasibility, Infeasible
+from .constraints import AnyConstraint, Infeasible
 from .criteria import TestPoseCriterion, _factor, _rank, criteria_from_jacobian
 from .errors import PincalError, SingularPlan
 from .jacobian import JacobianEngine
@@ -505,7 +506,7 @@ def _design(
         candidates, rejected = _user_pool(robot, pool, feasibility, m)
     else:
         size = DEFAULT_POOL if pool is None else _positive_int(pool, "pool size", m)
-        # The continuous search starts strictly inside the constraints (see Feasibility.barrier).
+        # The continuous search starts strictly inside the constraints (Feasibility.barrier).
         strict = method == "continuous" or polish
         candidates = feasibility.sample(size, np.random.default_rng(pool_seq), minimum=m, strict=strict)
     init = [robot.configurations(q, what="init plan configuration") for q in init]

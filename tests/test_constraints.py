@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal._feasibility import Feasibility
 from pincal.constraints import (
     BadConstraint,
-    Feasibility,
     HalfSpace,
     Infeasible,
     JointLimits,

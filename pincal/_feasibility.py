@@ -1,0 +1,257 @@
+"""Constraints bound to one robot for a search: exact checks, barrier, sampling and repair.
+
+Private machinery of :mod:`pincal.design`; the constraint value objects themselves are in
+:mod:`pincal.constraints`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from .constraints import (
+    TOLERANCE,
+    AnyConstraint,
+    BadConstraint,
+    Constraint,
+    Infeasible,
+    JointLimits,
+    Kinematics,
+    MinSpacing,
+    _LimitsBound,
+    limit_margin_of,
+    spacing_of,
+)
+from .robot import Robot
+
+
+class Feasibility:
+    """The constraints of a design bound to one robot: exact checks, penalties, sampling, repair.
+
+    Holds Pinocchio/coal data: use one per thread or process.
+
+    Args:
+        robot: the robot.
+        constraints: any mix of the constraint objects of this module (joint limits always apply,
+            with the largest JointLimits margin given).
+    """
+
+    def __init__(self, robot: Robot, constraints: Iterable[AnyConstraint] = ()) -> None:
+        constraints = tuple(constraints)
+        for c in constraints:
+            if not isinstance(c, (Constraint, MinSpacing)):
+                raise BadConstraint(f"not a constraint: {c!r} (use the classes of pincal.constraints)")
+        self.robot = robot
+        self.constraints = constraints
+        self.limits = _LimitsBound(robot, limit_margin_of(constraints))
+        self.lower, self.upper = self.limits.lower, self.limits.upper
+        self.bound = [
+            (c.key, c.bind(robot))
+            for c in constraints
+            if isinstance(c, Constraint) and not isinstance(c, JointLimits)
+        ]
+        self.spacing = spacing_of(constraints)
+        self.data = robot.model.createData()
+
+    @property
+    def trivial(self) -> bool:
+        """True when only the joint limits apply (the search's box bounds are enough)."""
+        return not self.bound and self.spacing == 0
+
+    def kinematics(self, qs: np.ndarray) -> Kinematics:
+        return Kinematics(self.robot, qs, self.data)
+
+    def feasible(self, qs: np.ndarray) -> np.ndarray:
+        """(m,) True where a configuration satisfies every per-configuration constraint."""
+        ok = self.limits.satisfied(_LimitsOnly(qs))
+        if self.bound and ok.any():
+            idx = np.flatnonzero(ok)
+            kin = self.kinematics(qs[idx])
+            for _, b in self.bound:
+                ok[idx] &= b.satisfied(kin)
+        return ok
+
+    def spacing_ok(self, qs: np.ndarray) -> bool:
+        """True when every pair of configurations is at least the minimum spacing apart."""
+        return self.spacing == 0 or bool(np.all(MinSpacing(self.spacing).margins(qs) >= -TOLERANCE))
+
+    def plan_feasible(self, qs: np.ndarray) -> bool:
+        """True when the whole plan satisfies every constraint."""
+        return bool(self.feasible(qs).all()) and self.spacing_ok(qs)
+
+    def strictly_feasible(self, qs: np.ndarray) -> np.ndarray:
+        """(m,) feasible, and every margin the search's barrier reads is positive (for collisions:
+        the convex hulls apart too). Starts of the continuous search must be strictly feasible."""
+        ok = self.feasible(qs)
+        if self.bound and ok.any():
+            idx = np.flatnonzero(ok)
+            kin = self.kinematics(qs[idx])
+            for _, b in self.bound:
+                ok[idx] &= np.all(b.margins(kin) > 0, axis=1)
+        return ok
+
+    # ------------------------------------------------------------------------- barrier
+    def _barrier_terms(self, qs: np.ndarray) -> np.ndarray:
+        """(m,) Σ φ(margin/reach) over the constraints, φ(x) = x − 1 − log x for x < 1, else 0
+        (C¹, zero beyond the reach, infinite on the boundary); inf where a margin is ≤ 0."""
+        kin = self.kinematics(qs)
+        total = np.zeros(len(qs))
+        for _, b in self.bound:
+            x = b.margins(kin) / b.reach
+            near = x < 1.0
+            if not near.any():
+                continue
+            with np.errstate(divide="ignore", invalid="ignore"):
+                phi = np.where(near, x - 1.0 - np.log(np.where(x > 0, x, 1.0)), 0.0)
+            phi[x <= 0] = np.inf
+            total += phi.sum(axis=1)
+        return total
+
+    def barrier(self, qs: np.ndarray, weight: float, step: float = 1e-5) -> tuple[float, np.ndarray | None]:
+        """Barrier weight·Σ φ(margin/reach) of the plan and its gradient (m, nq); (inf, None)
+        when the plan is not strictly feasible.
+
+        The gradient comes from central differences on the joints of the configurations within
+        reach of a boundary (elsewhere it is exactly zero); the spacing term is analytic.
+        """
+        m, nq = qs.shape
+        grad = np.zeros((m, nq))
+        value = 0.0
+        if self.bound:
+            per = self._barrier_terms(qs)
+            if not np.all(np.isfinite(per)):
+                return np.inf, None
+            value = float(per.sum())
+            active = np.flatnonzero(per > 0)
+            if len(active):
+                a = len(active)
+                h = step * np.eye(nq)
+                batch = np.concatenate(
+                    [qs[active][None] + h[:, None], qs[active][None] - h[:, None]]
+                ).reshape(-1, nq)
+                v = self._barrier_terms(batch).reshape(2, nq, a)
+                if not np.all(np.isfinite(v)):  # a step crosses the boundary: one-sided difference
+                    v = np.where(np.isfinite(v), v, per[active][None, None, :])
+                    grad[active] = (v[0] - v[1]).T / step
+                else:
+                    grad[active] = ((v[0] - v[1]) / (2 * step)).T
+        if self.spacing > 0 and m > 1:
+            i, j = np.triu_indices(m, 1)
+            diff = qs[i] - qs[j]
+            norm = np.linalg.norm(diff, axis=1)
+            x = (norm - self.spacing) / MinSpacing.reach
+            if np.any(x <= 0):
+                return np.inf, None
+            near = x < 1.0
+            if near.any():
+                value += float(np.sum(x[near] - 1.0 - np.log(x[near])))
+                dphi = np.where(near, 1.0 - 1.0 / np.where(near, x, 1.0), 0.0) / MinSpacing.reach
+                g = (dphi / np.maximum(norm, 1e-300))[:, None] * diff
+                np.add.at(grad, i, g)
+                np.add.at(grad, j, -g)
+        return weight * value, weight * grad
+
+    # ------------------------------------------------------------------------ sampling
+    def sample(
+        self,
+        n: int,
+        rng: np.random.Generator,
+        minimum: int | None = None,
+        max_tries: int | None = None,
+        strict: bool = False,
+    ) -> np.ndarray:
+        """Up to ``n`` random feasible configurations (uniform within the limits, then filtered).
+
+        Args:
+            n: number wanted.
+            rng: the random generator.
+            minimum: fewest acceptable (default ``n``); stop trying after ``max_tries`` draws.
+            max_tries: random draws allowed (default max(100000, 50 n)).
+            strict: keep only strictly feasible configurations (see :meth:`strictly_feasible`).
+
+        Raises:
+            Infeasible: fewer than ``minimum`` found; the message says which constraint rejected
+                the most draws.
+        """
+        minimum = n if minimum is None else minimum
+        max_tries = max(100_000, 50 * n) if max_tries is None else max_tries
+        margin = limit_margin_of(self.constraints)
+        found: list[np.ndarray] = []
+        count, tried = 0, 0
+        rejected: dict[str, int] = {}
+        while count < n and tried < max_tries:
+            size = int(min(max_tries - tried, max(256, 2 * (n - count)), 20_000))
+            qs = self.robot.random_configurations(size, rng, margin)
+            tried += size
+            ok = np.ones(size, dtype=bool)
+            if self.bound:
+                kin = self.kinematics(qs)
+                for key, b in self.bound:
+                    idx = np.flatnonzero(ok)
+                    if not len(idx):
+                        break
+                    sub = kin if len(idx) == size else _subset(kin, idx)
+                    s = b.satisfied(sub)
+                    if strict:
+                        s &= np.all(b.margins(sub) > 0, axis=1)
+                    rejected[key] = rejected.get(key, 0) + int((~s).sum())
+                    ok[idx[~s]] = False
+            found.append(qs[ok])
+            count += int(ok.sum())
+        if count < minimum:
+            worst = sorted(rejected.items(), key=lambda kv: -kv[1])
+            detail = ", ".join(f"{k} rejected {v} ({100 * v / tried:.3g} %)" for k, v in worst)
+            raise Infeasible(
+                f"only {count} of {tried} random configurations within the joint limits satisfy the "
+                f"constraints ({minimum} needed): {detail or 'no constraint'}; relax the constraints"
+            )
+        return np.concatenate(found)[:n]
+
+    # -------------------------------------------------------------------------- repair
+    def repair(self, start: np.ndarray, end: np.ndarray, iterations: int = 40) -> np.ndarray:
+        """A feasible plan on the way from the feasible plan ``start`` to ``end``.
+
+        Each infeasible configuration of ``end`` is moved back along the straight joint-space
+        segment to its start, to the last feasible point bisection finds; if the plan then breaks
+        the spacing, the whole plan is moved back the same way.
+        """
+        q = np.array(end, dtype=float)
+        bad = np.flatnonzero(~self.feasible(q))
+        if len(bad):
+            lo, hi = np.zeros(len(bad)), np.ones(len(bad))
+            a, d = start[bad], end[bad] - start[bad]
+            for _ in range(iterations):
+                mid = 0.5 * (lo + hi)
+                ok = self.feasible(a + mid[:, None] * d)
+                lo = np.where(ok, mid, lo)
+                hi = np.where(ok, hi, mid)
+            q[bad] = a + lo[:, None] * d
+        if not self.spacing_ok(q):
+            lo, hi, d = 0.0, 1.0, q - start
+            for _ in range(iterations):
+                mid = 0.5 * (lo + hi)
+                if self.plan_feasible(start + mid * d):
+                    lo = mid
+                else:
+                    hi = mid
+            q = start + lo * d
+        return q
+
+
+class _LimitsOnly:
+    """The part of Kinematics the joint-limit check reads."""
+
+    def __init__(self, qs: np.ndarray) -> None:
+        self.qs = qs
+
+
+def _subset(kin: Kinematics, idx: np.ndarray) -> Kinematics:
+    sub = Kinematics.__new__(Kinematics)
+    sub.qs, sub.rotations, sub.positions, sub.points = (
+        kin.qs[idx],
+        kin.rotations[idx],
+        kin.positions[idx],
+        kin.points[idx],
+    )
+    return sub
