@@ -22,7 +22,6 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize
 
 from ._feasibility import Feasibility
 from ._objective import Objective, TraceObjective
@@ -167,7 +166,7 @@ class PlanFunction:
 
     def minimise(self, q0: np.ndarray, maxiter: int) -> tuple[np.ndarray, int, str]:
         """L-BFGS-B from q0 within the joint limits; returns (q, iterations, message)."""
-        res = minimize(
+        res = _minimize(
             self,
             np.ravel(q0),
             jac=True,
@@ -239,3 +238,10 @@ def polish(fn: PlanFunction, q0: np.ndarray, anchor: np.ndarray, maxiter: int) -
         message = f"repaired towards the start ({message})"
     F = fn.criterion(q)
     return Outcome(q, F, F, feasible, total, time.perf_counter() - t0, message)
+
+
+def _minimize(*args, **kwargs):
+    """scipy.optimize.minimize, imported on first use (it is slow to import)."""
+    from scipy.optimize import minimize
+
+    return minimize(*args, **kwargs)

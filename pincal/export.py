@@ -33,7 +33,6 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import yourdfpy
 from lxml import etree
 
 from ._io import atomic_write_text
@@ -148,8 +147,10 @@ def _parse(text: bytes, source: Path) -> etree._ElementTree:
     return tree
 
 
-def _check_with_yourdfpy(tree: etree._ElementTree, source: Path) -> yourdfpy.URDF:
+def _check_with_yourdfpy(tree: etree._ElementTree, source: Path):
     """Read the URDF with yourdfpy (comments stripped: yourdfpy does not use them)."""
+    import yourdfpy  # imported here: it pulls in trimesh, a quarter of a second at start-up
+
     root = etree.fromstring(etree.tostring(tree), etree.XMLParser(remove_comments=True, recover=True))
     try:
         urdf = yourdfpy.URDF.load(

@@ -27,7 +27,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-from scipy.optimize import least_squares
 
 from .criteria import RCOND
 from .errors import BadMeasurementData, PincalError, SingularPlan
@@ -378,6 +377,8 @@ def _levenberg_marquardt(
     problem: _Problem, x0: np.ndarray, max_nfev: int, tol: float
 ) -> tuple[np.ndarray | None, int, bool, str]:
     """(estimate or None, Jacobian evaluations, converged, note) of scipy's LM from ``x0``."""
+    from scipy.optimize import least_squares  # imported on first use (it is slow to import)
+
     try:
         solution = least_squares(
             lambda x: -problem.residual(x),
