@@ -397,7 +397,7 @@ def design(
         screen_iterations: L-BFGS-B iterations every start runs before the poor ones are dropped.
         maxiter: L-BFGS-B iterations allowed per start and stage.
         min_conditioning: floor of the plan's conditioning, the smallest eigenvalue of its
-            Jacobi-scaled information matrix (in (0, 1]; 0 is singular). No plan below it is
+            Jacobi-scaled information matrix (in (0, 0.1); 0 is singular). No plan below it is
             returned; the continuous search keeps above it with a barrier. A plan that ends near
             the floor comes with a :class:`DegenerateOptimumWarning`: the criterion would keep
             improving towards singular plans (ρ0 at a test pose at a singular limit does).
@@ -421,243 +421,210 @@ def design(
         >>> round(result.rho0**2 / ((1 + math.sin(1.0)) / 2), 9)  # SPEC §6 closed form, σ = 1
         1.0
     """
-    with _multistart.single_threaded_blas():
-        return _design(
+    floor = min_conditioning
+    with _multistart.single_threaded_blas():  # small matrices: BLAS threads only contend
+        t_start = time.perf_counter()
+        criterion = criterion_name(criterion)
+        if method not in METHODS:
+            raise PincalError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+        m = _check_m(params, m)
+        robot = params.robot
+        test_poses = _test_poses(params, test_pose, criterion)
+        sigma = _sigma(sigma)
+        starts = _positive_int(starts, "starts")
+        workers = _multistart.default_workers() if workers is None else _positive_int(workers, "workers")
+        if not (isinstance(keep, (int, float)) and 0 < keep <= 1):
+            raise PincalError(f"keep must be a fraction in (0, 1], got {keep!r}")
+        screen_iterations = _positive_int(screen_iterations, "screen_iterations", 0)
+        maxiter = _positive_int(maxiter, "maxiter")
+        if not (isinstance(floor, (int, float)) and 0 < floor < 0.1):
+            raise PincalError(f"min_conditioning must be a number in (0, 0.1), got {floor!r}")
+        constraints = tuple(constraints)
+        feasibility = Feasibility(robot, constraints)
+        if seed is not None:
+            seed = _positive_int(seed, "seed", 0)
+        sequence = np.random.SeedSequence(seed)
+        pool_seq, start_seq = sequence.spawn(2)
+
+        user_pool = pool is not None and not isinstance(pool, (int, np.integer))
+        if method == "continuous":
+            if polish:
+                raise PincalError("polish refines exchange results; the continuous method needs none")
+            polish = False
+        elif polish is None:
+            polish = not user_pool
+        rejected = 0
+        if user_pool:
+            if method != "exchange":
+                raise PincalError("a pool of configurations is searched by method='exchange'")
+            if polish:
+                raise PincalError(
+                    "polish would move the plan off the given pool; use a generated pool to polish"
+                )
+            polish = False
+            candidates, rejected = _user_pool(robot, pool, feasibility, m)
+        else:
+            size = DEFAULT_POOL if pool is None else _positive_int(pool, "pool size", m)
+            # The continuous search starts strictly inside the constraints (Feasibility.barrier).
+            strict = method == "continuous" or polish
+            candidates = feasibility.sample(size, np.random.default_rng(pool_seq), minimum=m, strict=strict)
+        init = [robot.configurations(q, what="init plan configuration") for q in init]
+        if init and method != "continuous":
+            raise PincalError("init plans start the continuous method; use method='continuous'")
+        for q in init:
+            if (
+                q.shape != (m, robot.nq)
+                or not feasibility.plan_feasible(q)
+                or not feasibility.strictly_feasible(q).all()
+            ):
+                raise Infeasible(
+                    f"an init plan must hold {m} configurations strictly inside every constraint"
+                )
+
+        engine = JacobianEngine(params)
+        J_pool = engine.jacobian(candidates, frame="tip")
+        rngs = [np.random.default_rng(s) for s in start_seq.spawn(starts)]
+        indices = [_pick(J_pool, candidates, m, feasibility.spacing, rng, floor) for rng in rngs]
+        spec = _multistart.ProblemSpec(
             params,
             m,
-            test_pose,
             criterion,
-            method,
-            tuple(constraints),
-            pool,
-            starts,
-            seed,
+            test_poses,
             sigma,
-            executor,
-            workers,
-            init,
-            polish,
-            keep,
-            screen_iterations,
-            maxiter,
-            min_conditioning,
-            progress,
+            constraints,
+            candidates if method == "exchange" else None,
+            floor,
         )
+        J0 = engine.jacobian(test_poses, frame="tip").copy() if test_poses is not None else None
+        objective = make_objective(
+            criterion, len(params), engine.rows, J0 if criterion in TEST_POSE_CRITERIA else None, sigma
+        )
+        n_starts = len(init) + starts
+        n_keep = n_starts if keep >= 1 else max(1, math.ceil(keep * n_starts))
+        bar = _progress_bar(
+            progress, n_starts + (n_keep if (method == "continuous" and n_keep < n_starts) or polish else 0)
+        )
+        best = [math.inf]
 
+        def done(outcome) -> None:
+            if bar is None:
+                return
+            feasible = getattr(outcome, "feasible", True)
+            if feasible and np.isfinite(outcome.F):
+                best[0] = min(best[0], float(objective.report(outcome.F)))
+            bar.update(1)
+            bar.set_postfix_str(f"best {criterion} {best[0]:.6g}")
 
-def _design(
-    params,
-    m,
-    test_pose,
-    criterion,
-    method,
-    constraints,
-    pool,
-    starts,
-    seed,
-    sigma,
-    executor,
-    workers,
-    init,
-    polish,
-    keep,
-    screen_iterations,
-    maxiter,
-    floor,
-    progress,
-) -> DesignResult:
-    t_start = time.perf_counter()
-    criterion = criterion_name(criterion)
-    if method not in METHODS:
-        raise PincalError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
-    m = _check_m(params, m)
-    robot = params.robot
-    test_poses = _test_poses(params, test_pose, criterion)
-    sigma = _sigma(sigma)
-    starts = _positive_int(starts, "starts")
-    workers = _multistart.default_workers() if workers is None else _positive_int(workers, "workers")
-    if not (isinstance(keep, (int, float)) and 0 < keep <= 1):
-        raise PincalError(f"keep must be a fraction in (0, 1], got {keep!r}")
-    screen_iterations = _positive_int(screen_iterations, "screen_iterations", 0)
-    maxiter = _positive_int(maxiter, "maxiter")
-    if not (isinstance(floor, (int, float)) and 0 < floor < 0.1):
-        raise PincalError(f"min_conditioning must be a number in (0, 0.1), got {floor!r}")
-    constraints = tuple(constraints)
-    feasibility = Feasibility(robot, constraints)
-    if seed is not None:
-        seed = _positive_int(seed, "seed", 0)
-    sequence = np.random.SeedSequence(seed)
-    pool_seq, start_seq = sequence.spawn(2)
-
-    user_pool = pool is not None and not isinstance(pool, (int, np.integer))
-    if method == "continuous":
-        if polish:
-            raise PincalError("polish refines exchange results; the continuous method needs none")
-        polish = False
-    elif polish is None:
-        polish = not user_pool
-    rejected = 0
-    if user_pool:
-        if method != "exchange":
-            raise PincalError("a pool of configurations is searched by method='exchange'")
-        if polish:
-            raise PincalError("polish would move the plan off the given pool; use a generated pool to polish")
-        polish = False
-        candidates, rejected = _user_pool(robot, pool, feasibility, m)
-    else:
-        size = DEFAULT_POOL if pool is None else _positive_int(pool, "pool size", m)
-        # The continuous search starts strictly inside the constraints (Feasibility.barrier).
-        strict = method == "continuous" or polish
-        candidates = feasibility.sample(size, np.random.default_rng(pool_seq), minimum=m, strict=strict)
-    init = [robot.configurations(q, what="init plan configuration") for q in init]
-    if init and method != "continuous":
-        raise PincalError("init plans start the continuous method; use method='continuous'")
-    for q in init:
-        if (
-            q.shape != (m, robot.nq)
-            or not feasibility.plan_feasible(q)
-            or not feasibility.strictly_feasible(q).all()
-        ):
-            raise Infeasible(f"an init plan must hold {m} configurations strictly inside every constraint")
-
-    engine = JacobianEngine(params)
-    J_pool = engine.jacobian(candidates, frame="tip")
-    rngs = [np.random.default_rng(s) for s in start_seq.spawn(starts)]
-    indices = [_pick(J_pool, candidates, m, feasibility.spacing, rng, floor) for rng in rngs]
-    spec = _multistart.ProblemSpec(
-        params,
-        m,
-        criterion,
-        test_poses,
-        sigma,
-        constraints,
-        candidates if method == "exchange" else None,
-        floor,
-    )
-    J0 = engine.jacobian(test_poses, frame="tip").copy() if test_poses is not None else None
-    objective = make_objective(
-        criterion, len(params), engine.rows, J0 if criterion in TEST_POSE_CRITERIA else None, sigma
-    )
-    n_starts = len(init) + starts
-    n_keep = n_starts if keep >= 1 else max(1, math.ceil(keep * n_starts))
-    bar = _progress_bar(
-        progress, n_starts + (n_keep if (method == "continuous" and n_keep < n_starts) or polish else 0)
-    )
-    best = [math.inf]
-
-    def done(outcome) -> None:
-        if bar is None:
-            return
-        feasible = getattr(outcome, "feasible", True)
-        if feasible and np.isfinite(outcome.F):
-            best[0] = min(best[0], float(objective.report(outcome.F)))
-        bar.update(1)
-        bar.set_postfix_str(f"best {criterion} {best[0]:.6g}")
-
-    records: dict[int, dict] = {}
-    finals: dict[int, tuple[np.ndarray, float, bool]] = {}
-    try:
-        with _multistart.executor_for(executor, workers, n_starts) as ex:
-            if method == "continuous":
-                x0s = list(init) + [candidates[i] for i in indices]
-                _continuous_search(
-                    spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, records, finals, done
-                )
-            else:
-                outcomes = _multistart.run(ex, _multistart.exchange_task, [(spec, i) for i in indices], done)
-                for s, o in enumerate(outcomes):
-                    q = candidates[o.index]
-                    records[s] = dict(
-                        start=s,
-                        value=float(objective.report(o.F)),
-                        screen_value=None,
-                        iterations=o.sweeps,
-                        time_s=o.time_s,
-                        continued=True,
-                        feasible=True,
-                        message=f"{o.swaps} exchanges",
+        records: dict[int, dict] = {}
+        finals: dict[int, tuple[np.ndarray, float, bool]] = {}
+        try:
+            with _multistart.executor_for(executor, workers, n_starts) as ex:
+                if method == "continuous":
+                    x0s = list(init) + [candidates[i] for i in indices]
+                    _continuous_search(
+                        spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, records, finals, done
                     )
-                    finals[s] = (q, o.F, True)
-                if polish:
-                    order = sorted(finals, key=lambda s: (finals[s][1], s))[:n_keep]
-                    items = [(spec, finals[s][0], finals[s][0], maxiter) for s in order]
-                    polished = _multistart.run(ex, _multistart.polish_task, items, done)
-                    for s, o in zip(order, polished, strict=True):
-                        records[s].update(
+                else:
+                    outcomes = _multistart.run(
+                        ex, _multistart.exchange_task, [(spec, i) for i in indices], done
+                    )
+                    for s, o in enumerate(outcomes):
+                        q = candidates[o.index]
+                        records[s] = dict(
+                            start=s,
                             value=float(objective.report(o.F)),
-                            iterations=records[s]["iterations"] + o.iterations,
-                            time_s=records[s]["time_s"] + o.time_s,
-                            feasible=o.feasible,
-                            message=records[s]["message"] + "; polished: " + o.message,
+                            screen_value=None,
+                            iterations=o.sweeps,
+                            time_s=o.time_s,
+                            continued=True,
+                            feasible=True,
+                            message=f"{o.swaps} exchanges",
                         )
-                        if o.feasible and o.F <= finals[s][1] and _conditioning(engine, o.q) > floor:
-                            finals[s] = (o.q, o.F, True)
-    finally:
-        if bar is not None:
-            bar.close()
-        _multistart.forget(spec)
+                        finals[s] = (q, o.F, True)
+                    if polish:
+                        order = sorted(finals, key=lambda s: (finals[s][1], s))[:n_keep]
+                        items = [(spec, finals[s][0], finals[s][0], maxiter) for s in order]
+                        polished = _multistart.run(ex, _multistart.polish_task, items, done)
+                        for s, o in zip(order, polished, strict=True):
+                            records[s].update(
+                                value=float(objective.report(o.F)),
+                                iterations=records[s]["iterations"] + o.iterations,
+                                time_s=records[s]["time_s"] + o.time_s,
+                                feasible=o.feasible,
+                                message=records[s]["message"] + "; polished: " + o.message,
+                            )
+                            if o.feasible and o.F <= finals[s][1] and _conditioning(engine, o.q) > floor:
+                                finals[s] = (o.q, o.F, True)
+        finally:
+            if bar is not None:
+                bar.close()
+            _multistart.forget(spec)
 
-    usable = [s for s in sorted(finals) if finals[s][2] and np.isfinite(finals[s][1])]
-    if not usable:
-        raise Infeasible(
-            f"none of the {n_starts} starts ended in a feasible, regular plan; "
-            "relax the constraints or add starts"
+        usable = [s for s in sorted(finals) if finals[s][2] and np.isfinite(finals[s][1])]
+        if not usable:
+            raise Infeasible(
+                f"none of the {n_starts} starts ended in a feasible, regular plan; "
+                "relax the constraints or add starts"
+            )
+        # No plan below the conditioning floor is returned (the exchange can end there; the
+        # continuous search keeps above it). A winner near the floor means the criterion improves
+        # towards singular plans: say so.
+        cond = {s: _conditioning(engine, finals[s][0]) for s in usable}
+        regular = [s for s in usable if cond[s] > floor]
+        for s in usable:
+            if s not in regular:
+                records[s]["message"] = f"below the conditioning floor {floor:g}; " + records[s]["message"]
+        if not regular:
+            raise DegenerateOptimum(criterion, m, floor)
+        winner = min(regular, key=lambda s: (finals[s][1], s))
+        q = finals[winner][0]
+        J = engine.jacobian(q, frame="tip")
+        near_floor = cond[winner] < 2 * floor  # within twice the floor: the floor binds
+        if near_floor:
+            warnings.warn(
+                f"the plan sits at the conditioning floor ({cond[winner]:.3g}; min_conditioning {floor:g}): "
+                f"the {criterion} criterion keeps improving towards singular plans, so its infimum is not "
+                f"attained; add configurations or test poses, or lower min_conditioning",
+                DegenerateOptimumWarning,
+                stacklevel=3,
+            )
+        plan = Plan.for_robot(robot, q)
+        value, rho0, rho0_each = _report(params, plan, criterion, test_poses, sigma, J)
+        history = tuple(StartRecord(**records[s]) for s in sorted(records))
+        continued = sum(h.continued for h in history)
+        elapsed = time.perf_counter() - t_start
+        message = (
+            f"{method}: best of {n_starts} starts (start {winner}), {continued} run to convergence, "
+            f"{criterion} = {value:.6g} in {elapsed:.3g} s"
+            + (
+                f"; {len(usable) - len(regular)} start(s) ended below the conditioning floor"
+                if len(regular) < len(usable)
+                else ""
+            )
+            + (
+                "; WARNING: the plan sits at the conditioning floor (infimum not attained)"
+                if near_floor
+                else ""
+            )
         )
-    # No plan below the conditioning floor is returned (the exchange can end there; the
-    # continuous search keeps above it). A winner near the floor means the criterion improves
-    # towards singular plans: say so.
-    cond = {s: _conditioning(engine, finals[s][0]) for s in usable}
-    regular = [s for s in usable if cond[s] > floor]
-    for s in usable:
-        if s not in regular:
-            records[s]["message"] = f"below the conditioning floor {floor:g}; " + records[s]["message"]
-    if not regular:
-        raise DegenerateOptimum(criterion, m, floor)
-    winner = min(regular, key=lambda s: (finals[s][1], s))
-    q = finals[winner][0]
-    J = engine.jacobian(q, frame="tip")
-    near_floor = cond[winner] < 2 * floor  # within twice the floor: the floor binds
-    if near_floor:
-        warnings.warn(
-            f"the plan sits at the conditioning floor ({cond[winner]:.3g}; min_conditioning {floor:g}): "
-            f"the {criterion} criterion keeps improving towards singular plans, so its infimum is not "
-            f"attained; add configurations or test poses, or lower min_conditioning",
-            DegenerateOptimumWarning,
-            stacklevel=3,
+        return DesignResult(
+            plan=plan,
+            value=value,
+            criterion=criterion,
+            rho0=rho0,
+            rho0_each=rho0_each,
+            sigma=sigma,
+            method=method + ("+polish" if polish else ""),
+            starts=n_starts,
+            continued=continued,
+            seed=int(sequence.entropy),
+            time_s=elapsed,
+            history=history,
+            pool_size=len(candidates),
+            pool_rejected=rejected,
+            conditioning=cond[winner],
+            message=message,
         )
-    plan = Plan.for_robot(robot, q)
-    value, rho0, rho0_each = _report(params, plan, criterion, test_poses, sigma, J)
-    history = tuple(StartRecord(**records[s]) for s in sorted(records))
-    continued = sum(h.continued for h in history)
-    elapsed = time.perf_counter() - t_start
-    message = (
-        f"{method}: best of {n_starts} starts (start {winner}), {continued} run to convergence, "
-        f"{criterion} = {value:.6g} in {elapsed:.3g} s"
-        + (
-            f"; {len(usable) - len(regular)} start(s) ended below the conditioning floor"
-            if len(regular) < len(usable)
-            else ""
-        )
-        + ("; WARNING: the plan sits at the conditioning floor (infimum not attained)" if near_floor else "")
-    )
-    return DesignResult(
-        plan=plan,
-        value=value,
-        criterion=criterion,
-        rho0=rho0,
-        rho0_each=rho0_each,
-        sigma=sigma,
-        method=method + ("+polish" if polish else ""),
-        starts=n_starts,
-        continued=continued,
-        seed=int(sequence.entropy),
-        time_s=elapsed,
-        history=history,
-        pool_size=len(candidates),
-        pool_rejected=rejected,
-        conditioning=cond[winner],
-        message=message,
-    )
 
 
 def _continuous_search(
