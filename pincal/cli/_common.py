@@ -88,6 +88,13 @@ def add_output_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of text")
 
 
+def constraints_from_args(args: argparse.Namespace) -> tuple:
+    """The constraints of --constraints FILE.yaml (none without it)."""
+    from ..constraints import load_constraints
+
+    return load_constraints(args.constraints) if args.constraints else ()
+
+
 def parse_floats(text: str, what: str) -> list[float]:
     """Comma-separated numbers, or a clear error naming ``what``."""
     cells = [c.strip() for c in text.split(",")]

@@ -9,13 +9,14 @@ from ..design import METHODS, design, random_plans
 from ._common import (
     add_command,
     add_output_arguments,
+    constraints_from_args,
     emit_json,
     params_from_args,
     positive,
     robot_from_args,
     test_poses_from_args,
 )
-from .design import add_design_arguments, constraints_from_args, print_baseline, print_warnings
+from .design import add_design_arguments, print_baseline, print_warnings
 
 HELP = (
     "rho0 at the test pose(s) over random feasible plans (min, median, mean, max), and the D-optimal plan's"

@@ -8,7 +8,6 @@ import warnings
 
 import numpy as np
 
-from ..constraints import load_constraints
 from ..design import CRITERIA, METHODS, MIN_CONDITIONING, DesignResult, RandomPlans, design, random_plans
 from ..errors import PincalError
 from ..plan import Plan, revolute_mask
@@ -17,6 +16,7 @@ from ._common import (
     add_output_arguments,
     add_robot_arguments,
     add_test_pose_argument,
+    constraints_from_args,
     emit_json,
     fmt_length,
     params_from_args,
@@ -105,10 +105,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_plot_argument(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
-
-
-def constraints_from_args(args: argparse.Namespace) -> tuple:
-    return load_constraints(args.constraints) if args.constraints else ()
 
 
 def print_warnings(records: list) -> None:

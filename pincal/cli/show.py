@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from ..constraints import Visibility, load_constraints
+from ..constraints import Visibility
 from ..criteria import rho0
 from ..errors import BadConfiguration, PincalError
 from ._common import (
@@ -18,6 +18,7 @@ from ._common import (
     add_output_arguments,
     add_robot_arguments,
     add_test_pose_argument,
+    constraints_from_args,
     emit_json,
     fmt_length,
     params_from_args,
@@ -102,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     params, _ = params_from_args(robot, args)
     plan = read_plan(robot, args.plan, args.deg)
     q0 = test_poses_from_args(robot, args) if args.test_pose else None
-    constraints = load_constraints(args.constraints) if args.constraints else ()
+    constraints = constraints_from_args(args)
     visible = [c for c in constraints if isinstance(c, Visibility)]
     instrument = visible[0] if visible else None
     if args.instrument:
