@@ -100,11 +100,15 @@ class Objective:
         raise NotImplementedError
 
 
-def _scaled_eigh(Ms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Eigen-decomposition of the Jacobi-scaled stack D⁻¹MD⁻¹; returns (d, w, V, singular)."""
+def _scaled_eigh(
+    Ms: np.ndarray, vectors: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+    """Eigen-decomposition of the Jacobi-scaled stack D⁻¹MD⁻¹; returns (d, w, V, singular)
+    (V is None without ``vectors``: eigenvalues only, cheaper)."""
     d = np.sqrt(np.abs(np.einsum("nii->ni", Ms)))
     d[d == 0] = 1.0
-    w, V = np.linalg.eigh(Ms / (d[:, :, None] * d[:, None, :]))
+    scaled = Ms / (d[:, :, None] * d[:, None, :])
+    w, V = np.linalg.eigh(scaled) if vectors else (np.linalg.eigvalsh(scaled), None)
     singular = w[:, 0] <= RCOND * np.maximum(w[:, -1], 1e-300)
     return d, w, V, singular
 
@@ -228,7 +232,7 @@ class LogDetObjective(Objective):
         return F
 
     def batch_values(self, Ms: np.ndarray) -> np.ndarray:
-        d, w, _, singular = _scaled_eigh(Ms)
+        d, w, _, singular = _scaled_eigh(Ms, vectors=False)
         F = -(2.0 * np.log(d).sum(axis=1) + np.log(np.where(singular[:, None], 1.0, w)).sum(axis=1))
         F[singular] = np.nan
         return F
@@ -269,7 +273,7 @@ class SpectralObjective(Objective):
         return np.exp(F)
 
     def batch_values(self, Ms: np.ndarray) -> np.ndarray:
-        *_, singular = _scaled_eigh(Ms)
+        *_, singular = _scaled_eigh(Ms, vectors=False)
         F = self.from_eigenvalues(np.linalg.eigvalsh(Ms))
         F[singular] = np.nan
         return F
