@@ -586,7 +586,7 @@ def design(
                 f"the {criterion} criterion keeps improving towards singular plans, so its infimum is not "
                 f"attained; add configurations or test poses, or lower min_conditioning",
                 DegenerateOptimumWarning,
-                stacklevel=3,
+                stacklevel=2,  # the caller of design()
             )
         plan = Plan.for_robot(robot, q)
         value, rho0, rho0_each = _report(params, plan, criterion, test_poses, sigma, J)
