@@ -6,11 +6,32 @@ import csv
 import io
 import os
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from .errors import BadPlanFile
+
+
+def read_text(path: str | os.PathLike, what: str, error: type[Exception]) -> str:
+    """The text of a user's file, or ``error`` saying it is missing or unreadable."""
+    path = Path(path)
+    try:
+        return path.read_text()
+    except FileNotFoundError:
+        raise error(f"{what} file {str(path)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(f"cannot read {what} file {str(path)!r}: {exc}") from None
+
+
+def column_mismatch(expected: Sequence[str], found: Sequence[str]) -> str:
+    """'; missing a, b; unknown column(s) c' for columns that differ from ``expected`` ('' if none)."""
+    missing = [n for n in expected if n not in found]
+    unknown = [n for n in found if n not in expected]
+    return (f"; missing {', '.join(missing)}" if missing else "") + (
+        f"; unknown column(s) {', '.join(unknown)}" if unknown else ""
+    )
 
 
 def read_numeric_csv(
@@ -28,12 +49,7 @@ def read_numeric_csv(
         ``error`` naming the file and the line of the first bad row.
     """
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise error(f"{what} file {str(path)!r} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise error(f"cannot read {what} file {str(path)!r}: {exc}") from None
+    text = read_text(path, what, error)
     lines = [
         (n, row)
         for n, row in enumerate(csv.reader(io.StringIO(text)), start=1)

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from ._io import read_text
 from .errors import PincalError
 from .robot import LIMIT_TOLERANCE, Robot
 
@@ -564,12 +565,7 @@ def load_constraints(path: str | os.PathLike) -> tuple[AnyConstraint, ...]:
     import yaml
 
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise BadConstraint(f"constraints file {str(path)!r} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BadConstraint(f"cannot read constraints file {str(path)!r}: {exc}") from None
+    text = read_text(path, "constraints", BadConstraint)
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:

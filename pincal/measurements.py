@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._io import atomic_write_text, read_numeric_csv
+from ._io import atomic_write_text, column_mismatch, read_numeric_csv
 from .errors import BadMeasurementData
 from .plan import check_limits, revolute_mask, to_radians
 from .robot import Robot
@@ -210,14 +210,11 @@ class MeasurementData:
 
 
 def _check_joint_names(found: tuple[str, ...], expected: tuple[str, ...], where: str) -> None:
-    missing = [n for n in expected if n not in found]
-    unknown = [n for n in found if n not in expected]
-    if missing or unknown:
+    mismatch = column_mismatch(expected, found)
+    if mismatch:
         raise BadMeasurementData(
-            f"{where}: the joint columns must be the robot's joints {','.join(expected)}"
-            + (f"; missing {', '.join(missing)}" if missing else "")
-            + (f"; unknown column(s) {', '.join(unknown)}" if unknown else "")
-            + " (measured columns are x,y,z or x0,y0,z0,x1,...)"
+            f"{where}: the joint columns must be the robot's joints {','.join(expected)}{mismatch}"
+            " (measured columns are x,y,z or x0,y0,z0,x1,...)"
         )
 
 

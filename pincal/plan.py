@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._io import atomic_write_text, read_numeric_csv
+from ._io import atomic_write_text, column_mismatch, read_numeric_csv
 from .errors import BadConfiguration, BadPlanFile
 
 
@@ -107,13 +107,10 @@ class Plan:
             q = np.radians(rows) if degrees else rows
             return cls(q, tuple(header))
         names = robot.joint_names
-        missing = [n for n in names if n not in header]
-        extra = [h for h in header if h not in names]
-        if missing or extra:
+        mismatch = column_mismatch(names, header)
+        if mismatch:
             raise BadPlanFile(
-                f"{what} file {str(path)!r}: columns must be the joints {','.join(names)}"
-                + (f"; missing {', '.join(missing)}" if missing else "")
-                + (f"; unknown {', '.join(extra)}" if extra else "")
+                f"{what} file {str(path)!r}: columns must be the joints {','.join(names)}{mismatch}"
             )
         q = rows[:, [header.index(n) for n in names]]
         if degrees:

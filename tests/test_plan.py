@@ -38,7 +38,7 @@ def test_columns_in_any_order(tmp_path, planar):
         ("joint1,joint2\n0.1,0.2\n0.1,abc\n", "line 3: column joint2 is 'abc', not a number"),
         ("joint1,joint2\n0.1,nan\n", "line 2: column joint2 is nan"),
         ("joint1,joint2\n0.1,inf\n", "must be finite"),
-        ("joint1,jointX\n0.1,0.2\n", "missing joint2; unknown jointX"),
+        ("joint1,jointX\n0.1,0.2\n", r"missing joint2; unknown column\(s\) jointX"),
         ("joint1,joint1\n0.1,0.2\n", "duplicate"),
     ],
 )
