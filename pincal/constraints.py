@@ -81,18 +81,8 @@ class Kinematics:
     """
 
     def __init__(self, robot: Robot, qs: np.ndarray, data: pin.Data | None = None) -> None:
-        model = robot.model
-        data = model.createData() if data is None else data
-        placement = model.frames[robot.tip_frame].placement
-        base, joint = robot.base, robot.tip_joint
         self.qs = qs
-        self.rotations = np.empty((len(qs), 3, 3))
-        self.positions = np.empty((len(qs), 3))
-        for i, q in enumerate(qs + robot.joint_offsets):
-            pin.forwardKinematics(model, data, q)
-            tip = base * data.oMi[joint] * placement
-            self.rotations[i] = tip.rotation
-            self.positions[i] = tip.translation
+        self.rotations, self.positions = robot._tip_poses(qs, data)
         self.points = self.positions[:, None, :] + np.einsum("mij,kj->mki", self.rotations, robot.markers)
 
 

@@ -342,14 +342,22 @@ class Robot:
         return self._points(qs)
 
     def _points(self, qs: np.ndarray) -> np.ndarray:
-        model, data = self.model, self.model.createData()
-        out = np.empty((len(qs), self.n_markers, 3))
+        rotations, positions = self._tip_poses(qs)
+        return positions[:, None, :] + np.einsum("mij,kj->mki", rotations, self.markers)
+
+    def _tip_poses(self, qs: np.ndarray, data: pin.Data | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Tip orientations (m, 3, 3) and positions (m, 3) in the instrument frame, unchecked."""
+        model = self.model
+        data = model.createData() if data is None else data
         placement = model.frames[self.tip_frame].placement
+        rotations = np.empty((len(qs), 3, 3))
+        positions = np.empty((len(qs), 3))
         for i, qi in enumerate(qs + self.joint_offsets):
             pin.forwardKinematics(model, data, qi)
             tip = self.base * data.oMi[self.tip_joint] * placement
-            out[i] = self.markers @ tip.rotation.T + tip.translation
-        return out
+            rotations[i] = tip.rotation
+            positions[i] = tip.translation
+        return rotations, positions
 
     def replace(self, **changes: object) -> Robot:
         """A new Robot with some fields changed (the model is copied if given)."""
