@@ -22,7 +22,7 @@ import numpy as np
 import pinocchio as pin
 
 import pincal
-from pincal.criteria import TestPoseCriterion
+from pincal.evaluation.test_pose import TestPoseCriterion
 
 
 def main() -> None:

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 import pincal
-from pincal.design import design, random_plans
+from pincal.planning.driver import design, random_plans
 
 ROOT = Path(__file__).resolve().parents[1]
 Q0 = np.radians([0, -90, 90, 0, 45, 0])
@@ -45,7 +45,7 @@ def machine() -> str:
                 break
     except OSError:
         pass
-    return f"{model}, nproc {os.cpu_count()}, Python {platform.python_version()}, pinocchio {pincal.robot.pin.__version__}"
+    return f"{model}, nproc {os.cpu_count()}, Python {platform.python_version()}, pinocchio {pincal.model.robot.pin.__version__}"
 
 
 def load() -> str:

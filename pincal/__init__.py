@@ -11,41 +11,22 @@ export / visualise.
     27
 """
 
-from ._optional import MissingDependency
-from .constraints import (
-    BadConstraint,
-    HalfSpace,
-    Infeasible,
-    JointLimits,
-    MinSpacing,
-    SelfCollision,
-    Visibility,
-    WorkspaceBox,
-    load_constraints,
-)
-from .criteria import (
-    Criteria,
-    TestPoseCriterion,
-    criteria,
-    information_matrix,
-    position_covariance,
-    rho0,
-)
-from .design import (
-    DegenerateOptimum,
-    DegenerateOptimumWarning,
-    DesignResult,
-    RandomPlans,
-    StartRecord,
-    design,
-    random_plans,
-)
-from .errors import (
+from pincal.calibration.identification import IdentificationResult, identify
+from pincal.calibration.measurements import MeasurementData
+from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
+from pincal.calibration.synthetic import RandomErrors, random_errors, simulate_measurements
+from pincal.calibration.urdf_export import export_urdf
+from pincal.errors import (
     BadConfiguration,
+    BadConstraint,
     BadMeasurementData,
     BadPlanFile,
+    DegenerateOptimum,
+    DegenerateOptimumWarning,
     FrameNotFound,
     IdentificationFailed,
+    Infeasible,
+    MissingDependency,
     OverwriteRefused,
     PincalError,
     RobotNotFound,
@@ -55,15 +36,30 @@ from .errors import (
     UnsupportedJoint,
     UrdfError,
 )
-from .export import export_urdf
-from .identifiability import Identifiability, identifiability
-from .identify import IdentificationResult, identify
-from .measurements import MeasurementData
-from .parameters import Parameter, ParameterSet
-from .plan import Plan
-from .robot import Robot, load_robot, shipped_robots
-from .simulate import MonteCarloResult, RandomErrors, monte_carlo, random_errors, simulate_measurements
-from .visualize import Scene, scene, show
+from pincal.evaluation.classic import Criteria, criteria
+from pincal.evaluation.information import information_matrix
+from pincal.evaluation.test_pose import TestPoseCriterion, position_covariance, rho0
+from pincal.model.base_parameters import Identifiability, identifiability
+from pincal.model.parameters import Parameter, ParameterSet
+from pincal.model.robot import Robot, load_robot, shipped_robots
+from pincal.planning.constraints import (
+    HalfSpace,
+    JointLimits,
+    MinSpacing,
+    SelfCollision,
+    Visibility,
+    WorkspaceBox,
+    load_constraints,
+)
+from pincal.planning.driver import (
+    DesignResult,
+    RandomPlans,
+    StartRecord,
+    design,
+    random_plans,
+)
+from pincal.planning.plan import Plan
+from pincal.viewing.scene import Scene, scene, show
 
 __version__ = "0.1.0"
 

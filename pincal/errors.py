@@ -129,3 +129,39 @@ class IdentificationFailed(PincalError):
 
 class OverwriteRefused(PincalError):
     """An output path that is one of the inputs (pincal never overwrites its inputs)."""
+
+
+class BadConstraint(PincalError):
+    """A constraint with invalid values, or a constraints file that cannot be read."""
+
+
+class Infeasible(PincalError):
+    """No configuration (or no plan) satisfies the constraints."""
+
+
+def _degenerate_text(criterion: str, m: int, floor: float) -> str:
+    return (
+        f"the {criterion} criterion would improve further as the {m} configurations approach a singular "
+        f"plan, so its infimum is not attained by a regular plan (with few configurations for many "
+        f"parameters, or a test pose at a singular limit such as a stretched arm)"
+    )
+
+
+class DegenerateOptimum(PincalError):
+    """No start ended on a regular plan: the criterion improves all the way to singular plans."""
+
+    def __init__(self, criterion: str, m: int, floor: float) -> None:
+        super().__init__(
+            _degenerate_text(criterion, m, floor)
+            + f"; every start ended below the conditioning floor {floor:g}: add configurations, move "
+            f"the test pose, or lower min_conditioning"
+        )
+
+
+class DegenerateOptimumWarning(PincalError, UserWarning):
+    """The plan returned sits at the conditioning floor: the criterion would keep improving
+    towards singular plans, so its infimum is not attained (a warning, under pincal's one root)."""
+
+
+class MissingDependency(PincalError, ImportError):
+    """An optional package that a feature needs is not installed (the message says how to get it)."""

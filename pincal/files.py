@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import BadPlanFile
+from pincal.errors import BadPlanFile
 
 
 def read_text(path: str | os.PathLike, what: str, error: type[Exception]) -> str:

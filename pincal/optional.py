@@ -6,11 +6,7 @@ import importlib
 import warnings
 from types import ModuleType
 
-from .errors import PincalError
-
-
-class MissingDependency(PincalError, ImportError):
-    """An optional package that a feature needs is not installed (the message says how to get it)."""
+from pincal.errors import MissingDependency
 
 
 def require(module: str, feature: str, install: str) -> ModuleType:

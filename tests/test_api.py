@@ -7,8 +7,7 @@ import re
 import pytest
 
 import pincal
-
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 
 def test_all_names_import():
@@ -38,8 +37,8 @@ def test_readme_python_blocks_run(tmp_path, monkeypatch):
 def test_docstring_examples_run():
     import doctest
 
-    import pincal.robot
+    import pincal.model.robot
 
-    for module in (pincal, pincal.robot):
+    for module in (pincal, pincal.model.robot):
         result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
         assert result.attempted > 0 and result.failed == 0, module.__name__

@@ -114,7 +114,7 @@ def test_design_with_constraints_file(capsys, tmp_path, kr270_marker):
     )
     data = run_json(capsys, ["design", *KR, "-m", "4", "--starts", "3", "--constraints", str(cell)])
     cons = pincal.load_constraints(cell)
-    assert pincal.constraints.satisfied(kr270_marker, data["plan"], cons).all()
+    assert pincal.planning.constraints.satisfied(kr270_marker, data["plan"], cons).all()
 
 
 @pytest.mark.parametrize(

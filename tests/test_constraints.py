@@ -9,11 +9,9 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal._feasibility import Feasibility
-from pincal.constraints import (
-    BadConstraint,
+from pincal.errors import BadConstraint, Infeasible
+from pincal.planning.constraints import (
     HalfSpace,
-    Infeasible,
     JointLimits,
     Kinematics,
     MinSpacing,
@@ -24,6 +22,7 @@ from pincal.constraints import (
     load_constraints,
     satisfied,
 )
+from pincal.planning.feasibility import Feasibility
 
 
 def tip_point(q1: float, q2: float) -> np.ndarray:

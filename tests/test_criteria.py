@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.criteria import TestPoseCriterion
 from pincal.errors import PincalError, SingularPlan
+from pincal.evaluation.test_pose import TestPoseCriterion
 
 SIGMA = 3e-5
 

@@ -21,7 +21,7 @@ from pincal import (
     random_errors,
     simulate_measurements,
 )
-from pincal.identify import _Problem
+from pincal.calibration.identification import _Problem
 
 MARKER = [(0.1, 0.05, 0.2)]
 

@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 nbformat = pytest.importorskip("nbformat")
 nbclient = pytest.importorskip("nbclient")

@@ -15,7 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from PIL import Image  # noqa: E402
 
-from pincal import plots  # noqa: E402
+from pincal.viewing import plots  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -85,7 +85,7 @@ def test_search_progress_of_traces(tmp_path):
 
 
 def test_search_progress_of_a_design(tmp_path, planar):
-    from pincal.design import design
+    from pincal.planning.driver import design
 
     params = planar.parameters("joint2.tx,tip.tx")
     result = design(params, m=2, test_pose=[0.0, 1.0], starts=8, workers=1, keep=0.5, method="continuous")

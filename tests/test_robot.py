@@ -7,15 +7,8 @@ import pinocchio as pin
 import pytest
 
 import pincal
-from pincal.errors import (
-    BadConfiguration,
-    FrameNotFound,
-    RobotNotFound,
-    UnsupportedJoint,
-    UrdfError,
-)
-
-from .conftest import ROOT
+from pincal.errors import BadConfiguration, FrameNotFound, RobotNotFound, UnsupportedJoint, UrdfError
+from tests.conftest import ROOT
 
 
 def test_planar_geometry_matches_spec(planar):

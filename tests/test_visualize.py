@@ -23,8 +23,8 @@ from pincal.cli import main
 meshcat = pytest.importorskip("meshcat")
 umsgpack = pytest.importorskip("umsgpack")
 
-from pincal import visualize  # noqa: E402
-from pincal._static_meshcat import StaticWindow  # noqa: E402
+from pincal.viewing import scene as visualize  # noqa: E402
+from pincal.viewing.static_page import StaticWindow  # noqa: E402
 
 KR_Q0 = np.radians([0, -60, 60, 0, 45, 0])
 SIGMA = 3e-5
@@ -175,7 +175,7 @@ def test_show_takes_a_robot_and_a_viewer(planar):
 
 def test_core_never_imports_meshcat_or_matplotlib():
     code = (
-        "import sys, pincal, pincal.visualize, pincal.plots, pincal.cli\n"
+        "import sys, pincal, pincal.viewing.scene, pincal.viewing.plots, pincal.cli\n"
         "bad = [m for m in ('meshcat', 'matplotlib') if m in sys.modules]\n"
         "assert not bad, bad\n"
     )

@@ -28,12 +28,12 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from .criteria import RCOND
-from .errors import BadMeasurementData, PincalError, SingularPlan
-from .jacobian import ZERO_COLUMN, JacobianEngine
-from .measurements import MeasurementData
-from .parameters import ParameterSet
-from .robot import Robot
+from pincal.calibration.measurements import MeasurementData
+from pincal.errors import BadMeasurementData, PincalError, SingularPlan
+from pincal.evaluation.information import RCOND
+from pincal.model.jacobian import ZERO_COLUMN, JacobianEngine
+from pincal.model.parameters import ParameterSet
+from pincal.model.robot import Robot
 
 STATUSES = ("converged", "rank_deficient", "not_converged", "failed")
 """Values of :attr:`IdentificationResult.status`; only ``"converged"`` gives a calibrated robot."""

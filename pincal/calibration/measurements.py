@@ -32,10 +32,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._io import atomic_write_text, column_mismatch, read_numeric_csv
-from .errors import BadMeasurementData
-from .plan import check_limits, revolute_mask, to_radians
-from .robot import Robot
+from pincal.errors import BadMeasurementData
+from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
+from pincal.model.robot import Robot
+from pincal.planning.plan import check_limits, revolute_mask, to_radians
 
 _MEASURED = re.compile(r"^([xyz])(\d*)$")
 

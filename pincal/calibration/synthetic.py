@@ -1,5 +1,4 @@
-"""Simulation: synthetic "real" robots, what an instrument would measure on them, and the
-Monte-Carlo check of a plan.
+"""Synthetic data: "real" robots with known errors, and what an instrument would measure on them.
 
 * :func:`random_errors` draws geometric errors for a parameter set and gives the perturbed robot.
 * :func:`simulate_measurements` measures a robot at a plan, with Gaussian noise per coordinate.
@@ -13,28 +12,17 @@ Monte-Carlo check of a plan.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from .criteria import rho0
-from .errors import PincalError
-from .identify import identify
-from .measurements import MeasurementData
-from .parameters import ParameterSet
-from .robot import Robot
+from pincal.calibration.measurements import MeasurementData
+from pincal.errors import PincalError
+from pincal.model.parameters import ParameterSet
+from pincal.model.robot import Robot
 
 DEFAULT_ERROR_STD = {"length": 1e-3, "angle": 1e-3}
 """Standard deviation of random geometric errors: 1 mm for lengths [m], 1 mrad for angles [rad]."""
-
-QUANTILES = (0.5, 0.9, 0.95, 0.99)
-"""Quantiles of the error at the test pose(s) reported by :func:`monte_carlo`."""
-
-AGREEMENT = 3.0
-"""Empirical and predicted ρ0 agree when they differ by less than this many standard errors."""
-
-LOCAL_MINIMUM = 3.0
-"""A converged trial whose residuals exceed this many σ per coordinate found a local minimum."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,206 +113,3 @@ def simulate_measurements(
     if sigma > 0:
         points = points + sigma * _generator(seed).standard_normal(points.shape)
     return MeasurementData(qs, points, robot.joint_names)
-
-
-@dataclass(frozen=True, eq=False)
-class MonteCarloResult:
-    """What :func:`monte_carlo` found.
-
-    Attributes:
-        rho0_predicted: ρ0 of the plan at the nominal geometry [m] (root mean square over the
-            test poses), σ·sqrt(trace(J0 M⁻¹ J0ᵀ)).
-        rho0_empirical: root mean square, over trials and test poses, of the position error at
-            the test pose(s) after compensation [m] (all markers: sqrt of Σ_k ‖error_k‖²).
-        rho0_empirical_se: standard error of ``rho0_empirical`` [m] (from the trials' spread).
-        rho0_at_truth: root mean square over trials of ρ0 linearised at each true robot [m].
-        errors: (trials,) error of each converged trial at the test pose(s) [m] (RMS over poses).
-        errors_before: (trials,) the same without calibration (nominal model) [m].
-        quantiles: ``{q: error quantile [m]}`` for q in :data:`QUANTILES`.
-        trials: trials run.
-        failures: trials whose identification did not converge (left out of the statistics).
-        local_minima: trials that converged to a wrong solution, residuals over
-            :data:`LOCAL_MINIMUM` σ per coordinate (left out of the statistics).
-        sigma: measurement noise per coordinate [m].
-        error_std: the std of the random geometric errors (``{"length", "angle"}``).
-        nonlinear: True when the empirical ρ0 departs from the prediction by more than
-            :data:`AGREEMENT` standard errors, or trials failed or found local minima.
-        note: a sentence on agreement and, if any, nonlinearity.
-    """
-
-    rho0_predicted: float
-    rho0_empirical: float
-    rho0_empirical_se: float
-    rho0_at_truth: float
-    errors: np.ndarray = field(repr=False)
-    errors_before: np.ndarray = field(repr=False)
-    quantiles: dict[float, float]
-    trials: int
-    failures: int
-    local_minima: int
-    sigma: float
-    error_std: dict[str, float]
-    nonlinear: bool
-    note: str
-
-    @property
-    def ratio(self) -> float:
-        """rho0_empirical / rho0_predicted (1 in the linear regime)."""
-        return self.rho0_empirical / self.rho0_predicted
-
-    @property
-    def ratio_se(self) -> float:
-        """Standard error of :attr:`ratio`."""
-        return self.rho0_empirical_se / self.rho0_predicted
-
-    def as_dict(self) -> dict:
-        """JSON-ready summary (metres)."""
-        return {
-            "rho0_predicted": self.rho0_predicted,
-            "rho0_empirical": self.rho0_empirical,
-            "rho0_empirical_se": self.rho0_empirical_se,
-            "rho0_at_truth": self.rho0_at_truth,
-            "ratio": self.ratio,
-            "trials": self.trials,
-            "failures": self.failures,
-            "local_minima": self.local_minima,
-            "quantiles": {f"{q:g}": v for q, v in self.quantiles.items()},
-            "error_before_rms": float(np.sqrt(np.mean(self.errors_before**2))),
-            "sigma": self.sigma,
-            "error_std": dict(self.error_std),
-            "nonlinear": self.nonlinear,
-            "note": self.note,
-        }
-
-
-def monte_carlo(
-    params: ParameterSet,
-    plan: object,
-    test_pose: object,
-    sigma: float,
-    trials: int = 200,
-    seed: np.random.Generator | int | None = None,
-    error_std: Mapping[str, float] | None = None,
-) -> MonteCarloResult:
-    """Check a plan by simulation: does calibration deliver the predicted ρ0 at the test pose(s)?
-
-    Each trial draws a true robot (:func:`random_errors`, errors of ``params`` only), measures it
-    at ``plan`` with noise ``sigma`` (:func:`simulate_measurements`), identifies ``params`` from
-    the nominal robot (:func:`~pincal.identify`), and records the distance between the calibrated
-    and the true points at the test pose(s).
-
-    Args:
-        params: the parameters (an identifiable set).
-        plan: (m, nq) configurations or a :class:`~pincal.Plan`.
-        test_pose: (nq,) or (k, nq) test configuration(s).
-        sigma: measurement noise per coordinate [m], > 0.
-        trials: number of trials (the relative statistical error of ρ0 is about 1/sqrt(2·trials)
-            or more).
-        seed: a numpy Generator or a seed; one seed gives one result.
-        error_std: ``{"length": [m], "angle": [rad]}`` of the random errors; default 1 mm, 1 mrad.
-
-    Returns:
-        the comparison; ``nonlinear`` and ``note`` say whether the linear prediction held.
-
-    Raises:
-        SingularPlan: the plan cannot identify ``params``.
-        BadConfiguration: a configuration or test pose outside the limits.
-    """
-    if not (np.isfinite(sigma) and sigma > 0):
-        raise PincalError(f"sigma must be a positive number of metres, got {sigma!r}")
-    if int(trials) != trials or trials < 2:
-        raise PincalError(f"trials must be an integer of at least 2, got {trials!r}")
-    length, angle = _error_std(error_std)
-    robot = params.robot
-    qs = robot.configurations(plan)
-    q0 = robot.configurations(test_pose, what="test pose")
-    predicted = float(rho0(params, qs, q0, sigma=sigma))
-    rng = _generator(seed)
-    nominal0 = robot.points(q0)
-    errors, before, at_truth = [], [], []
-    failures = local_minima = 0
-    for _ in range(int(trials)):
-        truth = random_errors(params, {"length": length, "angle": angle}, rng)
-        data = simulate_measurements(truth.robot, qs, sigma, rng)
-        result = identify(params, data, sigma=sigma)
-        if not result.success:
-            failures += 1
-            continue
-        dof = max(result.residuals.size - len(params), 1)
-        if np.sqrt(np.sum(result.residuals**2) / dof) > LOCAL_MINIMUM * sigma:
-            local_minima += 1
-            continue
-        true0 = truth.robot.points(q0)
-        errors.append(_rms_over_poses(result.robot.points(q0) - true0))
-        before.append(_rms_over_poses(nominal0 - true0))
-        at_truth.append(float(rho0(params.on(truth.robot), qs, q0, sigma=sigma)))
-    errors_arr, before_arr = np.array(errors), np.array(before)
-    n = len(errors_arr)
-    if n < 2:
-        raise PincalError(
-            f"monte carlo: {failures + local_minima} of {trials} identifications failed or found "
-            f"local minima; the geometric errors (std {length:g} m, {angle:g} rad) are too large"
-        )
-    squared = errors_arr**2
-    empirical = float(np.sqrt(squared.mean()))
-    se = float(squared.std(ddof=1) / np.sqrt(n) / (2.0 * empirical)) if empirical > 0 else 0.0
-    truth_rms = float(np.sqrt(np.mean(np.square(at_truth))))
-    nonlinear = bool(abs(empirical - predicted) > AGREEMENT * se or failures or local_minima)
-    note = _note(predicted, empirical, se, truth_rms, failures, local_minima, int(trials))
-    quantiles = {q: float(np.quantile(errors_arr, q)) for q in QUANTILES}
-    return MonteCarloResult(
-        rho0_predicted=predicted,
-        rho0_empirical=empirical,
-        rho0_empirical_se=se,
-        rho0_at_truth=truth_rms,
-        errors=errors_arr,
-        errors_before=before_arr,
-        quantiles=quantiles,
-        trials=int(trials),
-        failures=failures,
-        local_minima=local_minima,
-        sigma=float(sigma),
-        error_std={"length": length, "angle": angle},
-        nonlinear=nonlinear,
-        note=note,
-    )
-
-
-def _rms_over_poses(difference: np.ndarray) -> float:
-    """sqrt(mean over test poses of Σ over markers ‖difference‖²) for (k, K, 3) differences."""
-    return float(np.sqrt(np.mean(np.sum(difference**2, axis=(1, 2)))))
-
-
-def _note(
-    predicted: float, empirical: float, se: float, at_truth: float, failures: int, minima: int, trials: int
-) -> str:
-    ratio, ratio_se = empirical / predicted, se / predicted
-    text = f"empirical/predicted rho0 = {ratio:.3f} ± {ratio_se:.3f}"
-    agree = abs(empirical - predicted) <= AGREEMENT * se
-    if agree and not failures and not minima:
-        return (
-            text + f": agreement within {AGREEMENT:g} standard errors; errors of this size are in "
-            "the linear regime, where rho0 predicts the accuracy after calibration"
-        )
-    parts = [text]
-    if failures or minima:
-        parts.append(
-            f"nonlinearity: of {trials} identifications started at the nominal geometry, "
-            f"{failures} did not converge and {minima} converged to a wrong solution (local "
-            f"minimum); errors this large need a better start (a coarse calibration first)"
-        )
-    if not agree:
-        if abs(empirical - at_truth) <= AGREEMENT * se:
-            parts.append(
-                f"nonlinearity: rho0 linearised at the true robots ({at_truth:.3g} m) matches: errors "
-                f"this large change the Jacobian, so rho0 at the nominal geometry is "
-                f"{'optimistic' if ratio > 1 else 'pessimistic'}"
-            )
-        else:
-            parts.append(
-                f"nonlinearity: rho0 linearised at the true robots ({at_truth:.3g} m) does not match "
-                f"either: the estimator itself is nonlinear at this error size (bias)"
-            )
-    elif failures or minima:
-        parts.append("the converged trials agree with the prediction")
-    return "; ".join(parts)

@@ -35,10 +35,10 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from ._io import atomic_write_text
-from .errors import IdentificationFailed, OverwriteRefused, PincalError, UrdfError
-from .identify import IdentificationResult
-from .robot import Robot, load_robot
+from pincal.calibration.identification import IdentificationResult
+from pincal.errors import IdentificationFailed, OverwriteRefused, PincalError, UrdfError
+from pincal.files import atomic_write_text
+from pincal.model.robot import Robot, load_robot
 
 ROUND_TRIP_TOLERANCE = 1e-9
 """Largest point distance [m] allowed between the exported URDF and the calibrated model."""
@@ -215,7 +215,7 @@ def _rebase_mesh_paths(root: etree._Element, source_dir: Path, out_dir: Path) ->
 
 
 def _comment_text(robot: Robot, result: IdentificationResult | None, source: Path, changed: list[str]) -> str:
-    from . import __version__
+    from pincal import __version__
 
     base = robot.base
     lines = [

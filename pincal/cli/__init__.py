@@ -9,9 +9,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import PincalError
-from . import baseline, design, evaluate, identify, measure_sim, params, robots, show, simulate
-from ._common import join_negative_values
+from pincal.cli import baseline, design, evaluate, identify, measure_sim, params, robots, show, simulate
+from pincal.cli._common import join_negative_values
+from pincal.errors import PincalError
 
 # One module per subcommand, each with add_parser(subparsers); the order is the --help order.
 COMMANDS = [params, evaluate, design, baseline, simulate, measure_sim, identify, show, robots]
@@ -47,7 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    from .. import __version__
+    from pincal import __version__
 
     parser.add_argument("--version", action="version", version=f"pincal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")

@@ -8,10 +8,10 @@ import sys
 
 import numpy as np
 
-from ..errors import BadConfiguration, PincalError
-from ..parameters import ParameterSet
-from ..plan import Plan, check_limits, to_radians
-from ..robot import Robot, load_robot
+from pincal.errors import BadConfiguration, PincalError
+from pincal.model.parameters import ParameterSet
+from pincal.model.robot import Robot, load_robot
+from pincal.planning.plan import Plan, check_limits, to_radians
 
 DEFAULT_PARAMS = "full,offsets"
 
@@ -90,7 +90,7 @@ def add_output_arguments(parser: argparse.ArgumentParser) -> None:
 
 def constraints_from_args(args: argparse.Namespace) -> tuple:
     """The constraints of --constraints FILE.yaml (none without it)."""
-    from ..constraints import load_constraints
+    from pincal.planning.constraints import load_constraints
 
     return load_constraints(args.constraints) if args.constraints else ()
 

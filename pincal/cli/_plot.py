@@ -23,7 +23,7 @@ def save_design_plot(path: str, result, baseline=None) -> None:
         result: the :class:`pincal.design.DesignResult`.
         baseline: ``(RandomPlans, D-optimal DesignResult or None)`` or None.
     """
-    from ..plots import rho0_histogram, search_progress
+    from pincal.viewing.plots import rho0_histogram, search_progress
 
     if baseline is not None and result.rho0 is not None:
         randoms, d_optimal = baseline
@@ -61,9 +61,9 @@ def save_simulation_plot(args: argparse.Namespace, params, q0, sigma: float, err
     """Simulate each ``--compare`` plan like the main one and save the side-by-side figure."""
     from pathlib import Path
 
-    from ..plots import error_comparison
-    from ..simulate import monte_carlo
-    from ._common import read_plan
+    from pincal.calibration.monte_carlo import monte_carlo
+    from pincal.cli._common import read_plan
+    from pincal.viewing.plots import error_comparison
 
     results = {Path(args.plan).stem: result}
     for path in args.compare or ():

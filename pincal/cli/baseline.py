@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 import warnings
 
-from ..design import METHODS, design, random_plans
-from ._common import (
+from pincal.cli._common import (
     add_command,
     add_output_arguments,
     constraints_from_args,
@@ -16,7 +15,8 @@ from ._common import (
     robot_from_args,
     test_poses_from_args,
 )
-from .design import add_design_arguments, print_baseline, print_warnings
+from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
+from pincal.planning.driver import METHODS, design, random_plans
 
 HELP = (
     "rho0 at the test pose(s) over random feasible plans (min, median, mean, max), and the D-optimal plan's"

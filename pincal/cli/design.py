@@ -8,10 +8,7 @@ import warnings
 
 import numpy as np
 
-from ..design import CRITERIA, METHODS, MIN_CONDITIONING, DesignResult, RandomPlans, design, random_plans
-from ..errors import PincalError
-from ..plan import Plan, revolute_mask
-from ._common import (
+from pincal.cli._common import (
     add_command,
     add_output_arguments,
     add_robot_arguments,
@@ -25,7 +22,18 @@ from ._common import (
     robot_from_args,
     test_poses_from_args,
 )
-from ._plot import add_plot_argument, save_design_plot
+from pincal.cli._plot import add_plot_argument, save_design_plot
+from pincal.errors import PincalError
+from pincal.planning.driver import (
+    CRITERIA,
+    METHODS,
+    MIN_CONDITIONING,
+    DesignResult,
+    RandomPlans,
+    design,
+    random_plans,
+)
+from pincal.planning.plan import Plan, revolute_mask
 
 HELP = "design a measurement plan: the m configurations that make the robot most accurate at the test pose(s)"
 EXAMPLES = """\

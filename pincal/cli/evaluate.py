@@ -6,8 +6,7 @@ import argparse
 
 import numpy as np
 
-from ..criteria import criteria, rho0
-from ._common import (
+from pincal.cli._common import (
     add_command,
     add_output_arguments,
     add_robot_arguments,
@@ -20,6 +19,8 @@ from ._common import (
     robot_from_args,
     test_poses_from_args,
 )
+from pincal.evaluation.classic import criteria
+from pincal.evaluation.test_pose import rho0
 
 HELP = "criteria of a measurement plan: rho0 at the test pose(s), D, A, E, cond, O1-O4"
 EXAMPLES = """\

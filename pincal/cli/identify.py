@@ -5,13 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..errors import IdentificationFailed, OverwriteRefused
-from ..export import export_urdf
-from ..identify import identify
-from ..measurements import MeasurementData
-from ..parameters import ParameterSet, _split
-from ..robot import Robot
-from ._common import (
+from pincal.calibration.identification import identify
+from pincal.calibration.measurements import MeasurementData
+from pincal.calibration.urdf_export import export_urdf
+from pincal.cli._common import (
     add_command,
     add_output_arguments,
     add_robot_arguments,
@@ -20,6 +17,9 @@ from ._common import (
     positive,
     robot_from_args,
 )
+from pincal.errors import IdentificationFailed, OverwriteRefused
+from pincal.model.parameters import ParameterSet, _split
+from pincal.model.robot import Robot
 
 HELP = "identify the geometric errors from measurements and write the calibrated URDF"
 EXAMPLES = """\

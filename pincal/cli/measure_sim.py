@@ -8,12 +8,9 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import BadConfiguration, OverwriteRefused, PincalError, UrdfError
-from ..export import export_urdf
-from ..plan import revolute_mask
-from ..robot import load_robot
-from ..simulate import random_errors, simulate_measurements
-from ._common import (
+from pincal.calibration.synthetic import random_errors, simulate_measurements
+from pincal.calibration.urdf_export import export_urdf
+from pincal.cli._common import (
     add_command,
     add_robot_arguments,
     params_from_args,
@@ -21,7 +18,10 @@ from ._common import (
     read_plan,
     robot_from_args,
 )
-from .simulate import parse_error_std
+from pincal.cli.simulate import parse_error_std
+from pincal.errors import BadConfiguration, OverwriteRefused, PincalError, UrdfError
+from pincal.model.robot import load_robot
+from pincal.planning.plan import revolute_mask
 
 HELP = "simulate the measurements of a plan on a 'true' robot, to rehearse a calibration"
 EXAMPLES = """\

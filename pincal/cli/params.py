@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import (
+from pincal.cli._common import (
     DEFAULT_PARAMS,
     add_command,
     add_output_arguments,

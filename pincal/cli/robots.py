@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from ..robot import example_robot_data_names, shipped_robots
-from ._common import add_output_arguments, emit_json
+from pincal.cli._common import add_output_arguments, emit_json
+from pincal.model.robot import example_robot_data_names, shipped_robots
 
 HELP = "list the robots loadable by name (shipped URDFs and example-robot-data)"
 

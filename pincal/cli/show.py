@@ -10,10 +10,7 @@ import time
 
 import numpy as np
 
-from ..constraints import Visibility
-from ..criteria import rho0
-from ..errors import BadConfiguration, PincalError
-from ._common import (
+from pincal.cli._common import (
     add_command,
     add_output_arguments,
     add_robot_arguments,
@@ -28,6 +25,9 @@ from ._common import (
     robot_from_args,
     test_poses_from_args,
 )
+from pincal.errors import BadConfiguration, PincalError
+from pincal.evaluation.test_pose import rho0
+from pincal.planning.constraints import Visibility
 
 HELP = "see a plan: meshcat scene of the measurement poses and the test pose's error ellipsoid"
 EXAMPLES = """\
@@ -90,7 +90,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..visualize import scene
+    from pincal.viewing.scene import scene
 
     sigma = positive(args.sigma, "--sigma")
     if args.scale is not None:
@@ -152,7 +152,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _start_server():
     """A meshcat Visualizer on a new server; meshcat's own messages go to stderr."""
-    from .._optional import require
+    from pincal.optional import require
 
     meshcat = require("meshcat", "pincal show", "meshcat")
     with contextlib.redirect_stdout(sys.stderr):
@@ -162,8 +162,8 @@ def _start_server():
 def _plot_baseline(params, plan, q0: np.ndarray, sigma: float, constraints, args) -> dict:
     """Evaluate --baseline random feasible plans of the plan's size (as ``pincal baseline`` does),
     save the histogram; return their summary."""
-    from ..design import random_plans
-    from ..plots import rho0_histogram
+    from pincal.planning.driver import random_plans
+    from pincal.viewing.plots import rho0_histogram
 
     randoms = random_plans(
         params, len(plan), args.baseline, q0, sigma=sigma, constraints=constraints, seed=args.seed

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from ..errors import PincalError
-from ..simulate import DEFAULT_ERROR_STD, monte_carlo
-from ._common import (
+from pincal.calibration.monte_carlo import monte_carlo
+from pincal.calibration.synthetic import DEFAULT_ERROR_STD
+from pincal.cli._common import (
     add_command,
     add_output_arguments,
     add_robot_arguments,
@@ -20,7 +20,8 @@ from ._common import (
     robot_from_args,
     test_poses_from_args,
 )
-from ._plot import add_simulation_plot_arguments, save_simulation_plot
+from pincal.cli._plot import add_simulation_plot_arguments, save_simulation_plot
+from pincal.errors import PincalError
 
 HELP = "Monte-Carlo simulation of a calibration with a plan: empirical vs predicted rho0"
 EXAMPLES = """\

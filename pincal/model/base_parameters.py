@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .jacobian import ZERO_COLUMN
-from .parameters import LENGTH_TOLERANCE, ParameterSet, _split
+from pincal.model.jacobian import ZERO_COLUMN
+from pincal.model.parameters import LENGTH_TOLERANCE, ParameterSet, _split
 
 
 @dataclass(frozen=True, eq=False)

@@ -172,7 +172,7 @@ class JacobianEngine:
 def analytic_jacobian(params, qs: np.ndarray, frame: str = "world") -> np.ndarray:
     """(m, 3K, P) analytic parameter Jacobian (see :meth:`ParameterSet.jacobian`)."""
     if frame not in ("world", "tip"):
-        from .errors import PincalError
+        from pincal.errors import PincalError
 
         raise PincalError(f"unknown Jacobian frame {frame!r}; valid: world, tip")
     return JacobianEngine(params).jacobian(qs, frame=frame)

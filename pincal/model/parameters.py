@@ -28,8 +28,8 @@ from functools import cached_property
 import numpy as np
 import pinocchio as pin
 
-from .errors import PincalError, UnknownParameter
-from .robot import Robot
+from pincal.errors import PincalError, UnknownParameter
+from pincal.model.robot import Robot
 
 COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
 GROUPS = ("offsets", "lengths", "full", "base", "markers")
@@ -255,7 +255,7 @@ class ParameterSet:
             (m, 3K, P) array: for configuration i, rows 3k..3k+2 are marker k's x, y, z;
             ``J.reshape(-1, P)`` is the stacked Jacobian.
         """
-        from .jacobian import analytic_jacobian, finite_difference_jacobian
+        from pincal.model.jacobian import analytic_jacobian, finite_difference_jacobian
 
         qs = self.robot.configurations(plan)
         if method == "analytic":
@@ -273,7 +273,7 @@ class ParameterSet:
 
         See :func:`pincal.identifiability.identifiability`.
         """
-        from .identifiability import identifiability
+        from pincal.model.base_parameters import identifiability
 
         return identifiability(self, n_configurations=n_configurations, seed=seed, tol=tol, prefer=prefer)
 

@@ -20,15 +20,9 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .errors import (
-    BadConfiguration,
-    FrameNotFound,
-    RobotNotFound,
-    UnsupportedJoint,
-    UrdfError,
-)
+from pincal.errors import BadConfiguration, FrameNotFound, RobotNotFound, UnsupportedJoint, UrdfError
 
-_PACKAGE = Path(__file__).resolve().parent
+_PACKAGE = Path(__file__).resolve().parent.parent
 ROBOTS_DIR = _PACKAGE / "robots" if (_PACKAGE / "robots").is_dir() else _PACKAGE.parent / "robots"
 """Where the URDFs pincal ships live (``robots/`` in a checkout, ``pincal/robots`` installed)."""
 
@@ -375,7 +369,7 @@ class Robot:
 
     def parameters(self, spec: str | list[str] | tuple[str, ...] = "full,offsets"):
         """The geometric parameters named by ``spec`` (see :class:`pincal.ParameterSet`)."""
-        from .parameters import ParameterSet
+        from pincal.model.parameters import ParameterSet
 
         return ParameterSet.from_spec(self, spec)
 

@@ -33,20 +33,12 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ._io import read_text
-from .errors import PincalError
-from .robot import LIMIT_TOLERANCE, Robot
+from pincal.errors import BadConstraint, Infeasible
+from pincal.files import read_text
+from pincal.model.robot import LIMIT_TOLERANCE, Robot
 
 TOLERANCE = 1e-9
 """Slack [m or rad] allowed when checking a constraint exactly (rounding)."""
-
-
-class BadConstraint(PincalError):
-    """A constraint with invalid values, or a constraints file that cannot be read."""
-
-
-class Infeasible(PincalError):
-    """No configuration (or no plan) satisfies the constraints."""
 
 
 def _vector(value: object, what: str, size: int = 3) -> tuple[float, ...]:

@@ -23,10 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._feasibility import Feasibility
-from ._objective import Objective, TraceObjective
-from .errors import SingularPlan
-from .jacobian import JacobianEngine
+from pincal.errors import SingularPlan
+from pincal.evaluation.information import conditioning
+from pincal.model.jacobian import JacobianEngine
+from pincal.planning.feasibility import Feasibility
+from pincal.planning.objectives import Objective, TraceObjective
 
 STEP = 1e-5
 """Central-difference step on the joint values for ∂J/∂q [rad or m]."""
@@ -65,17 +66,6 @@ class Outcome:
     iterations: int
     time_s: float
     message: str
-
-
-def conditioning(M: np.ndarray) -> float:
-    """Smallest eigenvalue of the Jacobi-scaled information matrix D⁻¹MD⁻¹, D = diag(M)^½.
-
-    It is σ_min² of the stacked Jacobian with unit columns: in (0, 1], 0 for a singular plan,
-    unchanged by the units of the parameters.
-    """
-    d = np.sqrt(np.abs(np.diag(M)))
-    d[d == 0] = 1.0
-    return float(np.linalg.eigvalsh(M / np.outer(d, d))[0])
 
 
 class PlanFunction:

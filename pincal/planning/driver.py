@@ -41,16 +41,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _multistart
-from ._continuous import conditioning
-from ._feasibility import Feasibility
-from ._objective import CRITERIA, TEST_POSE_CRITERIA, criterion_name, make_objective
-from .constraints import AnyConstraint, Infeasible
-from .criteria import TestPoseCriterion, _factor, _rank, criteria_from_jacobian
-from .errors import PincalError, SingularPlan
-from .jacobian import JacobianEngine
-from .parameters import ParameterSet
-from .plan import Plan
+from pincal.errors import DegenerateOptimum, DegenerateOptimumWarning, Infeasible, PincalError, SingularPlan
+from pincal.evaluation.classic import criteria_from_jacobian
+from pincal.evaluation.information import conditioning, factor, rank
+from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.model.jacobian import JacobianEngine
+from pincal.model.parameters import ParameterSet
+from pincal.planning import multistart as _multistart
+from pincal.planning.constraints import AnyConstraint
+from pincal.planning.feasibility import Feasibility
+from pincal.planning.objectives import CRITERIA, TEST_POSE_CRITERIA, criterion_name, make_objective
+from pincal.planning.plan import Plan
 
 METHODS = ("continuous", "exchange")
 """Names of the search methods."""
@@ -76,30 +77,6 @@ __all__ = [
     "design",
     "random_plans",
 ]
-
-
-def _degenerate_text(criterion: str, m: int, floor: float) -> str:
-    return (
-        f"the {criterion} criterion would improve further as the {m} configurations approach a singular "
-        f"plan, so its infimum is not attained by a regular plan (with few configurations for many "
-        f"parameters, or a test pose at a singular limit such as a stretched arm)"
-    )
-
-
-class DegenerateOptimum(PincalError):
-    """No start ended on a regular plan: the criterion improves all the way to singular plans."""
-
-    def __init__(self, criterion: str, m: int, floor: float) -> None:
-        super().__init__(
-            _degenerate_text(criterion, m, floor)
-            + f"; every start ended below the conditioning floor {floor:g}: add configurations, move "
-            f"the test pose, or lower min_conditioning"
-        )
-
-
-class DegenerateOptimumWarning(PincalError, UserWarning):
-    """The plan returned sits at the conditioning floor: the criterion would keep improving
-    towards singular plans, so its infimum is not attained (a warning, under pincal's one root)."""
 
 
 @dataclass(frozen=True)
@@ -301,7 +278,7 @@ def _pick(
     """Indices of m pool configurations forming a regular plan (conditioning above ``floor``, spaced),
     at random."""
     N, rows, P = J.shape
-    rank = 0
+    best_rank = 0
     for _ in range(100):
         order = rng.permutation(N)
         if spacing > 0:
@@ -322,18 +299,18 @@ def _pick(
         stacked = J[index].reshape(-1, P)
         M = stacked.T @ stacked
         try:
-            _factor(M, rows, m)
+            factor(M, rows, m)
             if conditioning(M) > 2 * floor:
                 return index
         except SingularPlan:
             pass
-        rank = max(rank, _rank(M))
-    if rank == P:
+        best_rank = max(best_rank, rank(M))
+    if best_rank == P:
         raise Infeasible(
             f"no random plan of {m} configurations reaches twice the conditioning floor {floor:g}; "
             f"lower min_conditioning or add configurations"
         )
-    raise SingularPlan(P, rows, m, rank)
+    raise SingularPlan(P, rows, m, best_rank)
 
 
 def _user_pool(robot, pool: object, feasibility: Feasibility, m: int) -> tuple[np.ndarray, int]:

@@ -24,9 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import cho_solve
 
-from ._continuous import conditioning
-from ._objective import Objective, TraceObjective
-from .criteria import _factor
+from pincal.evaluation.information import conditioning, factor
+from pincal.planning.objectives import Objective, TraceObjective
 
 TOLERANCE = 1e-10
 """An exchange must lower the objective F (a log) by more than this."""
@@ -55,7 +54,7 @@ class ExchangeOutcome:
 
 
 def _inverse(M: np.ndarray, rows: int, m: int) -> np.ndarray:
-    L = _factor(M, rows, m)
+    L = factor(M, rows, m)
     return cho_solve((L, True), np.eye(len(M)))
 
 

@@ -10,12 +10,12 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from .constraints import (
+from pincal.errors import BadConstraint, Infeasible
+from pincal.model.robot import Robot
+from pincal.planning.constraints import (
     TOLERANCE,
     AnyConstraint,
-    BadConstraint,
     Constraint,
-    Infeasible,
     JointLimits,
     Kinematics,
     MinSpacing,
@@ -23,7 +23,6 @@ from .constraints import (
     limit_margin_of,
     spacing_of,
 )
-from .robot import Robot
 
 
 class Feasibility:

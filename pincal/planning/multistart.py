@@ -22,12 +22,13 @@ from functools import cached_property
 
 import numpy as np
 
-from . import _continuous, _exchange
-from ._feasibility import Feasibility
-from ._objective import TEST_POSE_CRITERIA, Objective, make_objective
-from .constraints import AnyConstraint
-from .jacobian import JacobianEngine
-from .parameters import ParameterSet
+from pincal.model.jacobian import JacobianEngine
+from pincal.model.parameters import ParameterSet
+from pincal.planning import continuous as _continuous
+from pincal.planning import exchange as _exchange
+from pincal.planning.constraints import AnyConstraint
+from pincal.planning.feasibility import Feasibility
+from pincal.planning.objectives import TEST_POSE_CRITERIA, Objective, make_objective
 
 
 @dataclass(frozen=True, eq=False)

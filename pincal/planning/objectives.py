@@ -28,8 +28,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg.lapack import dtrtrs as _trtrs
 
-from .criteria import RCOND, _factor
-from .errors import PincalError, UnknownName
+from pincal.errors import PincalError, UnknownName
+from pincal.evaluation.information import RCOND, factor
 
 CRITERIA = ("test-pose", "test-pose-worst", "D", "A", "E", "cond")
 """Names of the criteria a design can minimise."""
@@ -151,7 +151,7 @@ class TraceObjective(Objective):
         return TraceObjective(self.name, self.J0T, self.k, self.scale, self.rows, power)
 
     def _solve(self, M: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
-        L = _factor(M, self.rows, m)
+        L = factor(M, self.rows, m)
         X, _ = _trtrs(L, self.J0T, lower=1)
         return L, X
 
@@ -220,11 +220,11 @@ class LogDetObjective(Objective):
     name = "D"
 
     def value(self, M: np.ndarray, m: int) -> float:
-        L = _factor(M, self.rows, m)
+        L = factor(M, self.rows, m)
         return float(-2.0 * np.log(L.diagonal()).sum())
 
     def value_and_gradient(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
-        L = _factor(M, self.rows, m)
+        L = factor(M, self.rows, m)
         Linv, _ = _trtrs(L, np.eye(len(M)), lower=1)
         return float(-2.0 * np.log(L.diagonal()).sum()), -(Linv.T @ Linv)
 
@@ -257,11 +257,11 @@ class SpectralObjective(Objective):
         return np.where(lo > RCOND * np.abs(w[..., -1]), F, np.inf)
 
     def value(self, M: np.ndarray, m: int) -> float:
-        _factor(M, self.rows, m)
+        factor(M, self.rows, m)
         return float(self.from_eigenvalues(np.linalg.eigvalsh(M)))
 
     def value_and_gradient(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
-        _factor(M, self.rows, m)
+        factor(M, self.rows, m)
         w, V = np.linalg.eigh(M)
         lo, hi = V[:, 0], V[:, -1]
         G = -np.outer(lo, lo) / w[0]

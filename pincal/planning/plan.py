@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._io import atomic_write_text, column_mismatch, read_numeric_csv
-from .errors import BadConfiguration, BadPlanFile
+from pincal.errors import BadConfiguration, BadPlanFile
+from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,7 +136,7 @@ class Plan:
 def check_limits(robot, q: np.ndarray, labels: Sequence[str], degrees: bool) -> None:
     """Raise BadConfiguration naming (by ``labels[row]``) the first value outside the joint limits,
     in the user's unit."""
-    from .robot import LIMIT_TOLERANCE
+    from pincal.model.robot import LIMIT_TOLERANCE
 
     lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
     out = (q < lo - LIMIT_TOLERANCE) | (q > hi + LIMIT_TOLERANCE)

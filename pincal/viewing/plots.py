@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._optional import require
-from .errors import PincalError
+from pincal.errors import PincalError
+from pincal.optional import require
 
 if TYPE_CHECKING:  # matplotlib is optional: imported when a figure is drawn
     from matplotlib.figure import Figure

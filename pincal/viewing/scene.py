@@ -34,12 +34,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from ._io import atomic_write_text
-from ._optional import require
-from .criteria import position_covariance
-from .errors import BadConfiguration, SingularPlan
-from .parameters import ParameterSet
-from .robot import Robot
+from pincal.errors import BadConfiguration, SingularPlan
+from pincal.evaluation.test_pose import position_covariance
+from pincal.files import atomic_write_text
+from pincal.model.parameters import ParameterSet
+from pincal.model.robot import Robot
+from pincal.optional import require
 
 if TYPE_CHECKING:  # meshcat is imported when a scene is built
     from meshcat import Visualizer
@@ -147,7 +147,7 @@ def static_viewer() -> Visualizer:
     Its ``static_html()`` is the self-contained page meshcat's server would give; it opens offline.
     """
     meshcat = require("meshcat", "pincal.visualize", "meshcat")
-    from ._static_meshcat import StaticWindow
+    from pincal.viewing.static_page import StaticWindow
 
     return meshcat.Visualizer(window=StaticWindow())
 

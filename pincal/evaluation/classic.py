@@ -1,0 +1,78 @@
+r"""The classic criteria of a plan, for comparison with ρ0 (SPEC §4).
+
+* D: log det(M⁻¹) = −log det M;  A: trace(M⁻¹);  E: λ_max(M⁻¹) = 1/σ_min(J)².
+* cond: σ_max(J)/σ_min(J), the condition number of the stacked Jacobian.
+* Observability indices, with σ₁ ≥ … ≥ σ_P the singular values of J and m configurations:
+  O1 = (σ₁σ₂⋯σ_P)^{1/P}/√m (Borm & Menq),  O2 = σ_P/σ₁ (inverse condition number),
+  O3 = σ_P (smallest singular value),  O4 = σ_P²/σ₁ (noise amplification index).
+
+D, A, E and cond are *lower is better*; O1–O4 are *higher is better*. D, A and E mix units when the
+set mixes lengths and angles (m² and rad²).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pincal.evaluation.information import factor
+from pincal.model.parameters import ParameterSet
+
+
+@dataclass(frozen=True)
+class Criteria:
+    """The classic criteria of a plan (see module doc for the definitions).
+
+    Attributes:
+        log_det: D criterion, log det(M⁻¹) (lower is better).
+        trace: A criterion, trace(M⁻¹) (lower is better).
+        max_eig: E criterion, largest eigenvalue of M⁻¹ (lower is better).
+        cond: condition number of the stacked Jacobian (lower is better, ≥ 1).
+        O1: (σ₁⋯σ_P)^{1/P}/√m.   O2: σ_P/σ₁.   O3: σ_P.   O4: σ_P²/σ₁.  (higher is better)
+        n_params: P.
+        m: number of configurations.
+    """
+
+    log_det: float
+    trace: float
+    max_eig: float
+    cond: float
+    O1: float
+    O2: float
+    O3: float
+    O4: float
+    n_params: int
+    m: int
+
+    def as_dict(self) -> dict[str, float]:
+        """The criteria by name (the keys of ``pincal evaluate --json``)."""
+        return {k: getattr(self, k) for k in ("log_det", "trace", "max_eig", "cond", "O1", "O2", "O3", "O4")}
+
+
+def criteria_from_jacobian(J: np.ndarray, m: int) -> Criteria:
+    """Classic criteria of a stacked (rows, P) or (m, 3K, P) parameter Jacobian."""
+    J = np.asarray(J)
+    rows = J.shape[1] if J.ndim == 3 else J.shape[0] // max(m, 1)
+    J2 = J.reshape(-1, J.shape[-1])
+    n = J2.shape[1]
+    factor(J2.T @ J2, rows, m)  # raises SingularPlan like ρ0 does
+    s = np.linalg.svd(J2, compute_uv=False)
+    return Criteria(
+        log_det=float(-2.0 * np.sum(np.log(s))),
+        trace=float(np.sum(1.0 / s**2)),
+        max_eig=float(1.0 / s[-1] ** 2),
+        cond=float(s[0] / s[-1]),
+        O1=float(np.exp(np.mean(np.log(s))) / np.sqrt(m)),
+        O2=float(s[-1] / s[0]),
+        O3=float(s[-1]),
+        O4=float(s[-1] ** 2 / s[0]),
+        n_params=n,
+        m=m,
+    )
+
+
+def criteria(params: ParameterSet, plan: object) -> Criteria:
+    """The classic criteria (D, A, E, cond, O1–O4) of ``plan`` for ``params``."""
+    qs = params.robot.configurations(plan)
+    return criteria_from_jacobian(params.jacobian(qs, frame="tip"), len(qs))
