@@ -38,6 +38,7 @@ from pincal.errors import (
 )
 from pincal.evaluation.classic import Criteria, criteria
 from pincal.evaluation.information import information_matrix
+from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import TestPoseCriterion, position_covariance, rho0
 from pincal.model.base_parameters import Identifiability, identifiability
 from pincal.model.parameters import Parameter, ParameterSet
@@ -88,6 +89,7 @@ __all__ = [
     "ParameterSet",
     "PincalError",
     "Plan",
+    "Prior",
     "RandomErrors",
     "RandomPlans",
     "Robot",

@@ -1,0 +1,152 @@
+r"""A prior on the geometric errors, in physical units (SPEC §5.1).
+
+Before calibration the user knows roughly how large the errors are: "lengths within about 1 mm,
+angles within about 1 mrad". :class:`Prior` holds those standard deviations by kind (lengths in
+metres, angles in radians; any parameter or group can be given its own) and turns them into the
+prior covariance Σp = diag(std²) of a :class:`~pincal.ParameterSet`, its inverse Σp⁻¹ (the prior
+precision; 0 for an infinite std: no prior on that parameter), and σ²Σp⁻¹, the prior as
+information in the units of M = Σ JᵢᵀJᵢ (pseudo-measurements).
+
+With measurements of noise σ per coordinate, the posterior covariance of the errors is
+σ²(M + σ²Σp⁻¹)⁻¹ = (M/σ² + Σp⁻¹)⁻¹ (Chaloner & Verdinelli 1995): finite for every plan, and
+σ²M⁻¹ again as Σp → ∞.
+
+    >>> import pincal
+    >>> prior = pincal.Prior.parse("1mm,1mrad")
+    >>> prior.length, prior.angle
+    (0.001, 0.001)
+    >>> str(prior)
+    '1 mm, 1 mrad'
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pincal.errors import PincalError
+from pincal.model.parameters import ParameterSet
+
+LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "cm": 1e-2}
+ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "µrad": 1e-6, "deg": math.pi / 180}
+
+_TOKEN = re.compile(r"^\s*([-+0-9.eE]+|inf)\s*([a-zµ]*)\s*$")
+
+
+def _positive(value: object, what: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if not (v > 0):  # NaN fails too; inf is allowed: no prior
+        raise PincalError(f"prior standard deviation of {what} must be a positive number, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Prior:
+    """Prior standard deviations of the geometric errors, by kind.
+
+    Attributes:
+        length: standard deviation of every parameter in metres [m] (``inf``: no prior).
+        angle: standard deviation of every parameter in radians [rad] (``inf``: no prior).
+        overrides: ``{parameter name or group: std}`` in that parameter's own unit, applied after
+            ``length`` and ``angle`` in the order given (e.g. ``{"base": math.inf}``: the base is
+            unknown; ``{"joint_a1.offset": 0.01}``).
+    """
+
+    length: float
+    angle: float
+    overrides: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "length", _positive(self.length, "lengths"))
+        object.__setattr__(self, "angle", _positive(self.angle, "angles"))
+        object.__setattr__(
+            self, "overrides", {str(k): _positive(v, repr(k)) for k, v in dict(self.overrides).items()}
+        )
+
+    @classmethod
+    def parse(cls, text: str) -> Prior:
+        """A prior from ``"1mm,1mrad"``: a length and an angle, each with a unit
+        (m, cm, mm, um; rad, mrad, urad, deg), in either order; bare numbers are metres then
+        radians (``"1e-3,1e-3"``).
+
+        Raises:
+            PincalError: the text is not a length and an angle (the message says what is valid).
+        """
+        tokens = [t for t in str(text).split(",") if t.strip()]
+        valid = (
+            f"expected a length and an angle, e.g. '1mm,1mrad' (length units: {', '.join(LENGTH_UNITS)}; "
+            f"angle units: {', '.join(ANGLE_UNITS)}; bare numbers are m then rad)"
+        )
+        if len(tokens) != 2:
+            raise PincalError(f"bad prior {text!r}: {valid}")
+        found: dict[str, float] = {}
+        for position, token in enumerate(tokens):
+            match = _TOKEN.match(token.strip().lower())
+            if match is None:
+                raise PincalError(f"bad prior {text!r}: cannot read {token.strip()!r}; {valid}")
+            number, unit = match.groups()
+            if unit in LENGTH_UNITS:
+                kind, scale = "length", LENGTH_UNITS[unit]
+            elif unit in ANGLE_UNITS:
+                kind, scale = "angle", ANGLE_UNITS[unit]
+            elif unit == "":
+                kind, scale = ("length", "angle")[position], 1.0
+            else:
+                raise PincalError(f"bad prior {text!r}: unknown unit {unit!r}; {valid}")
+            if kind in found:
+                raise PincalError(f"bad prior {text!r}: two {kind}s; {valid}")
+            try:
+                found[kind] = float(number) * scale
+            except ValueError:
+                raise PincalError(f"bad prior {text!r}: cannot read {token.strip()!r}; {valid}") from None
+        return cls(found["length"], found["angle"])
+
+    def std(self, params: ParameterSet) -> np.ndarray:
+        """(P,) prior standard deviation of each parameter of ``params`` [m or rad]."""
+        out = np.array([self.length if p.is_length else self.angle for p in params], dtype=float)
+        for name, value in self.overrides.items():
+            chosen = set(params.select(name).names)
+            out[[i for i, n in enumerate(params.names) if n in chosen]] = value
+        return out
+
+    def covariance(self, params: ParameterSet) -> np.ndarray:
+        """(P, P) prior covariance Σp = diag(std²) [m², rad²] (inf where there is no prior)."""
+        return np.diag(self.std(params) ** 2)
+
+    def precision(self, params: ParameterSet) -> np.ndarray:
+        """(P, P) prior precision Σp⁻¹ = diag(1/std²) (0 where there is no prior): add it to
+        JᵀJ/σ² for the posterior information, or to a MAP normal equation."""
+        return np.diag(1.0 / self.std(params) ** 2)
+
+    def information(self, params: ParameterSet, sigma: float) -> np.ndarray:
+        """(P, P) σ²Σp⁻¹: the prior in the units of M = Σ JᵢᵀJᵢ for noise ``sigma`` [m] per
+        coordinate; the posterior covariance is σ²(M + σ²Σp⁻¹)⁻¹."""
+        return sigma**2 * self.precision(params)
+
+    def as_dict(self) -> dict:
+        """``{"length": m, "angle": rad, "overrides": {...}}`` (inf as None)."""
+
+        def finite(v: float) -> float | None:
+            return v if math.isfinite(v) else None
+
+        return {
+            "length": finite(self.length),
+            "angle": finite(self.angle),
+            "overrides": {k: finite(v) for k, v in self.overrides.items()},
+        }
+
+    def __str__(self) -> str:
+        def show(v: float, units: dict[str, float], small: str, large: str) -> str:
+            if not math.isfinite(v):
+                return "none"
+            return f"{v / units[small]:.4g} {small}" if v < 0.1 * units[large] else f"{v:.4g} {large}"
+
+        text = f"{show(self.length, LENGTH_UNITS, 'mm', 'm')}, {show(self.angle, ANGLE_UNITS, 'mrad', 'rad')}"
+        return text + "".join(f", {k}: {v:.4g}" for k, v in self.overrides.items())
