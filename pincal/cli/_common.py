@@ -119,13 +119,57 @@ def robot_from_args(args: argparse.Namespace) -> Robot:
     return load_robot(args.robot, tip=args.tip, markers=markers)
 
 
+BASE_HELP = (
+    "the points are measured in the instrument's frame: the robot base (base.*) is identified too, "
+    "and the chain parameters it makes redundant are dropped (the set 'pincal identify --base' uses)"
+)
+
+
+def add_base_argument(parser: argparse.ArgumentParser) -> None:
+    """--base: add base.* to the parameters (read by :func:`params_from_args`)."""
+    parser.add_argument("--base", action="store_true", help=BASE_HELP)
+
+
+def _is_base(token: str) -> bool:
+    return token == "base" or token.startswith("base.")
+
+
+def mentions_base(spec: str | None) -> bool:
+    """True when a --params SPEC names the base group or a base.* parameter."""
+    return any(_is_base(t.strip()) for t in (spec or "").split(","))
+
+
 def params_from_args(robot: Robot, args: argparse.Namespace) -> tuple[ParameterSet, str]:
-    """The parameter set asked for, and a description of where it came from.
+    """The parameter set asked for, and a description of where it came from (see
+    :func:`parameters_with_base`)."""
+    params, source, _ = parameters_with_base(robot, args)
+    return params, source
+
+
+def parameters_with_base(robot: Robot, args: argparse.Namespace) -> tuple[ParameterSet, str, list[str]]:
+    """The set asked for, plus base.* when the data are in the instrument's frame.
 
     Without --params: the identifiable base set of ``full,offsets``. With --params: that set,
-    which must be identifiable (the error names the dropped parameters and the fix).
+    which must be identifiable (the error names the dropped parameters and the fix). With --base,
+    or base names in --params: the chain set plus the whole base, the base kept first and the
+    chain parameters it makes redundant dropped — the set identify uses on instrument-frame data.
+
+    Returns:
+        (parameters, description, chain parameters dropped as redundant with the base).
     """
     spec = getattr(args, "params", None)
+    tokens = [t.strip() for t in (spec or "").split(",") if t.strip()]
+    if not (getattr(args, "base", False) or mentions_base(spec)):
+        return _chain_params(robot, spec, args.robot) + ([],)
+    rest = ",".join(t for t in tokens if not _is_base(t)) or None
+    chain, source = _chain_params(robot, rest, args.robot)
+    params = robot.parameters(list(chain.names) + ["base"]).identifiable(prefer="base").identifiable
+    dropped = [n for n in chain.names if n not in params.names]
+    note = f"; {len(dropped)} chain parameter(s) redundant with it dropped" if dropped else ""
+    return params, f"{source}, with the base frame{note}", dropped
+
+
+def _chain_params(robot: Robot, spec: str | None, robot_arg: str) -> tuple[ParameterSet, str]:
     if spec is None:
         ident = robot.parameters(DEFAULT_PARAMS).identifiable()
         return ident.identifiable, f"identifiable base set of {DEFAULT_PARAMS}"
@@ -137,7 +181,7 @@ def params_from_args(robot: Robot, args: argparse.Namespace) -> tuple[ParameterS
         raise PincalError(
             f"--params {spec}: {len(names)} parameter(s) cannot be identified from position "
             f"measurements ({shown}); use the identifiable set --params "
-            f"{','.join(ident.identifiable.names)} (see 'pincal params {args.robot}')"
+            f"{','.join(ident.identifiable.names)} (see 'pincal params {robot_arg}')"
         )
     return params, spec
 

@@ -12,6 +12,7 @@ from pincal.cli._common import (
     emit_json,
     params_from_args,
     positive,
+    read_plan,
     robot_from_args,
     test_poses_from_args,
 )
@@ -27,9 +28,12 @@ examples:
       --sigma 3e-5
   pincal baseline planar_2r -m 2 --test-pose=0.3,1.2 --params joint2.tx,tip.tx --random 1000 \\
       --d-optimal --json
+  pincal baseline ur10 -m 12 --test-pose=0,-1.2,1.5,-1,-1.5,0 --pool taught.csv --random 5000 --d-optimal
 
 Random plans: configurations drawn uniformly within the joint limits, kept if they satisfy
---constraints. Singular plans (no finite rho0) are counted, not averaged. rho0 in metres for --sigma.
+--constraints; with --pool, m distinct configurations of the pool (plan CSV format, e.g. taught
+poses) per plan, and the D-optimal plan is made of pool configurations too. Singular plans (no
+finite rho0) are counted, not averaged. rho0 in metres for --sigma.
 """
 
 
@@ -58,10 +62,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     sigma = positive(args.sigma, "--sigma")
     robot = robot_from_args(args)
-    params, _ = params_from_args(robot, args)
+    params, source = params_from_args(robot, args)
     q0 = test_poses_from_args(robot, args)
     constraints = constraints_from_args(args)
     criterion = "test-pose-worst" if args.worst else "test-pose"
+    pool = read_plan(robot, args.pool, args.deg) if args.pool else None
     with warnings.catch_warnings(record=True) as records:
         warnings.simplefilter("always")
         randoms = random_plans(
@@ -73,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
             sigma=sigma,
             constraints=constraints,
             seed=args.seed,
+            pool=pool,
         )
         d_opt = None
         if args.d_optimal:
@@ -82,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
                 q0,
                 "D",
                 method=args.method,
+                pool=pool,
                 constraints=constraints,
                 sigma=sigma,
                 seed=args.seed,
@@ -90,12 +97,18 @@ def run(args: argparse.Namespace) -> int:
             )
     print_warnings(records)
     if args.json:
-        payload = {"robot": robot.name, "params": list(params.names), "random": randoms.as_dict()}
+        payload = {
+            "robot": robot.name,
+            "params": list(params.names),
+            "params_source": source,
+            "pool": args.pool,
+            "random": randoms.as_dict(),
+        }
         if d_opt is not None:
             payload["d_optimal"] = d_opt.rho0
             payload["d_optimal_plan"] = d_opt.plan.q.tolist()
         emit_json(payload)
         return 0
-    print(f"{robot.name}: {len(params)} parameters, m = {args.m}, sigma = {sigma:g} m")
-    print_baseline(randoms, d_opt)
+    print(f"{robot.name}: {len(params)} parameters ({source}), m = {args.m}, sigma = {sigma:g} m")
+    print_baseline(randoms, d_opt, pool=args.pool)
     return 0

@@ -9,6 +9,7 @@ import warnings
 import numpy as np
 
 from pincal.cli._common import (
+    add_base_argument,
     add_command,
     add_output_arguments,
     add_robot_arguments,
@@ -49,6 +50,9 @@ Criteria (--criterion): test-pose (rho0, root mean square over several --test-po
 a pool of feasible configurations, then refined by the continuous search unless --no-polish; --pool
 gives your own, e.g. taught poses, in the plan CSV format, and keeps the plan on them), continuous
 (all joint values at once, L-BFGS-B from many random starts).
+--baseline N: rho0 of N random feasible plans (drawn from --pool when given, else within the joint
+limits and --constraints) and of the D-optimal plan, next to the designed plan's.
+--base: the tracker measures in its own frame, so base.* are identified too (as 'identify --base').
 --constraints FILE.yaml: joint_limits, workspace_box, half_space, visibility, self_collision,
 min_spacing (see pincal.constraints.load_constraints for the layout).
 Units: metres and radians; --deg reads test poses and --pool, and writes --out and prints the plan,
@@ -57,8 +61,10 @@ in degrees. The JSON plan is always in radians; rho0 is in metres for --sigma (d
 
 
 def add_design_arguments(p: argparse.ArgumentParser) -> None:
-    """Arguments design and baseline share: robot, parameters, m, test poses, constraints, noise."""
+    """Arguments design and baseline share: robot, parameters, m, test poses, constraints, noise,
+    the pool of candidate configurations."""
     add_robot_arguments(p)
+    add_base_argument(p)
     p.add_argument("-m", type=int, required=True, metavar="M", help="number of configurations to measure")
     add_test_pose_argument(p)
     p.add_argument("--constraints", metavar="FILE.yaml", help="workcell constraints (YAML)")
@@ -69,6 +75,12 @@ def add_design_arguments(p: argparse.ArgumentParser) -> None:
         "--deg", action="store_true", help="joint values in degrees (test poses, pool, plan output)"
     )
     p.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0)")
+    p.add_argument(
+        "--pool",
+        metavar="FILE.csv",
+        help="candidate configurations (plan CSV format, e.g. taught poses): plans are made of them, "
+        "random baselines drawn from them",
+    )
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -83,7 +95,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--method", default="exchange", metavar="NAME", help=f"{' or '.join(METHODS)} (default exchange)"
     )
-    p.add_argument("--pool", metavar="FILE.csv", help="exchange over these configurations (plan CSV format)")
     p.add_argument(
         "--pool-size", type=int, metavar="N", help="random feasible candidates to draw (default 2000)"
     )
@@ -131,7 +142,8 @@ def run(args: argparse.Namespace) -> int:
         raise PincalError(f"--worst applies to the test-pose criterion, not {args.criterion!r}")
     if args.pool and args.pool_size is not None:
         raise PincalError("give --pool FILE.csv or --pool-size N, not both")
-    pool = read_plan(robot, args.pool, args.deg) if args.pool else args.pool_size
+    taught = read_plan(robot, args.pool, args.deg) if args.pool else None
+    pool = taught if taught is not None else args.pool_size
     progress = not args.no_progress and sys.stderr.isatty()
     common = dict(
         constraints=constraints, sigma=sigma, seed=args.seed, workers=args.workers, progress=progress
@@ -161,6 +173,7 @@ def run(args: argparse.Namespace) -> int:
                 sigma=sigma,
                 constraints=constraints,
                 seed=args.seed,
+                pool=taught,
             )
             d_opt = design(
                 params,
@@ -184,7 +197,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         print_design(robot, params, source, result, args.deg)
         if baseline is not None:
-            print_baseline(*baseline)
+            print_baseline(*baseline, pool=args.pool)
         if args.out:
             print(f"wrote {args.out} ({'degrees' if args.deg else 'radians'})")
     sys.stdout.flush()
@@ -249,10 +262,11 @@ def print_design(robot, params, source: str, result: DesignResult, degrees: bool
         print(line)
 
 
-def print_baseline(randoms: RandomPlans, d_opt: DesignResult | None) -> None:
+def print_baseline(randoms: RandomPlans, d_opt: DesignResult | None, pool: str | None = None) -> None:
     singular = f", {randoms.n_singular} singular" if randoms.n_singular else ""
+    drawn = f" of the configurations of {pool}" if pool else ""
     print(
-        f"baseline, {randoms.n} random feasible plans{singular}: rho0 min {fmt_length(randoms.min)}, "
+        f"baseline, {randoms.n} random feasible plans{drawn}{singular}: rho0 min {fmt_length(randoms.min)}, "
         f"median {fmt_length(randoms.median)}, mean {fmt_length(randoms.mean)}, max {fmt_length(randoms.max)}"
     )
     if d_opt is not None:

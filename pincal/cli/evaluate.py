@@ -7,6 +7,7 @@ import argparse
 import numpy as np
 
 from pincal.cli._common import (
+    add_base_argument,
     add_command,
     add_output_arguments,
     add_robot_arguments,
@@ -27,6 +28,7 @@ EXAMPLES = """\
 examples:
   pincal evaluate kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --sigma 3e-5
   pincal evaluate planar_2r --plan plan.csv --test-pose=0.3,1.2 --params joint2.tx,tip.tx --json
+  pincal evaluate kr270 --plan plan.csv --deg --test-pose=0,-90,90,0,45,0 --base   # tracker-frame data
   pincal evaluate robots/kr270.urdf --plan plan.csv --test-pose=-0.5,-1.2,1.0,0,0.8,0 \\
       --test-pose=0.5,-1.2,1.0,0,0.8,0 --worst
 
@@ -38,6 +40,7 @@ rho0 is in metres for the given --sigma (noise per coordinate, metres; default 1
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = add_command(sub, "evaluate", HELP, EXAMPLES)
     add_robot_arguments(p)
+    add_base_argument(p)
     p.add_argument("--plan", required=True, metavar="PLAN.csv", help="the configurations to evaluate")
     add_test_pose_argument(p)
     p.add_argument(

@@ -9,17 +9,16 @@ from pincal.calibration.identification import identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.urdf_export import export_urdf
 from pincal.cli._common import (
+    add_base_argument,
     add_command,
     add_output_arguments,
     add_robot_arguments,
     emit_json,
-    params_from_args,
+    parameters_with_base,
     positive,
     robot_from_args,
 )
 from pincal.errors import IdentificationFailed, OverwriteRefused
-from pincal.model.parameters import ParameterSet, _split
-from pincal.model.robot import Robot
 
 HELP = "identify the geometric errors from measurements and write the calibrated URDF"
 EXAMPLES = """\
@@ -48,9 +47,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--data", required=True, metavar="MEAS.csv", help="the measurements (format below)")
     p.add_argument("--mm", action="store_true", help="measured coordinates are in millimetres")
     p.add_argument("--deg", action="store_true", help="joint values are in degrees")
-    p.add_argument(
-        "--base", action="store_true", help="measurements are in the instrument's frame: identify base.* too"
-    )
+    add_base_argument(p)
     p.add_argument(
         "--sigma",
         type=float,
@@ -60,28 +57,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", metavar="CALIBRATED.urdf", help="write the calibrated URDF here")
     add_output_arguments(p)
     p.set_defaults(run=run)
-
-
-def _mentions_base(spec: str | None) -> bool:
-    return spec is not None and any(t == "base" or t.startswith("base.") for t in _split(spec))
-
-
-def parameters_with_base(robot: Robot, args: argparse.Namespace) -> tuple[ParameterSet, str, list[str]]:
-    """The set asked for, plus base.* when the data are in the instrument's frame.
-
-    Returns:
-        (parameters, description, chain parameters dropped as redundant with the base).
-    """
-    if not (args.base or _mentions_base(args.params)):
-        params, source = params_from_args(robot, args)
-        return params, source, []
-    rest = [t for t in _split(args.params or "") if not (t == "base" or t.startswith("base."))]
-    chain, source = params_from_args(
-        robot, argparse.Namespace(**{**vars(args), "params": ",".join(rest) or None})
-    )
-    params = robot.parameters(list(chain.names) + ["base"]).identifiable(prefer="base").identifiable
-    dropped = [n for n in chain.names if n not in params.names]
-    return params, f"{source}, with the base frame", dropped
 
 
 def run(args: argparse.Namespace) -> int:

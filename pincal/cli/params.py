@@ -6,10 +6,12 @@ import argparse
 
 from pincal.cli._common import (
     DEFAULT_PARAMS,
+    add_base_argument,
     add_command,
     add_output_arguments,
     add_robot_arguments,
     emit_json,
+    mentions_base,
     robot_from_args,
 )
 
@@ -19,6 +21,7 @@ examples:
   pincal params kr270                               # full,offsets on the flange centre
   pincal params kr270 --marker 0.1,0.05,0.2 --params full
   pincal params ur10 --params lengths,offsets --json
+  pincal params kr270 --marker 0.1,0.05,0.2 --base  # the set 'identify --base' uses on tracker data
 
 Names: <joint>.tx|ty|tz (origin xyz error, parent link coordinates, m), <joint>.rx|ry|rz (rotation
 about the joint frame's axes, rad), <joint>.offset, <tip>.tx..rz, marker<k>.x|y|z, base.tx..rz.
@@ -35,6 +38,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=DEFAULT_PARAMS,
         help=f"parameters to examine (default {DEFAULT_PARAMS})",
     )
+    add_base_argument(p)
     p.add_argument("--seed", type=int, default=0, help="seed of the random configurations (default 0)")
     add_output_arguments(p)
     p.set_defaults(run=run)
@@ -42,8 +46,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
-    params = robot.parameters(args.params)
-    ident = params.identifiable(seed=args.seed)
+    spec = args.params + (",base" if args.base and not mentions_base(args.params) else "")
+    params = robot.parameters(spec)
+    # With the base, it is kept first: the chain parameters it makes redundant are the ones dropped.
+    ident = params.identifiable(seed=args.seed, prefer="base" if mentions_base(spec) else ())
     if args.json:
         emit_json(
             {

@@ -85,6 +85,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--baseline", type=int, default=1000, metavar="N", help="random plans for --plot (default 1000)"
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the random plans (default 0)")
+    p.add_argument(
+        "--pool",
+        metavar="FILE.csv",
+        help="draw --plot's random plans from these configurations (plan CSV format, e.g. taught poses)",
+    )
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -97,6 +102,8 @@ def run(args: argparse.Namespace) -> int:
         positive(args.scale, "--scale")
     if args.plot and not args.test_pose:
         raise PincalError("--plot compares rho0 at the test pose: give --test-pose")
+    if args.pool and not args.plot:
+        raise PincalError("--pool is where --plot draws its random plans: give --plot too")
     if args.baseline < 1:
         raise PincalError(f"--baseline must be a positive number of random plans, got {args.baseline}")
     robot = robot_from_args(args)
@@ -165,8 +172,9 @@ def _plot_baseline(params, plan, q0: np.ndarray, sigma: float, constraints, args
     from pincal.planning.driver import random_plans
     from pincal.viewing.plots import rho0_histogram
 
+    pool = read_plan(params.robot, args.pool, args.deg) if args.pool else None
     randoms = random_plans(
-        params, len(plan), args.baseline, q0, sigma=sigma, constraints=constraints, seed=args.seed
+        params, len(plan), args.baseline, q0, sigma=sigma, constraints=constraints, seed=args.seed, pool=pool
     )
     if randoms.n_singular == randoms.n:
         raise PincalError(

@@ -694,12 +694,15 @@ def random_plans(
     sigma: float = 1.0,
     constraints: Iterable[AnyConstraint] = (),
     seed: int | None = 0,
+    pool: object = None,
 ) -> RandomPlans:
     """The distribution of a criterion over ``n`` random feasible plans of m configurations.
 
     Configurations are drawn uniformly within the joint limits and kept if they satisfy the
-    constraints; plans breaking the minimum spacing are drawn again. All plans are evaluated in
-    batches (one Jacobian pass over all n·m configurations, batched eigen-decompositions).
+    constraints — or, with a ``pool``, m distinct configurations are drawn from the pool's
+    feasible ones, the baseline of a design over that pool; plans breaking the minimum spacing
+    are drawn again. All plans are evaluated in batches (one Jacobian pass over all n·m
+    configurations, batched eigen-decompositions).
 
     Args:
         params: the parameters to identify.
@@ -710,15 +713,25 @@ def random_plans(
         sigma: measurement noise per coordinate [m].
         constraints: as for :func:`design`.
         seed: seed of the draws.
+        pool: (N, nq) configurations or a Plan (e.g. taught poses) to draw the plans from, as
+            :func:`design` searches them (infeasible ones are dropped); default: the joint limits.
 
     Returns:
         the values (ρ0 [m] for the test-pose criteria) and their min / mean / median / max.
+
+    Example:
+        >>> import pincal
+        >>> params = pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")
+        >>> taught = [[0.0, 0.5], [0.0, 1.5], [0.0, 2.5]]
+        >>> randoms = pincal.random_plans(params, 2, 50, test_pose=[0.0, 1.0], pool=taught)
+        >>> randoms.n, randoms.n_singular
+        (50, 0)
     """
     with _multistart.single_threaded_blas():
-        return _random_plans(params, m, n, test_pose, criterion, sigma, tuple(constraints), seed)
+        return _random_plans(params, m, n, test_pose, criterion, sigma, tuple(constraints), seed, pool)
 
 
-def _random_plans(params, m, n, test_pose, criterion, sigma, constraints, seed) -> RandomPlans:
+def _random_plans(params, m, n, test_pose, criterion, sigma, constraints, seed, pool) -> RandomPlans:
     criterion = criterion_name(criterion)
     m = _positive_int(m, "m (number of configurations)")
     n = _positive_int(n, "n (number of random plans)")
@@ -726,12 +739,22 @@ def _random_plans(params, m, n, test_pose, criterion, sigma, constraints, seed) 
     sigma = _sigma(sigma)
     feasibility = Feasibility(params.robot, constraints)
     rng = np.random.default_rng(seed)
-    qs = feasibility.sample(n * m, rng).reshape(n, m, -1)
+    if pool is None:
+
+        def draw(k: int) -> np.ndarray:
+            return feasibility.sample(k * m, rng).reshape(k, m, -1)
+    else:
+        candidates, _ = _user_pool(params.robot, pool, feasibility, m)
+
+        def draw(k: int) -> np.ndarray:
+            return np.stack([candidates[rng.choice(len(candidates), m, replace=False)] for _ in range(k)])
+
+    qs = draw(n)
     for _ in range(50):
         bad = [i for i in range(n) if not feasibility.spacing_ok(qs[i])]
         if not bad:
             break
-        qs[bad] = feasibility.sample(len(bad) * m, rng).reshape(len(bad), m, -1)
+        qs[bad] = draw(len(bad))
     else:
         raise Infeasible(f"random plans of {m} configurations rarely satisfy min_spacing; lower it")
     engine = JacobianEngine(params)
