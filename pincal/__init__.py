@@ -36,9 +36,19 @@ from pincal.errors import (
     UnsupportedJoint,
     UrdfError,
 )
+from pincal.evaluation.accuracy import (
+    AccuracyReport,
+    ErrorProfile,
+    PredictedError,
+    WorstFound,
+    accuracy,
+    error_profile,
+    worst_found,
+)
 from pincal.evaluation.classic import Criteria, criteria
 from pincal.evaluation.information import information_matrix
 from pincal.evaluation.prior import Prior
+from pincal.evaluation.region import CartesianBox, Neighbourhood, TestPath, TestRegion, around, cartesian_box
 from pincal.evaluation.test_pose import TestPoseCriterion, position_covariance, rho0
 from pincal.model.base_parameters import Identifiability, identifiability
 from pincal.model.parameters import Parameter, ParameterSet
@@ -65,14 +75,17 @@ from pincal.viewing.scene import Scene, scene, show
 __version__ = "0.1.0"
 
 __all__ = [
+    "AccuracyReport",
     "BadConfiguration",
     "BadConstraint",
     "BadMeasurementData",
     "BadPlanFile",
+    "CartesianBox",
     "Criteria",
     "DegenerateOptimum",
     "DegenerateOptimumWarning",
     "DesignResult",
+    "ErrorProfile",
     "FrameNotFound",
     "HalfSpace",
     "Identifiability",
@@ -84,11 +97,13 @@ __all__ = [
     "MinSpacing",
     "MissingDependency",
     "MonteCarloResult",
+    "Neighbourhood",
     "OverwriteRefused",
     "Parameter",
     "ParameterSet",
     "PincalError",
     "Plan",
+    "PredictedError",
     "Prior",
     "RandomErrors",
     "RandomPlans",
@@ -98,16 +113,23 @@ __all__ = [
     "SelfCollision",
     "SingularPlan",
     "StartRecord",
+    "TestPath",
     "TestPoseCriterion",
+    "TestRegion",
     "UnknownName",
     "UnknownParameter",
     "UnsupportedJoint",
     "UrdfError",
     "Visibility",
     "WorkspaceBox",
+    "WorstFound",
     "__version__",
+    "accuracy",
+    "around",
+    "cartesian_box",
     "criteria",
     "design",
+    "error_profile",
     "export_urdf",
     "identifiability",
     "identify",
@@ -123,4 +145,5 @@ __all__ = [
     "shipped_robots",
     "show",
     "simulate_measurements",
+    "worst_found",
 ]

@@ -1,8 +1,19 @@
 r"""The test-pose criterion ρ0 (SPEC §4, §5.1).
 
 ρ0² = E‖g(q₀, Π̂) − g(q₀, Π)‖² = σ² trace(J₀ M⁻¹ J₀ᵀ), J₀ = J(q₀) [m²]: the expected squared position
-error at the test pose q₀ after compensation. With several test poses, the mean of ρ0²
-(``aggregate="mean"``) or its largest value (``"worst"``). ρ0 is a distance: it never mixes units.
+error at the test pose q₀ after compensation. With several test poses, a path or a region (see
+:mod:`pincal.evaluation.region`), the mean of ρ0² (``aggregate="mean"``, the V/I-optimal design) or
+its largest value (``"worst"``). ρ0 is a distance: it never mixes units.
+
+The mean over n test poses is σ² tr(M⁻¹A), A = (1/n) Σₖ J0ₖᵀJ0ₖ (P×P): A is computed once and
+factored, A = FFᵀ with at most P columns (:func:`mean_weight_factor`), so that an evaluation costs
+the same for n = 1 or n = 10 000.
+
+With a prior (:class:`~pincal.Prior`, covariance Σp of the errors before calibration), the posterior
+covariance is σ²(M + Λ)⁻¹, Λ = σ²Σp⁻¹, and ρ0² = σ² tr(J₀(M + Λ)⁻¹J₀ᵀ) (the Bayesian criterion):
+finite for every plan, ρ0² without prior as Σp → ∞. It splits exactly into the part due to the
+measurement noise, σ² tr(J₀CMCJ₀ᵀ), and the part of the prior errors the plan leaves uncorrected,
+σ² tr(J₀CΛCJ₀ᵀ), with C = (M + Λ)⁻¹ (:meth:`TestPoseCriterion.split`).
 
 A plan whose M is singular (too few configurations, or degenerate ones) has no finite criterion:
 :class:`~pincal.errors.SingularPlan` is raised, naming the minimum number of configurations.
@@ -15,10 +26,25 @@ from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from pincal.errors import PincalError
 from pincal.evaluation.information import factor, information_matrix
+from pincal.evaluation.prior import Prior
+from pincal.evaluation.region import resolve_test_poses
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 
 AGGREGATES = ("mean", "worst", "each")
+
+
+def mean_weight_factor(J0: np.ndarray) -> np.ndarray:
+    """(P, r) F with FFᵀ = A = (1/k) Σₖ J0ₖᵀJ0ₖ, r ≤ P, for (k, 3K, P) test-pose Jacobians:
+    mean_k tr(J0ₖ M⁻¹ J0ₖᵀ) = tr(M⁻¹A) = ‖L⁻¹F‖² (M = LLᵀ), whatever k."""
+    J0 = np.asarray(J0)
+    k, P = len(J0), J0.shape[-1]
+    W = J0.reshape(-1, P)
+    if W.shape[0] <= P:
+        return np.ascontiguousarray(W.T / np.sqrt(k))
+    w, V = np.linalg.eigh(W.T @ W / k)
+    keep = w > w[-1] * 1e-15
+    return np.ascontiguousarray(V[:, keep] * np.sqrt(w[keep]))
 
 
 class TestPoseCriterion:
@@ -30,10 +56,12 @@ class TestPoseCriterion:
 
     Args:
         params: the parameters identified.
-        test_poses: (nq,) or (k, nq) test configuration(s) [rad or m].
+        test_poses: (nq,) or (k, nq) test configuration(s) [rad or m], or a
+            :class:`~pincal.evaluation.region.TestRegion` (its sample configurations).
         sigma: measurement noise standard deviation per coordinate [m].
         aggregate: ``"mean"`` (root of the mean ρ0² over test poses), ``"worst"`` (largest ρ0)
             or ``"each"`` (one ρ0 per test pose).
+        prior: the errors' prior (Bayesian criterion), or None.
     """
 
     __test__ = False  # not a pytest class
@@ -44,6 +72,7 @@ class TestPoseCriterion:
         test_poses: object,
         sigma: float = 1.0,
         aggregate: str = "mean",
+        prior: Prior | None = None,
     ) -> None:
         if aggregate not in AGGREGATES:
             raise PincalError(f"unknown aggregate {aggregate!r}; valid: {', '.join(AGGREGATES)}")
@@ -51,29 +80,49 @@ class TestPoseCriterion:
             raise PincalError(f"sigma must be a positive number of metres, got {sigma!r}")
         self.params = params
         self.engine = JacobianEngine(params)
-        self.test_poses = params.robot.configurations(test_poses, what="test pose")
+        self.test_poses, self.region = resolve_test_poses(params.robot, test_poses)
         self.sigma = float(sigma)
         self.aggregate = aggregate
         J0 = self.engine.jacobian(self.test_poses, frame="tip")
         self.k = len(self.test_poses)
         self.J0T = np.ascontiguousarray(J0.reshape(-1, len(params)).T)  # (P, k·3K)
+        self.weight_factor = mean_weight_factor(J0)  # (P, ≤ P): the mean's one weighted trace
+        self.prior = prior
+        self.prior_information = None if prior is None else prior.information(params, self.sigma)
 
     @property
     def rows(self) -> int:
         """Measured coordinates per configuration (3 per marker)."""
         return self.engine.rows
 
+    def posterior(self, M: np.ndarray) -> np.ndarray:
+        """M + Λ (Λ = σ²Σp⁻¹ of the prior; M itself without one)."""
+        return M if self.prior_information is None else M + self.prior_information
+
     def rho0_squared_from_information(self, M: np.ndarray, m: int) -> np.ndarray:
         """(k,) ρ0² [m²] at each test pose for information matrix M of an m-configuration plan."""
-        L = factor(M, self.rows, m)
+        L = factor(self.posterior(M), self.rows, m)
         X, _ = _trtrs(L, self.J0T, lower=1)
         return self.sigma**2 * np.einsum("ij,ij->j", X, X).reshape(self.k, -1).sum(axis=1)
 
+    def split(self, M: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """(k,) ρ0² [m²] due to the measurement noise and (k,) ρ0² due to the prior errors the plan
+        leaves uncorrected; they add up to ρ0² (the second is 0 without a prior)."""
+        L = factor(self.posterior(M), self.rows, m)
+        X, _ = _trtrs(L, self.J0T, lower=1)
+        Y, _ = _trtrs(L, X, lower=1, trans=1)  # (M + Λ)⁻¹ J0ᵀ
+        s2 = self.sigma**2
+        noise = s2 * np.einsum("ij,ij->j", Y, M @ Y).reshape(self.k, -1).sum(axis=1)
+        if self.prior_information is None:
+            return noise, np.zeros(self.k)
+        bias = s2 * np.einsum("ij,ij->j", Y, self.prior_information @ Y).reshape(self.k, -1).sum(axis=1)
+        return noise, bias
+
     def from_information(self, M: np.ndarray, m: int):
         """ρ0 [m] (aggregated as asked) for an information matrix M of m configurations."""
-        if self.aggregate == "mean":  # the hot path: one number, no per-pose split
-            X, _ = _trtrs(factor(M, self.rows, m), self.J0T, lower=1)
-            return self.sigma * np.sqrt(np.einsum("ij,ij", X, X) / self.k)
+        if self.aggregate == "mean":  # the hot path: one weighted trace, whatever the number of poses
+            X, _ = _trtrs(factor(self.posterior(M), self.rows, m), self.weight_factor, lower=1)
+            return self.sigma * np.sqrt(np.einsum("ij,ij", X, X))
         r2 = self.rho0_squared_from_information(M, m)
         if self.aggregate == "mean":
             return float(np.sqrt(r2.mean()))
@@ -93,6 +142,7 @@ def rho0(
     test_pose: object,
     sigma: float = 1.0,
     aggregate: str = "mean",
+    prior: Prior | None = None,
 ):
     """Expected position error at the test pose(s) after calibrating with ``plan``.
 
@@ -101,19 +151,23 @@ def rho0(
     Args:
         params: the parameters identified (use an identifiable set).
         plan: (m, nq) configurations [rad or m] or a :class:`~pincal.Plan`.
-        test_pose: (nq,) or (k, nq) test configuration(s).
+        test_pose: (nq,) or (k, nq) test configuration(s), or a region or path
+            (:func:`pincal.around`, :class:`pincal.TestPath`, :func:`pincal.cartesian_box`).
         sigma: measurement noise standard deviation per coordinate [m]; ρ0 is proportional.
         aggregate: ``"mean"``, ``"worst"`` or ``"each"`` over several test poses.
+        prior: the errors' prior (:class:`pincal.Prior`): ρ0 from the posterior covariance
+            σ²(M + σ²Σp⁻¹)⁻¹, finite for every plan (σ must then be the real noise in metres).
 
     Returns:
         ρ0 [m]: a float, or a (k,) array for ``aggregate="each"``.
 
     Raises:
-        SingularPlan: the plan cannot identify ``params`` (names the minimum m).
+        SingularPlan: the plan cannot identify ``params`` (names the minimum m); never with a
+            prior on every parameter.
         BadConfiguration: a configuration or test pose of the wrong size or outside the limits.
     """
     qs = params.robot.configurations(plan)
-    return TestPoseCriterion(params, test_pose, sigma, aggregate)(qs)
+    return TestPoseCriterion(params, test_pose, sigma, aggregate, prior)(qs)
 
 
 def position_covariance(

@@ -1,0 +1,398 @@
+r"""Accuracy away from the test pose: the predicted error after calibration anywhere (SPEC §5.1).
+
+After calibrating with a plan, the predicted position error at any configuration q is
+ρ(q) = σ·sqrt(tr(J(q) C J(q)ᵀ)), C = (M + Λ)⁻¹ (Λ = σ²Σp⁻¹ with a prior, else 0): the test-pose
+criterion evaluated elsewhere. A plan designed for one test pose keeps its promise there and may
+be much worse a few degrees away; :func:`accuracy` says how much, at the test pose(s), over
+±10° and ±20° neighbourhoods and over the whole workspace, next to a reference plan (the
+D-optimal one in pincal's reports), so the trade-off is visible.
+
+* :class:`PredictedError` — ρ(q) of one plan at any batch of configurations.
+* :func:`worst_found` — the worst ρ over a region: the largest sampled value, then a local
+  maximisation (L-BFGS-B over the region's unit cube) from the worst few samples. It is the worst
+  *found*, a lower bound of the true maximum over a continuous region, with the pose where it is.
+* :func:`error_profile` — median and 95th percentile of ρ against the joint-space distance
+  max_j |q_j − q0_j| from the test pose (for a plot).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg.lapack import dtrtrs as _trtrs
+
+from pincal.evaluation.information import factor
+from pincal.evaluation.prior import Prior
+from pincal.evaluation.region import ResolvedRegion, resolve_test_poses
+from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.model.jacobian import JacobianEngine
+from pincal.model.parameters import ParameterSet
+
+NEIGHBOURHOODS = (math.radians(10), math.radians(20))
+"""Half-widths of the neighbourhoods every report covers [rad]."""
+
+WORKSPACE_SAMPLES = 2000
+"""Configurations drawn uniformly within the joint limits for the workspace statistics."""
+
+NEIGHBOURHOOD_SAMPLES = 512
+"""Configurations drawn in each neighbourhood."""
+
+
+class PredictedError:
+    """ρ(q) [m], the predicted position error after calibrating with ``plan``, at any q.
+
+    Args:
+        params: the parameters identified.
+        plan: (m, nq) configurations or a Plan.
+        sigma: measurement noise per coordinate [m].
+        prior: the errors' prior, or None.
+
+    Raises:
+        SingularPlan: the plan cannot identify ``params`` (never with a prior on every parameter).
+    """
+
+    def __init__(self, params: ParameterSet, plan: object, sigma: float, prior: Prior | None = None) -> None:
+        self.params = params
+        self.sigma = float(sigma)
+        self.prior = prior
+        self.engine = JacobianEngine(params)
+        qs = params.robot.configurations(plan)
+        J = self.engine.jacobian(qs, frame="tip").reshape(-1, len(params))
+        self.information = J.T @ J  # M, of the measurements alone
+        self.m = len(qs)
+        posterior = (
+            self.information if prior is None else self.information + prior.information(params, self.sigma)
+        )
+        self.L = factor(posterior, self.engine.rows, self.m)
+
+    def squared(self, qs: np.ndarray, chunk: int = 4096) -> np.ndarray:
+        """(n,) ρ² [m²] at configurations ``qs`` (trusted: within the limits)."""
+        qs = np.atleast_2d(qs)
+        out = np.empty(len(qs))
+        P = len(self.params)
+        for a in range(0, len(qs), chunk):
+            J = self.engine.jacobian(qs[a : a + chunk], frame="tip")
+            X, _ = _trtrs(self.L, np.ascontiguousarray(J.reshape(-1, P).T), lower=1)
+            out[a : a + len(J)] = np.einsum("ij,ij->j", X, X).reshape(len(J), -1).sum(axis=1)
+        return self.sigma**2 * out
+
+    def __call__(self, qs: np.ndarray) -> np.ndarray:
+        """(n,) ρ [m] at configurations ``qs``."""
+        return np.sqrt(self.squared(qs))
+
+
+@dataclass(frozen=True)
+class WorstFound:
+    """The worst predicted error found over a region.
+
+    Attributes:
+        rho: the largest ρ found [m] (≥ every sampled value).
+        pose: (nq,) the configuration where it was found [rad or m].
+        sampled: the largest ρ among the region's samples [m].
+        searched: a local maximisation ran (continuous region), else the samples are the region.
+    """
+
+    rho: float
+    pose: np.ndarray
+    sampled: float
+    searched: bool
+
+    def as_dict(self) -> dict:
+        return {
+            "rho": self.rho,
+            "pose": self.pose.tolist(),
+            "sampled": self.sampled,
+            "searched": self.searched,
+        }
+
+
+def worst_found(predicted: PredictedError, region: ResolvedRegion, starts: int = 3) -> WorstFound:
+    """The worst ρ over a region: sampled, then maximised locally from the ``starts`` worst
+    samples (continuous regions). See the module doc."""
+    r2 = predicted.squared(region.poses)
+    best = int(np.argmax(r2))
+    sampled = float(np.sqrt(r2[best]))
+    if not region.continuous:
+        return WorstFound(sampled, np.array(region.poses[best]), sampled, False)
+    from scipy.optimize import minimize
+
+    to_q = region.to_configuration
+    scale = 1.0 / max(float(r2[best]), 1e-300)
+    h = 1e-6
+    shifts = np.vstack(
+        [np.zeros(region.dimension), h * np.eye(region.dimension), -h * np.eye(region.dimension)]
+    )
+
+    def negative(u: np.ndarray) -> tuple[float, np.ndarray]:
+        # −ρ²(u) and its central-difference gradient, the 2d + 1 configurations in one batch.
+        points = np.clip(u + shifts, 0.0, 1.0)
+        qs = [to_q(p) for p in points]
+        if any(q is None for q in qs):
+            return 0.0, np.zeros_like(u)
+        f = -predicted.squared(np.array(qs)) * scale
+        d = region.dimension
+        return float(f[0]), (f[1 : d + 1] - f[d + 1 :]) / np.maximum(
+            points[1 : d + 1] - points[d + 1 :], h
+        ).diagonal()
+
+    best_value, best_pose = float(r2[best]), np.array(region.poses[best])
+    bounds = [(0.0, 1.0)] * region.dimension
+    for s in np.argsort(r2)[::-1][:starts]:
+        u0 = region.unit_samples[s]
+        result = minimize(negative, u0, jac=True, method="L-BFGS-B", bounds=bounds, options={"maxiter": 50})
+        q = to_q(result.x)
+        if q is None:
+            continue
+        value = float(predicted.squared(q[None])[0])
+        if value > best_value:
+            best_value, best_pose = value, q
+    return WorstFound(math.sqrt(best_value), best_pose, sampled, True)
+
+
+@dataclass(frozen=True)
+class ErrorSummary:
+    """Predicted errors over a set of configurations [m].
+
+    Attributes:
+        where: what the set is (``"test pose"``, ``"±10°"``, ``"workspace"``, ...).
+        n: configurations.
+        rms: root mean square (the square root of the mean criterion).
+        median, p95, max: of ρ over the set.
+    """
+
+    where: str
+    n: int
+    rms: float
+    median: float
+    p95: float
+    max: float
+
+    @classmethod
+    def of(cls, where: str, rho: np.ndarray) -> ErrorSummary:
+        return cls(
+            where,
+            len(rho),
+            float(np.sqrt(np.mean(rho**2))),
+            float(np.median(rho)),
+            float(np.percentile(rho, 95)),
+            float(rho.max()),
+        )
+
+    def as_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+@dataclass(frozen=True)
+class PlanAccuracy:
+    """Where one plan leaves the robot accurate.
+
+    Attributes:
+        name: ``"plan"``, ``"D-optimal"``, ...
+        rows: the summaries at the test pose(s), over each neighbourhood and over the workspace.
+        worst: the worst found over the test region (None for plain test poses).
+        from_measurements, from_prior: rms ρ0 at the test pose(s) due to the measurement noise and
+            due to the prior errors the plan leaves uncorrected [m] (their squares add up to the
+            test-pose row's rms²); ``from_prior`` is 0 without a prior.
+    """
+
+    name: str
+    rows: tuple[ErrorSummary, ...]
+    worst: WorstFound | None
+    from_measurements: float
+    from_prior: float
+
+    def row(self, where: str) -> ErrorSummary:
+        return next(r for r in self.rows if r.where == where)
+
+    def as_dict(self) -> dict:
+        return {
+            "name": self.name,
+            "rows": [r.as_dict() for r in self.rows],
+            "worst_found": None if self.worst is None else self.worst.as_dict(),
+            "from_measurements": self.from_measurements,
+            "from_prior": self.from_prior,
+        }
+
+
+@dataclass(frozen=True)
+class AccuracyReport:
+    """Predicted accuracy after calibration, at and away from the test pose(s), for a plan and
+    the plans it is compared with (see :func:`accuracy`).
+
+    Attributes:
+        plans: one :class:`PlanAccuracy` per plan (the plan first).
+        sigma: measurement noise per coordinate [m].
+        prior: the prior, or None.
+        before: rms error at the test pose(s) before calibration, predicted by the prior
+            (sqrt of the mean tr(J₀ΣpJ₀ᵀ)) [m]; None without a (finite) prior.
+        region: description of the test region (or ``"test pose"``).
+    """
+
+    plans: tuple[PlanAccuracy, ...]
+    sigma: float
+    prior: Prior | None
+    before: float | None
+    region: str
+
+    def as_dict(self) -> dict:
+        return {
+            "plans": [p.as_dict() for p in self.plans],
+            "sigma": self.sigma,
+            "prior": None if self.prior is None else self.prior.as_dict(),
+            "before_calibration": self.before,
+            "region": self.region,
+        }
+
+    def lines(self, unit: str = "mm") -> list[str]:
+        """The report as text lines (a table: one column pair per plan)."""
+        scale = {"mm": 1e3, "m": 1.0, "um": 1e6}[unit]
+        names = [p.name for p in self.plans]
+        head = f"  {'predicted error after calibration [' + unit + ']':<44}" + "".join(
+            f"{n:>22}" for n in names
+        )
+        out = [head, f"  {'':<44}" + "".join(f"{'rms':>11}{'p95':>11}" for _ in names)]
+        for i, row in enumerate(self.plans[0].rows):
+            label = row.where + (" (median, p95)" if row.where == "workspace" else "")
+            cells = []
+            for p in self.plans:
+                r = p.rows[i]
+                first = r.median if row.where == "workspace" else r.rms
+                cells.append(f"{first * scale:11.4g}{r.p95 * scale:11.4g}")
+            out.append(f"  {label:<44}" + "".join(cells))
+        for p in self.plans:
+            if p.worst is not None:
+                out.append(
+                    f"  {p.name}: worst {'found' if p.worst.searched else 'of the test poses'} "
+                    f"{p.worst.rho * scale:.4g} {unit} at q = "
+                    + ", ".join(f"{v:.4g}" for v in p.worst.pose)
+                    + " rad"
+                )
+        if self.prior is not None:
+            p = self.plans[0]
+            out.append(
+                f"  prior {self.prior}: at the test pose(s), {p.from_measurements * scale:.4g} {unit} rms "
+                f"from the measurements and {p.from_prior * scale:.4g} {unit} from the prior"
+                + ("" if self.before is None else f" (before calibration: {self.before * scale:.4g} {unit})")
+            )
+        return out
+
+
+def _neighbourhood(robot, centers: np.ndarray, delta: float, n: int, rng: np.random.Generator) -> np.ndarray:
+    """n configurations uniform in the boxes centres ± δ (a centre drawn per sample), clipped to
+    the joint limits."""
+    c = centers[rng.integers(len(centers), size=n)]
+    return np.clip(c + rng.uniform(-delta, delta, c.shape), robot.lower, robot.upper)
+
+
+def accuracy(
+    params: ParameterSet,
+    plan: object,
+    test_pose: object,
+    sigma: float,
+    prior: Prior | None = None,
+    compare: dict[str, object] | None = None,
+    neighbourhoods: tuple[float, ...] = NEIGHBOURHOODS,
+    samples: int = NEIGHBOURHOOD_SAMPLES,
+    workspace: int = WORKSPACE_SAMPLES,
+    seed: int = 0,
+) -> AccuracyReport:
+    """Predicted error after calibrating with ``plan`` (and each plan of ``compare``), at the
+    test pose(s), over neighbourhoods of them, and over the workspace.
+
+    Every plan is evaluated on the same configurations: the test poses (a region's samples),
+    ``samples`` configurations uniform in each box q0 ± δ (a test pose drawn per sample, clipped to
+    the joint limits), and ``workspace`` configurations uniform within the joint limits (revolute
+    joints within ±π).
+
+    Args:
+        params: the parameters identified.
+        plan: the plan (m, nq) or a Plan.
+        test_pose: test pose(s) or a region/path (see :func:`pincal.rho0`).
+        sigma: measurement noise per coordinate [m].
+        prior: the errors' prior, or None.
+        compare: ``{name: plan}`` to report next to it, e.g. ``{"D-optimal": d_plan}``.
+        neighbourhoods: half-widths δ [rad or m].
+        samples: configurations per neighbourhood.
+        workspace: configurations over the workspace.
+        seed: seed of the draws.
+    """
+    robot = params.robot
+    poses, region = resolve_test_poses(robot, test_pose)
+    rng = np.random.default_rng(seed)
+    sets = [("test pose" if len(poses) == 1 else "test poses", poses)]
+    for delta in neighbourhoods:
+        sets.append((f"±{math.degrees(delta):.3g}°", _neighbourhood(robot, poses, delta, samples, rng)))
+    sets.append(("workspace", robot.random_configurations(workspace, rng)))
+    plans = [("plan", plan)] + list((compare or {}).items())
+    at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior)
+    out = []
+    for name, q in plans:
+        predicted = PredictedError(params, q, sigma, prior)
+        rows = tuple(ErrorSummary.of(where, np.sqrt(predicted.squared(qs))) for where, qs in sets)
+        worst = None if region is None else worst_found(predicted, region)
+        noise, bias = at_test_poses.split(predicted.information, predicted.m)
+        out.append(PlanAccuracy(name, rows, worst, float(np.sqrt(noise.mean())), float(np.sqrt(bias.mean()))))
+    before = None
+    if prior is not None and np.all(np.isfinite(prior.std(params))):
+        J0 = JacobianEngine(params).jacobian(poses, frame="tip")
+        before = float(np.sqrt(np.einsum("kip,p,kip->", J0, prior.std(params) ** 2, J0) / len(poses)))
+    return AccuracyReport(
+        tuple(out),
+        float(sigma),
+        prior,
+        before,
+        "test pose" if region is None else region.description,
+    )
+
+
+@dataclass(frozen=True)
+class ErrorProfile:
+    """Predicted error against the distance from the test pose, for one plan.
+
+    Attributes:
+        name: the plan's name.
+        distance: (n,) joint-space distances max_j |q_j − q0_j| [rad].
+        median, p95: (n,) of ρ over configurations at that distance [m].
+    """
+
+    name: str
+    distance: np.ndarray
+    median: np.ndarray
+    p95: np.ndarray
+
+    def as_dict(self) -> dict:
+        return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()}
+
+
+def error_profile(
+    params: ParameterSet,
+    plans: dict[str, object],
+    test_pose: object,
+    sigma: float,
+    prior: Prior | None = None,
+    max_distance: float = math.radians(30),
+    steps: int = 13,
+    samples: int = 128,
+    seed: int = 0,
+) -> tuple[ErrorProfile, ...]:
+    """Median and 95th percentile of ρ on shells at distance d = max_j |q_j − q0_j| from the test
+    pose(s), for d in [0, max_distance] (``samples`` configurations per shell, the same for every
+    plan; a test pose drawn per sample; clipped to the joint limits)."""
+    robot = params.robot
+    poses, _ = resolve_test_poses(robot, test_pose)
+    rng = np.random.default_rng(seed)
+    distance = np.linspace(0.0, max_distance, steps)
+    shells = []
+    for d in distance:
+        u = rng.uniform(-1.0, 1.0, (samples, robot.nq))
+        u /= np.abs(u).max(axis=1, keepdims=True)
+        centres = poses[rng.integers(len(poses), size=samples)]
+        shells.append(np.clip(centres + d * u, robot.lower, robot.upper))
+    out = []
+    for name, plan in plans.items():
+        predicted = PredictedError(params, plan, sigma, prior)
+        rho = np.array([np.sqrt(predicted.squared(s)) for s in shells])
+        out.append(ErrorProfile(name, distance, np.median(rho, axis=1), np.percentile(rho, 95, axis=1)))
+    return tuple(out)

@@ -1,0 +1,326 @@
+r"""Where the robot works: test regions and paths (SPEC §5.1).
+
+A robot works in a region or along a path, not at one point. Each of these describes the test
+configurations a criterion averages over (the mean of ρ0², the V/I-optimal design) or takes the
+worst of:
+
+* :func:`around` — a joint-space neighbourhood ``q0 ± δ`` of a test pose (each joint, clipped to
+  its limits): q0 itself plus ``samples − 1`` Latin-hypercube points of the box (seeded).
+* :class:`TestPath` — configurations given one by one (a welding or drilling program; any length).
+* :func:`cartesian_box` — configurations whose measured point (marker 0) lies in a box of the
+  instrument frame, at the user's tool orientation (the tip's orientation at a reference
+  configuration, or a given rotation). Found by **inverse kinematics**: Latin-hypercube targets in the box,
+  each solved by damped least squares on Pinocchio's frame Jacobian and SE(3) log
+  (``pin.computeFrameJacobian``, ``pin.log6``, ``pin.Jlog6``) from the reference configuration,
+  within the joint limits; targets without a solution on that branch are dropped (and counted).
+
+``region.resolve(robot)`` gives a :class:`ResolvedRegion`: the sample configurations and, for a
+continuous region, the map from the unit cube onto the region that the local search for the worst
+pose walks on (see :func:`pincal.evaluation.accuracy.worst_found`).
+
+    >>> import numpy as np, pincal
+    >>> robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
+    >>> region = pincal.around(np.radians([0, -60, 60, 0, 45, 0]), np.radians(10), samples=64)
+    >>> region.resolve(robot).poses.shape
+    (64, 6)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from pincal.errors import Infeasible, PincalError
+from pincal.model.robot import Robot
+
+DEFAULT_SAMPLES = 256
+"""Sample configurations of a continuous region."""
+
+IK_TOLERANCE = 1e-9
+"""Norm of the SE(3) log of the tip's pose error at which inverse kinematics has converged."""
+
+
+@dataclass(frozen=True, eq=False)
+class ResolvedRegion:
+    """A region on one robot.
+
+    Attributes:
+        poses: (n, nq) the sample configurations [rad or m], read-only.
+        description: a short text, e.g. ``"±10° around the test pose (256 samples)"``.
+        dimension: dimension of the region's unit cube (0 for a path: nothing to walk on).
+        to_configuration: maps a point u of [0, 1]^dimension to a configuration of the region, or
+            None where there is none (inverse kinematics failed); None for a path.
+        unit_samples: (n, dimension) the unit-cube points of the samples (None for a path).
+        dropped: sample targets without a configuration (Cartesian box).
+    """
+
+    poses: np.ndarray
+    description: str
+    dimension: int = 0
+    to_configuration: Callable[[np.ndarray], np.ndarray | None] | None = None
+    unit_samples: np.ndarray | None = None
+    dropped: int = 0
+
+    @property
+    def continuous(self) -> bool:
+        """True for a region one can walk on (a neighbourhood, a Cartesian box)."""
+        return self.to_configuration is not None
+
+
+class TestRegion:
+    """Where the robot works: a set of test configurations (see the module doc)."""
+
+    __test__ = False  # not a pytest class
+
+    def resolve(self, robot: Robot) -> ResolvedRegion:
+        """The region's sample configurations (and unit-cube map) on ``robot``."""
+        raise NotImplementedError
+
+
+def _latin_hypercube(dimension: int, n: int, seed: int) -> np.ndarray:
+    """n points of [0, 1]^dimension, one in each of n equal slices of every axis (seeded)."""
+    rng = np.random.default_rng(seed)
+    slices = np.argsort(rng.random((dimension, n)), axis=1).T
+    return (slices + rng.random((n, dimension))) / max(n, 1)
+
+
+def _samples(samples: object) -> int:
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise PincalError(f"samples must be an integer ≥ 1, got {samples!r}")
+    return int(samples)
+
+
+@dataclass(frozen=True, eq=False)
+class Neighbourhood(TestRegion):
+    """The joint-space box q0 ± δ (clipped to the joint limits). Build it with :func:`around`.
+
+    Attributes:
+        center: (nq,) the test pose q0 [rad or m].
+        delta: half-width per joint [rad or m]: a number or (nq,).
+        samples: sample configurations (q0 first).
+        seed: seed of the sampling.
+    """
+
+    center: np.ndarray
+    delta: object
+    samples: int = DEFAULT_SAMPLES
+    seed: int = 0
+
+    def bounds(self, robot: Robot) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) of the box on ``robot``, within its joint limits."""
+        q0 = robot.configurations(self.center, what="test pose")[0]
+        delta = np.broadcast_to(np.asarray(self.delta, dtype=float), q0.shape)
+        return np.maximum(q0 - delta, robot.lower), np.minimum(q0 + delta, robot.upper)
+
+    def resolve(self, robot: Robot) -> ResolvedRegion:
+        lo, hi = self.bounds(robot)
+        q0 = robot.configurations(self.center, what="test pose")[0]
+        u = np.vstack(
+            [
+                (q0 - lo) / np.where(hi > lo, hi - lo, 1.0),
+                _latin_hypercube(robot.nq, self.samples - 1, self.seed),
+            ]
+        )
+        poses = lo + u * (hi - lo)
+        poses[0] = q0
+        poses.flags.writeable = False
+        delta = np.asarray(self.delta, dtype=float)
+        width = f"±{np.degrees(delta):.3g}°" if delta.ndim == 0 else "± δ"
+        return ResolvedRegion(
+            poses,
+            f"{width} around the test pose ({self.samples} samples)",
+            robot.nq,
+            lambda u: lo + np.clip(u, 0.0, 1.0) * (hi - lo),
+            u,
+        )
+
+
+def around(q0: object, delta: object, samples: int = DEFAULT_SAMPLES, seed: int = 0) -> Neighbourhood:
+    """The joint-space neighbourhood q0 ± δ of a test pose (clipped to the joint limits).
+
+    Args:
+        q0: (nq,) the test pose [rad or m].
+        delta: half-width [rad or m]: one number for every joint, or (nq,).
+        samples: configurations the criteria average over (q0 and Latin-hypercube points of the box).
+        seed: seed of the sampling.
+
+    Raises:
+        PincalError: δ is not positive and finite, or samples < 1.
+    """
+    d = np.asarray(delta, dtype=float)
+    if not (np.all(np.isfinite(d)) and np.all(d > 0)):
+        raise PincalError(f"the neighbourhood's half-width must be positive [rad or m], got {delta!r}")
+    return Neighbourhood(np.asarray(q0, dtype=float).reshape(-1), d, _samples(samples), int(seed))
+
+
+@dataclass(frozen=True, eq=False)
+class TestPath(TestRegion):
+    """Test configurations given one by one, e.g. the poses of a welding or drilling program.
+
+    Read one from CSV like a plan: ``TestPath(pincal.Plan.from_csv("path.csv", robot, what="test
+    path"))``. The mean criterion over a path costs the same for 10 or 10 000 points (see
+    :func:`pincal.evaluation.test_pose.mean_weight_factor`).
+
+    Attributes:
+        q: (n, nq) configurations [rad or m] (or a Plan).
+    """
+
+    q: object
+
+    def resolve(self, robot: Robot) -> ResolvedRegion:
+        poses = robot.configurations(self.q, what="test path configuration")
+        poses.flags.writeable = False
+        return ResolvedRegion(poses, f"test path ({len(poses)} configurations)")
+
+
+@dataclass(frozen=True, eq=False)
+class CartesianBox(TestRegion):
+    """Configurations whose measured point lies in a box, at the user's tool orientation.
+    Build it with :func:`cartesian_box`.
+
+    Attributes:
+        lower, upper: (3,) corners of the box of marker 0, in the instrument frame [m].
+        reference: (nq,) configuration giving the tool orientation (unless ``rotation`` is given)
+            and the inverse-kinematics branch (every solution starts from it).
+        rotation: (3, 3) tool (tip frame) orientation in the instrument frame, or None.
+        samples: targets drawn in the box.
+        seed: seed of the sampling.
+    """
+
+    lower: np.ndarray
+    upper: np.ndarray
+    reference: np.ndarray
+    rotation: np.ndarray | None = None
+    samples: int = DEFAULT_SAMPLES
+    seed: int = 0
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    def resolve(self, robot: Robot) -> ResolvedRegion:
+        cached = self._cache.get(id(robot))
+        if cached is not None and cached[0] is robot:
+            return cached[1]
+        q_ref = robot.configurations(self.reference, what="reference configuration")[0]
+        solver = _InverseKinematics(robot, self.rotation, q_ref)
+        lo, hi = self.lower, self.upper
+
+        def to_configuration(u: np.ndarray, start: np.ndarray = q_ref) -> np.ndarray | None:
+            return solver.solve(lo + np.clip(u, 0.0, 1.0) * (hi - lo), start)
+
+        U = _latin_hypercube(3, self.samples, self.seed)
+        solved = [to_configuration(u) for u in U]
+        ok = [q is not None for q in solved]
+        if not any(ok):
+            raise Infeasible(
+                f"no configuration puts the measured point in the box {lo.tolist()}..{hi.tolist()} m at "
+                f"the tool orientation of the reference configuration (inverse kinematics from it failed "
+                f"for all {self.samples} targets); check the box is reachable with that orientation"
+            )
+        poses = np.array([q for q in solved if q is not None])
+        poses.flags.writeable = False
+        dropped = len(solved) - len(poses)
+        resolved = ResolvedRegion(
+            poses,
+            f"Cartesian box {np.round(lo, 4).tolist()}..{np.round(hi, 4).tolist()} m at the tool orientation "
+            f"({len(poses)} configurations by inverse kinematics"
+            + (f", {dropped} unreachable targets dropped)" if dropped else ")"),
+            3,
+            to_configuration,
+            U[np.array(ok)],
+            dropped,
+        )
+        self._cache[id(robot)] = (robot, resolved)
+        return resolved
+
+
+def cartesian_box(
+    lower: object,
+    upper: object,
+    reference: object,
+    rotation: object = None,
+    samples: int = DEFAULT_SAMPLES,
+    seed: int = 0,
+) -> CartesianBox:
+    """Configurations whose measured point (marker 0) lies in the box [lower, upper] of the
+    instrument frame, with the tool at a fixed orientation (found by inverse kinematics; see the
+    module doc).
+
+    Args:
+        lower, upper: (3,) corners of the box [m].
+        reference: (nq,) configuration whose tip orientation is kept (unless ``rotation``) and from
+            which inverse kinematics starts (so the solutions stay on its branch: elbow up, ...).
+        rotation: (3, 3) tool orientation in the instrument frame, instead of the reference's.
+        samples: targets drawn in the box (Latin hypercube).
+        seed: seed of the sampling.
+    """
+    try:
+        lo = np.array(lower, dtype=float).reshape(3)
+        hi = np.array(upper, dtype=float).reshape(3)
+    except (TypeError, ValueError):
+        raise PincalError(f"box corners must be 3 numbers each [m], got {lower!r} and {upper!r}") from None
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi >= lo)):
+        raise PincalError(f"box: need finite lower <= upper [m], got {lo.tolist()} and {hi.tolist()}")
+    R = None
+    if rotation is not None:
+        R = np.array(rotation, dtype=float).reshape(3, 3)
+        if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+            raise PincalError("rotation must be a 3×3 rotation matrix")
+    return CartesianBox(
+        lo, hi, np.asarray(reference, dtype=float).reshape(-1), R, _samples(samples), int(seed)
+    )
+
+
+class _InverseKinematics:
+    """Damped least squares on the tip's SE(3) error (Pinocchio's CLIK), within the joint limits."""
+
+    def __init__(
+        self,
+        robot: Robot,
+        rotation: np.ndarray | None,
+        reference: np.ndarray,
+        iterations: int = 200,
+        damping: float = 1e-8,
+    ) -> None:
+        self.robot = robot
+        self.model = robot.model
+        self.data = robot.model.createData()
+        if rotation is None:  # the tool's orientation at the reference configuration
+            pin.framesForwardKinematics(self.model, self.data, reference + robot.joint_offsets)
+            rotation = (robot.base * self.data.oMf[robot.tip_frame]).rotation
+        self.rotation = np.array(rotation)
+        self.iterations = iterations
+        self.damping = damping
+
+    def solve(self, point: np.ndarray, start: np.ndarray) -> np.ndarray | None:
+        """Joint values putting marker 0 at ``point`` (instrument frame) with the tool at
+        ``rotation``; None if not found within the limits."""
+        robot, model, data = self.robot, self.model, self.data
+        tip_position = point - self.rotation @ robot.markers[0]
+        # The tip frame's target placement in the robot base frame (the model's world).
+        target = robot.base.inverse() * pin.SE3(self.rotation, tip_position)
+        offsets = robot.joint_offsets
+        lo, hi = robot.lower, robot.upper
+        q = np.array(start, dtype=float)
+        frame = robot.tip_frame
+        for _ in range(self.iterations):
+            pin.framesForwardKinematics(model, data, q + offsets)
+            error_placement = data.oMf[frame].actInv(target)
+            error = pin.log6(error_placement).vector
+            if np.linalg.norm(error) < IK_TOLERANCE:
+                return q
+            J = pin.computeFrameJacobian(model, data, q + offsets, frame, pin.LOCAL)
+            J = -pin.Jlog6(error_placement.inverse()) @ J
+            step = -J.T @ np.linalg.solve(J @ J.T + self.damping * np.eye(6), error)
+            q = np.clip(pin.integrate(model, q + offsets, step) - offsets, lo, hi)
+        return None
+
+
+def resolve_test_poses(robot: Robot, test_pose: object) -> tuple[np.ndarray, ResolvedRegion | None]:
+    """(k, nq) test configurations of a test pose, several of them, or a :class:`TestRegion`;
+    and the resolved region (None for plain configurations)."""
+    if isinstance(test_pose, TestRegion):
+        region = test_pose.resolve(robot)
+        return np.array(region.poses), region
+    return robot.configurations(test_pose, what="test pose"), None
