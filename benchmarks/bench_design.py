@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 import pincal
-from pincal.planning.driver import design, random_plans
+from pincal.planning.baselines import random_plans
+from pincal.planning.driver import design
 
 ROOT = Path(__file__).resolve().parents[1]
 Q0 = np.radians([0, -90, 90, 0, 45, 0])

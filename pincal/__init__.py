@@ -53,6 +53,7 @@ from pincal.evaluation.test_pose import TestPoseCriterion, position_covariance, 
 from pincal.model.base_parameters import Identifiability, identifiability
 from pincal.model.parameters import Parameter, ParameterSet
 from pincal.model.robot import Robot, load_robot, shipped_robots
+from pincal.planning.baselines import random_plans
 from pincal.planning.constraints import (
     HalfSpace,
     JointLimits,
@@ -62,14 +63,9 @@ from pincal.planning.constraints import (
     WorkspaceBox,
     load_constraints,
 )
-from pincal.planning.driver import (
-    DesignResult,
-    RandomPlans,
-    StartRecord,
-    design,
-    random_plans,
-)
+from pincal.planning.driver import design
 from pincal.planning.plan import Plan
+from pincal.planning.results import DesignResult, RandomPlans, StartRecord
 from pincal.viewing.scene import Scene, scene, show
 
 __version__ = "0.1.0"

@@ -16,8 +16,9 @@ import pincal
 from pincal.errors import DegenerateOptimum, DegenerateOptimumWarning
 from pincal.planning import exchange as _exchange
 from pincal.planning import multistart as _multistart
+from pincal.planning.baselines import random_plans
 from pincal.planning.constraints import HalfSpace, MinSpacing, Visibility, WorkspaceBox, satisfied
-from pincal.planning.driver import design, random_plans
+from pincal.planning.driver import design
 from pincal.planning.objectives import CRITERIA, make_objective
 
 KR_Q0 = np.radians([0, -90, 90, 0, 45, 0])

@@ -17,7 +17,8 @@ from pincal.cli._common import (
     test_poses_from_args,
 )
 from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
-from pincal.planning.driver import METHODS, design, random_plans
+from pincal.planning.baselines import random_plans
+from pincal.planning.driver import METHODS, design
 
 HELP = (
     "rho0 at the test pose(s) over random feasible plans (min, median, mean, max), and the D-optimal plan's"

@@ -25,16 +25,11 @@ from pincal.cli._common import (
 )
 from pincal.cli._plot import add_plot_argument, save_design_plot
 from pincal.errors import PincalError
-from pincal.planning.driver import (
-    CRITERIA,
-    METHODS,
-    MIN_CONDITIONING,
-    DesignResult,
-    RandomPlans,
-    design,
-    random_plans,
-)
+from pincal.planning.baselines import random_plans
+from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
+from pincal.planning.objectives import CRITERIA
 from pincal.planning.plan import Plan, revolute_mask
+from pincal.planning.results import DesignResult, RandomPlans
 
 HELP = "design a measurement plan: the m configurations that make the robot most accurate at the test pose(s)"
 EXAMPLES = """\

@@ -169,7 +169,7 @@ def _start_server():
 def _plot_baseline(params, plan, q0: np.ndarray, sigma: float, constraints, args) -> dict:
     """Evaluate --baseline random feasible plans of the plan's size (as ``pincal baseline`` does),
     save the histogram; return their summary."""
-    from pincal.planning.driver import random_plans
+    from pincal.planning.baselines import random_plans
     from pincal.viewing.plots import rho0_histogram
 
     pool = read_plan(params.robot, args.pool, args.deg) if args.pool else None

@@ -71,6 +71,26 @@ class Feasibility:
                 ok[idx] &= b.satisfied(kin)
         return ok
 
+    def feasible_pool(self, pool: object, m: int) -> tuple[np.ndarray, int]:
+        """The configurations of a user's pool that satisfy every constraint, and how many did not.
+
+        Args:
+            pool: (N, nq) configurations or a Plan [rad or m].
+            m: configurations a plan needs: fewer feasible ones raise.
+
+        Raises:
+            BadConfiguration: a pool configuration of the wrong shape or outside the joint limits.
+            Infeasible: fewer than m pool configurations are feasible.
+        """
+        qs = self.robot.configurations(pool, what="pool configuration")
+        ok = self.feasible(qs)
+        if ok.sum() < m:
+            raise Infeasible(
+                f"only {int(ok.sum())} of the {len(qs)} pool configurations satisfy the constraints; "
+                f"{m} are needed"
+            )
+        return qs[ok], int((~ok).sum())
+
     def spacing_ok(self, qs: np.ndarray) -> bool:
         """True when every pair of configurations is at least the minimum spacing apart."""
         return self.spacing == 0 or bool(np.all(MinSpacing(self.spacing).margins(qs) >= -TOLERANCE))

@@ -30,6 +30,7 @@ from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from pincal.errors import PincalError, UnknownName
 from pincal.evaluation.information import RCOND, factor
+from pincal.model.parameters import ParameterSet
 
 CRITERIA = ("test-pose", "test-pose-worst", "D", "A", "E", "cond")
 """Names of the criteria a design can minimise."""
@@ -52,6 +53,22 @@ _ALIASES = {
 }
 
 TEST_POSE_CRITERIA = ("test-pose", "test-pose-worst")
+"""The criteria that need a test pose."""
+
+
+def checked_test_poses(params: ParameterSet, test_pose: object, criterion: str) -> np.ndarray | None:
+    """The (k, nq) test poses of a design, checked against the robot; None if none is given and
+    the criterion needs none.
+
+    Raises:
+        PincalError: the criterion needs a test pose and none is given.
+        BadConfiguration: a test pose of the wrong shape or outside the joint limits.
+    """
+    if test_pose is None:
+        if criterion in TEST_POSE_CRITERIA:
+            raise PincalError(f"criterion {criterion!r} needs a test pose (test_pose=...)")
+        return None
+    return params.robot.configurations(test_pose, what="test pose")
 
 
 def criterion_name(name: str) -> str:

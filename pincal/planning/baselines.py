@@ -1,0 +1,109 @@
+"""The baseline a design is judged against: the distribution of a criterion over random feasible
+plans, evaluated in batches."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from pincal.arguments import positive_int, positive_sigma
+from pincal.errors import Infeasible
+from pincal.model.jacobian import JacobianEngine
+from pincal.model.parameters import ParameterSet
+from pincal.planning.constraints import AnyConstraint
+from pincal.planning.feasibility import Feasibility
+from pincal.planning.multistart import single_threaded_blas
+from pincal.planning.objectives import TEST_POSE_CRITERIA, checked_test_poses, criterion_name, make_objective
+from pincal.planning.results import RandomPlans
+
+__all__ = ["random_plans"]
+
+
+def random_plans(
+    params: ParameterSet,
+    m: int,
+    n: int = 1000,
+    test_pose: object = None,
+    *,
+    criterion: str = "test-pose",
+    sigma: float = 1.0,
+    constraints: Iterable[AnyConstraint] = (),
+    seed: int | None = 0,
+    pool: object = None,
+) -> RandomPlans:
+    """The distribution of a criterion over ``n`` random feasible plans of m configurations.
+
+    Configurations are drawn uniformly within the joint limits and kept if they satisfy the
+    constraints — or, with a ``pool``, m distinct configurations are drawn from the pool's
+    feasible ones, the baseline of a design over that pool; plans breaking the minimum spacing
+    are drawn again. All plans are evaluated in batches (one Jacobian pass over all n·m
+    configurations, batched eigen-decompositions).
+
+    Args:
+        params: the parameters to identify.
+        m: configurations per plan.
+        n: number of plans.
+        test_pose: (nq,) or (k, nq) test pose(s) (required by the test-pose criteria).
+        criterion: one of :data:`CRITERIA` (default ρ0, the mean over the test poses).
+        sigma: measurement noise per coordinate [m].
+        constraints: as for :func:`design`.
+        seed: seed of the draws.
+        pool: (N, nq) configurations or a Plan (e.g. taught poses) to draw the plans from, as
+            :func:`design` searches them (infeasible ones are dropped); default: the joint limits.
+
+    Returns:
+        the values (ρ0 [m] for the test-pose criteria) and their min / mean / median / max.
+
+    Example:
+        >>> import pincal
+        >>> params = pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")
+        >>> taught = [[0.0, 0.5], [0.0, 1.5], [0.0, 2.5]]
+        >>> randoms = pincal.random_plans(params, 2, 50, test_pose=[0.0, 1.0], pool=taught)
+        >>> randoms.n, randoms.n_singular
+        (50, 0)
+    """
+    with single_threaded_blas():
+        return _random_plans(params, m, n, test_pose, criterion, sigma, tuple(constraints), seed, pool)
+
+
+def _random_plans(params, m, n, test_pose, criterion, sigma, constraints, seed, pool) -> RandomPlans:
+    criterion = criterion_name(criterion)
+    m = positive_int(m, "m (number of configurations)")
+    n = positive_int(n, "n (number of random plans)")
+    test_poses = checked_test_poses(params, test_pose, criterion)
+    sigma = positive_sigma(sigma)
+    feasibility = Feasibility(params.robot, constraints)
+    rng = np.random.default_rng(seed)
+    if pool is None:
+
+        def draw(k: int) -> np.ndarray:
+            return feasibility.sample(k * m, rng).reshape(k, m, -1)
+    else:
+        candidates, _ = feasibility.feasible_pool(pool, m)
+
+        def draw(k: int) -> np.ndarray:
+            return np.stack([candidates[rng.choice(len(candidates), m, replace=False)] for _ in range(k)])
+
+    qs = draw(n)
+    for _ in range(50):
+        bad = [i for i in range(n) if not feasibility.spacing_ok(qs[i])]
+        if not bad:
+            break
+        qs[bad] = draw(len(bad))
+    else:
+        raise Infeasible(f"random plans of {m} configurations rarely satisfy min_spacing; lower it")
+    engine = JacobianEngine(params)
+    P, rows = len(params), engine.rows
+    J0 = engine.jacobian(test_poses, frame="tip").copy() if test_poses is not None else None
+    objective = make_objective(criterion, P, rows, J0 if criterion in TEST_POSE_CRITERIA else None, sigma)
+    chunk = max(1, 2_000_000 // (m * rows * P + P * P))
+    F = np.empty(n)
+    for a in range(0, n, chunk):
+        block = qs[a : a + chunk]
+        J = engine.jacobian(block.reshape(-1, block.shape[2]), frame="tip").reshape(len(block), m * rows, P)
+        F[a : a + len(block)] = objective.batch_values(np.einsum("nrp,nrs->nps", J, J))
+    finite = np.isfinite(F)
+    values = np.asarray(objective.report(F[finite]), dtype=float)
+    values.flags.writeable = False
+    return RandomPlans(criterion, m, n, int((~finite).sum()), values, sigma)

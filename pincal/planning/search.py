@@ -1,0 +1,305 @@
+"""The search stage of a design: the starts drawn from the pool, each searched (exchange or
+continuous) on an executor, the best exchange plans polished; one :class:`Outcome` per start.
+
+The values passed between the stages of :func:`pincal.planning.driver.design` live here too:
+:class:`Settings` (the checked arguments), :class:`Pool` (where the starts come from) and
+:class:`Outcome`. They are frozen; each stage returns new ones.
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import Executor
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from pincal.errors import Infeasible, SingularPlan
+from pincal.evaluation.information import conditioning, factor, rank
+from pincal.model.jacobian import JacobianEngine
+from pincal.model.parameters import ParameterSet
+from pincal.planning import multistart as _multistart
+from pincal.planning.constraints import AnyConstraint
+from pincal.planning.feasibility import Feasibility
+from pincal.planning.objectives import TEST_POSE_CRITERIA, Objective, make_objective
+from pincal.planning.results import StartRecord
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The checked arguments of one design (canonical names, Python numbers)."""
+
+    criterion: str
+    method: str
+    m: int
+    test_poses: np.ndarray | None
+    sigma: float
+    starts: int
+    workers: int
+    keep: float
+    screen_iterations: int
+    maxiter: int
+    floor: float
+    constraints: tuple[AnyConstraint, ...]
+    feasibility: Feasibility
+    user_pool: bool
+    polish: bool
+    entropy: int
+
+    def seed_sequence(self, *key: int) -> np.random.SeedSequence:
+        """The child ``key`` of the design's seed sequence: (0,) draws the pool, (1, i) start i
+        (what ``SeedSequence(seed).spawn`` hands out, without mutating a shared sequence)."""
+        return np.random.SeedSequence(self.entropy, spawn_key=key)
+
+
+@dataclass(frozen=True)
+class Pool:
+    """Where the starts come from: the candidate configurations and the user's init plans."""
+
+    candidates: np.ndarray
+    rejected: int
+    init: tuple[np.ndarray, ...]
+
+    def n_starts(self, settings: Settings) -> int:
+        """The init plans first, then the drawn starts."""
+        return len(self.init) + settings.starts
+
+    def n_keep(self, settings: Settings) -> int:
+        """Starts run to convergence after screening (continuous), or polished (exchange)."""
+        n = self.n_starts(settings)
+        return n if settings.keep >= 1 else max(1, math.ceil(settings.keep * n))
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """The end of one start.
+
+    Attributes:
+        record: what the start did (reported in the history).
+        q: (m, nq) its final plan; None if it was dropped after screening.
+        F: the objective at q (exact, no barrier).
+        usable: q satisfies every constraint.
+    """
+
+    record: StartRecord
+    q: np.ndarray | None
+    F: float
+    usable: bool
+
+
+# ---------------------------------------------------------------------------- starts
+def draw_starts(settings: Settings, J_pool: np.ndarray, pool: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The pool indices of each drawn start's plan, from its own child seed."""
+    spacing = settings.feasibility.spacing
+    return tuple(
+        _pick(
+            J_pool,
+            pool,
+            settings.m,
+            spacing,
+            np.random.default_rng(settings.seed_sequence(1, i)),
+            settings.floor,
+        )
+        for i in range(settings.starts)
+    )
+
+
+def _pick(
+    J: np.ndarray, pool: np.ndarray, m: int, spacing: float, rng: np.random.Generator, floor: float
+) -> np.ndarray:
+    """Indices of m pool configurations forming a regular plan (conditioning above ``floor``, spaced),
+    at random."""
+    N, rows, P = J.shape
+    best_rank = 0
+    for _ in range(100):
+        order = rng.permutation(N)
+        if spacing > 0:
+            chosen: list[int] = []
+            for c in order:
+                if all(np.linalg.norm(pool[c] - pool[k]) >= spacing for k in chosen):
+                    chosen.append(int(c))
+                    if len(chosen) == m:
+                        break
+            if len(chosen) < m:
+                raise Infeasible(
+                    f"cannot place {m} configurations at least {spacing:.4g} rad apart among the "
+                    f"{N} feasible candidates; lower min_spacing"
+                )
+            index = np.array(chosen)
+        else:
+            index = order[:m]
+        stacked = J[index].reshape(-1, P)
+        M = stacked.T @ stacked
+        try:
+            factor(M, rows, m)
+            if conditioning(M) > 2 * floor:
+                return index
+        except SingularPlan:
+            pass
+        best_rank = max(best_rank, rank(M))
+    if best_rank == P:
+        raise Infeasible(
+            f"no random plan of {m} configurations reaches twice the conditioning floor {floor:g}; "
+            f"lower min_conditioning or add configurations"
+        )
+    raise SingularPlan(P, rows, m, best_rank)
+
+
+# ---------------------------------------------------------------------------- search
+def search(
+    settings: Settings,
+    params: ParameterSet,
+    engine: JacobianEngine,
+    pooled: Pool,
+    indices: tuple[np.ndarray, ...],
+    executor: Executor | None,
+    progress: bool,
+) -> tuple[Outcome, ...]:
+    """Every start searched (and the best polished), on the executor; one outcome per start."""
+    s = settings
+    spec = _multistart.ProblemSpec(
+        params,
+        s.m,
+        s.criterion,
+        s.test_poses,
+        s.sigma,
+        s.constraints,
+        pooled.candidates if s.method == "exchange" else None,
+        s.floor,
+    )
+    J0 = engine.jacobian(s.test_poses, frame="tip").copy() if s.criterion in TEST_POSE_CRITERIA else None
+    objective = make_objective(s.criterion, len(params), engine.rows, J0, s.sigma)
+    n_starts, n_keep = pooled.n_starts(s), pooled.n_keep(s)
+    second_stage = (s.method == "continuous" and n_keep < n_starts) or s.polish
+    bar = _Progress(progress, n_starts + (n_keep if second_stage else 0), s.criterion, objective)
+    try:
+        with _multistart.executor_for(executor, s.workers, n_starts) as ex:
+            if s.method == "continuous":
+                x0s = list(pooled.init) + [pooled.candidates[i] for i in indices]
+                return _continuous(spec, ex, x0s, n_keep, s.screen_iterations, s.maxiter, objective, bar)
+            outcomes = _exchange(spec, ex, pooled.candidates, indices, objective, bar)
+            if s.polish:
+                outcomes = _polish(spec, ex, outcomes, n_keep, s.maxiter, objective, engine, s.floor, bar)
+            return outcomes
+    finally:
+        bar.close()
+        _multistart.forget(spec)
+
+
+def _exchange(spec, ex, candidates, indices, objective: Objective, bar) -> tuple[Outcome, ...]:
+    """The exchange search from each start's plan."""
+    outcomes = _multistart.run(ex, _multistart.exchange_task, [(spec, i) for i in indices], bar)
+    return tuple(
+        Outcome(
+            StartRecord(
+                start=s,
+                value=float(objective.report(o.F)),
+                screen_value=None,
+                iterations=o.sweeps,
+                time_s=o.time_s,
+                continued=True,
+                feasible=True,
+                message=f"{o.swaps} exchanges",
+            ),
+            candidates[o.index],
+            o.F,
+            True,
+        )
+        for s, o in enumerate(outcomes)
+    )
+
+
+def _polish(
+    spec, ex, outcomes: tuple[Outcome, ...], n_keep: int, maxiter: int, objective, engine, floor: float, bar
+) -> tuple[Outcome, ...]:
+    """The best ``n_keep`` exchange plans continued by the continuous search; a polished plan
+    replaces its start's plan if feasible, no worse and above the conditioning floor."""
+    order = sorted(range(len(outcomes)), key=lambda s: (outcomes[s].F, s))[:n_keep]
+    items = [(spec, outcomes[s].q, outcomes[s].q, maxiter) for s in order]
+    polished = _multistart.run(ex, _multistart.polish_task, items, bar)
+    new = list(outcomes)
+    for s, o in zip(order, polished, strict=True):
+        old = outcomes[s]
+        record = replace(
+            old.record,
+            value=float(objective.report(o.F)),
+            iterations=old.record.iterations + o.iterations,
+            time_s=old.record.time_s + o.time_s,
+            feasible=o.feasible,
+            message=old.record.message + "; polished: " + o.message,
+        )
+        better = o.feasible and o.F <= old.F and plan_conditioning(engine, o.q) > floor
+        new[s] = Outcome(record, o.q if better else old.q, o.F if better else old.F, True)
+    return tuple(new)
+
+
+def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, bar) -> tuple[Outcome, ...]:
+    """Screen every start, continue the best ``n_keep`` to convergence."""
+    n = len(x0s)
+    screened = None
+    if n_keep < n and screen_iterations > 0:
+        items = [(spec, x0, screen_iterations) for x0 in x0s]
+        screened = _multistart.run(ex, _multistart.screen_task, items, bar)
+        order = sorted(range(n), key=lambda s: (screened[s].score, s))
+        kept = sorted(order[:n_keep])
+        starts_from = [screened[s].q for s in kept]
+    else:
+        kept = list(range(n))
+        starts_from = [x0s[s] for s in kept]
+    items = [(spec, q, x0s[s], maxiter) for s, q in zip(kept, starts_from, strict=True)]
+    finals = dict(zip(kept, _multistart.run(ex, _multistart.polish_task, items, bar), strict=True))
+
+    def outcome(s: int) -> Outcome:
+        first = None if screened is None else screened[s]
+        screen_value = None if first is None else _report_value(objective, first.F)
+        final = finals.get(s)
+        record = StartRecord(
+            start=s,
+            value=screen_value if final is None else _report_value(objective, final.F),
+            screen_value=screen_value,
+            iterations=(0 if first is None else first.iterations)
+            + (0 if final is None else final.iterations),
+            time_s=(0.0 if first is None else first.time_s) + (0.0 if final is None else final.time_s),
+            continued=final is not None,
+            feasible=first.feasible if final is None else final.feasible,
+            message="dropped after screening" if final is None else final.message,
+        )
+        if final is None:
+            return Outcome(record, None, math.inf, False)
+        return Outcome(record, final.q, final.F, final.feasible)
+
+    return tuple(outcome(s) for s in range(n))
+
+
+def _report_value(objective: Objective, F: float) -> float:
+    return float(objective.report(F)) if np.isfinite(F) else math.inf
+
+
+class _Progress:
+    """The progress bar of a design on stderr (starts done, best value so far); off: does nothing."""
+
+    def __init__(self, on: bool, total: int, criterion: str, objective: Objective) -> None:
+        self.criterion, self.objective, self.best = criterion, objective, math.inf
+        self.bar = None
+        if on:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, desc="design", unit="start", leave=False, dynamic_ncols=True)
+
+    def __call__(self, outcome) -> None:
+        if self.bar is None:
+            return
+        if getattr(outcome, "feasible", True) and np.isfinite(outcome.F):
+            self.best = min(self.best, float(self.objective.report(outcome.F)))
+        self.bar.update(1)
+        self.bar.set_postfix_str(f"best {self.criterion} {self.best:.6g}")
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def plan_conditioning(engine: JacobianEngine, q: np.ndarray) -> float:
+    """Conditioning of the plan q (see :func:`pincal.evaluation.information.conditioning`)."""
+    J = engine.jacobian(q, frame="tip").reshape(-1, engine.n_params)
+    return conditioning(J.T @ J)
