@@ -19,6 +19,7 @@ from pincal.calibration.urdf_export import export_urdf
 from pincal.errors import (
     BadConfiguration,
     BadConstraint,
+    BadDHTable,
     BadMeasurementData,
     BadPlanFile,
     DegenerateOptimum,
@@ -51,6 +52,7 @@ from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import CartesianBox, Neighbourhood, TestPath, TestRegion, around, cartesian_box
 from pincal.evaluation.test_pose import TestPoseCriterion, position_covariance, rho0
 from pincal.model.base_parameters import Identifiability, identifiability
+from pincal.model.dh import DHTable, urdf_from_dh
 from pincal.model.parameters import Parameter, ParameterSet
 from pincal.model.robot import Robot, load_robot, shipped_robots
 from pincal.planning.baselines import random_plans
@@ -74,10 +76,12 @@ __all__ = [
     "AccuracyReport",
     "BadConfiguration",
     "BadConstraint",
+    "BadDHTable",
     "BadMeasurementData",
     "BadPlanFile",
     "CartesianBox",
     "Criteria",
+    "DHTable",
     "DegenerateOptimum",
     "DegenerateOptimumWarning",
     "DesignResult",
@@ -141,5 +145,6 @@ __all__ = [
     "shipped_robots",
     "show",
     "simulate_measurements",
+    "urdf_from_dh",
     "worst_found",
 ]

@@ -73,6 +73,10 @@ class UnsupportedJoint(PincalError):
     """A joint on the measured chain that is not a one-dof (revolute or prismatic) joint."""
 
 
+class BadDHTable(PincalError):
+    """A Denavit–Hartenberg table that cannot be read as documented (the message names the key or row)."""
+
+
 class BadConfiguration(PincalError):
     """Joint values of the wrong shape, non-finite, non-numeric or outside the joint limits."""
 

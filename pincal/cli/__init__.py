@@ -9,12 +9,23 @@ from __future__ import annotations
 import argparse
 import sys
 
-from pincal.cli import baseline, design, evaluate, identify, measure_sim, params, robots, show, simulate
+from pincal.cli import (
+    baseline,
+    design,
+    evaluate,
+    from_dh,
+    identify,
+    measure_sim,
+    params,
+    robots,
+    show,
+    simulate,
+)
 from pincal.cli._common import join_negative_values
 from pincal.errors import PincalError
 
 # One module per subcommand, each with add_parser(subparsers); the order is the --help order.
-COMMANDS = [params, evaluate, design, baseline, simulate, measure_sim, identify, show, robots]
+COMMANDS = [params, evaluate, design, baseline, simulate, measure_sim, identify, show, robots, from_dh]
 
 DESCRIPTION = """\
 pincal chooses the measurement configurations of a robot calibration so that the robot is most
@@ -34,6 +45,7 @@ a whole calibration, rehearsed on the shipped KUKA KR 270 (joint values in degre
       --sigma 3e-5 --out meas.csv
   pincal identify kr270 --data meas.csv --deg --marker 0.1,0.05,0.2 --out kr270_calibrated.urdf
   pincal robots
+  pincal urdf-from-dh docs/dh/ur5_dh.yaml --out ur5_dh.urdf     # a robot given by a DH table
 
 Units: metres and radians; --deg reads and writes joint values in degrees.
 'pincal COMMAND --help' describes each command; --json prints one JSON object for scripts.
