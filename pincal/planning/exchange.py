@@ -105,7 +105,7 @@ def fedorov(
     def exact() -> tuple[np.ndarray, np.ndarray, float, np.ndarray | None]:
         Jd = J_pool[index].reshape(-1, P)
         M = Jd.T @ Jd
-        Minv = _inverse(M, r, m)
+        Minv = _inverse(objective.posterior(M), r, m)
         return M, Minv, objective.value(M, m), objective.traces(M, m) if trace else None
 
     M, Minv, F, t = exact()
@@ -155,7 +155,7 @@ def fedorov(
                 values[~np.all(new_t > 0, axis=1)] = np.inf
             else:
                 Mc = M + JtJ[cand] - Ji.T @ Ji
-                values = objective.from_eigenvalues(np.linalg.eigvalsh(Mc))
+                values = objective.from_eigenvalues(np.linalg.eigvalsh(objective.posterior(Mc)))
             best = _best_regular(values, F, cand, M, J_pool, Ji, floor)
             if best is None:
                 continue

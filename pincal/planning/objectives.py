@@ -17,6 +17,12 @@ criterion              F(M)                                       reported value
 ``cond``               ½ log(λ_max(M)/λ_min(M))                   σ_max(J)/σ_min(J)
 =====================  =========================================  ==============================
 
+The mean over several test poses (a path, a region) is one weighted trace tr(M⁻¹A), A = FFᵀ with
+F from :func:`~pincal.evaluation.test_pose.mean_weight_factor` (at most P columns): the cost of an
+evaluation does not grow with the number of test poses. With a prior (Λ = σ²Σp⁻¹, see
+:class:`~pincal.Prior`) every criterion is taken of the posterior information M + Λ (the Bayesian
+criteria: tr(J0(M + Λ)⁻¹J0ᵀ), −log det(M + Λ), ...), finite for every plan.
+
 The reported values are those of :func:`pincal.rho0` and :func:`pincal.criteria` (``log_det``,
 ``trace``, ``max_eig``, ``cond``). For ``test-pose-worst`` the gradient-based search minimises the
 power mean (mean_k t_k^p)^{1/p}, which tends to the maximum as p grows; the reported value is
@@ -30,6 +36,7 @@ from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from pincal.errors import PincalError, UnknownName
 from pincal.evaluation.information import RCOND, factor
+from pincal.evaluation.test_pose import mean_weight_factor
 from pincal.model.parameters import ParameterSet
 
 CRITERIA = ("test-pose", "test-pose-worst", "D", "A", "E", "cond")
@@ -92,13 +99,20 @@ class Objective:
         family: ``"trace"`` (weighted traces of M⁻¹), ``"logdet"`` or ``"spectral"``; the
             exchange method updates each family its own way.
         rows: measured coordinates per configuration (3 per marker), for error messages.
+        prior: (P, P) the prior's information Λ = σ²Σp⁻¹ added to M, or None.
     """
 
     name: str
     family: str
+    prior: np.ndarray | None = None
 
-    def __init__(self, rows: int) -> None:
+    def __init__(self, rows: int, prior: np.ndarray | None = None) -> None:
         self.rows = rows
+        self.prior = prior
+
+    def posterior(self, M: np.ndarray) -> np.ndarray:
+        """M + Λ for one or a stack of information matrices (M itself without a prior)."""
+        return M if self.prior is None else M + self.prior
 
     def value(self, M: np.ndarray, m: int) -> float:
         """F(M) for a plan of m configurations. Raises SingularPlan."""
@@ -154,8 +168,9 @@ class TraceObjective(Objective):
         scale: float,
         rows: int,
         power: float | None = None,
+        prior: np.ndarray | None = None,
     ) -> None:
-        super().__init__(rows)
+        super().__init__(rows, prior)
         self.name = name
         self.J0T = np.ascontiguousarray(J0T)
         self.k = groups
@@ -165,10 +180,10 @@ class TraceObjective(Objective):
 
     def with_power(self, power: float | None) -> TraceObjective:
         """The same objective with another power-mean exponent (test-pose-worst only)."""
-        return TraceObjective(self.name, self.J0T, self.k, self.scale, self.rows, power)
+        return TraceObjective(self.name, self.J0T, self.k, self.scale, self.rows, power, self.prior)
 
     def _solve(self, M: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
-        L = factor(M, self.rows, m)
+        L = factor(self.posterior(M), self.rows, m)
         X, _ = _trtrs(L, self.J0T, lower=1)
         return L, X
 
@@ -214,7 +229,7 @@ class TraceObjective(Objective):
 
     def batch_traces(self, Ms: np.ndarray) -> np.ndarray:
         """(n, k) traces for a stack of information matrices; NaN rows where M is singular."""
-        d, w, V, singular = _scaled_eigh(Ms)
+        d, w, V, singular = _scaled_eigh(self.posterior(Ms))
         w = np.where(singular[:, None], 1.0, w)
         X = np.swapaxes(V, 1, 2) @ (self.J0T[None] / d[:, :, None])
         X /= np.sqrt(np.abs(w))[:, :, None]
@@ -237,11 +252,11 @@ class LogDetObjective(Objective):
     name = "D"
 
     def value(self, M: np.ndarray, m: int) -> float:
-        L = factor(M, self.rows, m)
+        L = factor(self.posterior(M), self.rows, m)
         return float(-2.0 * np.log(L.diagonal()).sum())
 
     def value_and_gradient(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
-        L = factor(M, self.rows, m)
+        L = factor(self.posterior(M), self.rows, m)
         Linv, _ = _trtrs(L, np.eye(len(M)), lower=1)
         return float(-2.0 * np.log(L.diagonal()).sum()), -(Linv.T @ Linv)
 
@@ -249,7 +264,7 @@ class LogDetObjective(Objective):
         return F
 
     def batch_values(self, Ms: np.ndarray) -> np.ndarray:
-        d, w, _, singular = _scaled_eigh(Ms, vectors=False)
+        d, w, _, singular = _scaled_eigh(self.posterior(Ms), vectors=False)
         F = -(2.0 * np.log(d).sum(axis=1) + np.log(np.where(singular[:, None], 1.0, w)).sum(axis=1))
         F[singular] = np.nan
         return F
@@ -260,8 +275,8 @@ class SpectralObjective(Objective):
 
     family = "spectral"
 
-    def __init__(self, name: str, rows: int) -> None:
-        super().__init__(rows)
+    def __init__(self, name: str, rows: int, prior: np.ndarray | None = None) -> None:
+        super().__init__(rows, prior)
         self.name = name
 
     def from_eigenvalues(self, w: np.ndarray) -> np.ndarray:
@@ -274,10 +289,12 @@ class SpectralObjective(Objective):
         return np.where(lo > RCOND * np.abs(w[..., -1]), F, np.inf)
 
     def value(self, M: np.ndarray, m: int) -> float:
+        M = self.posterior(M)
         factor(M, self.rows, m)
         return float(self.from_eigenvalues(np.linalg.eigvalsh(M)))
 
     def value_and_gradient(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
+        M = self.posterior(M)
         factor(M, self.rows, m)
         w, V = np.linalg.eigh(M)
         lo, hi = V[:, 0], V[:, -1]
@@ -290,6 +307,7 @@ class SpectralObjective(Objective):
         return np.exp(F)
 
     def batch_values(self, Ms: np.ndarray) -> np.ndarray:
+        Ms = self.posterior(Ms)
         *_, singular = _scaled_eigh(Ms, vectors=False)
         F = self.from_eigenvalues(np.linalg.eigvalsh(Ms))
         F[singular] = np.nan
@@ -302,6 +320,7 @@ def make_objective(
     rows: int,
     J0: np.ndarray | None = None,
     sigma: float = 1.0,
+    prior: np.ndarray | None = None,
 ) -> Objective:
     """The objective of a criterion.
 
@@ -311,13 +330,16 @@ def make_objective(
         rows: measured coordinates per configuration.
         J0: (k, 3K, P) tip-frame Jacobians at the test poses (the test-pose criteria need them).
         sigma: measurement noise per coordinate [m] (scales the reported ρ0).
+        prior: (P, P) the prior's information Λ = σ²Σp⁻¹ (:meth:`pincal.Prior.information`), or None.
     """
     if criterion in TEST_POSE_CRITERIA:
         if J0 is None:
             raise PincalError(f"criterion {criterion!r} needs a test pose")
-        return TraceObjective(criterion, J0.reshape(-1, n_params).T, len(J0), sigma, rows)
+        if criterion == "test-pose":  # the mean: one weighted trace, whatever the number of poses
+            return TraceObjective(criterion, mean_weight_factor(J0), 1, sigma, rows, prior=prior)
+        return TraceObjective(criterion, J0.reshape(-1, n_params).T, len(J0), sigma, rows, prior=prior)
     if criterion == "A":
-        return TraceObjective("A", np.eye(n_params), 1, 1.0, rows)
+        return TraceObjective("A", np.eye(n_params), 1, 1.0, rows, prior=prior)
     if criterion == "D":
-        return LogDetObjective(rows)
-    return SpectralObjective(criterion, rows)
+        return LogDetObjective(rows, prior)
+    return SpectralObjective(criterion, rows, prior)
