@@ -25,6 +25,21 @@ def read_text(path: str | os.PathLike, what: str, error: type[Exception]) -> str
         raise error(f"cannot read {what} file {str(path)!r}: {exc}") from None
 
 
+def read_yaml(path: str | os.PathLike, what: str, error: type[Exception]) -> object:
+    """The content of a user's YAML file, or ``error`` saying it is missing, unreadable or not YAML
+    (with the line of the syntax error)."""
+    import yaml
+
+    text = read_text(path, what, error)
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        where = getattr(exc, "problem_mark", None)
+        line = f", line {where.line + 1}" if where is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise error(f"{what} file {str(path)!r}{line}: not valid YAML ({problem})") from None
+
+
 def column_mismatch(expected: Sequence[str], found: Sequence[str]) -> str:
     """'; missing a, b; unknown column(s) c' for columns that differ from ``expected`` ('' if none)."""
     missing = [n for n in expected if n not in found]

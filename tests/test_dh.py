@@ -266,7 +266,7 @@ BAD_TABLES = [
     ("tool: {name: link1}\njoints: [{a: 0, alpha: 0, d: 0, theta: 0}]", "taken by a generated frame"),
     ("markers: [[0, 0]]\njoints: [{a: 0, alpha: 0, d: 0, theta: 0}]", "markers[0]: expected a list of 3"),
     ("joint: []", "unknown key 'joint'"),
-    ("joints: [{a: 0, alpha: 0\n", "not valid YAML (line"),
+    ("joints: [{a: 0, alpha: 0\n", ", line 2: not valid YAML"),
     ("- just a list", "expected a mapping"),
 ]
 

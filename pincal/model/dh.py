@@ -29,7 +29,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import BadDHTable, OverwriteRefused
-from pincal.files import atomic_write_text, read_text
+from pincal.files import atomic_write_text, read_yaml
 
 CONVENTIONS = ("standard", "modified")
 JOINT_TYPES = ("revolute", "prismatic")
@@ -95,18 +95,8 @@ class DHTable:
         Raises:
             BadDHTable: the file is missing, not YAML, or a key or row is wrong (the message names it).
         """
-        import yaml
-
-        where = f"DH table {str(path)!r}"
-        text = read_text(path, "DH table", BadDHTable)
-        try:
-            content = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            at = f" (line {mark.line + 1})" if mark is not None else ""
-            problem = getattr(exc, "problem", None) or "invalid syntax"
-            raise BadDHTable(f"{where} is not valid YAML{at}: {problem}") from None
-        return cls.from_dict(content, where, default_name=Path(path).stem)
+        content = read_yaml(path, "DH table", BadDHTable)
+        return cls.from_dict(content, f"DH table {str(path)!r}", default_name=Path(path).stem)
 
     @classmethod
     def from_dict(cls, content: object, where: str = "DH table", default_name: str = "robot") -> DHTable:

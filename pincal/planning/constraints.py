@@ -34,7 +34,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import BadConstraint, Infeasible
-from pincal.files import read_text
+from pincal.files import read_yaml
 from pincal.model.robot import LIMIT_TOLERANCE, Robot
 
 TOLERANCE = 1e-9
@@ -544,17 +544,8 @@ def load_constraints(path: str | os.PathLike) -> tuple[AnyConstraint, ...]:
     Raises:
         BadConstraint: the file is missing, not YAML, or holds an unknown key or a bad value.
     """
-    import yaml
-
     path = Path(path)
-    text = read_text(path, "constraints", BadConstraint)
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        where = getattr(exc, "problem_mark", None)
-        line = f", line {where.line + 1}" if where is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise BadConstraint(f"constraints file {str(path)!r}{line}: not valid YAML ({problem})") from None
+    data = read_yaml(path, "constraints", BadConstraint)
     try:
         return constraints_from_dict(data)
     except BadConstraint as exc:
