@@ -24,13 +24,13 @@ def test_planar_geometry_matches_spec(planar):
 def test_kr270_geometry_matches_spec(kr270):
     # SPEC §7: zeros = arm stretched along +x; flange at 0.35 + 1.15 + 1.2 + 0.24 in x,
     # 0.675 - 0.041 in z.
-    # (all zeros is outside A2's limits, so the unchecked _points is used for the geometry)
-    p = kr270._points(np.zeros((1, 6)))[0, 0]
+    # (all zeros is outside A2's limits, so the unchecked points is used for the geometry)
+    p = kr270.points(np.zeros((1, 6)), check=False)[0, 0]
     np.testing.assert_allclose(p, [0.35 + 1.15 + 1.2 + 0.24, 0.0, 0.675 - 0.041], atol=1e-12)
     # A1 about -z: a positive A1 turns the arm towards -y.
     q = np.zeros((1, 6))
     q[0, 0] = 0.5
-    assert kr270._points(q)[0, 0, 1] < 0
+    assert kr270.points(q, check=False)[0, 0, 1] < 0
     # A2 about +y: lowering limit -140..-5 degrees.
     np.testing.assert_allclose(np.degrees(kr270.lower), [-185, -140, -120, -350, -122.5, -350])
     np.testing.assert_allclose(np.degrees(kr270.upper), [185, -5, 155, 350, 122.5, 350])
@@ -43,7 +43,9 @@ def test_tool0_z_along_a6(kr270):
     # tool0 follows the ROS-Industrial convention: z along A6 outwards (+x at zero).
     robot = pincal.load_robot("kr270", markers=[(0, 0, 0.1)])
     np.testing.assert_allclose(
-        robot._points(np.zeros((1, 6)))[0, 0] - kr270._points(np.zeros((1, 6)))[0, 0], [0.1, 0, 0], atol=1e-12
+        robot.points(np.zeros((1, 6)), check=False)[0, 0] - kr270.points(np.zeros((1, 6)), check=False)[0, 0],
+        [0.1, 0, 0],
+        atol=1e-12,
     )
 
 

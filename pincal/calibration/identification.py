@@ -191,7 +191,7 @@ class _Problem:
         return self.params.apply(x)
 
     def residual(self, x: np.ndarray) -> np.ndarray:
-        return self.measured - self.robot(x)._points(self.qs).reshape(-1)
+        return self.measured - self.robot(x).points(self.qs, check=False).reshape(-1)
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """(3Km, P) derivative of the model points with respect to x (= −∂r/∂x)."""
@@ -225,7 +225,7 @@ def _initial(params: ParameterSet, data: MeasurementData) -> np.ndarray:
     if not base:
         return x0
     robot = params.robot
-    fit = _rigid_fit(robot._points(data.q).reshape(-1, 3), data.points.reshape(-1, 3))
+    fit = _rigid_fit(robot.points(data.q, check=False).reshape(-1, 3), data.points.reshape(-1, 3))
     if fit is None:
         return x0
     new = fit * robot.base
@@ -319,7 +319,7 @@ def identify(
         raise SingularPlan(n_params, rows, m)
 
     problem = _Problem(params, data)
-    before = data.points - robot._points(data.q)
+    before = data.points - robot.points(data.q, check=False)
     x = _initial(params, data)
     r = problem.residual(x)
     J = problem.jacobian(x)
@@ -420,7 +420,7 @@ def _result(
         sigma = np.nan if estimated else sigma
     else:
         values, robot = x.copy(), problem.robot(x)
-        residuals = data.points - robot._points(data.q)
+        residuals = data.points - robot.points(data.q, check=False)
         dof = residuals.size - n
         per_coordinate = float(np.sqrt(np.sum(residuals**2) / dof)) if dof > 0 else np.nan
         sigma = per_coordinate if estimated else sigma

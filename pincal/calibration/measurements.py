@@ -35,7 +35,6 @@ import numpy as np
 from pincal.errors import BadMeasurementData
 from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
 from pincal.model.robot import Robot
-from pincal.planning.plan import check_limits, revolute_mask, to_radians
 
 _MEASURED = re.compile(r"^([xyz])(\d*)$")
 
@@ -122,7 +121,7 @@ class MeasurementData:
         _check_joint_names(self.joint_names, names, self._where())
         _check_markers(self.n_markers, robot, self._where())
         q = self.q[:, [self.joint_names.index(n) for n in names]]
-        check_limits(robot, q, self.labels(), degrees=False)
+        robot.check_limits(q, self.labels(), degrees=False)
         if names == self.joint_names:
             return self
         return MeasurementData(q, self.points, names, self.lines, self.source)
@@ -165,13 +164,13 @@ class MeasurementData:
         K = len(columns) // 3
         q = rows[:, [header.index(n) for n in robot.joint_names]]
         if degrees:
-            q = to_radians(robot, q)
+            q = robot.to_radians(q)
         points = rows[:, [header.index(c) for c in columns]].reshape(len(rows), K, 3)
         if millimetres:
             points = points / 1000.0
         _check_markers(K, robot, where)
         data = cls(q, points, robot.joint_names, tuple(lines), source)
-        check_limits(robot, q, data.labels(), degrees)
+        robot.check_limits(q, data.labels(), degrees)
         return data
 
     def to_csv_text(
@@ -187,8 +186,7 @@ class MeasurementData:
         """
         q = np.array(self.q)
         if degrees:
-            mask = revolute_mask(robot) if robot is not None else np.ones(q.shape[1], dtype=bool)
-            q = np.where(mask, np.degrees(q), q)
+            q = robot.to_degrees(q) if robot is not None else np.degrees(q)
         points = self.points * (1000.0 if millimetres else 1.0)
         K = self.n_markers
         coords = ["x", "y", "z"] if K == 1 else [f"{c}{k}" for k in range(K) for c in "xyz"]

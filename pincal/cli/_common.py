@@ -11,7 +11,7 @@ import numpy as np
 from pincal.errors import BadConfiguration, PincalError
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot, load_robot
-from pincal.planning.plan import Plan, check_limits, to_radians
+from pincal.planning.plan import Plan
 
 DEFAULT_PARAMS = "full,offsets"
 
@@ -193,8 +193,8 @@ def parse_configuration(robot: Robot, text: str, degrees: bool, what: str) -> np
         raise BadConfiguration(
             f"{what} {text!r}: {len(values)} values, expected {robot.nq} ({', '.join(robot.joint_names)})"
         )
-    q = to_radians(robot, values) if degrees else np.array(values)
-    check_limits(robot, q[None, :], [f"{what} {text}"], degrees)
+    q = robot.to_radians(values) if degrees else np.array(values)
+    robot.check_limits(q[None, :], [f"{what} {text}"], degrees)
     return robot.configurations(q, what=what)[0]
 
 

@@ -6,8 +6,6 @@ import argparse
 import sys
 import warnings
 
-import numpy as np
-
 from pincal.cli._common import (
     add_base_argument,
     add_command,
@@ -28,7 +26,7 @@ from pincal.errors import PincalError
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
 from pincal.planning.objectives import CRITERIA
-from pincal.planning.plan import Plan, revolute_mask
+from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans
 
 HELP = "design a measurement plan: the m configurations that make the robot most accurate at the test pose(s)"
@@ -225,7 +223,7 @@ def design_json(robot, params, result: DesignResult, baseline, out: str | None) 
 
 
 def format_plan(robot, plan: Plan, degrees: bool) -> list[str]:
-    values = np.where(revolute_mask(robot), np.degrees(plan.q), plan.q) if degrees else plan.q
+    values = robot.to_degrees(plan.q) if degrees else plan.q
     names = plan.joint_names
     width = max(10, *(len(n) for n in names))
     lines = ["  " + " ".join(f"{n:>{width}}" for n in names)]

@@ -21,7 +21,6 @@ from pincal.cli._common import (
 from pincal.cli.simulate import parse_error_std
 from pincal.errors import BadConfiguration, OverwriteRefused, PincalError, UrdfError
 from pincal.model.robot import load_robot
-from pincal.planning.plan import revolute_mask
 
 HELP = "simulate the measurements of a plan on a 'true' robot, to rehearse a calibration"
 EXAMPLES = """\
@@ -112,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     data = simulate_measurements(true_robot, plan, args.sigma, rng)
     data.to_csv(args.out, degrees=args.deg, millimetres=args.mm, robot=robot)
     unit = "mm" if args.mm else "m"
-    angles = "degrees" if args.deg and revolute_mask(robot).any() else "radians"
+    angles = "degrees" if args.deg and robot.revolute.any() else "radians"
     print(
         f"{args.out}: {data.m} configurations x {data.n_markers} marker(s), noise {args.sigma:g} m, "
         f"{description}; joints in {angles}, points in {unit}"

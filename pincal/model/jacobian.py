@@ -185,7 +185,7 @@ def finite_difference_jacobian(params, qs: np.ndarray, step: float = FD_STEP) ->
     for col in range(n):
         dx = np.zeros(n)
         dx[col] = step
-        plus = params.apply(dx)._points(qs)
-        minus = params.apply(-dx)._points(qs)
+        plus = params.apply(dx).points(qs, check=False)
+        minus = params.apply(-dx).points(qs, check=False)
         J[:, :, col] = ((plus - minus) / (2 * step)).reshape(m, -1)
     return J

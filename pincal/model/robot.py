@@ -13,6 +13,7 @@ perturbed robots of identification and simulation are new Robots holding their o
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -223,6 +224,26 @@ class Robot:
         return len(self.markers)
 
     @cached_property
+    def revolute(self) -> np.ndarray:
+        """(nq,) True where the joint turns (its values are angles [rad]), False where it slides
+        (its values are lengths [m]); read-only. Degrees apply to the revolute joints only."""
+        mask = np.linalg.norm(self.motion_axes[1:, 3:], axis=1) > 0.5
+        mask.flags.writeable = False
+        return mask
+
+    def to_radians(self, values: object) -> np.ndarray:
+        """Joint values with the revolute ones given in degrees, in radians (prismatic joints stay
+        in metres); a new array."""
+        values = np.array(values, dtype=float)
+        return np.where(self.revolute, np.radians(values), values)
+
+    def to_degrees(self, values: object) -> np.ndarray:
+        """Joint values [rad or m] with the revolute ones in degrees (prismatic joints stay in
+        metres); a new array."""
+        values = np.array(values, dtype=float)
+        return np.where(self.revolute, np.degrees(values), values)
+
+    @cached_property
     def motion_axes(self) -> np.ndarray:
         """(njoints, 6) motion subspace of each joint in its own frame (row 0 unused)."""
         axes = np.zeros((self.model.njoints, 6))
@@ -292,15 +313,39 @@ class Robot:
         if bad.any():
             i, j = np.argwhere(bad)[0]
             raise BadConfiguration(f"{what} {i}: joint {self.joint_names[j]} is {arr[i, j]} (must be finite)")
-        lo, hi = self.model.lowerPositionLimit, self.model.upperPositionLimit
-        out = (arr < lo - LIMIT_TOLERANCE) | (arr > hi + LIMIT_TOLERANCE)
-        if out.any():
-            i, j = np.argwhere(out)[0]
-            raise BadConfiguration(
-                f"{what} {i}: joint {self.joint_names[j]} = {arr[i, j]:.6g} is outside its limits "
-                f"[{lo[j]:.6g}, {hi[j]:.6g}] (radians or metres)"
-            )
+        self.check_limits(arr, [f"{what} {i}" for i in range(len(arr))])
         return arr
+
+    def check_limits(self, q: np.ndarray, labels: Sequence[str], degrees: bool | None = None) -> None:
+        """Raise :class:`BadConfiguration` naming the first joint value outside its limits.
+
+        Args:
+            q: (m, nq) joint values [rad or m] (converted from degrees already, if need be).
+            labels: what each row is called in the message, e.g. ``plan file 'p.csv', line 3``.
+            degrees: how the user wrote the values: True, in degrees (the message shows the value
+                and the limits of a revolute joint in degrees); False, in radians from a file or
+                the command line (the message hints at degrees when angles exceed 2π); None, from
+                the API.
+
+        Raises:
+            BadConfiguration: with the row's label, the joint, the value and the valid range, in
+                the user's unit (degrees, radians or metres).
+        """
+        lo, hi = self.model.lowerPositionLimit, self.model.upperPositionLimit
+        out = (q < lo - LIMIT_TOLERANCE) | (q > hi + LIMIT_TOLERANCE)
+        if not out.any():
+            return
+        i, j = np.argwhere(out)[0]
+        angle = bool(self.revolute[j])
+        shown = np.degrees if degrees and angle else float
+        unit = ("degrees" if degrees else "radians") if angle else "metres"
+        hint = ""
+        if degrees is False and np.abs(q[:, self.revolute]).max(initial=0) > 2 * np.pi + 1e-9:
+            hint = "; the values look like degrees: add --deg (degrees=True)"
+        raise BadConfiguration(
+            f"{labels[i]}: joint {self.joint_names[j]} = {shown(q[i, j]):.6g} is outside its "
+            f"limits [{shown(lo[j]):.6g}, {shown(hi[j]):.6g}] ({unit}){hint}"
+        )
 
     def random_configurations(
         self, n: int, rng: np.random.Generator | int | None = None, margin: float = 0.0
@@ -323,24 +368,33 @@ class Robot:
         return lo + (hi - lo) * rng.random((n, self.nq))
 
     # ------------------------------------------------------------------ kinematics
-    def points(self, q: object) -> np.ndarray:
+    def points(self, q: object, *, check: bool = True) -> np.ndarray:
         """Measured points at configurations ``q``, in the instrument (base) frame.
 
         Args:
             q: (nq,) or (m, nq) joint values.
+            check: validate ``q`` (shape, finite, within the limits). ``check=False`` is for inner
+                loops over an (m, nq) float array already checked, and for geometry outside the
+                limits (finite differences, drawings).
 
         Returns:
             (m, K, 3) positions [m] (the leading axis is kept even for one configuration).
         """
-        qs = self.configurations(q)
-        return self._points(qs)
-
-    def _points(self, qs: np.ndarray) -> np.ndarray:
-        rotations, positions = self._tip_poses(qs)
+        rotations, positions = self.tip_poses(q, check=check)
         return positions[:, None, :] + np.einsum("mij,kj->mki", rotations, self.markers)
 
-    def _tip_poses(self, qs: np.ndarray, data: pin.Data | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Tip orientations (m, 3, 3) and positions (m, 3) in the instrument frame, unchecked."""
+    def tip_poses(
+        self, q: object, *, check: bool = True, data: pin.Data | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Tip orientations (m, 3, 3) and positions (m, 3) [m] in the instrument frame: the one
+        forward-kinematics path (points, constraints and scenes use it).
+
+        Args:
+            q: (nq,) or (m, nq) joint values; with ``check=False`` an (m, nq) float array, used as is.
+            check: validate ``q`` first (see :meth:`points`).
+            data: a ``pinocchio.Data`` of this robot's model to reuse (default: a new one).
+        """
+        qs = self.configurations(q) if check else q
         model = self.model
         data = model.createData() if data is None else data
         placement = model.frames[self.tip_frame].placement

@@ -74,7 +74,7 @@ class Kinematics:
 
     def __init__(self, robot: Robot, qs: np.ndarray, data: pin.Data | None = None) -> None:
         self.qs = qs
-        self.rotations, self.positions = robot._tip_poses(qs, data)
+        self.rotations, self.positions = robot.tip_poses(qs, check=False, data=data)
         self.points = self.positions[:, None, :] + np.einsum("mij,kj->mki", self.rotations, robot.markers)
 
 

@@ -9,12 +9,11 @@ from __future__ import annotations
 import io
 import json
 import os
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.errors import BadConfiguration, BadPlanFile
+from pincal.errors import BadPlanFile
 from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
 
 
@@ -114,8 +113,8 @@ class Plan:
             )
         q = rows[:, [header.index(n) for n in names]]
         if degrees:
-            q = to_radians(robot, q)
-        check_limits(robot, q, [f"{what} file {str(path)!r}, line {n}" for n in lines], degrees)
+            q = robot.to_radians(q)
+        robot.check_limits(q, [f"{what} file {str(path)!r}, line {n}" for n in lines], degrees)
         return cls.for_robot(robot, q)
 
     def to_json(self) -> dict:
@@ -131,35 +130,3 @@ class Plan:
             return cls(np.asarray(data["q"], dtype=float), tuple(data["joint_names"]))
         except (KeyError, TypeError, ValueError) as exc:
             raise BadPlanFile(f"not a plan: expected keys joint_names and q ({exc})") from None
-
-
-def check_limits(robot, q: np.ndarray, labels: Sequence[str], degrees: bool) -> None:
-    """Raise BadConfiguration naming (by ``labels[row]``) the first value outside the joint limits,
-    in the user's unit."""
-    from pincal.model.robot import LIMIT_TOLERANCE
-
-    lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
-    out = (q < lo - LIMIT_TOLERANCE) | (q > hi + LIMIT_TOLERANCE)
-    if not out.any():
-        return
-    i, j = np.argwhere(out)[0]
-    unit = "degrees" if degrees else "radians"
-    conv = np.degrees if degrees and revolute_mask(robot)[j] else (lambda v: v)
-    hint = ""
-    if not degrees and np.abs(q[:, revolute_mask(robot)]).max(initial=0) > 2 * np.pi + 1e-9:
-        hint = "; the values look like degrees: add --deg (degrees=True)"
-    raise BadConfiguration(
-        f"{labels[i]}: joint {robot.joint_names[j]} = {conv(q[i, j]):.6g} is outside its "
-        f"limits [{conv(lo[j]):.6g}, {conv(hi[j]):.6g}] ({unit}){hint}"
-    )
-
-
-def revolute_mask(robot) -> np.ndarray:
-    """(nq,) True where the joint is revolute (its values are angles)."""
-    return np.linalg.norm(robot.motion_axes[1:, 3:], axis=1) > 0.5
-
-
-def to_radians(robot, values: Sequence[float] | np.ndarray) -> np.ndarray:
-    """Convert joint values given in degrees to radians (prismatic joints stay in metres)."""
-    values = np.array(values, dtype=float)
-    return np.where(revolute_mask(robot), np.radians(values), values)
