@@ -131,6 +131,10 @@ class IdentificationFailed(PincalError):
         super().__init__(getattr(result, "message", "identification failed"))
 
 
+class CannotWrite(PincalError, OSError):
+    """An output file that cannot be written: its folder is missing, or permission is denied."""
+
+
 class OverwriteRefused(PincalError):
     """An output path that is one of the inputs (pincal never overwrites its inputs)."""
 

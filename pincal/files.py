@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pincal.errors import BadPlanFile
+from pincal.errors import BadPlanFile, CannotWrite
 
 
 def read_text(path: str | os.PathLike, what: str, error: type[Exception]) -> str:
@@ -132,14 +132,20 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     """Write ``text`` to ``path`` through a temporary file and a rename: never half-written."""
     path = Path(path)
     directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as exc:
+        reason = "its folder does not exist" if not directory.is_dir() else exc.strerror or str(exc)
+        raise CannotWrite(f"cannot write {str(path)!r}: {reason}") from None
     try:
         # mkstemp makes owner-only files; give the result the permissions a plain open() would.
         os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "w", newline="") as handle:
             handle.write(text)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError):  # e.g. the path is a folder, or the disk is full
+            raise CannotWrite(f"cannot write {str(path)!r}: {exc.strerror or exc}") from None
         raise
     return path

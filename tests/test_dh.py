@@ -319,3 +319,12 @@ def test_readme_table_is_the_help_table(capsys):
     q = [0.3, -0.4, 0.1]
     np.testing.assert_allclose(from_readme.forward_kinematics(q), from_help.forward_kinematics(q), atol=1e-15)
     assert from_readme.joints == from_help.joints
+
+
+def test_unwritable_out_is_one_line(tmp_path, capsys):
+    for out, reason in ((tmp_path / "missing" / "r.urdf", "its folder does not exist"), (tmp_path, "")):
+        code, _, err = run(capsys, "urdf-from-dh", UR5_TABLE, "--out", out)
+        lines = err.strip().splitlines()
+        assert code == 2 and len(lines) == 1 and lines[0].startswith("pincal: error: cannot write"), err
+        assert reason in lines[0]
+    assert list(tmp_path.iterdir()) == []  # no temporary file left behind
