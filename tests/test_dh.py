@@ -204,7 +204,7 @@ def test_dh_robot_round_trip_recovers_known_errors(tmp_path):
     assert any(p.name == "joint3.offset" and p.unit == "m" for p in params)  # the prismatic joint's zero
     q0 = np.array([0.3, -0.6, 0.2, 0.4, 0.8, -0.2])
     sigma = 3e-5
-    designed = pincal.design(params, m=12, test_pose=q0, sigma=sigma, starts=2, seed=0, workers=1)
+    designed = pincal.design(params, 12, q0, sigma=sigma, starts=2, seed=0, workers=1, polish=False)
     truth = pincal.random_errors(params, {"length": 1e-3, "angle": 1e-3}, seed=5)
     data = pincal.simulate_measurements(truth, designed.plan.repeat(3), sigma, seed=6)
     result = pincal.identify(params, data, sigma=sigma)
@@ -328,3 +328,65 @@ def test_unwritable_out_is_one_line(tmp_path, capsys):
         assert code == 2 and len(lines) == 1 and lines[0].startswith("pincal: error: cannot write"), err
         assert reason in lines[0]
     assert list(tmp_path.iterdir()) == []  # no temporary file left behind
+
+
+def test_dh_robot_round_trip_on_the_command_line(tmp_path, capsys):
+    """urdf-from-dh → design --base → measure-sim in a tracker's frame → identify --base: converged,
+    residuals at the noise, the tracker placement found, a calibrated URDF written."""
+    table = tmp_path / "arm.yaml"
+    table.write_text(
+        "convention: modified\nunits: {length: mm, angle: deg}\njoints:\n"
+        "  - {a: 0, alpha: 0, d: 500, theta: 0, limits: [-160, 160]}\n"
+        "  - {a: 150, alpha: -90, d: 0, theta: -90, limits: [-100, 70]}\n"
+        "  - {type: prismatic, a: 600, alpha: 0, d: 100, theta: 0, limits: [0, 400]}\n"
+        "  - {a: 120, alpha: -90, d: 600, theta: 0, limits: [-170, 170]}\n"
+        "  - {a: 0, alpha: 90, d: 0, theta: 0, limits: [-115, 115]}\n"
+        "  - {a: 0, alpha: -90, d: 100, theta: 0, limits: [-170, 170]}\n"
+    )
+    urdf, plan, meas, cal = (tmp_path / n for n in ("arm.urdf", "plan.csv", "meas.csv", "cal.urdf"))
+    marker = ["--marker", "0.1,0.05,0.2"]
+    assert run(capsys, "urdf-from-dh", table, "--out", urdf)[0] == 0
+    design = [urdf, "-m", "15", "--test-pose=0.3,-0.6,0.2,0.4,0.8,-0.2", "--sigma", "3e-5", "--base"]
+    code, _, err = run(
+        capsys, "design", *design, *marker, "--starts", "2", "--workers", "1", "--no-polish", "--out", plan
+    )
+    assert code == 0, err
+    tracker = [2.5, -1.0, 0.2, 0.05, -0.1, 1.2]
+    code, _, err = run(
+        capsys,
+        "measure-sim",
+        urdf,
+        "--plan",
+        plan,
+        "--error-std",
+        "1e-3,1e-3",
+        "--sigma",
+        "3e-5",
+        f"--base-pose={','.join(map(str, tracker))}",
+        "--out",
+        meas,
+        *marker,
+    )
+    assert code == 0, err
+    code, out, err = run(capsys, "identify", urdf, "--data", meas, "--base", "--out", cal, "--json", *marker)
+    assert code == 0, err
+    result = json.loads(out)
+    assert result["status"] == "converged"
+    assert result["residual_rms_before"] > 100 * result["residual_rms_after"]
+    assert result["residual_rms_after"] < 2 * math.sqrt(3) * 3e-5
+    # The base found is the tracker placement, up to the joint-1 errors it absorbs (~1 mm, 1 mrad).
+    np.testing.assert_allclose(result["base"]["xyz"], tracker[:3], atol=5e-3)
+    np.testing.assert_allclose(result["base"]["rpy"], tracker[3:], atol=5e-3)
+    assert pincal.load_robot(cal, markers=[(0.1, 0.05, 0.2)]).nq == 6
+
+
+def test_dh_table_constructor_validates_and_is_read_only():
+    joint = pincal.model.dh.DHJoint("j", "revolute", 0.5, 0.0, 0.0, 0.0, -1.0, 1.0)
+    table = pincal.DHTable("arm", "standard", (joint,), np.eye(4), "tool0", np.eye(4), np.zeros((0, 3)))
+    with pytest.raises(ValueError):
+        table.base[0, 3] = 1.0  # read-only: a table never changes
+    with pytest.raises(pincal.BadDHTable, match="convention 'craig'"):
+        pincal.DHTable("arm", "craig", (joint,), np.eye(4), "tool0", np.eye(4), np.zeros((0, 3)))
+    with pytest.raises(pincal.BadDHTable, match=r"\(4, 4\) placement"):
+        pincal.DHTable("arm", "standard", (joint,), np.eye(3), "tool0", np.eye(4), np.zeros((0, 3)))
+    np.testing.assert_allclose(table.forward_kinematics([0.0])[:3, 3], [0.5, 0, 0], atol=1e-15)

@@ -66,7 +66,7 @@ class DHJoint:
     effort: float = 0.0
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class DHTable:
     """A robot as a DH table, in metres and radians (see the module doc for the conventions).
 
@@ -87,6 +87,22 @@ class DHTable:
     tool_name: str
     tool: np.ndarray
     markers: np.ndarray
+
+    def __post_init__(self) -> None:
+        if self.convention not in CONVENTIONS:
+            raise BadDHTable(f"convention {self.convention!r} is not one of {', '.join(CONVENTIONS)}")
+        bad = [j.name for j in self.joints if j.type not in JOINT_TYPES or not j.lower < j.upper]
+        if not self.joints or bad:
+            raise BadDHTable(f"DH table rows must be revolute or prismatic with lower < upper limits: {bad}")
+        for name, shape in (("base", (4, 4)), ("tool", (4, 4))):
+            value = np.array(getattr(self, name), dtype=float)  # a read-only copy
+            if value.shape != shape:
+                raise BadDHTable(f"DH table {name}: expected a (4, 4) placement, got shape {value.shape}")
+            value.flags.writeable = False
+            object.__setattr__(self, name, value)
+        markers = np.array(self.markers, dtype=float).reshape(-1, 3)
+        markers.flags.writeable = False
+        object.__setattr__(self, "markers", markers)
 
     @classmethod
     def from_yaml(cls, path: str | os.PathLike) -> DHTable:
