@@ -34,3 +34,41 @@ def positive_sigma(sigma: object) -> float:
     if not (math.isfinite(s) and s > 0):
         raise PincalError(f"sigma must be a positive number of metres, got {sigma!r}")
     return s
+
+
+Seed = int | np.integer | np.random.Generator | np.random.SeedSequence | None
+"""What every ``seed`` argument accepts: an int ≥ 0 or a ``numpy.random.SeedSequence`` (the same
+draws each time), a ``numpy.random.Generator`` (its stream continues; the caller's generator
+advances), or None (fresh entropy)."""
+
+
+def _check_seed(seed: object) -> None:
+    if seed is None or isinstance(seed, (np.random.Generator, np.random.SeedSequence)):
+        return
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise PincalError(f"seed must be an integer ≥ 0, a numpy Generator or None, got {seed!r}")
+
+
+def generator(seed: Seed) -> np.random.Generator:
+    """The random generator of a ``seed`` argument (see :data:`Seed`): a Generator is used as is.
+
+    Raises:
+        PincalError: a seed of another kind (a negative or non-integer number, a bool).
+    """
+    _check_seed(seed)
+    return np.random.default_rng(seed)
+
+
+def seed_entropy(seed: Seed) -> int:
+    """An int that repeats a run seeded by ``seed`` when passed as its seed: the int itself, the
+    entropy of a SeedSequence, one draw from a Generator, or fresh entropy for None.
+
+    Raises:
+        PincalError: as :func:`generator`.
+    """
+    _check_seed(seed)
+    if isinstance(seed, np.random.Generator):
+        return int(seed.integers(2**63))
+    if isinstance(seed, np.random.SeedSequence):
+        return int(seed.entropy)
+    return int(np.random.SeedSequence(None if seed is None else int(seed)).entropy)

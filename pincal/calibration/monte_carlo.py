@@ -14,8 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pincal.arguments import Seed, generator
 from pincal.calibration.identification import identify
-from pincal.calibration.synthetic import _error_std, _generator, random_errors, simulate_measurements
+from pincal.calibration.synthetic import error_std_pair, random_errors, simulate_measurements
 from pincal.errors import PincalError
 from pincal.evaluation.test_pose import rho0
 from pincal.model.parameters import ParameterSet
@@ -106,7 +107,7 @@ def monte_carlo(
     test_pose: object,
     sigma: float,
     trials: int = 200,
-    seed: np.random.Generator | int | None = None,
+    seed: Seed = None,
     error_std: Mapping[str, float] | None = None,
 ) -> MonteCarloResult:
     """Check a plan by simulation: does calibration deliver the predicted ρ0 at the test pose(s)?
@@ -137,12 +138,12 @@ def monte_carlo(
         raise PincalError(f"sigma must be a positive number of metres, got {sigma!r}")
     if int(trials) != trials or trials < 2:
         raise PincalError(f"trials must be an integer of at least 2, got {trials!r}")
-    length, angle = _error_std(error_std)
+    length, angle = error_std_pair(error_std)
     robot = params.robot
     qs = robot.configurations(plan)
     q0 = robot.configurations(test_pose, what="test pose")
     predicted = float(rho0(params, qs, q0, sigma=sigma))
-    rng = _generator(seed)
+    rng = generator(seed)
     nominal0 = robot.points(q0)
     errors, before, at_truth = [], [], []
     failures = local_minima = 0

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pincal.arguments import Seed, generator
 from pincal.calibration.measurements import MeasurementData
 from pincal.errors import PincalError
 from pincal.model.parameters import ParameterSet
@@ -44,8 +45,14 @@ class RandomErrors:
         return self.params.as_dict(self.values)
 
 
-def _error_std(std: Mapping[str, float] | None) -> tuple[float, float]:
-    std = DEFAULT_ERROR_STD if std is None else std
+def error_std_pair(error_std: Mapping[str, float] | None) -> tuple[float, float]:
+    """(length [m], angle [rad]) standard deviations of an ``error_std`` argument
+    (``{"length": s, "angle": s}``, a missing key is 0; None: :data:`DEFAULT_ERROR_STD`).
+
+    Raises:
+        PincalError: not such a mapping, or a negative or non-finite value.
+    """
+    std = DEFAULT_ERROR_STD if error_std is None else error_std
     if not isinstance(std, Mapping) or set(std) - {"length", "angle"}:
         raise PincalError(
             f"error std must be a mapping with keys 'length' [m] and 'angle' [rad], got {std!r}"
@@ -57,28 +64,24 @@ def _error_std(std: Mapping[str, float] | None) -> tuple[float, float]:
     return float(values[0]), float(values[1])
 
 
-def _generator(seed: np.random.Generator | int | None) -> np.random.Generator:
-    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-
-
 def random_errors(
     params: ParameterSet,
-    std: Mapping[str, float] | None = None,
-    seed: np.random.Generator | int | None = None,
+    error_std: Mapping[str, float] | None = None,
+    seed: Seed = None,
 ) -> RandomErrors:
     """Draw independent Gaussian errors for every parameter of ``params``.
 
     Args:
         params: the parameters to perturb (errors elsewhere stay zero).
-        std: ``{"length": s [m], "angle": s [rad]}``; default 1 mm and 1 mrad. Prismatic joint
-            offsets count as lengths.
-        seed: a numpy Generator or a seed (None draws fresh entropy).
+        error_std: ``{"length": s [m], "angle": s [rad]}``; default 1 mm and 1 mrad. Prismatic
+            joint offsets count as lengths.
+        seed: an int, a numpy Generator, or None for fresh entropy.
 
     Returns:
         the true errors and the true robot (``.robot``), a perturbed copy of ``params.robot``.
     """
-    length, angle = _error_std(std)
-    rng = _generator(seed)
+    length, angle = error_std_pair(error_std)
+    rng = generator(seed)
     scale = np.array([length if unit == "m" else angle for unit in params.units])
     values = scale * rng.standard_normal(len(params))
     values.flags.writeable = False
@@ -89,7 +92,7 @@ def simulate_measurements(
     true_robot: Robot | RandomErrors,
     plan: object,
     sigma: float,
-    seed: np.random.Generator | int | None = None,
+    seed: Seed = None,
 ) -> MeasurementData:
     """What an instrument with i.i.d. Gaussian noise ``sigma`` per coordinate would measure.
 
@@ -97,7 +100,7 @@ def simulate_measurements(
         true_robot: the robot measured (a :class:`~pincal.Robot`, or :class:`RandomErrors`).
         plan: (m, nq) configurations [rad or m] or a :class:`~pincal.Plan`, within the limits.
         sigma: noise standard deviation per coordinate [m] (0: exact points).
-        seed: a numpy Generator or a seed.
+        seed: an int, a numpy Generator, or None for fresh entropy.
 
     Returns:
         the measurements (points in the true robot's base frame, i.e. the instrument's frame
@@ -111,5 +114,5 @@ def simulate_measurements(
     qs = robot.configurations(plan)
     points = robot.points(qs)
     if sigma > 0:
-        points = points + sigma * _generator(seed).standard_normal(points.shape)
+        points = points + sigma * generator(seed).standard_normal(points.shape)
     return MeasurementData(qs, points, robot.joint_names)

@@ -6,7 +6,7 @@ cov(Π̂) = σ² M⁻¹ with M = Σᵢ JᵢᵀJᵢ = JᵀJ, the *information mat
 
 Every test of singularity, rank and conditioning in pincal goes through this module:
 :func:`factor` (Cholesky with a scale-free singularity test), :func:`rank` and
-:func:`conditioning` (smallest eigenvalue of the Jacobi-scaled M).
+:func:`conditioning` (smallest eigenvalue of the Jacobi-scaled M), all on :func:`jacobi_scaled`.
 """
 
 from __future__ import annotations
@@ -48,13 +48,25 @@ def factor(M: np.ndarray, rows: int, m: int) -> np.ndarray:
     raise SingularPlan(len(M), rows, m, rank(M))
 
 
+def jacobi_scaled(M: np.ndarray, zero: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """(d, D⁻¹MD⁻¹) for one (P, P) information matrix or a stack (n, P, P), D = diag(d),
+    d = sqrt(diag M): M of the Jacobian with unit columns, free of the parameters' units.
+
+    A column with d ≤ ``zero`` × max d is a zero column: its d is set to 1 and its row and
+    column of the scaled matrix to 0.
+    """
+    d = np.sqrt(np.abs(np.diagonal(M, axis1=-2, axis2=-1)))
+    null = d <= zero * d.max(axis=-1, keepdims=True)
+    d[null] = 1.0
+    scaled = M / (d[..., :, None] * d[..., None, :])
+    if zero > 0 and null.any():
+        scaled = np.where(null[..., :, None] | null[..., None, :], 0.0, scaled)
+    return d, scaled
+
+
 def rank(M: np.ndarray) -> int:
-    d = np.sqrt(np.abs(np.diag(M)))
-    zero = d <= ZERO_COLUMN * d.max()
-    d[zero] = 1.0
-    scaled = M / np.outer(d, d)
-    scaled[zero, :] = scaled[:, zero] = 0.0
-    w = np.linalg.eigvalsh(scaled)
+    """Numerical rank of M, from the eigenvalues of its Jacobi scaling (zero columns: rank 0)."""
+    w = np.linalg.eigvalsh(jacobi_scaled(M, ZERO_COLUMN)[1])
     return int(np.sum(w > RCOND * max(w.max(), 1e-300)))
 
 
@@ -64,6 +76,4 @@ def conditioning(M: np.ndarray) -> float:
     It is σ_min² of the stacked Jacobian with unit columns: in (0, 1], 0 for a singular plan,
     unchanged by the units of the parameters.
     """
-    d = np.sqrt(np.abs(np.diag(M)))
-    d[d == 0] = 1.0
-    return float(np.linalg.eigvalsh(M / np.outer(d, d))[0])
+    return float(np.linalg.eigvalsh(jacobi_scaled(M)[1])[0])

@@ -17,8 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.model.jacobian import ZERO_COLUMN
-from pincal.model.parameters import LENGTH_TOLERANCE, ParameterSet, _split
+from pincal.arguments import Seed, generator
+from pincal.model.jacobian import unit_columns
+from pincal.model.parameters import LENGTH_TOLERANCE, ParameterSet, split_spec
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,7 +81,7 @@ def _preference(params: ParameterSet, prefer: frozenset[str] = frozenset()) -> l
 def identifiability(
     params: ParameterSet,
     n_configurations: int = 200,
-    seed: int = 0,
+    seed: Seed = 0,
     tol: float = 1e-6,
     prefer: str | Iterable[str] = (),
 ) -> Identifiability:
@@ -98,16 +99,14 @@ def identifiability(
             chain parameters it makes redundant are dropped).
     """
     robot = params.robot
-    qs = robot.random_configurations(n_configurations, np.random.default_rng(seed))
+    qs = robot.random_configurations(n_configurations, generator(seed))
     J = params.jacobian(qs, frame="tip").reshape(-1, len(params))
-    norms = np.linalg.norm(J, axis=0)
-    visible = norms > ZERO_COLUMN * max(norms.max(), 1e-300)
-    A = np.where(visible, J / np.where(visible, norms, 1.0), 0.0)
+    A, visible = unit_columns(J)
     singular_values = np.linalg.svd(A, compute_uv=False)
 
     kept: list[int] = []
     basis = np.zeros((A.shape[0], 0))
-    preferred = frozenset(ParameterSet.from_spec(robot, prefer).names) if _split(prefer) else frozenset()
+    preferred = frozenset(ParameterSet.from_spec(robot, prefer).names) if split_spec(prefer) else frozenset()
     for i in _preference(params, preferred):
         if not visible[i]:
             continue

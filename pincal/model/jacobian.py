@@ -31,6 +31,14 @@ ZERO_COLUMN = 1e-9
 of a joint whose axis passes through the measured point (a hidden parameter)."""
 
 
+def unit_columns(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(A, visible): the stacked (rows, P) Jacobian with unit-norm columns, and which columns are
+    visible; a column below ZERO_COLUMN × the largest norm is invisible and set to zero."""
+    norms = np.linalg.norm(J, axis=0)
+    visible = norms > ZERO_COLUMN * max(norms.max(), 1e-300)
+    return np.where(visible, J / np.where(visible, norms, 1.0), 0.0), visible
+
+
 def _skew(v: np.ndarray) -> np.ndarray:
     x, y, z = v
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])

@@ -28,6 +28,7 @@ from functools import cached_property
 import numpy as np
 import pinocchio as pin
 
+from pincal.arguments import Seed
 from pincal.errors import PincalError, UnknownParameter
 from pincal.model.robot import Robot
 
@@ -102,7 +103,8 @@ def _group(robot: Robot, catalogue: list[Parameter], group: str) -> list[Paramet
     raise AssertionError(group)
 
 
-def _split(spec: str | Iterable[str]) -> list[str]:
+def split_spec(spec: str | Iterable[str]) -> list[str]:
+    """The names and groups of a parameter spec: ``"a, b"`` or ``["a", "b,c"]`` → ``["a", "b", "c"]``."""
     items = spec.split(",") if isinstance(spec, str) else list(spec)
     return [s.strip() for item in items for s in str(item).split(",") if s.strip()]
 
@@ -128,7 +130,7 @@ class ParameterSet:
         catalogue = _catalogue(robot)
         by_name = {p.name: p for p in catalogue}
         chosen: set[str] = set()
-        tokens = _split(spec)
+        tokens = split_spec(spec)
         if not tokens:
             raise UnknownParameter("", list(GROUPS) + list(by_name))
         for token in tokens:
@@ -267,7 +269,7 @@ class ParameterSet:
         raise PincalError(f"unknown Jacobian method {method!r}; valid: analytic, fd")
 
     def identifiable(
-        self, n_configurations: int = 200, seed: int = 0, tol: float = 1e-6, prefer: str | Iterable[str] = ()
+        self, n_configurations: int = 200, seed: Seed = 0, tol: float = 1e-6, prefer: str | Iterable[str] = ()
     ):
         """Which of these parameters position measurements can identify.
 

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from pincal.arguments import Seed, generator
 from pincal.errors import BadConfiguration, FrameNotFound, RobotNotFound, UnsupportedJoint, UrdfError
 
 _PACKAGE = Path(__file__).resolve().parent.parent
@@ -347,17 +348,15 @@ class Robot:
             f"limits [{shown(lo[j]):.6g}, {shown(hi[j]):.6g}] ({unit}){hint}"
         )
 
-    def random_configurations(
-        self, n: int, rng: np.random.Generator | int | None = None, margin: float = 0.0
-    ) -> np.ndarray:
+    def random_configurations(self, n: int, rng: Seed = None, margin: float = 0.0) -> np.ndarray:
         """Draw (n, nq) configurations uniformly within the joint limits shrunk by ``margin``.
 
         Args:
             n: number of configurations.
-            rng: a numpy Generator or a seed (None draws fresh entropy).
+            rng: a numpy Generator or a seed (an int; None draws fresh entropy).
             margin: distance kept from each limit [rad or m].
         """
-        rng = np.random.default_rng(rng)
+        rng = generator(rng)
         lo = np.maximum(self.model.lowerPositionLimit, -np.pi) + margin
         hi = np.minimum(self.model.upperPositionLimit, np.pi) - margin
         if np.any(hi < lo):

@@ -7,7 +7,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from pincal.arguments import positive_int, positive_sigma
+from pincal.arguments import Seed, generator, positive_int, positive_sigma
 from pincal.errors import Infeasible
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
@@ -29,7 +29,7 @@ def random_plans(
     criterion: str = "test-pose",
     sigma: float = 1.0,
     constraints: Iterable[AnyConstraint] = (),
-    seed: int | None = 0,
+    seed: Seed = 0,
     pool: object = None,
 ) -> RandomPlans:
     """The distribution of a criterion over ``n`` random feasible plans of m configurations.
@@ -48,7 +48,7 @@ def random_plans(
         criterion: one of :data:`CRITERIA` (default ρ0, the mean over the test poses).
         sigma: measurement noise per coordinate [m].
         constraints: as for :func:`design`.
-        seed: seed of the draws.
+        seed: seed of the draws (an int, a numpy Generator, or None for fresh entropy).
         pool: (N, nq) configurations or a Plan (e.g. taught poses) to draw the plans from, as
             :func:`design` searches them (infeasible ones are dropped); default: the joint limits.
 
@@ -74,7 +74,7 @@ def _random_plans(params, m, n, test_pose, criterion, sigma, constraints, seed, 
     test_poses = checked_test_poses(params, test_pose, criterion)
     sigma = positive_sigma(sigma)
     feasibility = Feasibility(params.robot, constraints)
-    rng = np.random.default_rng(seed)
+    rng = generator(seed)
     if pool is None:
 
         def draw(k: int) -> np.ndarray:

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.errors import SingularPlan
-from pincal.evaluation.information import conditioning
+from pincal.evaluation.information import conditioning, jacobi_scaled
 from pincal.model.jacobian import JacobianEngine
 from pincal.planning.feasibility import Feasibility
 from pincal.planning.objectives import Objective, TraceObjective
@@ -138,8 +138,7 @@ class PlanFunction:
     def _regular(self, M: np.ndarray, F: float, G: np.ndarray) -> tuple[float, np.ndarray]:
         """Add the conditioning barrier: φ(x) = x − 1 − log x, x = log(λ/floor)/log(band), for
         λ = conditioning(M) below band·floor (∂λ/∂M = uuᵀ − λ diag(v²/diag M), u = D⁻¹v)."""
-        d = np.sqrt(np.diag(M))
-        scaled = M / np.outer(d, d)
+        d, scaled = jacobi_scaled(M)
         w = np.linalg.eigvalsh(scaled)
         lam = w[0]
         if lam >= self.floor * CONDITIONING_BAND:

@@ -40,7 +40,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pincal.arguments import positive_int, positive_sigma
+from pincal.arguments import Seed, positive_int, positive_sigma, seed_entropy
 from pincal.errors import DegenerateOptimum, DegenerateOptimumWarning, Infeasible, PincalError, SingularPlan
 from pincal.evaluation.classic import criteria_from_jacobian
 from pincal.evaluation.test_pose import TestPoseCriterion
@@ -85,7 +85,7 @@ def design(
     constraints: Iterable[AnyConstraint] = (),
     pool: object = None,
     starts: int = 32,
-    seed: int | None = 0,
+    seed: Seed = 0,
     sigma: float = 1.0,
     executor: Executor | None = None,
     workers: int | None = None,
@@ -111,7 +111,8 @@ def design(
             ones are dropped), or the number of random feasible candidates to draw (default
             2000; the continuous method draws its starts from it).
         starts: number of starts.
-        seed: seed of every random choice (None: fresh entropy, reported in ``result.seed``).
+        seed: seed of every random choice: an int, or a numpy Generator (one int is drawn from
+            it), or None (fresh entropy); the int used is ``result.seed``: pass it to repeat.
         sigma: measurement noise per coordinate [m]; ρ0 is proportional to it.
         executor: a ``concurrent.futures.Executor`` to run the starts on (see module doc).
         workers: processes of the default process pool (default: all CPUs; 1: serial).
@@ -225,8 +226,7 @@ def _validate(
         raise PincalError(f"min_conditioning must be a number in (0, 0.1), got {floor!r}")
     constraints = tuple(constraints)
     feasibility = Feasibility(params.robot, constraints)
-    if seed is not None:
-        seed = positive_int(seed, "seed", 0)
+    entropy = seed_entropy(seed)
     if method == "continuous":
         if polish:
             raise PincalError("polish refines exchange results; the continuous method needs none")
@@ -254,7 +254,7 @@ def _validate(
         feasibility=feasibility,
         user_pool=user_pool,
         polish=bool(polish),
-        entropy=int(np.random.SeedSequence(seed).entropy),
+        entropy=entropy,
     )
 
 

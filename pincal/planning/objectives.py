@@ -35,7 +35,7 @@ import numpy as np
 from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from pincal.errors import PincalError, UnknownName
-from pincal.evaluation.information import RCOND, factor
+from pincal.evaluation.information import RCOND, factor, jacobi_scaled
 from pincal.evaluation.test_pose import mean_weight_factor
 from pincal.model.parameters import ParameterSet
 
@@ -136,9 +136,7 @@ def _scaled_eigh(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
     """Eigen-decomposition of the Jacobi-scaled stack D⁻¹MD⁻¹; returns (d, w, V, singular)
     (V is None without ``vectors``: eigenvalues only, cheaper)."""
-    d = np.sqrt(np.abs(np.einsum("nii->ni", Ms)))
-    d[d == 0] = 1.0
-    scaled = Ms / (d[:, :, None] * d[:, None, :])
+    d, scaled = jacobi_scaled(Ms)
     w, V = np.linalg.eigh(scaled) if vectors else (np.linalg.eigvalsh(scaled), None)
     singular = w[:, 0] <= RCOND * np.maximum(w[:, -1], 1e-300)
     return d, w, V, singular

@@ -1,0 +1,50 @@
+"""One convention per argument: seeds (int, Generator or None) and σ, checked alike everywhere."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import pincal
+from pincal.arguments import generator, positive_sigma, seed_entropy
+
+
+def test_a_generator_is_used_as_is_and_an_int_seeds_numpy_s_default():
+    rng = np.random.default_rng(3)
+    assert generator(rng) is rng
+    np.testing.assert_array_equal(generator(7).random(5), np.random.default_rng(7).random(5))
+    assert seed_entropy(42) == 42
+    assert seed_entropy(np.random.SeedSequence(9)) == 9
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, True, "3", [1]])
+def test_bad_seeds_are_refused_by_name(seed):
+    with pytest.raises(pincal.PincalError, match="seed must be an integer ≥ 0, a numpy Generator or None"):
+        generator(seed)
+
+
+@pytest.mark.parametrize("sigma", [0, -1e-5, float("nan"), float("inf"), "x", None])
+def test_bad_sigma_is_refused(sigma):
+    with pytest.raises(pincal.PincalError, match="sigma must be a positive number of metres"):
+        positive_sigma(sigma)
+
+
+def test_every_seed_argument_takes_a_generator(planar):
+    params = planar.parameters("joint2.tx,tip.tx")
+    fast = dict(test_pose=[0.0, 1.0], starts=2, workers=1, pool=50)
+    # design: one int is drawn from the Generator; it is the result's seed and repeats the design.
+    drawn = pincal.design(params, 2, seed=np.random.default_rng(5), **fast)
+    assert drawn.seed == int(np.random.default_rng(5).integers(2**63))
+    again = pincal.design(params, 2, seed=drawn.seed, **fast)
+    np.testing.assert_array_equal(drawn.plan.q, again.plan.q)
+    # The others draw from the Generator itself: the same stream as its seed.
+    a = pincal.random_plans(params, 2, 20, [0.0, 1.0], seed=np.random.default_rng(8))
+    b = pincal.random_plans(params, 2, 20, [0.0, 1.0], seed=8)
+    np.testing.assert_array_equal(a.values, b.values)
+    e1 = pincal.random_errors(params, seed=np.random.default_rng(4)).values
+    np.testing.assert_array_equal(e1, pincal.random_errors(params, seed=4).values)
+    np.testing.assert_array_equal(
+        planar.random_configurations(3, 6), planar.random_configurations(3, np.random.default_rng(6))
+    )
+    with pytest.raises(pincal.PincalError, match="seed must be"):
+        pincal.design(params, 2, seed=-3, **fast)
