@@ -233,3 +233,52 @@ def test_objectives_with_a_prior_and_a_path(kr, criterion):
             trial = out.index.copy()
             trial[i] = c
             assert value(trial) >= out.F - 1e-9
+
+
+# --------------------------------------------------------------------- design() over regions, priors
+def test_design_for_a_neighbourhood_reports_its_mean(kr):
+    params, q0 = kr
+    region = pincal.around(q0, np.radians(10), samples=64)
+    result = pincal.design(params, 8, region, sigma=SIGMA, starts=2, workers=1, polish=False)
+    assert result.rho0 == pytest.approx(pincal.rho0(params, result.plan, region, SIGMA), rel=1e-12)
+    assert len(result.rho0_each) == 64
+
+
+def test_design_with_a_prior_below_the_parameter_count(kr):
+    params, q0 = kr
+    prior = pincal.Prior(1e-3, 1e-3)
+    with pytest.warns(pincal.DegenerateOptimumWarning, match="effectively singular.*MAP"):
+        result = pincal.design(params, 3, q0, sigma=SIGMA, prior=prior, starts=2, workers=1, polish=False)
+    brute = _brute_rho0_squared(params, result.plan.q, q0[None], SIGMA, prior.covariance(params))[0]
+    assert 3 * 3 < len(params) and result.rho0**2 == pytest.approx(brute, rel=1e-9)
+    with pytest.raises(pincal.SingularPlan):
+        pincal.design(params, 3, q0, sigma=SIGMA, starts=2, workers=1)
+
+
+def test_planar_closed_form_with_an_uninformative_prior(planar):
+    # SPEC §6: ρ0,min² = (σ²/m) cos² q20 / (1 − |sin q20|); a prior of infinite std changes nothing.
+    params = planar.parameters("joint2.tx,tip.tx")
+    q20, m = 1.0, 3
+    result = pincal.design(
+        params,
+        m,
+        [0.0, q20],
+        sigma=SIGMA,
+        prior=pincal.Prior(np.inf, np.inf),
+        min_conditioning=1e-4,
+        starts=4,
+        workers=1,
+    )
+    expected = SIGMA**2 / m * np.cos(q20) ** 2 / (1 - abs(np.sin(q20)))
+    assert result.rho0**2 == pytest.approx(expected, rel=1e-6)
+
+
+def test_a_floor_a_d_optimal_plan_meets_is_not_refused(kr):
+    # Issue 9: at floor 1e-2, m = 4 was refused ("no start meets the floor") although a D-optimal
+    # plan above it exists. The starts now come from a D-optimal exchange when random plans fail.
+    params, q0 = kr
+    with pytest.warns(pincal.DegenerateOptimumWarning) as caught:
+        result = pincal.design(params, 4, q0, sigma=SIGMA, min_conditioning=1e-2, starts=2, workers=1)
+    assert result.conditioning > 1e-2
+    advice = " ".join(str(w.message) for w in caught)
+    assert "raise min_conditioning" in advice and "lower" not in advice

@@ -138,6 +138,8 @@ class PlanFunction:
     def _regular(self, M: np.ndarray, F: float, G: np.ndarray) -> tuple[float, np.ndarray]:
         """Add the conditioning barrier: φ(x) = x − 1 − log x, x = log(λ/floor)/log(band), for
         λ = conditioning(M) below band·floor (∂λ/∂M = uuᵀ − λ diag(v²/diag M), u = D⁻¹v)."""
+        if self.floor <= 0:  # no floor (a prior keeps every plan regular)
+            return F, G
         d, scaled = jacobi_scaled(M)
         w = np.linalg.eigvalsh(scaled)
         lam = w[0]

@@ -32,6 +32,7 @@ seed gives the same plan whatever the executor and the number of workers.
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from collections.abc import Iterable, Sequence
@@ -43,6 +44,7 @@ import numpy as np
 from pincal.arguments import Seed, positive_int, positive_sigma, seed_entropy
 from pincal.errors import DegenerateOptimum, DegenerateOptimumWarning, Infeasible, PincalError, SingularPlan
 from pincal.evaluation.classic import criteria_from_jacobian
+from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
@@ -53,6 +55,7 @@ from pincal.planning.objectives import (
     TEST_POSE_CRITERIA,
     checked_test_poses,
     criterion_name,
+    make_objective,
 )
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, StartRecord
@@ -63,6 +66,11 @@ METHODS = ("continuous", "exchange")
 
 DEFAULT_POOL = 2000
 """Candidate configurations drawn when no pool is given."""
+
+SINGULAR_WARNING = 1e-6
+"""A plan whose conditioning is below this is effectively singular: some parameter combinations
+are barely measured, and the error away from the test pose(s) grows large. It is said, whatever
+the floor."""
 
 MIN_CONDITIONING = 1e-4
 """Default floor of a plan's conditioning: the smallest eigenvalue of its Jacobi-scaled
@@ -94,7 +102,8 @@ def design(
     keep: float = 0.25,
     screen_iterations: int = 20,
     maxiter: int = 3000,
-    min_conditioning: float = MIN_CONDITIONING,
+    min_conditioning: float | None = None,
+    prior: Prior | None = None,
     progress: bool = False,
 ) -> DesignResult:
     """Find the m measurement configurations that minimise a criterion, within the constraints.
@@ -102,8 +111,11 @@ def design(
     Args:
         params: the parameters to identify (an identifiable set).
         m: number of configurations.
-        test_pose: (nq,) or (k, nq) test pose(s) [rad or m]; required by the test-pose criteria,
-            used to report ρ0 otherwise.
+        test_pose: (nq,) or (k, nq) test pose(s) [rad or m], or where the robot works: a
+            neighbourhood (:func:`pincal.around`), a path (:class:`pincal.TestPath`) or a Cartesian
+            box (:func:`pincal.cartesian_box`) — the criteria then take the mean (``test-pose``)
+            or the worst (``test-pose-worst``) over its sample configurations. Required by the
+            test-pose criteria, used to report ρ0 otherwise.
         criterion: one of :data:`CRITERIA` (case-insensitive).
         method: ``"exchange"`` (default) or ``"continuous"`` (see module doc).
         constraints: constraint objects of :mod:`pincal.planning.constraints` (joint limits always apply).
@@ -129,6 +141,13 @@ def design(
             returned; the continuous search keeps above it with a barrier. A plan that ends near
             the floor comes with a :class:`DegenerateOptimumWarning`: the criterion would keep
             improving towards singular plans (ρ0 at a test pose at a singular limit does).
+            Default :data:`MIN_CONDITIONING`; with a prior, 0 (no floor: the prior keeps every
+            plan's posterior regular), unless given. A plan whose conditioning is below
+            :data:`SINGULAR_WARNING` is warned about whatever the floor.
+        prior: the errors before calibration (:class:`pincal.Prior`, e.g. ``Prior(1e-3, 1e-3)``):
+            every criterion is taken of the posterior information M + σ²Σp⁻¹ (the Bayesian
+            criterion tr(J₀(M/σ² + Σp⁻¹)⁻¹J₀ᵀ) for the test pose), finite for every plan, so m may
+            be below the number of parameters. ``sigma`` must then be the real noise [m].
         progress: show a progress bar on stderr (starts done, best value so far).
 
     Returns:
@@ -168,6 +187,7 @@ def design(
             screen_iterations=screen_iterations,
             maxiter=maxiter,
             min_conditioning=min_conditioning,
+            prior=prior,
         )
         pooled = _pool(params, settings, pool, init)
         engine = JacobianEngine(params)
@@ -207,23 +227,29 @@ def _validate(
     screen_iterations: object,
     maxiter: object,
     min_conditioning: object,
+    prior: Prior | None = None,
 ) -> Settings:
     """Check every argument (in the order of the signature) and settle the defaults."""
     criterion = criterion_name(criterion)
     if method not in METHODS:
         raise PincalError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
-    m = _check_m(params, m)
-    test_poses = checked_test_poses(params, test_pose, criterion)
+    if prior is not None and not isinstance(prior, Prior):
+        raise PincalError(f"prior must be a pincal.Prior (e.g. Prior.parse('1mm,1mrad')), got {prior!r}")
     sigma = positive_sigma(sigma)
+    information = None if prior is None else prior.information(params, sigma)
+    m = _check_m(params, m, information)
+    test_poses = checked_test_poses(params, test_pose, criterion)
     starts = positive_int(starts, "starts")
     workers = _multistart.default_workers() if workers is None else positive_int(workers, "workers")
     if not (isinstance(keep, (int, float)) and 0 < keep <= 1):
         raise PincalError(f"keep must be a fraction in (0, 1], got {keep!r}")
     screen_iterations = positive_int(screen_iterations, "screen_iterations", 0)
     maxiter = positive_int(maxiter, "maxiter")
-    floor = min_conditioning
-    if not (isinstance(floor, (int, float)) and 0 < floor < 0.1):
-        raise PincalError(f"min_conditioning must be a number in (0, 0.1), got {floor!r}")
+    floor = (MIN_CONDITIONING if prior is None else 0.0) if min_conditioning is None else min_conditioning
+    low = 0 if prior is not None else math.ulp(0.0)
+    if isinstance(floor, bool) or not (isinstance(floor, (int, float)) and low <= floor < 0.1):
+        valid = "[0, 0.1) with a prior" if prior is not None else "(0, 0.1) (0 only with a prior)"
+        raise PincalError(f"min_conditioning must be a number in {valid}, got {floor!r}")
     constraints = tuple(constraints)
     feasibility = Feasibility(params.robot, constraints)
     entropy = seed_entropy(seed)
@@ -255,13 +281,16 @@ def _validate(
         user_pool=user_pool,
         polish=bool(polish),
         entropy=entropy,
+        prior=prior,
+        prior_information=information,
     )
 
 
-def _check_m(params: ParameterSet, m: object) -> int:
+def _check_m(params: ParameterSet, m: object, prior: np.ndarray | None = None) -> int:
     m = positive_int(m, "m (number of configurations)")
     rows = 3 * params.robot.n_markers
-    if m * rows < len(params):
+    unknown = len(params) if prior is None else int(np.sum(np.diag(prior) == 0))
+    if m * rows < unknown:
         raise SingularPlan(len(params), rows, m)
     return m
 
@@ -307,7 +336,7 @@ def _choose(settings: Settings, engine: JacobianEngine, outcomes: tuple[Outcome,
             "relax the constraints or add starts"
         )
     cond = {s: plan_conditioning(engine, outcomes[s].q) for s in usable}
-    regular = [s for s in usable if cond[s] > floor]
+    regular = [s for s in usable if cond[s] > floor or floor <= 0]
     history = tuple(
         replace(o.record, message=f"below the conditioning floor {floor:g}; " + o.record.message)
         if s in cond and s not in regular
@@ -317,14 +346,29 @@ def _choose(settings: Settings, engine: JacobianEngine, outcomes: tuple[Outcome,
     if not regular:
         raise DegenerateOptimum(criterion, settings.m, floor)
     winner = min(regular, key=lambda s: (outcomes[s].F, s))
-    near_floor = cond[winner] < 2 * floor  # within twice the floor: the floor binds
+    near_floor = floor > 0 and cond[winner] < 2 * floor  # within twice the floor: the floor binds
+    where = "design for a neighbourhood or a path of where you work (pincal.around, TestPath)"
     if near_floor:
         warnings.warn(
             f"the plan sits at the conditioning floor ({cond[winner]:.3g}; min_conditioning {floor:g}): "
             f"the {criterion} criterion keeps improving towards singular plans, so its infimum is not "
-            f"attained; add configurations or test poses, or lower min_conditioning",
+            f"attained, and the error away from the test pose(s) grows; {where}, add test poses around "
+            f"where you work, or raise min_conditioning",
             DegenerateOptimumWarning,
             stacklevel=3,  # the caller of design()
+        )
+    elif cond[winner] < SINGULAR_WARNING:
+        held = (
+            "the prior holds the parameter combinations the plan barely measures: identify with the same "
+            "prior (MAP), and expect the error away from the test pose(s) to stay near the prior's"
+            if settings.prior is not None
+            else "some parameter combinations are barely measured, and the error away from the test pose(s) "
+            f"is large; {where}, or raise min_conditioning"
+        )
+        warnings.warn(
+            f"the plan is effectively singular (conditioning {cond[winner]:.3g}): {held}",
+            DegenerateOptimumWarning,
+            stacklevel=3,
         )
     return _Choice(winner, cond[winner], len(usable) - len(regular), near_floor, history)
 
@@ -342,7 +386,7 @@ def _result(
     s, q = settings, outcomes[choice.winner].q
     plan = Plan.for_robot(params.robot, q)
     value, rho0, rho0_each = _report(
-        params, plan, s.criterion, s.test_poses, s.sigma, engine.jacobian(q, frame="tip")
+        params, plan, s.criterion, s.test_poses, s.sigma, engine.jacobian(q, frame="tip"), s.prior
     )
     continued = sum(h.continued for h in choice.history)
     n_starts = len(outcomes)
@@ -377,17 +421,27 @@ def _result(
         pool_rejected=pooled.rejected,
         conditioning=choice.conditioning,
         message=message,
+        prior=s.prior,
     )
 
 
-def _report(params, plan, criterion, test_poses, sigma, J) -> tuple[float, float | None, np.ndarray | None]:
+def _report(
+    params, plan, criterion, test_poses, sigma, J, prior=None
+) -> tuple[float, float | None, np.ndarray | None]:
     """(value, ρ0, ρ0 per test pose) of the final plan, from the core's own functions."""
     rho0 = each = None
     if test_poses is not None:
-        each = TestPoseCriterion(params, test_poses, sigma, aggregate="each")(plan.q)
+        each = TestPoseCriterion(params, test_poses, sigma, aggregate="each", prior=prior)(plan.q)
         rho0 = float(each.max()) if criterion == "test-pose-worst" else float(np.sqrt(np.mean(each**2)))
     if criterion in TEST_POSE_CRITERIA:
         return rho0, rho0, each
+    if prior is not None:  # the Bayesian classic criterion, as the search minimised it
+        P = len(params)
+        objective = make_objective(
+            criterion, P, J.shape[1], sigma=sigma, prior=prior.information(params, sigma)
+        )
+        flat = J.reshape(-1, P)
+        return float(objective.report(objective.value(flat.T @ flat, len(plan)))), rho0, each
     c = criteria_from_jacobian(J, len(plan))
     value = {"D": c.log_det, "A": c.trace, "E": c.max_eig, "cond": c.cond}[criterion]
     return float(value), rho0, each

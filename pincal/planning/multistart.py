@@ -43,7 +43,9 @@ class ProblemSpec:
         sigma: measurement noise per coordinate [m].
         constraints: the constraint objects.
         pool: (N, nq) candidate configurations (exchange), or None.
-        floor: smallest conditioning of a plan (see :func:`pincal._continuous.conditioning`).
+        floor: smallest conditioning of a plan (see :func:`pincal._continuous.conditioning`);
+            0: none (with a prior).
+        prior: (P, P) the prior's information Λ = σ²Σp⁻¹, or None.
         key: identifies the spec in the workers' caches.
     """
 
@@ -55,6 +57,7 @@ class ProblemSpec:
     constraints: tuple[AnyConstraint, ...]
     pool: np.ndarray | None = None
     floor: float = 1e-6
+    prior: np.ndarray | None = None
     key: str = field(default_factory=lambda: uuid.uuid4().hex)
 
 
@@ -68,7 +71,7 @@ class Problem:
         if spec.test_poses is not None and spec.criterion in TEST_POSE_CRITERIA:
             J0 = self.engine.jacobian(spec.test_poses, frame="tip").copy()
         self.objective: Objective = make_objective(
-            spec.criterion, len(spec.params), self.engine.rows, J0, spec.sigma
+            spec.criterion, len(spec.params), self.engine.rows, J0, spec.sigma, spec.prior
         )
         self.feasibility = Feasibility(spec.params.robot, spec.constraints)
         self.function = _continuous.PlanFunction(

@@ -36,6 +36,7 @@ from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from pincal.errors import PincalError, UnknownName
 from pincal.evaluation.information import RCOND, factor, jacobi_scaled
+from pincal.evaluation.region import resolve_test_poses
 from pincal.evaluation.test_pose import mean_weight_factor
 from pincal.model.parameters import ParameterSet
 
@@ -64,8 +65,8 @@ TEST_POSE_CRITERIA = ("test-pose", "test-pose-worst")
 
 
 def checked_test_poses(params: ParameterSet, test_pose: object, criterion: str) -> np.ndarray | None:
-    """The (k, nq) test poses of a design, checked against the robot; None if none is given and
-    the criterion needs none.
+    """The (k, nq) test poses of a design (a region's or path's sample configurations), checked
+    against the robot; None if none is given and the criterion needs none.
 
     Raises:
         PincalError: the criterion needs a test pose and none is given.
@@ -75,7 +76,7 @@ def checked_test_poses(params: ParameterSet, test_pose: object, criterion: str) 
         if criterion in TEST_POSE_CRITERIA:
             raise PincalError(f"criterion {criterion!r} needs a test pose (test_pose=...)")
         return None
-    return params.robot.configurations(test_pose, what="test pose")
+    return resolve_test_poses(params.robot, test_pose)[0]
 
 
 def criterion_name(name: str) -> str:

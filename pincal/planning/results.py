@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pincal.evaluation.prior import Prior
 from pincal.planning.plan import Plan
 
 __all__ = ["DesignResult", "RandomPlans", "StartRecord"]
@@ -70,6 +71,7 @@ class DesignResult:
         conditioning: the plan's conditioning, the smallest eigenvalue of its Jacobi-scaled
             information matrix (in (0, 1]; see ``min_conditioning`` of :func:`design`).
         message: a one-line summary.
+        prior: the prior the design used (ρ0 is then the Bayesian one), or None.
     """
 
     plan: Plan
@@ -88,6 +90,7 @@ class DesignResult:
     pool_rejected: int
     conditioning: float
     message: str
+    prior: Prior | None = None
 
     @property
     def m(self) -> int:
@@ -114,6 +117,7 @@ class DesignResult:
             "pool_rejected": self.pool_rejected,
             "conditioning": self.conditioning,
             "message": self.message,
+            "prior": None if self.prior is None else self.prior.as_dict(),
             "history": [h.as_dict() for h in self.history],
         }
 

@@ -16,12 +16,14 @@ import numpy as np
 
 from pincal.errors import Infeasible, SingularPlan
 from pincal.evaluation.information import conditioning, factor, rank
+from pincal.evaluation.prior import Prior
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning import multistart as _multistart
 from pincal.planning.constraints import AnyConstraint
+from pincal.planning.exchange import fedorov
 from pincal.planning.feasibility import Feasibility
-from pincal.planning.objectives import TEST_POSE_CRITERIA, Objective, make_objective
+from pincal.planning.objectives import TEST_POSE_CRITERIA, LogDetObjective, Objective, make_objective
 from pincal.planning.results import StartRecord
 
 
@@ -45,6 +47,8 @@ class Settings:
     user_pool: bool
     polish: bool
     entropy: int
+    prior: Prior | None = None
+    prior_information: np.ndarray | None = None  # Λ = σ²Σp⁻¹, added to M by every criterion
 
     def seed_sequence(self, *key: int) -> np.random.SeedSequence:
         """The child ``key`` of the design's seed sequence: (0,) draws the pool, (1, i) start i
@@ -99,18 +103,31 @@ def draw_starts(settings: Settings, J_pool: np.ndarray, pool: np.ndarray) -> tup
             spacing,
             np.random.default_rng(settings.seed_sequence(1, i)),
             settings.floor,
+            settings.prior_information,
         )
         for i in range(settings.starts)
     )
 
 
 def _pick(
-    J: np.ndarray, pool: np.ndarray, m: int, spacing: float, rng: np.random.Generator, floor: float
+    J: np.ndarray,
+    pool: np.ndarray,
+    m: int,
+    spacing: float,
+    rng: np.random.Generator,
+    floor: float,
+    prior: np.ndarray | None = None,
 ) -> np.ndarray:
     """Indices of m pool configurations forming a regular plan (conditioning above ``floor``, spaced),
-    at random."""
+    at random. With no floor (a prior), any plan whose posterior information is regular.
+
+    When no random plan reaches twice the floor, a D-optimal exchange from a random regular one
+    does (it spreads the information over every parameter): a floor that a D-optimal plan meets
+    is never refused.
+    """
     N, rows, P = J.shape
     best_rank = 0
+    regular = None  # a regular random plan below the floor, to start the D-optimal exchange from
     for _ in range(100):
         order = rng.permutation(N)
         if spacing > 0:
@@ -131,16 +148,25 @@ def _pick(
         stacked = J[index].reshape(-1, P)
         M = stacked.T @ stacked
         try:
+            if floor <= 0:
+                factor(M if prior is None else M + prior, rows, m)
+                return index
             factor(M, rows, m)
             if conditioning(M) > 2 * floor:
                 return index
+            regular = index if regular is None else regular
         except SingularPlan:
             pass
         best_rank = max(best_rank, rank(M))
-    if best_rank == P:
+    if regular is not None:
+        out = fedorov(LogDetObjective(rows), J, pool, regular, spacing)
+        stacked = J[out.index].reshape(-1, P)
+        reached = conditioning(stacked.T @ stacked)
+        if reached > floor:
+            return out.index
         raise Infeasible(
-            f"no random plan of {m} configurations reaches twice the conditioning floor {floor:g}; "
-            f"lower min_conditioning or add configurations"
+            f"no plan of {m} configurations reaches the conditioning floor {floor:g} (the D-optimal plan "
+            f"found reaches {reached:.3g}); add configurations or lower min_conditioning"
         )
     raise SingularPlan(P, rows, m, best_rank)
 
@@ -166,9 +192,10 @@ def search(
         s.constraints,
         pooled.candidates if s.method == "exchange" else None,
         s.floor,
+        s.prior_information,
     )
     J0 = engine.jacobian(s.test_poses, frame="tip").copy() if s.criterion in TEST_POSE_CRITERIA else None
-    objective = make_objective(s.criterion, len(params), engine.rows, J0, s.sigma)
+    objective = make_objective(s.criterion, len(params), engine.rows, J0, s.sigma, s.prior_information)
     n_starts, n_keep = pooled.n_starts(s), pooled.n_keep(s)
     second_stage = (s.method == "continuous" and n_keep < n_starts) or s.polish
     bar = _Progress(progress, n_starts + (n_keep if second_stage else 0), s.criterion, objective)
