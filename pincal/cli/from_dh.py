@@ -32,7 +32,7 @@ TABLE.yaml (lengths and angles in 'units'; one row per joint, base to tip):
 The joint variable q adds to the row's theta (revolute) or d (prismatic): the table's value is the
 joint's zero. Row keys: name (default joint<i>), type (revolute, the default, or prismatic), a,
 alpha, d, theta, limits [lower, upper] (revolute default: -180..180 degrees; prismatic: required),
-velocity, effort (URDF <limit> attributes, default 0). rpy: URDF order (fixed axes x, y, z).
+velocity (table unit/s), effort (N m or N): URDF <limit> attributes, default 0. rpy: URDF order.
 The URDF has links base_link, link1..linkN (the frame joint i turns), flange (the last DH frame),
 the tool frame and marker0.. (fixed frames at the markers); pass the markers to other commands
 with --marker (metres). Before it is written, the URDF is loaded in Pinocchio and its forward
