@@ -17,6 +17,7 @@ from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
 from pincal.calibration.synthetic import RandomErrors, random_errors, simulate_measurements
 from pincal.calibration.urdf_export import export_urdf
 from pincal.errors import (
+    AmbiguousTip,
     BadConfiguration,
     BadConstraint,
     BadDHTable,
@@ -31,6 +32,7 @@ from pincal.errors import (
     MissingDependency,
     OverwriteRefused,
     PincalError,
+    PincalWarning,
     RobotNotFound,
     SingularPlan,
     UnknownName,
@@ -75,6 +77,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "AccuracyReport",
+    "AmbiguousTip",
     "BadConfiguration",
     "BadConstraint",
     "BadDHTable",
@@ -104,6 +107,7 @@ __all__ = [
     "Parameter",
     "ParameterSet",
     "PincalError",
+    "PincalWarning",
     "Plan",
     "PredictedError",
     "Prior",

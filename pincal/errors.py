@@ -28,9 +28,12 @@ class PincalError(Exception):
 class RobotNotFound(PincalError):
     """A robot given by name is neither a file, a shipped robot nor an example-robot-data robot."""
 
-    def __init__(self, name: str, valid: Iterable[str]):
+    def __init__(self, name: str, valid: Iterable[str], reason: str = ""):
         self.name = name
         self.valid = sorted(valid)
+        if reason:
+            super().__init__(f"robot {name!r}: {reason}; give its URDF file instead")
+            return
         close = _close(name, self.valid)
         hint = f"; did you mean {', '.join(close)}?" if close else ""
         super().__init__(
@@ -67,6 +70,21 @@ class UnknownParameter(UnknownName):
 
     def __init__(self, name: str, valid: Iterable[str]):
         super().__init__("parameter or group", name, valid)
+
+
+class AmbiguousTip(PincalError):
+    """No tip was given and the robot's tree has several chain ends: the message lists them."""
+
+    def __init__(self, robot: str, candidates: Iterable[str], note: str = ""):
+        self.robot = robot
+        self.candidates = list(candidates)
+        if not self.candidates:
+            super().__init__(f"{robot}: {note}no joint moves any frame, so there is no chain to calibrate")
+            return
+        super().__init__(
+            f"{robot}: {note}{len(self.candidates)} chain ends, choose one with --tip FRAME "
+            f"(tip=): {_choices(self.candidates, 12)}"
+        )
 
 
 class UnsupportedJoint(PincalError):
@@ -169,6 +187,12 @@ class DegenerateOptimum(PincalError):
 class DegenerateOptimumWarning(PincalError, UserWarning):
     """The plan returned sits at the conditioning floor: the criterion would keep improving
     towards singular plans, so its infimum is not attained (a warning, under pincal's one root)."""
+
+
+class PincalWarning(PincalError, UserWarning):
+    """A note on input pincal accepts but changes or ignores (a locked zero-range joint, a
+    floating base held fixed, mesh files that cannot be found); the CLI prints it on one
+    ``pincal: warning: ...`` line."""
 
 
 class MissingDependency(PincalError, ImportError):

@@ -115,7 +115,7 @@ def test_unsupported_joint(tmp_path):
     urdf = (
         (ROOT / "robots" / "planar_2r.urdf")
         .read_text()
-        .replace('<joint name="joint2" type="revolute">', '<joint name="joint2" type="continuous">')
+        .replace('<joint name="joint2" type="revolute">', '<joint name="joint2" type="floating">')
     )
     path = tmp_path / "cont.urdf"
     path.write_text(urdf)

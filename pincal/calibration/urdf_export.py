@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import io
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -36,9 +37,10 @@ import pinocchio as pin
 from lxml import etree
 
 from pincal.calibration.identification import IdentificationResult
-from pincal.errors import IdentificationFailed, OverwriteRefused, PincalError, UrdfError
+from pincal.errors import IdentificationFailed, OverwriteRefused, PincalError, PincalWarning, UrdfError
 from pincal.files import atomic_write_text
 from pincal.model.robot import Robot, load_robot
+from pincal.model.urdf import model_from_text, prepare
 
 ROUND_TRIP_TOLERANCE = 1e-9
 """Largest point distance [m] allowed between the exported URDF and the calibrated model."""
@@ -266,11 +268,12 @@ def _verify(text: str, robot: Robot, origins: dict[str, pin.SE3], source: Path) 
         written = urdf.joint_map[name].origin
         if written is None or not np.allclose(written, placement.homogeneous, atol=1e-12):
             raise UrdfError(f"exported origin of joint {name!r} does not read back (internal error)")
-    try:
-        model = pin.buildModelFromXML(text)
-    except Exception as exc:  # Pinocchio raises several types with long texts
-        raise UrdfError(f"the exported URDF does not load in Pinocchio: {str(exc).strip()[:200]}") from None
-    exported = load_robot(model, tip=robot.tip, markers=robot.markers).replace(base=robot.base)
+    ranges = dict(zip(robot.joint_names, zip(robot.lower, robot.upper)))
+    model = model_from_text(prepare(text, ranges, "exported"), "exported")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PincalWarning)  # told when the source was loaded
+        exported = load_robot(model, tip=robot.tip, markers=robot.markers, root=robot.root)
+    exported = exported.replace(base=robot.base)
     if exported.joint_names != robot.joint_names:
         raise UrdfError(
             f"URDF {str(source)!r} does not match the robot: its chain to {robot.tip!r} has joints "

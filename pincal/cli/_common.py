@@ -68,7 +68,30 @@ def add_robot_arguments(parser: argparse.ArgumentParser, params: bool = True) ->
         metavar="ROBOT",
         help="URDF path, shipped robot (kr270, planar_2r) or example-robot-data name (ur10, panda, ...)",
     )
-    parser.add_argument("--tip", help="tip frame carrying the markers (default: tool0, else the last frame)")
+    parser.add_argument(
+        "--tip",
+        help="tip frame carrying the markers (default: the robot's one chain end, a hand rather than "
+        "its fingers; 'pincal robots NAME' lists the candidates)",
+    )
+    parser.add_argument(
+        "--root",
+        metavar="LINK",
+        help="link the chain starts from, held fixed in front of the instrument (default: the URDF's "
+        "root link, or the floating body); not identify's --base, which adds base-frame parameters",
+    )
+    parser.add_argument(
+        "--joint-range",
+        action="append",
+        metavar="NAME=LO,HI",
+        help="range joint NAME moves in during the experiment, radians or metres (degrees with --deg), "
+        "replacing its URDF limits; continuous joints default to one turn, -pi,pi; repeatable",
+    )
+    parser.add_argument(
+        "--package-dir",
+        action="append",
+        metavar="NAME=PATH",
+        help="folder of ROS package NAME, for package://NAME/ mesh paths (default: searched above the URDF)",
+    )
     parser.add_argument(
         "--marker",
         action="append",
@@ -116,7 +139,33 @@ def robot_from_args(args: argparse.Namespace) -> Robot:
             if len(xyz) != 3:
                 raise BadConfiguration(f"--marker {text!r}: expected X,Y,Z (three numbers, metres)")
             markers.append(xyz)
-    return load_robot(args.robot, tip=args.tip, markers=markers)
+    return load_robot(
+        args.robot,
+        tip=args.tip,
+        markers=markers,
+        root=args.root,
+        joint_ranges=joint_ranges_from_args(args),
+        package_dirs=dict(_name_value(text, "--package-dir", "NAME=PATH") for text in args.package_dir or ()),
+    )
+
+
+def _name_value(text: str, option: str, form: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip() or not value.strip():
+        raise PincalError(f"{option} {text!r}: expected {form}")
+    return name.strip(), value.strip()
+
+
+def joint_ranges_from_args(args: argparse.Namespace) -> dict[str, tuple[float, float]]:
+    """--joint-range NAME=LO,HI options as {joint: (lower, upper)} in radians or metres."""
+    out = {}
+    for text in args.joint_range or ():
+        name, value = _name_value(text, "--joint-range", "NAME=LO,HI")
+        bounds = parse_floats(value, f"--joint-range {name}=")
+        if len(bounds) != 2 or bounds[0] > bounds[1]:
+            raise BadConfiguration(f"--joint-range {text!r}: expected NAME=LO,HI with LO <= HI")
+        out[name] = tuple(np.radians(bounds)) if getattr(args, "deg", False) else tuple(bounds)
+    return out
 
 
 BASE_HELP = (

@@ -13,6 +13,7 @@ from pincal.calibration.urdf_export import export_urdf
 from pincal.cli._common import (
     add_command,
     add_robot_arguments,
+    joint_ranges_from_args,
     params_from_args,
     parse_floats,
     read_plan,
@@ -91,7 +92,13 @@ def run(args: argparse.Namespace) -> int:
     plan = read_plan(robot, args.plan, args.deg)
     rng = np.random.default_rng(args.seed)
     if args.true:
-        true_robot = load_robot(args.true, tip=robot.tip, markers=robot.markers)
+        true_robot = load_robot(
+            args.true,
+            tip=robot.tip,
+            markers=robot.markers,
+            root=robot.root,
+            joint_ranges=joint_ranges_from_args(args),
+        )
         if true_robot.joint_names != robot.joint_names:
             raise UrdfError(
                 f"--true {args.true}: its chain to {robot.tip!r} has joints "

@@ -13,6 +13,7 @@ perturbed robots of identification and simulation are new Robots holding their o
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -22,7 +23,9 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.arguments import Seed, generator
-from pincal.errors import BadConfiguration, FrameNotFound, RobotNotFound, UnsupportedJoint, UrdfError
+from pincal.errors import AmbiguousTip, BadConfiguration, PincalWarning, RobotNotFound, UnknownName
+from pincal.model.chain import Candidate, candidates, chain_model, default_root, default_tip, frame_id
+from pincal.model.urdf import parse_joint_ranges, read_urdf
 
 _PACKAGE = Path(__file__).resolve().parent.parent
 ROBOTS_DIR = _PACKAGE / "robots" if (_PACKAGE / "robots").is_dir() else _PACKAGE.parent / "robots"
@@ -58,53 +61,62 @@ def _example_robot_data_urdf(name: str) -> Path | None:
     return Path(getModelPath(relative)) / relative
 
 
-def _build_from_urdf(path: Path) -> pin.Model:
-    if not path.is_file():
-        raise UrdfError(f"URDF file {str(path)!r} does not exist")
+def _floating_by_name(name: str) -> bool:
+    """example-robot-data knows which of its robots float (legged, humanoid, flying ones)."""
     try:
-        return pin.buildModelFromUrdf(str(path))
-    except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise UrdfError(f"cannot read URDF {str(path)!r}: {first}") from None
+        from example_robot_data.robots_loader import ROBOTS
+    except ImportError:  # pragma: no cover - a declared dependency
+        return False
+    return bool(getattr(ROBOTS.get(name), "free_flyer", False))
 
 
-def _resolve_source(source: object) -> tuple[pin.Model, Path | None, str]:
-    """(model, urdf path or None, display name) for what load_robot accepts."""
+def _resolve_source(
+    source: object,
+    ranges: dict[str, tuple[float, float]],
+    package_dirs: dict[str, str] | None,
+) -> tuple[pin.Model, Path | None, str, bool]:
+    """(model, urdf path or None, display name, known to float) for what load_robot accepts."""
     if isinstance(source, pin.Model):
-        return pin.Model(source), None, source.name or "model"
+        return _with_ranges(pin.Model(source), ranges), None, source.name or "model", False
     if hasattr(source, "model") and isinstance(source.model, pin.Model):  # a RobotWrapper
-        return pin.Model(source.model), None, source.model.name or "model"
+        return _with_ranges(pin.Model(source.model), ranges), None, source.model.name or "model", False
     if not isinstance(source, (str, os.PathLike)):
         raise RobotNotFound(repr(source), list(shipped_robots()) + example_robot_data_names())
     text = os.fspath(source)
     path = Path(text)
-    if path.suffix.lower() == ".urdf" or path.exists() or os.sep in text:
-        return _build_from_urdf(path), path.resolve(), path.stem
+    if path.suffix.lower() in (".urdf", ".xacro") or path.exists() or os.sep in text:
+        return read_urdf(path, ranges, package_dirs), path.resolve(), _stem(path), False
     shipped = shipped_robots()
     if text in shipped:
-        return _build_from_urdf(shipped[text]), shipped[text], text
+        return read_urdf(shipped[text], ranges, package_dirs), shipped[text], text, False
     urdf = _example_robot_data_urdf(text)
     if urdf is not None:
-        return _build_from_urdf(urdf), urdf, text
+        return read_urdf(urdf, ranges, package_dirs), urdf, text, _floating_by_name(text)
+    if text in example_robot_data_names():
+        raise RobotNotFound(text, [], reason="example-robot-data describes it without a URDF file")
     raise RobotNotFound(text, list(shipped) + example_robot_data_names())
+
+
+def _stem(path: Path) -> str:
+    name = path.name
+    for suffix in (".xacro", ".urdf"):
+        name = name[: -len(suffix)] if name.lower().endswith(suffix) else name
+    return name
+
+
+def _with_ranges(model: pin.Model, ranges: dict[str, tuple[float, float]]) -> pin.Model:
+    """A model given as such: the joint ranges asked for written into its limits."""
+    for name, (lo, hi) in ranges.items():
+        if not model.existJointName(name) or model.nqs[model.getJointId(name)] != 1:
+            valid = [model.names[j] for j in range(1, model.njoints) if model.nqs[j] == 1]
+            raise UnknownName("one-dof joint (in a joint range)", name, valid)
+        i = model.idx_qs[model.getJointId(name)]
+        model.lowerPositionLimit[i], model.upperPositionLimit[i] = lo, hi
+    return model
 
 
 def _frame_names(model: pin.Model) -> list[str]:
     return [f.name for f in model.frames]
-
-
-def _default_tip(model: pin.Model) -> str:
-    names = _frame_names(model)
-    return "tool0" if "tool0" in names else names[-1]
-
-
-def _reduce_to_chain(model: pin.Model, tip_joint: int) -> pin.Model:
-    """Lock every joint that is not on the path from the root to ``tip_joint``."""
-    chain = set(model.supports[tip_joint])
-    locked = [j for j in range(1, model.njoints) if j not in chain]
-    if not locked:
-        return model
-    return pin.buildReducedModel(model, locked, pin.neutral(model))
 
 
 def _motion_axis(model: pin.Model, joint: int) -> np.ndarray:
@@ -175,6 +187,7 @@ class Robot:
     urdf_path: Path | None = None
     joint_offsets: np.ndarray = field(default=None)  # type: ignore[assignment]
     base: pin.SE3 = field(default_factory=pin.SE3.Identity)
+    root: str | None = None
 
     def __post_init__(self) -> None:
         markers = np.array(self.markers, dtype=float, copy=True).reshape(-1, 3)
@@ -192,7 +205,7 @@ class Robot:
     @cached_property
     def tip_frame(self) -> int:
         """Pinocchio frame id of the tip."""
-        return self.model.getFrameId(self.tip)
+        return frame_id(self.model, self.tip)
 
     @cached_property
     def tip_joint(self) -> int:
@@ -416,6 +429,7 @@ class Robot:
             "urdf_path": self.urdf_path,
             "joint_offsets": self.joint_offsets,
             "base": self.base,
+            "root": self.root,
         }
         fields.update(changes)
         return Robot(**fields)  # type: ignore[arg-type]
@@ -449,43 +463,108 @@ def _parse_markers(markers: object) -> np.ndarray:
     return arr
 
 
-def load_robot(source: object, tip: str | None = None, markers: object = None) -> Robot:
-    """Load a robot and choose what is measured on it.
+@dataclass(frozen=True)
+class ChainEnds:
+    """The chains a robot offers: where they start and the tips they may end at.
+
+    Attributes:
+        name: the robot's display name.
+        floating: the robot has a floating base (held fixed at ``root`` while measuring).
+        root: the chain's root frame.
+        candidates: the chain ends below ``root`` (gripper fingers marked).
+        default: the tip :func:`load_robot` takes when none is given (None: give one).
+    """
+
+    name: str
+    floating: bool
+    root: str
+    candidates: tuple[Candidate, ...]
+    default: str | None
+
+    def describe(self) -> str:
+        """One line: the default chain, or the candidates to choose from."""
+        head = f"floating base held at {self.root}; " if self.floating else ""
+        if self.default is not None:
+            tip = next(c for c in self.candidates if c.frame == self.default)
+            return head + f"tip {tip.describe()}"
+        if not self.candidates:
+            return head + "no joint moves any frame: nothing to calibrate"
+        shown = ", ".join(c.describe() for c in self.candidates[:6])
+        more = f", ... ({len(self.candidates)} in all)" if len(self.candidates) > 6 else ""
+        return head + f"give --tip: {shown}{more}"
+
+
+def chain_ends(
+    source: object,
+    root: str | None = None,
+    joint_ranges: dict[str, tuple[float, float]] | None = None,
+) -> ChainEnds:
+    """The chains ``source`` offers (see :func:`load_robot` for the arguments)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PincalWarning)
+        model, _, name, floats = _resolve_source(source, parse_joint_ranges(joint_ranges), None)
+    root_id = frame_id(model, root, "root frame") if root is not None else default_root(model)
+    root_joint = model.frames[root_id].parentJoint
+    found = tuple(candidates(model, root_joint))
+    try:
+        tip = default_tip(model, root_joint, name)
+    except AmbiguousTip:
+        tip = None
+    floating = floats or (root is None and root_id != 0)
+    return ChainEnds(name, floating, model.frames[max(root_id, 1)].name, found, tip)
+
+
+def load_robot(
+    source: object,
+    tip: str | None = None,
+    markers: object = None,
+    *,
+    root: str | None = None,
+    joint_ranges: dict[str, tuple[float, float]] | None = None,
+    package_dirs: dict[str, str] | None = None,
+) -> Robot:
+    """Load a robot and choose the chain and what is measured on it.
 
     Args:
-        source: a URDF path, the name of a shipped robot (``kr270``, ``planar_2r``), the name of an
-            example-robot-data robot (``ur10``, ``panda``, ...), a ``pinocchio.Model`` or a
-            ``RobotWrapper`` (copied, never modified).
-        tip: frame the markers are fixed to; default ``tool0`` if the model has one, else its last
-            frame. Give it explicitly for robots with branches (grippers, several arms).
+        source: a URDF (or xacro) path, the name of a shipped robot (``kr270``, ``planar_2r``),
+            the name of an example-robot-data robot (``ur10``, ``panda``, ...), a
+            ``pinocchio.Model`` or a ``RobotWrapper`` (copied, never modified).
+        tip: frame the markers are fixed to. Default: the one chain end of the tree (a hand
+            rather than its gripper fingers; ``tool0`` or a ``tcp``/``flange`` frame on it);
+            when there are several, AmbiguousTip lists them.
         markers: one (x, y, z) or a list of them [m], expressed in the tip frame; default the tip
             frame origin.
+        root: frame the chain starts from, held fixed in front of the instrument (the points are
+            expressed in it); default the URDF's root link, or the floating body of a robot with
+            a floating base. It must lie above ``tip`` in the tree.
+        joint_ranges: ``{joint: (lower, upper)}`` [rad or m]: the range a joint moves in during
+            the experiment, replacing its URDF limits; continuous joints default to one turn,
+            (-π, π).
+        package_dirs: ``{package name: folder}`` resolving ``package://`` mesh paths.
 
     Returns:
-        the Robot: the chain from the base to ``tip`` (other joints locked at neutral).
+        the Robot: the chain from ``root`` to ``tip`` (every other joint locked).
 
     Raises:
-        RobotNotFound, UrdfError, FrameNotFound, UnsupportedJoint, BadConfiguration.
+        RobotNotFound, UrdfError, FrameNotFound, AmbiguousTip, UnsupportedJoint, BadConfiguration.
 
     Example:
         >>> robot = load_robot("kr270", tip="tool0", markers=[(0.1, 0.05, 0.2)])
         >>> robot.joint_names
         ('joint_a1', 'joint_a2', 'joint_a3', 'joint_a4', 'joint_a5', 'joint_a6')
     """
-    model, urdf, name = _resolve_source(source)
-    tip = _default_tip(model) if tip is None else tip
-    if not model.existFrame(tip):
-        raise FrameNotFound(tip, _frame_names(model))
-    tip_joint = model.frames[model.getFrameId(tip)].parentJoint
-    if tip_joint == 0:
-        movable = [f.name for f in model.frames if f.parentJoint != 0]
-        raise FrameNotFound(tip, movable, kind="tip frame (it is fixed to the base)")
-    for j in model.supports[tip_joint][1:]:
-        if model.nqs[j] != 1 or model.nvs[j] != 1:
-            raise UnsupportedJoint(
-                f"joint {model.names[j]!r} ({model.joints[j].shortname()}) on the chain to "
-                f"{tip!r} is not a one-dof revolute or prismatic joint; pincal calibrates "
-                f"fixed-base serial chains (continuous joints: give them limits in the URDF)"
-            )
-    chain = _reduce_to_chain(model, tip_joint)
-    return Robot(chain, tip, _parse_markers(markers), name=name, urdf_path=urdf)
+    ranges = parse_joint_ranges(joint_ranges)
+    model, urdf, name, floats = _resolve_source(source, ranges, package_dirs)
+    root_id = frame_id(model, root, "root frame") if root is not None else default_root(model)
+    note = ""
+    if floats or root_id != 0 and root is None:
+        note = (
+            f"it has a floating base, held fixed at its link {model.frames[max(root_id, 1)].name!r} "
+            f"(the chain's root; --root LINK (root=) for another); "
+        )
+    if tip is None:
+        tip = default_tip(model, model.frames[root_id].parentJoint, name, note)
+    if note:
+        warnings.warn(f"{name}: {note.rstrip('; ')}", PincalWarning, stacklevel=2)
+    chain, _ = chain_model(model, model.frames[root_id].name if root is None else root, tip, name)
+    return Robot(chain, tip, _parse_markers(markers), name=name, urdf_path=urdf, root=root if root else None)

@@ -1,0 +1,214 @@
+"""Reading a URDF as users have it: xacro sources, continuous joints, joint ranges, meshes.
+
+:func:`read_urdf` turns a file into a Pinocchio model of the whole tree:
+
+* a ``.xacro`` file (or a URDF that still holds ``xacro:`` tags) is expanded when the ``xacro``
+  package is installed; otherwise the error gives the exact command that expands it;
+* ``continuous`` joints become revolute joints whose *design range* (the joint values the design
+  may choose) is one turn, [-π, π], or the range given for them; a range given for any other
+  joint replaces its URDF limits;
+* ``package://NAME/...`` and relative mesh files are looked up from the URDF's folder and its
+  parents and in the folders given as ``package_dirs`` (``NAME=PATH``); meshes that cannot be
+  found give one warning (calibration does not need them; the 3-D view draws sticks instead).
+
+Malformed files give one :class:`~pincal.errors.UrdfError` line (with the XML line number, or the
+URDF parser's own first message), never the parser's multi-line report.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shlex
+import tempfile
+import warnings
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+from lxml import etree
+
+from pincal.errors import PincalWarning, UnknownName, UrdfError
+
+ONE_TURN = (-np.pi, np.pi)
+"""Design range [rad] of a continuous joint when none is given."""
+
+
+def parse_joint_ranges(ranges: Mapping[str, object] | None) -> dict[str, tuple[float, float]]:
+    """``{joint: (lower, upper)}`` checked: finite numbers, lower <= upper."""
+    out: dict[str, tuple[float, float]] = {}
+    for name, value in (ranges or {}).items():
+        try:
+            lo, hi = (float(v) for v in value)  # type: ignore[union-attr]
+        except (TypeError, ValueError):
+            raise UrdfError(f"joint range of {name!r}: expected (lower, upper), got {value!r}") from None
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
+            raise UrdfError(f"joint range of {name!r}: expected finite lower <= upper, got ({lo}, {hi})")
+        out[str(name)] = (lo, hi)
+    return out
+
+
+def resolve_mesh(filename: str, urdf: Path, extra: Mapping[str, str] | None = None) -> Path | None:
+    """The file a URDF ``<mesh filename=...>`` names, or None when it cannot be found."""
+    if filename.startswith("file://"):
+        filename = filename[len("file://") :]
+    if filename.startswith("package://"):
+        package, _, rest = filename[len("package://") :].partition("/")
+        roots = [Path(p) for name, p in (extra or {}).items() if name == package]
+        roots += [parent / package for parent in urdf.resolve().parents]
+        roots += [parent for parent in urdf.resolve().parents if parent.name == package]
+        return next((root / rest for root in roots if (root / rest).is_file()), None)
+    path = Path(filename) if os.path.isabs(filename) else urdf.resolve().parent / filename
+    return path if path.is_file() else None
+
+
+def xacro_command(path: Path) -> str:
+    """The shell command that expands a xacro file next to it."""
+    name = path.name[: -len(".xacro")] if path.name.endswith(".xacro") else path.stem
+    out = path.with_name(name if name.endswith(".urdf") else name + ".urdf")
+    return f"xacro {shlex.quote(str(path))} -o {shlex.quote(str(out))}"
+
+
+def _expand_xacro(path: Path) -> str:
+    try:
+        import xacro  # type: ignore[import-not-found]
+    except ImportError:
+        raise UrdfError(
+            f"{str(path)!r} is a xacro file, not a URDF: expand it first with "
+            f"'{xacro_command(path)}' (xacro comes with ROS, or 'pip install xacro'), then give the "
+            f".urdf"
+        ) from None
+    try:
+        return xacro.process_file(str(path)).toxml()
+    except Exception as exc:  # xacro raises its own types with long texts
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UrdfError(f"xacro cannot expand {str(path)!r}: {first}") from None
+
+
+def read_text(path: Path) -> str:
+    """The URDF text of ``path`` (a xacro file expanded), or a one-line UrdfError."""
+    if not path.is_file():
+        raise UrdfError(f"URDF file {str(path)!r} does not exist")
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise UrdfError(f"cannot read URDF {str(path)!r}: {exc.strerror}") from None
+    if path.suffix.lower() == ".xacro":
+        return _expand_xacro(path)
+    return text
+
+
+def _parse(text: str, where: str) -> etree._Element:
+    try:
+        root = etree.fromstring(text.encode("utf-8"), etree.XMLParser(remove_comments=True))
+    except etree.XMLSyntaxError as exc:
+        raise UrdfError(f"cannot read URDF {where}: not well-formed XML ({exc})") from None
+    if root.tag != "robot":
+        raise UrdfError(f"URDF {where}: the root element is <{root.tag}>, not <robot>")
+    return root
+
+
+def _set_range(joint: etree._Element, lo: float, hi: float) -> None:
+    limit = joint.find("limit")
+    if limit is None:
+        limit = etree.SubElement(joint, "limit")
+    limit.set("lower", repr(float(lo)))
+    limit.set("upper", repr(float(hi)))
+    for key in ("effort", "velocity"):  # urdfdom requires both
+        if limit.get(key) is None:
+            limit.set(key, "0")
+
+
+def prepare(text: str, ranges: Mapping[str, tuple[float, float]], where: str) -> str:
+    """The URDF text with continuous joints made revolute on their design range and the joint
+    ranges asked for written as limits."""
+    root = _parse(text, where)
+    joints = {j.get("name"): j for j in root.iter("joint") if j.getparent() is root}
+    unknown = [name for name in ranges if name not in joints]
+    if unknown:
+        movable = [n for n, j in joints.items() if j.get("type") in ("revolute", "continuous", "prismatic")]
+        raise UnknownName("joint (in a joint range)", unknown[0], movable)
+    changed = False
+    for name, joint in joints.items():
+        kind = joint.get("type")
+        if kind == "continuous":
+            joint.set("type", "revolute")
+            _set_range(joint, *ranges.get(name, ONE_TURN))
+            changed = True
+        elif name in ranges:
+            if kind not in ("revolute", "prismatic"):
+                raise UrdfError(f"joint range of {name!r}: it is a {kind} joint, not revolute or prismatic")
+            _set_range(joint, *ranges[name])
+            changed = True
+    return etree.tostring(root, encoding="unicode") if changed else text
+
+
+@contextlib.contextmanager
+def _captured_stderr():
+    """Collect what C++ code writes on file descriptor 2 (urdfdom's multi-line reports)."""
+    sink: list[str] = []
+    try:
+        fd = os.dup(2)
+    except OSError:  # no usable stderr: nothing to capture
+        yield sink
+        return
+    with tempfile.TemporaryFile(mode="w+b") as tmp:
+        try:
+            os.dup2(tmp.fileno(), 2)
+            yield sink
+        finally:
+            os.dup2(fd, 2)
+            os.close(fd)
+            tmp.seek(0)
+            sink.append(tmp.read().decode("utf-8", "replace"))
+
+
+def model_from_text(text: str, where: str) -> pin.Model:
+    """Pinocchio's model of a URDF text, or one UrdfError line naming the first problem."""
+    with _captured_stderr() as stderr:
+        try:
+            model = pin.buildModelFromXML(text)
+        except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
+            model, error = None, str(exc).strip()
+    if model is not None:
+        return model
+    report = [line.strip() for line in "".join(stderr).splitlines() if line.strip().startswith("Error:")]
+    first = report[0][len("Error:") :].strip() if report else (error.splitlines() or ["invalid"])[0]
+    raise UrdfError(f"cannot read URDF {where}: {first}")
+
+
+def check_meshes(text: str, urdf: Path, package_dirs: Mapping[str, str] | None = None) -> list[str]:
+    """Mesh file names of the URDF that cannot be found (one warning names them)."""
+    names = sorted({m.get("filename") for m in _parse(text, str(urdf)).iter("mesh") if m.get("filename")})
+    missing = [n for n in names if resolve_mesh(n, urdf, package_dirs) is None]
+    if missing:
+        shown = ", ".join(missing[:3]) + (f" and {len(missing) - 3} more" if len(missing) > 3 else "")
+        warnings.warn(
+            f"{urdf.name}: {len(missing)} mesh file(s) not found ({shown}); calibration does not "
+            f"need them (the 3-D view draws sticks); give --package-dir NAME=PATH to find them",
+            PincalWarning,
+            stacklevel=3,
+        )
+    return missing
+
+
+def read_urdf(
+    path: Path,
+    ranges: Mapping[str, tuple[float, float]] | None = None,
+    package_dirs: Mapping[str, str] | None = None,
+    meshes: bool = True,
+) -> pin.Model:
+    """The Pinocchio model of the URDF (or xacro) file ``path`` (see module doc)."""
+    where = repr(str(path))
+    text = read_text(path)
+    prepared = prepare(text, ranges or {}, where)
+    try:
+        model = model_from_text(prepared, where)
+    except UrdfError:
+        if "<xacro:" in text:  # a xacro source saved as .urdf
+            _expand_xacro(path)
+        raise
+    if meshes:
+        check_meshes(text, path, package_dirs)
+    return model

@@ -1,0 +1,233 @@
+"""Robots as users bring them: trees, floating bases, grippers, continuous and zero-range joints,
+xacro files, missing meshes (issue 11)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import pincal
+from pincal.cli import main
+from pincal.errors import AmbiguousTip, FrameNotFound, PincalWarning, UnsupportedJoint, UrdfError
+
+
+def _joint(name, kind, parent, child, xyz="0 0 0", rpy="0 0 0", axis="0 0 1", limits=(-2.0, 2.0)):
+    limit = (
+        ""
+        if kind in ("fixed", "continuous")
+        else f'<limit lower="{limits[0]}" upper="{limits[1]}" effort="1" velocity="1"/>'
+    )
+    return (
+        f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+        f'<origin xyz="{xyz}" rpy="{rpy}"/><axis xyz="{axis}"/>{limit}</joint>'
+    )
+
+
+def tree_urdf(arm2: bool = False, continuous: bool = True, zero: bool = False, mesh: str = "") -> str:
+    """A trunk with a 4-joint arm (joint a2 continuous), a hand with two fingers and a tcp, a
+    camera on the trunk, and optionally a second arm."""
+    links = ["trunk", "l1", "l2", "l3", "l4", "hand", "tcp", "left_finger", "right_finger", "camera"]
+    joints = [
+        _joint("a1", "revolute", "trunk", "l1", "0 0 0.4"),
+        _joint(
+            "a2",
+            "continuous" if continuous else "revolute",
+            "l1",
+            "l2",
+            "0 0.1 0.3",
+            "1.5707963267948966 0 0",
+        ),
+        _joint("a3", "revolute", "l2", "l3", "0.5 0 0", axis="0 0 1", limits=(0, 0) if zero else (-2.0, 2.0)),
+        _joint("a4", "revolute", "l3", "l4", "0.4 0 0.05", "0 1.5707963267948966 0"),
+        _joint("hand_mount", "fixed", "l4", "hand", "0 0 0.1"),
+        _joint("tcp_joint", "fixed", "hand", "tcp", "0 0 0.12"),
+        _joint(
+            "finger_left", "prismatic", "hand", "left_finger", "0 0.02 0.05", axis="0 1 0", limits=(0, 0.04)
+        ),
+        _joint(
+            "finger_right",
+            "prismatic",
+            "hand",
+            "right_finger",
+            "0 -0.02 0.05",
+            axis="0 -1 0",
+            limits=(0, 0.04),
+        ),
+        _joint("camera_joint", "fixed", "trunk", "camera", "0.1 0 0.6"),
+    ]
+    if arm2:
+        links += ["b1", "b2", "b_tool"]
+        joints += [
+            _joint("b1", "revolute", "trunk", "b1", "0 0.3 0.4"),
+            _joint("b2", "revolute", "b1", "b2", "0.4 0 0", axis="0 1 0"),
+            _joint("b_tool_joint", "fixed", "b2", "b_tool", "0.3 0 0"),
+        ]
+    visual = f'<visual><geometry><mesh filename="{mesh}"/></geometry></visual>' if mesh else ""
+    body = "".join(f'<link name="{name}">{visual if name == "l1" else ""}</link>' for name in links)
+    return f'<?xml version="1.0"?><robot name="tree">{body}{"".join(joints)}</robot>'
+
+
+@pytest.fixture
+def tree(tmp_path):
+    def write(name="tree.urdf", **kwargs):
+        path = tmp_path / name
+        path.write_text(tree_urdf(**kwargs))
+        return path
+
+    return write
+
+
+def test_default_tip_is_the_hand_not_a_finger(tree):
+    robot = pincal.load_robot(tree())
+    assert robot.tip == "tcp"
+    assert robot.joint_names == ("a1", "a2", "a3", "a4")  # the fingers are locked
+
+
+def test_ambiguous_tip_lists_the_chain_ends_fingers_marked(tree):
+    with pytest.raises(AmbiguousTip) as info:
+        pincal.load_robot(tree(arm2=True))
+    message = str(info.value)
+    assert (
+        "--tip" in message
+        and "tcp (4 joints; hand: finger joints finger_left, finger_right locked)" in message
+    )
+    assert "b_tool (2 joints)" in message and "left_finger (5 joints; gripper finger)" in message
+    assert pincal.load_robot(tree(arm2=True), tip="b_tool").joint_names == ("b1", "b2")
+
+
+def test_root_picks_the_chain_and_points_are_in_the_root_frame(tree):
+    path = tree()
+    robot = pincal.load_robot(path, tip="tcp", root="l2")
+    assert robot.joint_names == ("a3", "a4") and robot.root == "l2"
+    # Oracle: the full tree's forward kinematics, the tip expressed in the root link's frame.
+    full = pin.buildModelFromUrdf(str(path))
+    data = full.createData()
+    rng = np.random.default_rng(0)
+    for q in robot.random_configurations(5, rng):
+        qf = pin.neutral(full)
+        qf[full.idx_qs[full.getJointId("a3")]] = q[0]
+        qf[full.idx_qs[full.getJointId("a4")]] = q[1]
+        pin.framesForwardKinematics(full, data, qf)
+        tip = data.oMf[full.getFrameId("tcp", pin.BODY)]
+        root = data.oMf[full.getFrameId("l2", pin.BODY)]
+        np.testing.assert_allclose(robot.points(q)[0, 0], (root.inverse() * tip).translation, atol=1e-12)
+
+
+def test_root_must_be_above_the_tip(tree):
+    with pytest.raises(FrameNotFound, match="not above the tip"):
+        pincal.load_robot(tree(arm2=True), tip="tcp", root="b1")
+
+
+def test_floating_base_is_never_calibrated_and_is_said(tree):
+    model = pin.buildModelFromUrdf(str(tree(continuous=False)), pin.JointModelFreeFlyer())
+    with pytest.warns(PincalWarning, match="floating base"):
+        robot = pincal.load_robot(model, tip="tcp")
+    assert robot.joint_names == ("a1", "a2", "a3", "a4")
+    with pytest.raises(UnsupportedJoint, match="continuous.*from its URDF"):
+        pincal.load_robot(pin.buildModelFromUrdf(str(tree())), tip="tcp")
+    fixed = pincal.load_robot(tree(continuous=False), tip="tcp")
+    qs = fixed.random_configurations(4, 1)
+    np.testing.assert_allclose(robot.points(qs), fixed.points(qs), atol=1e-12)
+
+
+def test_floating_example_robot_data_robot_names_its_base():
+    with pytest.raises(AmbiguousTip, match="floating base.*FL_FOOT"):
+        pincal.load_robot("solo12")
+    assert pincal.load_robot("solo12", tip="FL_FOOT").nq == 3
+
+
+def test_continuous_joint_has_a_one_turn_range_that_can_be_set(tree):
+    robot = pincal.load_robot(tree())
+    j = robot.joint_names.index("a2")
+    assert (robot.lower[j], robot.upper[j]) == (-np.pi, np.pi)
+    robot = pincal.load_robot(tree(), joint_ranges={"a2": (-1.0, 3.0)})
+    assert (robot.lower[j], robot.upper[j]) == (-1.0, 3.0)
+    with pytest.raises(pincal.UnknownName, match="a9"):
+        pincal.load_robot(tree(), joint_ranges={"a9": (0, 1)})
+
+
+def test_continuous_joint_through_params_design_identify_export(tree, tmp_path):
+    robot = pincal.load_robot(tree(), markers=[(0.05, 0.02, 0.03)])
+    params = robot.parameters("full,offsets").identifiable().identifiable
+    assert "a2.offset" in params.names
+    m = -(-len(params) // 3) + 2
+    result = pincal.design(params, m, test_pose=robot.random_configurations(1, 3), starts=2, seed=1)
+    truth = pincal.random_errors(params, seed=4)
+    data = pincal.simulate_measurements(truth, result.plan, sigma=0.0)
+    fit = pincal.identify(params, data)
+    assert fit.success
+    np.testing.assert_allclose(fit.values, truth.values, atol=1e-8)
+    out = pincal.export_urdf(fit, tmp_path / "calibrated.urdf")  # checks its own round trip to 1e-9 m
+    assert 'type="continuous"' in out.read_text()
+
+
+def test_zero_range_joint_is_locked_with_a_warning(tree):
+    with pytest.warns(PincalWarning, match="a3.*zero range.*--joint-range"):
+        robot = pincal.load_robot(tree(zero=True))
+    assert robot.joint_names == ("a1", "a2", "a4")
+    assert pincal.load_robot(tree(zero=True), joint_ranges={"a3": (-1, 1)}).nq == 4
+
+
+def test_all_zero_range_is_refused_in_one_line(tmp_path, capsys):
+    with pytest.raises(UnsupportedJoint, match="zero range"):
+        pincal.load_robot("double_pendulum")
+    assert main(["params", "double_pendulum"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("pincal: error:")
+    assert (
+        main(["params", "double_pendulum", "--joint-range", "joint1=-1,1", "--joint-range", "joint2=-1,1"])
+        == 0
+    )
+
+
+def test_frames_sharing_a_name_load():
+    robot = pincal.load_robot("so100")  # a link and a joint both named 'gripper'
+    assert "gripper" not in robot.joint_names and robot.nq == 5
+
+
+def test_xacro_gives_the_command(tmp_path, capsys):
+    path = tmp_path / "arm.urdf.xacro"
+    path.write_text(
+        '<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="a"><xacro:macro name="m"/></robot>'
+    )
+    with pytest.raises(UrdfError, match=r"xacro .*arm\.urdf\.xacro -o .*arm\.urdf"):
+        pincal.load_robot(path)
+    assert main(["params", str(path)]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_missing_mesh_is_one_warning_line(tree, tmp_path, capsys):
+    path = tree(mesh="package://tree_description/meshes/l1.stl")
+    assert main(["params", str(path)]) == 0
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("pincal: warning: tree.urdf: 1 mesh file(s) not found")
+    mesh = tmp_path / "pkg" / "meshes" / "l1.stl"
+    mesh.parent.mkdir(parents=True)
+    mesh.write_text("solid l1\nendsolid l1\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PincalWarning)
+        pincal.load_robot(path, package_dirs={"tree_description": str(tmp_path / "pkg")})
+    assert main(["params", str(path), "--package-dir", f"tree_description={tmp_path / 'pkg'}"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "",
+        "<robot",
+        "<notarobot/>",
+        '<robot name="r"><link name="a"/><joint name="j" type="revolute"><parent link="a"/>'
+        '<child link="b"/></joint></robot>',
+        '<robot name="r"><link name="a"/></robot>',
+    ],
+)
+def test_malformed_urdf_is_one_error_line(tmp_path, capsys, text):
+    path = tmp_path / "bad.urdf"
+    path.write_text(text)
+    assert main(["params", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("pincal: error:"), err
