@@ -9,7 +9,7 @@ from pincal.cli._common import add_command, add_output_arguments, emit_json, joi
 from pincal.errors import PincalError, PincalWarning
 from pincal.model.robot import chain_ends, example_robot_data_names, load_robot, shipped_robots
 
-HELP = "list the robots loadable by name and the chains each offers (or the chain ends of one robot)"
+HELP = "list the robots loadable by name (shipped URDFs and example-robot-data) and the chains each offers"
 EXAMPLES = """\
 examples:
   pincal robots                        # every robot: its default chain, or the tips to choose from

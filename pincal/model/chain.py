@@ -108,11 +108,12 @@ def candidates(model: pin.Model, root_joint: int = 0) -> list[Candidate]:
         is_finger = end in finger
         if not is_finger:
             fingers = [f for f in leaves if FINGER.search(f)]
-            leaves = [f for f in leaves if f not in fingers] or _hand(model, fingers) or leaves
+            others = [f for f in leaves if f not in fingers]
+            leaves = others or (len(fingers) > 1 and _hand(model, fingers)) or leaves
             preferred = [f for f in leaves if PREFERRED_TIP.search(f)]
             leaves = preferred or leaves
-            exact = [f for f in leaves if f == "tool0"]
-            leaves = exact or leaves
+            if any(f.name == "tool0" and f.parentJoint == end for f in model.frames):
+                leaves = ["tool0"]  # the ROS-Industrial flange frame, even with frames hung on it
         hand = tuple(model.names[c] for c in children[end] if c in finger)
         out += [Candidate(f, depth[end], is_finger, () if is_finger else hand) for f in leaves]
     return out
