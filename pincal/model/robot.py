@@ -130,16 +130,16 @@ def _motion_axis(model: pin.Model, joint: int) -> np.ndarray:
     return pin.log6(motion).vector / step
 
 
-def _origin_parent(model: pin.Model, frame_id: int, joint: int) -> pin.SE3:
+def _origin_parent(model: pin.Model, frame: int, joint: int) -> pin.SE3:
     """Placement P of the parent link of a URDF origin, relative to ``joint``.
 
     Pinocchio stores the placement of a joint (or of a frame) relative to the previous *joint*;
     the URDF ``<origin>`` is relative to the parent *link*. The two differ by the fixed joints
     between them: placement = P * origin.
     """
-    if frame_id < 0:
+    if frame < 0:
         return pin.SE3.Identity()
-    parent = model.frames[frame_id].parentFrame
+    parent = model.frames[frame].parentFrame
     if 0 < parent < len(model.frames) and model.frames[parent].parentJoint == joint:
         return pin.SE3(model.frames[parent].placement)
     return pin.SE3.Identity()
