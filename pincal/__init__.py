@@ -55,8 +55,9 @@ from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import CartesianBox, Neighbourhood, TestPath, TestRegion, around, cartesian_box
 from pincal.evaluation.test_pose import TestPoseCriterion, position_covariance, rho0
 from pincal.model.base_parameters import Identifiability, identifiability
+from pincal.model.catalogue import Parameter
 from pincal.model.dh import DHTable, urdf_from_dh
-from pincal.model.parameters import Parameter, ParameterSet
+from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot, load_robot, shipped_robots
 from pincal.planning.baselines import random_plans
 from pincal.planning.constraints import (
@@ -71,9 +72,8 @@ from pincal.planning.constraints import (
 from pincal.planning.driver import design
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans, StartRecord
+from pincal.version import __version__
 from pincal.viewing.scene import Scene, scene, show
-
-__version__ = "0.1.0"
 
 __all__ = [
     "AccuracyReport",

@@ -142,7 +142,7 @@ class BadMeasurementData(PincalError):
 
 class IdentificationFailed(PincalError):
     """An identification that did not produce a calibrated robot (rank deficient data, no
-    convergence). ``result`` is the :class:`~pincal.identify.IdentificationResult`."""
+    convergence). ``result`` is the :class:`~pincal.calibration.identification.IdentificationResult`."""
 
     def __init__(self, result: object):
         self.result = result

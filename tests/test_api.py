@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import re
 
 import pytest
@@ -15,6 +16,28 @@ def test_all_names_import():
         assert hasattr(pincal, name), name
     assert pincal.__all__ == sorted(pincal.__all__)
     assert isinstance(pincal.__version__, str)
+    declared = re.search(r'^version = "([^"]+)"', (ROOT / "pyproject.toml").read_text(), re.M)
+    assert declared and declared.group(1) == pincal.__version__
+
+
+def test_no_import_inside_a_function_but_optional_ones():
+    """Import cycles are not broken by imports inside functions: only the optional viewer
+    (meshcat, through pincal.viewing.scene and its static page) is imported late."""
+    allowed = {
+        ("pincal/cli/show.py", "pincal.viewing.scene"),
+        ("pincal/viewing/scene.py", "pincal.viewing.static_page"),
+    }
+    for path in sorted((ROOT / "pincal").rglob("*.py")):
+        name = path.relative_to(ROOT).as_posix()
+        for function in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(function, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            for node in ast.walk(function):
+                modules = [node.module or ""] if isinstance(node, ast.ImportFrom) else []
+                modules += [a.name for a in node.names] if isinstance(node, ast.Import) else []
+                for module in modules:
+                    if module.split(".")[0] == "pincal":
+                        assert (name, module) in allowed, f"{name}: {function.name} imports {module}"
 
 
 def test_errors_share_one_root():

@@ -41,6 +41,7 @@ from pincal.errors import IdentificationFailed, OverwriteRefused, PincalError, P
 from pincal.files import atomic_write_text
 from pincal.model.robot import Robot, load_robot
 from pincal.model.urdf import model_from_text, prepare
+from pincal.version import __version__
 
 ROUND_TRIP_TOLERANCE = 1e-9
 """Largest point distance [m] allowed between the exported URDF and the calibrated model."""
@@ -54,7 +55,8 @@ def export_urdf(
     """Write the calibrated robot as a URDF (what is written: see the module doc).
 
     Args:
-        calibrated: a successful :class:`~pincal.identify.IdentificationResult`, or a Robot (e.g.
+        calibrated: a successful
+            :class:`~pincal.calibration.identification.IdentificationResult`, or a Robot (e.g.
             a perturbed one, ``params.apply(values)`` or ``random_errors(...).robot``).
         path: the URDF file to write; must not be the source.
         source_urdf: the URDF to start from; default the robot's own (``robot.urdf_path``).
@@ -217,7 +219,6 @@ def _rebase_mesh_paths(root: etree._Element, source_dir: Path, out_dir: Path) ->
 
 
 def _comment_text(robot: Robot, result: IdentificationResult | None, source: Path, changed: list[str]) -> str:
-    from pincal import __version__
 
     base = robot.base
     lines = [

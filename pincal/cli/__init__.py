@@ -24,6 +24,7 @@ from pincal.cli import (
 )
 from pincal.cli._common import join_negative_values
 from pincal.errors import PincalError
+from pincal.version import __version__
 
 # One module per subcommand, each with add_parser(subparsers); the order is the --help order.
 COMMANDS = [params, evaluate, design, baseline, simulate, measure_sim, identify, show, robots, from_dh]
@@ -60,7 +61,6 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    from pincal import __version__
 
     parser.add_argument("--version", action="version", version=f"pincal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")

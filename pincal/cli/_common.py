@@ -11,6 +11,7 @@ import numpy as np
 from pincal.errors import BadConfiguration, PincalError
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot, load_robot
+from pincal.planning.constraints import load_constraints
 from pincal.planning.plan import Plan
 
 DEFAULT_PARAMS = "full,offsets"
@@ -113,7 +114,6 @@ def add_output_arguments(parser: argparse.ArgumentParser) -> None:
 
 def constraints_from_args(args: argparse.Namespace) -> tuple:
     """The constraints of --constraints FILE.yaml (none without it)."""
-    from pincal.planning.constraints import load_constraints
 
     return load_constraints(args.constraints) if args.constraints else ()
 

@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+from pincal.calibration.monte_carlo import monte_carlo
+from pincal.cli._common import read_plan
+from pincal.viewing import plots
 
 PLOT_HELP = (
     "save a figure: with --baseline, rho0 of the designed and D-optimal plans against the random "
@@ -20,20 +25,19 @@ def save_design_plot(path: str, result, baseline=None) -> None:
 
     Args:
         path: the image file to write.
-        result: the :class:`pincal.design.DesignResult`.
+        result: the :class:`pincal.planning.results.DesignResult`.
         baseline: ``(RandomPlans, D-optimal DesignResult or None)`` or None.
     """
-    from pincal.viewing.plots import rho0_histogram, search_progress
 
     if baseline is not None and result.rho0 is not None:
         randoms, d_optimal = baseline
         plans = {"designed": result.rho0}
         if d_optimal is not None and d_optimal.rho0 is not None:
             plans["D-optimal"] = d_optimal.rho0
-        fig = rho0_histogram(randoms.values, plans)
+        fig = plots.rho0_histogram(randoms.values, plans)
     else:
         is_rho0 = result.criterion in ("test-pose", "test-pose-worst")
-        fig = search_progress(
+        fig = plots.search_progress(
             result,
             ylabel="ρ0 [mm]" if is_rho0 else result.criterion,
             scale=1e3 if is_rho0 else 1.0,
@@ -59,12 +63,6 @@ def add_simulation_plot_arguments(parser: argparse.ArgumentParser) -> None:
 
 def save_simulation_plot(args: argparse.Namespace, params, q0, sigma: float, error_std, result) -> None:
     """Simulate each ``--compare`` plan like the main one and save the side-by-side figure."""
-    from pathlib import Path
-
-    from pincal.calibration.monte_carlo import monte_carlo
-    from pincal.cli._common import read_plan
-    from pincal.viewing.plots import error_comparison
-
     results = {Path(args.plan).stem: result}
     for path in args.compare or ():
         plan = read_plan(params.robot, path, args.deg)
@@ -74,4 +72,4 @@ def save_simulation_plot(args: argparse.Namespace, params, q0, sigma: float, err
         results[label] = monte_carlo(
             params, plan, q0, sigma, trials=args.trials, seed=args.seed, error_std=error_std
         )
-    error_comparison(results).savefig(args.plot, dpi=120)
+    plots.error_comparison(results).savefig(args.plot, dpi=120)

@@ -27,7 +27,10 @@ from pincal.cli._common import (
 )
 from pincal.errors import BadConfiguration, PincalError
 from pincal.evaluation.test_pose import rho0
+from pincal.optional import require
+from pincal.planning.baselines import random_plans
 from pincal.planning.constraints import Visibility
+from pincal.viewing import plots
 
 HELP = "see a plan: meshcat scene of the measurement poses and the test pose's error ellipsoid"
 EXAMPLES = """\
@@ -159,7 +162,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _start_server():
     """A meshcat Visualizer on a new server; meshcat's own messages go to stderr."""
-    from pincal.optional import require
 
     meshcat = require("meshcat", "pincal show", "meshcat")
     with contextlib.redirect_stdout(sys.stderr):
@@ -169,8 +171,6 @@ def _start_server():
 def _plot_baseline(params, plan, q0: np.ndarray, sigma: float, constraints, args) -> dict:
     """Evaluate --baseline random feasible plans of the plan's size (as ``pincal baseline`` does),
     save the histogram; return their summary."""
-    from pincal.planning.baselines import random_plans
-    from pincal.viewing.plots import rho0_histogram
 
     pool = read_plan(params.robot, args.pool, args.deg) if args.pool else None
     randoms = random_plans(
@@ -180,7 +180,7 @@ def _plot_baseline(params, plan, q0: np.ndarray, sigma: float, constraints, args
         raise PincalError(
             f"none of the {randoms.n} random plans of {len(plan)} configurations is identifiable"
         )
-    fig = rho0_histogram(randoms.values, {"this plan": float(rho0(params, plan, q0, sigma=sigma))})
+    fig = plots.rho0_histogram(randoms.values, {"this plan": float(rho0(params, plan, q0, sigma=sigma))})
     fig.savefig(args.plot, dpi=120)
     return randoms.as_dict()
 

@@ -13,13 +13,17 @@ measured points) or as a *combination* of kept ones, with the coefficients.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pincal.arguments import Seed, generator
+from pincal.model.catalogue import LENGTH_TOLERANCE, split_spec
 from pincal.model.jacobian import unit_columns
-from pincal.model.parameters import LENGTH_TOLERANCE, ParameterSet, split_spec
+
+if TYPE_CHECKING:  # ParameterSet.identifiable() calls this module: parameters.py imports it
+    from pincal.model.parameters import ParameterSet
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,7 +110,7 @@ def identifiability(
 
     kept: list[int] = []
     basis = np.zeros((A.shape[0], 0))
-    preferred = frozenset(ParameterSet.from_spec(robot, prefer).names) if split_spec(prefer) else frozenset()
+    preferred = frozenset(robot.parameters(prefer).names) if split_spec(prefer) else frozenset()
     for i in _preference(params, preferred):
         if not visible[i]:
             continue
@@ -135,7 +139,7 @@ def identifiability(
         dropped[names[i]] = f"redundant: equals {terms}"
     return Identifiability(
         params=params,
-        identifiable=ParameterSet(robot, tuple(params.parameters[i] for i in kept)),
+        identifiable=replace(params, parameters=tuple(params.parameters[i] for i in kept)),
         dropped=dropped,
         combinations=combinations,
         rank=len(kept),

@@ -24,89 +24,21 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
 from pincal.arguments import Seed
 from pincal.errors import PincalError, UnknownParameter
-from pincal.model.robot import Robot
+from pincal.model.base_parameters import identifiability
+from pincal.model.catalogue import GROUPS, Parameter, catalogue, group, split_spec
+from pincal.model.jacobian import analytic_jacobian, finite_difference_jacobian
 
-COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
-GROUPS = ("offsets", "lengths", "full", "base", "markers")
-LENGTH_TOLERANCE = 1e-9
-"""An origin component counts as a length when |xyz component| exceeds this [m]."""
+if TYPE_CHECKING:  # a Robot builds its ParameterSets (Robot.parameters): robot.py imports this module
+    from pincal.model.robot import Robot
 
-# Parameter kinds, as small integers for vectorised code.
-PLACEMENT, OFFSET, MARKER, BASE = 0, 1, 2, 3
-
-
-@dataclass(frozen=True)
-class Parameter:
-    """One geometric parameter.
-
-    Attributes:
-        name: stable readable name, e.g. ``joint_a2.tx``.
-        kind: ``"placement"``, ``"offset"``, ``"marker"`` or ``"base"``.
-        index: origin index (placement: joints in chain order, then the tip), joint index
-            (offset, 0-based in configuration order), marker index, or 0 (base).
-        component: 0..5 for tx ty tz rx ry rz; 0..2 for a marker's x y z; 0 for an offset.
-        unit: ``"m"`` or ``"rad"``.
-    """
-
-    name: str
-    kind: str
-    index: int
-    component: int
-    unit: str
-
-    @property
-    def is_length(self) -> bool:
-        """True when the parameter is in metres."""
-        return self.unit == "m"
-
-
-def _catalogue(robot: Robot) -> list[Parameter]:
-    """Every parameter of ``robot``, in canonical order."""
-    out: list[Parameter] = []
-    n_joints = robot.nq
-    prismatic = np.linalg.norm(robot.motion_axes[1:, 3:], axis=1) < 0.5
-    for o, origin in enumerate(robot.origins):
-        for c, comp in enumerate(COMPONENTS):
-            out.append(Parameter(f"{origin.name}.{comp}", "placement", o, c, "m" if c < 3 else "rad"))
-        if o < n_joints:
-            out.append(Parameter(f"{origin.name}.offset", "offset", o, 0, "m" if prismatic[o] else "rad"))
-    for k in range(robot.n_markers):
-        for c, comp in enumerate("xyz"):
-            out.append(Parameter(f"marker{k}.{comp}", "marker", k, c, "m"))
-    for c, comp in enumerate(COMPONENTS):
-        out.append(Parameter(f"base.{comp}", "base", 0, c, "m" if c < 3 else "rad"))
-    return out
-
-
-def _group(robot: Robot, catalogue: list[Parameter], group: str) -> list[Parameter]:
-    if group == "offsets":
-        return [p for p in catalogue if p.kind == "offset"]
-    if group == "full":
-        return [p for p in catalogue if p.kind == "placement"]
-    if group == "lengths":
-        xyz = [o.origin.translation for o in robot.origins]
-        return [
-            p
-            for p in catalogue
-            if p.kind == "placement" and p.component < 3 and abs(xyz[p.index][p.component]) > LENGTH_TOLERANCE
-        ]
-    if group == "base":
-        return [p for p in catalogue if p.kind == "base"]
-    if group == "markers":
-        return [p for p in catalogue if p.kind == "marker"]
-    raise AssertionError(group)
-
-
-def split_spec(spec: str | Iterable[str]) -> list[str]:
-    """The names and groups of a parameter spec: ``"a, b"`` or ``["a", "b,c"]`` → ``["a", "b", "c"]``."""
-    items = spec.split(",") if isinstance(spec, str) else list(spec)
-    return [s.strip() for item in items for s in str(item).split(",") if s.strip()]
+__all__ = ["Parameter", "ParameterSet"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,22 +59,22 @@ class ParameterSet:
     @classmethod
     def from_spec(cls, robot: Robot, spec: str | Iterable[str]) -> ParameterSet:
         """Parameters named by groups and/or names, comma-separated (see module doc)."""
-        catalogue = _catalogue(robot)
-        by_name = {p.name: p for p in catalogue}
+        every = catalogue(robot)
+        by_name = {p.name: p for p in every}
         chosen: set[str] = set()
         tokens = split_spec(spec)
         if not tokens:
             raise UnknownParameter("", list(GROUPS) + list(by_name))
         for token in tokens:
             if token in GROUPS:
-                chosen.update(p.name for p in _group(robot, catalogue, token))
+                chosen.update(p.name for p in group(robot, every, token))
             elif token in by_name:
                 chosen.add(token)
             else:
                 raise UnknownParameter(token, list(GROUPS) + list(by_name))
         if not chosen:
             raise PincalError(f"parameter set {spec!r} is empty for robot {robot.name!r}")
-        return cls(robot, tuple(p for p in catalogue if p.name in chosen))
+        return cls(robot, tuple(p for p in every if p.name in chosen))
 
     # ---------------------------------------------------------------------- naming
     @cached_property
@@ -257,8 +189,6 @@ class ParameterSet:
             (m, 3K, P) array: for configuration i, rows 3k..3k+2 are marker k's x, y, z;
             ``J.reshape(-1, P)`` is the stacked Jacobian.
         """
-        from pincal.model.jacobian import analytic_jacobian, finite_difference_jacobian
-
         qs = self.robot.configurations(plan)
         if method == "analytic":
             return analytic_jacobian(self, qs, frame=frame)
@@ -273,10 +203,8 @@ class ParameterSet:
     ):
         """Which of these parameters position measurements can identify.
 
-        See :func:`pincal.identifiability.identifiability`.
+        See :func:`pincal.model.base_parameters.identifiability`.
         """
-        from pincal.model.base_parameters import identifiability
-
         return identifiability(self, n_configurations=n_configurations, seed=seed, tol=tol, prefer=prefer)
 
 

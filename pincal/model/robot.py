@@ -25,6 +25,7 @@ import pinocchio as pin
 from pincal.arguments import Seed, generator
 from pincal.errors import AmbiguousTip, BadConfiguration, PincalWarning, RobotNotFound, UnknownName
 from pincal.model.chain import Candidate, candidates, chain_model, default_root, default_tip, frame_id
+from pincal.model.parameters import ParameterSet
 from pincal.model.urdf import parse_joint_ranges, read_urdf
 
 _PACKAGE = Path(__file__).resolve().parent.parent
@@ -304,7 +305,7 @@ class Robot:
         """Validate joint values; return a new (m, nq) float array.
 
         Args:
-            q: (nq,) or (m, nq) joint values [rad or m], or a :class:`~pincal.plan.Plan`.
+            q: (nq,) or (m, nq) joint values [rad or m], or a :class:`~pincal.planning.plan.Plan`.
             what: word used in error messages ("configuration", "test pose", ...).
 
         Raises:
@@ -434,10 +435,8 @@ class Robot:
         fields.update(changes)
         return Robot(**fields)  # type: ignore[arg-type]
 
-    def parameters(self, spec: str | list[str] | tuple[str, ...] = "full,offsets"):
+    def parameters(self, spec: str | list[str] | tuple[str, ...] = "full,offsets") -> ParameterSet:
         """The geometric parameters named by ``spec`` (see :class:`pincal.ParameterSet`)."""
-        from pincal.model.parameters import ParameterSet
-
         return ParameterSet.from_spec(self, spec)
 
     def __repr__(self) -> str:

@@ -1,12 +1,12 @@
 """Continuous search: all m·nq joint values at once, by bounded quasi-Newton (L-BFGS-B).
 
-The gradient is analytic in M: with G = ∂F/∂M (from :mod:`pincal._objective`) and
+The gradient is analytic in M: with G = ∂F/∂M (from :mod:`pincal.planning.objectives`) and
 M = Σᵢ JᵢᵀJᵢ, ∂F/∂q_ij = 2⟨Jᵢ G, ∂Jᵢ/∂q_ij⟩. Only ∂Jᵢ/∂q_ij comes from central differences on
 the joint values: the Jacobians at qᵢ ± h e_j for every configuration and joint are computed in
 one batch with the plan's own (m·(2nq+1) configurations, one forward-kinematics pass each).
 
 Joint limits (with their margin) are the optimiser's box bounds. The other constraints add a
-truncated logarithmic barrier (see :meth:`pincal._feasibility.Feasibility.barrier`): starts are
+truncated logarithmic barrier (see :meth:`pincal.planning.feasibility.Feasibility.barrier`): starts are
 strictly feasible and a step that leaves the feasible set gets a huge value, so the line search
 never accepts it and every iterate stays feasible. The same kind of barrier keeps the plan
 regular: the smallest eigenvalue of the Jacobi-scaled information matrix (the conditioning, see

@@ -3,11 +3,11 @@
 :func:`design` is the one driver; the search method is chosen by name:
 
 * ``"continuous"``: all m·nq joint values at once, by bounded quasi-Newton (L-BFGS-B) with the
-  analytic gradient of the criterion (:mod:`pincal._continuous`), from many starts drawn inside
+  analytic gradient of the criterion (:mod:`pincal.planning.continuous`), from many starts drawn inside
   the constraints. Every start first runs ``screen_iterations`` iterations; only the best
   ``keep`` fraction continues to convergence.
 * ``"exchange"``: Fedorov-style exchange over a pool of feasible candidate configurations, with
-  Sherman–Morrison–Woodbury updates (:mod:`pincal._exchange`). The pool is drawn at random
+  Sherman–Morrison–Woodbury updates (:mod:`pincal.planning.exchange`). The pool is drawn at random
   (seeded, feasible) or given: real cells often have taught, known-safe poses and want the best m
   of them. With a generated pool the best exchange results are then polished by the continuous
   search (``polish``, on by default): the default method, fastest to the best plans we know.

@@ -13,7 +13,7 @@ determinant ratio, E and cond from the eigenvalues of M' itself. An accepted exc
 M⁻¹ the same way; M⁻¹ is recomputed from M once per sweep to keep rounding from drifting.
 Candidates already in the plan, or closer than the minimum spacing to another configuration of
 it, are not considered, nor an exchange that would take the plan's conditioning (see
-:func:`pincal._continuous.conditioning`) below the floor.
+:func:`pincal.evaluation.information.conditioning`) below the floor.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Constraints bound to one robot for a search: exact checks, barrier, sampling and repair.
 
 Private machinery of :mod:`pincal.design`; the constraint value objects themselves are in
-:mod:`pincal.constraints`.
+:mod:`pincal.planning.constraints`.
 """
 
 from __future__ import annotations

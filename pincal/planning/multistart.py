@@ -43,8 +43,8 @@ class ProblemSpec:
         sigma: measurement noise per coordinate [m].
         constraints: the constraint objects.
         pool: (N, nq) candidate configurations (exchange), or None.
-        floor: smallest conditioning of a plan (see :func:`pincal._continuous.conditioning`);
-            0: none (with a prior).
+        floor: smallest conditioning of a plan (see
+            :func:`pincal.evaluation.information.conditioning`); 0: none (with a prior).
         prior: (P, P) the prior's information Λ = σ²Σp⁻¹, or None.
         key: identifies the spec in the workers' caches.
     """

@@ -2,7 +2,7 @@ r"""The criteria a design minimises, as functions of the information matrix M (S
 
 One interface serves both search methods: an objective gives its value F(M) and the gradient
 G = ∂F/∂M (symmetric P×P), and, for the exchange method, the value after a low-rank change of M
-(see :mod:`pincal._exchange`). F is a smooth, dimensionless transform of the criterion (its log,
+(see :mod:`pincal.planning.exchange`). F is a smooth, dimensionless transform of the criterion (its log,
 except for D which is a log already), so that one optimiser tolerance fits every criterion and
 scale; :meth:`Objective.report` turns F back into the criterion in its own units.
 

@@ -123,8 +123,9 @@ def error_comparison(
 
     Args:
         errors: ``{label: errors}``, each (n,) errors [m] or a result with ``errors`` and
-            ``rho0_predicted`` attributes (:class:`pincal.simulate.MonteCarloResult`). The first
-            plan is the reference for the gains.
+            ``rho0_predicted`` attributes
+            (:class:`pincal.calibration.monte_carlo.MonteCarloResult`). The first plan is the
+            reference for the gains.
         predicted: ``{label: predicted ρ0 [m]}`` (taken from the results when they carry it).
         unit: length unit of the axis.
         title: figure title.
@@ -182,9 +183,9 @@ def search_progress(
     """The criterion against search time, start by start, of a multi-start search.
 
     Args:
-        history: a :class:`pincal.design.DesignResult` (its ``history``), or a sequence with one
+        history: a :class:`pincal.planning.results.DesignResult` (its ``history``), or a sequence with one
             entry per start: a record with ``time_s`` and ``value`` (a
-            :class:`pincal.design.StartRecord`: a point per start; ``continued=False`` marks a
+            :class:`pincal.planning.results.StartRecord`: a point per start; ``continued=False`` marks a
             start dropped after screening), or a ``(times [s], values)`` pair of arrays, or an
             object with ``times`` and ``values``, for a start's whole trace (a line: the best
             value so far).

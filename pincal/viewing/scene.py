@@ -171,7 +171,7 @@ def show(
         sigma: measurement noise per coordinate [m]: the ellipsoid is the 3σ ellipsoid of
             σ² J₀ M⁻¹ J₀ᵀ.
         instrument: position (x, y, z) of the instrument in the base/instrument frame [m], or a
-            :class:`pincal.constraints.Visibility` constraint (its tracker), or None.
+            :class:`pincal.planning.constraints.Visibility` constraint (its tracker), or None.
         scale: how many times larger than life the ellipsoid is drawn; None chooses a factor
             (1, 2 or 5 × 10^n) that makes its largest semi-axis about a tenth of the robot's reach
             (see :attr:`Scene.ellipsoid_scale`, written next to it in the scene).

@@ -1,0 +1,89 @@
+"""The names of a robot's geometric parameters: the catalogue in canonical order, the groups, and
+how a spec (``"lengths,offsets,joint2.tx"``) splits (conventions: :mod:`pincal.model.parameters`)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from pincal.model.robot import Robot
+
+COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
+GROUPS = ("offsets", "lengths", "full", "base", "markers")
+LENGTH_TOLERANCE = 1e-9
+"""An origin component counts as a length when |xyz component| exceeds this [m]."""
+
+# Parameter kinds, as small integers for vectorised code.
+PLACEMENT, OFFSET, MARKER, BASE = 0, 1, 2, 3
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One geometric parameter.
+
+    Attributes:
+        name: stable readable name, e.g. ``joint_a2.tx``.
+        kind: ``"placement"``, ``"offset"``, ``"marker"`` or ``"base"``.
+        index: origin index (placement: joints in chain order, then the tip), joint index
+            (offset, 0-based in configuration order), marker index, or 0 (base).
+        component: 0..5 for tx ty tz rx ry rz; 0..2 for a marker's x y z; 0 for an offset.
+        unit: ``"m"`` or ``"rad"``.
+    """
+
+    name: str
+    kind: str
+    index: int
+    component: int
+    unit: str
+
+    @property
+    def is_length(self) -> bool:
+        """True when the parameter is in metres."""
+        return self.unit == "m"
+
+
+def catalogue(robot: Robot) -> list[Parameter]:
+    """Every parameter of ``robot``, in canonical order."""
+    out: list[Parameter] = []
+    n_joints = robot.nq
+    for o, origin in enumerate(robot.origins):
+        for c, comp in enumerate(COMPONENTS):
+            out.append(Parameter(f"{origin.name}.{comp}", "placement", o, c, "m" if c < 3 else "rad"))
+        if o < n_joints:
+            out.append(
+                Parameter(f"{origin.name}.offset", "offset", o, 0, "rad" if robot.revolute[o] else "m")
+            )
+    for k in range(robot.n_markers):
+        for c, comp in enumerate("xyz"):
+            out.append(Parameter(f"marker{k}.{comp}", "marker", k, c, "m"))
+    for c, comp in enumerate(COMPONENTS):
+        out.append(Parameter(f"base.{comp}", "base", 0, c, "m" if c < 3 else "rad"))
+    return out
+
+
+def group(robot: Robot, every: list[Parameter], name: str) -> list[Parameter]:
+    """The parameters of group ``name`` (one of :data:`GROUPS`) among ``every`` (the catalogue)."""
+    if name == "offsets":
+        return [p for p in every if p.kind == "offset"]
+    if name == "full":
+        return [p for p in every if p.kind == "placement"]
+    if name == "lengths":
+        xyz = [o.origin.translation for o in robot.origins]
+        return [
+            p
+            for p in every
+            if p.kind == "placement" and p.component < 3 and abs(xyz[p.index][p.component]) > LENGTH_TOLERANCE
+        ]
+    if name == "base":
+        return [p for p in every if p.kind == "base"]
+    if name == "markers":
+        return [p for p in every if p.kind == "marker"]
+    raise AssertionError(name)
+
+
+def split_spec(spec: str | Iterable[str]) -> list[str]:
+    """The names and groups of a parameter spec: ``"a, b"`` or ``["a", "b,c"]`` → ``["a", "b", "c"]``."""
+    items = spec.split(",") if isinstance(spec, str) else list(spec)
+    return [s.strip() for item in items for s in str(item).split(",") if s.strip()]
