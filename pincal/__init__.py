@@ -18,6 +18,7 @@ from pincal.calibration.synthetic import RandomErrors, random_errors, simulate_m
 from pincal.calibration.urdf_export import export_urdf
 from pincal.errors import (
     AmbiguousTip,
+    BadArgument,
     BadConfiguration,
     BadConstraint,
     BadDHTable,
@@ -78,6 +79,7 @@ from pincal.viewing.scene import Scene, scene, show
 __all__ = [
     "AccuracyReport",
     "AmbiguousTip",
+    "BadArgument",
     "BadConfiguration",
     "BadConstraint",
     "BadDHTable",

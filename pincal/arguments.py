@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from pincal.errors import PincalError
+from pincal.errors import BadArgument
 
 
 def positive_int(value: object, name: str, low: int = 1) -> int:
@@ -17,7 +17,12 @@ def positive_int(value: object, name: str, low: int = 1) -> int:
         PincalError: naming ``name``, the bound and the value given.
     """
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-        raise PincalError(f"{name} must be an integer ≥ {low}, got {value!r}")
+        raise BadArgument(
+            f"{name} must be an integer ≥ {low}, got {value!r}",
+            argument=name,
+            value=value,
+            valid=f"an integer ≥ {low}",
+        )
     return int(value)
 
 
@@ -32,7 +37,12 @@ def positive_sigma(sigma: object) -> float:
     except (TypeError, ValueError):
         s = math.nan
     if not (math.isfinite(s) and s > 0):
-        raise PincalError(f"sigma must be a positive number of metres, got {sigma!r}")
+        raise BadArgument(
+            f"sigma must be a positive number of metres, got {sigma!r}",
+            argument="sigma",
+            value=sigma,
+            valid="> 0 [m]",
+        )
     return s
 
 
@@ -46,7 +56,11 @@ def _check_seed(seed: object) -> None:
     if seed is None or isinstance(seed, (np.random.Generator, np.random.SeedSequence)):
         return
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise PincalError(f"seed must be an integer ≥ 0, a numpy Generator or None, got {seed!r}")
+        raise BadArgument(
+            f"seed must be an integer ≥ 0, a numpy Generator or None, got {seed!r}",
+            argument="seed",
+            value=seed,
+        )
 
 
 def generator(seed: Seed) -> np.random.Generator:

@@ -3,6 +3,11 @@
 Every error pincal raises on purpose derives from :class:`PincalError`. Messages say what was
 wrong, what was expected and, where there is a finite list, the valid choices. The CLI prints
 ``str(error)`` on one line and exits with code 2.
+
+Errors about what the caller gave (an argument, a name, joint values, a file's content) derive
+from :class:`BadArgument`, which is also a ``ValueError``: ordinary Python code catches them, and
+they carry what they name as attributes (``argument``, ``value``, ``valid``, ``file``, ``line``;
+``joint`` for joint values; ``kind``, ``name`` for unknown names).
 """
 
 from __future__ import annotations
@@ -25,7 +30,41 @@ class PincalError(Exception):
     """Root of every error pincal raises on purpose."""
 
 
-class RobotNotFound(PincalError):
+class BadArgument(PincalError, ValueError):
+    """An argument or an input the caller gave that is not valid.
+
+    Attributes:
+        argument: the argument, option or input named (e.g. ``"sigma"``, ``"--trials"``), or None.
+        value: the value given, or None.
+        valid: what would be valid (a (low, high) range, the list of choices, a description), or
+            None.
+        file: the file the input came from, or None.
+        line: its line number in ``file`` (1-based), or None.
+    """
+
+    def __init__(
+        self,
+        message: str = "",
+        *,
+        argument: object = None,
+        value: object = None,
+        valid: object = None,
+        file: object = None,
+        line: int | None = None,
+    ) -> None:
+        super().__init__(message)
+        for key, given in (
+            ("argument", argument),
+            ("value", value),
+            ("valid", valid),
+            ("file", file),
+            ("line", line),
+        ):
+            if given is not None or not hasattr(self, key):  # a subclass may have set it already
+                setattr(self, key, given)
+
+
+class RobotNotFound(BadArgument):
     """A robot given by name is neither a file, a shipped robot nor an example-robot-data robot."""
 
     def __init__(self, name: str, valid: Iterable[str], reason: str = ""):
@@ -46,12 +85,13 @@ class UrdfError(PincalError):
     """A URDF file is missing, unreadable or not a valid robot description."""
 
 
-class UnknownName(PincalError):
+class UnknownName(BadArgument):
     """A frame, joint, parameter or group name that the robot does not have."""
 
     def __init__(self, kind: str, name: str, valid: Iterable[str]):
         self.kind = kind
         self.name = name
+        self.value = name
         self.valid = list(valid)
         close = _close(name, self.valid)
         hint = f" (did you mean {', '.join(close)}?)" if close else ""
@@ -72,7 +112,7 @@ class UnknownParameter(UnknownName):
         super().__init__("parameter or group", name, valid)
 
 
-class AmbiguousTip(PincalError):
+class AmbiguousTip(BadArgument):
     """No tip was given and the robot's tree has several chain ends: the message lists them."""
 
     def __init__(self, robot: str, candidates: Iterable[str], note: str = ""):
@@ -87,19 +127,28 @@ class AmbiguousTip(PincalError):
         )
 
 
-class UnsupportedJoint(PincalError):
+class UnsupportedJoint(BadArgument):
     """A joint on the measured chain that is not a one-dof (revolute or prismatic) joint."""
 
 
-class BadDHTable(PincalError):
+class BadDHTable(BadArgument):
     """A Denavit–Hartenberg table that cannot be read as documented (the message names the key or row)."""
 
 
-class BadConfiguration(PincalError):
-    """Joint values of the wrong shape, non-finite, non-numeric or outside the joint limits."""
+class BadConfiguration(BadArgument):
+    """Joint values of the wrong shape, non-finite, non-numeric or outside the joint limits.
+
+    Attributes:
+        joint: the joint whose value is wrong, when one is (else None); ``value`` is its value
+            and ``valid`` its (lower, upper) limits, in the unit of the message.
+    """
+
+    def __init__(self, message: str = "", *, joint: str | None = None, **data: object) -> None:
+        self.joint = joint
+        super().__init__(message, **data)  # type: ignore[arg-type]
 
 
-class BadPlanFile(PincalError):
+class BadPlanFile(BadArgument):
     """A plan / configuration CSV file that cannot be read as documented."""
 
 
@@ -135,7 +184,7 @@ class SingularPlan(PincalError):
         super().__init__(msg)
 
 
-class BadMeasurementData(PincalError):
+class BadMeasurementData(BadArgument):
     """Measurements that cannot be used as documented: a malformed CSV, columns that do not match
     the robot's joints or markers, or arrays of the wrong shape."""
 
@@ -157,7 +206,7 @@ class OverwriteRefused(PincalError):
     """An output path that is one of the inputs (pincal never overwrites its inputs)."""
 
 
-class BadConstraint(PincalError):
+class BadConstraint(BadArgument):
     """A constraint with invalid values, or a constraints file that cannot be read."""
 
 

@@ -11,7 +11,14 @@ from pathlib import Path
 
 import numpy as np
 
-from pincal.errors import BadPlanFile, CannotWrite
+from pincal.errors import BadArgument, BadPlanFile, CannotWrite
+
+
+def _error(error: type[Exception], message: str, path: object, line: int | None = None) -> Exception:
+    """``error(message)``, carrying the file and line when it is a :class:`BadArgument`."""
+    if issubclass(error, BadArgument):
+        return error(message, file=str(path), line=line)
+    return error(message)
 
 
 def read_text(path: str | os.PathLike, what: str, error: type[Exception]) -> str:
@@ -20,9 +27,9 @@ def read_text(path: str | os.PathLike, what: str, error: type[Exception]) -> str
     try:
         return path.read_text()
     except FileNotFoundError:
-        raise error(f"{what} file {str(path)!r} does not exist") from None
+        raise _error(error, f"{what} file {str(path)!r} does not exist", path) from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise error(f"cannot read {what} file {str(path)!r}: {exc}") from None
+        raise _error(error, f"cannot read {what} file {str(path)!r}: {exc}", path) from None
 
 
 def read_yaml(path: str | os.PathLike, what: str, error: type[Exception]) -> object:
@@ -37,7 +44,10 @@ def read_yaml(path: str | os.PathLike, what: str, error: type[Exception]) -> obj
         where = getattr(exc, "problem_mark", None)
         line = f", line {where.line + 1}" if where is not None else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise error(f"{what} file {str(path)!r}{line}: not valid YAML ({problem})") from None
+        at = where.line + 1 if where is not None else None
+        raise _error(
+            error, f"{what} file {str(path)!r}{line}: not valid YAML ({problem})", path, at
+        ) from None
 
 
 def column_mismatch(expected: Sequence[str], found: Sequence[str]) -> str:
@@ -71,41 +81,57 @@ def read_numeric_csv(
         if row and any(c.strip() for c in row) and not row[0].lstrip().startswith("#")
     ]
     if not lines:
-        raise error(f"{what} file {str(path)!r} is empty: expected a header row of column names")
+        raise _error(
+            error, f"{what} file {str(path)!r} is empty: expected a header row of column names", path
+        )
     _, header = lines[0]
     header = [h.strip() for h in header]
     if any(_is_number(h) for h in header):
-        raise error(
+        raise _error(
+            error,
             f"{what} file {str(path)!r}: the first row must be a header of column names, "
-            f"got {','.join(header)}"
+            f"got {','.join(header)}",
+            path,
+            lines[0][0],
         )
     if len(set(header)) != len(header):
         dup = sorted({h for h in header if header.count(h) > 1})
-        raise error(f"{what} file {str(path)!r}: duplicate column(s) {', '.join(dup)}")
+        raise _error(
+            error, f"{what} file {str(path)!r}: duplicate column(s) {', '.join(dup)}", path, lines[0][0]
+        )
     rows, numbers = [], []
     for n, row in lines[1:]:
         if len(row) != len(header):
-            raise error(
+            raise _error(
+                error,
                 f"{what} file {str(path)!r}, line {n}: {len(row)} values, expected {len(header)} "
-                f"({','.join(header)})"
+                f"({','.join(header)})",
+                path,
+                n,
             )
         values = []
         for name, cell in zip(header, row):
             try:
                 v = float(cell)
             except ValueError:
-                raise error(
-                    f"{what} file {str(path)!r}, line {n}: column {name} is {cell.strip()!r}, not a number"
+                raise _error(
+                    error,
+                    f"{what} file {str(path)!r}, line {n}: column {name} is {cell.strip()!r}, not a number",
+                    path,
+                    n,
                 ) from None
             if not np.isfinite(v):
-                raise error(
-                    f"{what} file {str(path)!r}, line {n}: column {name} is {cell.strip()} (must be finite)"
+                raise _error(
+                    error,
+                    f"{what} file {str(path)!r}, line {n}: column {name} is {cell.strip()} (must be finite)",
+                    path,
+                    n,
                 )
             values.append(v)
         rows.append(values)
         numbers.append(n)
     if not rows:
-        raise error(f"{what} file {str(path)!r} has a header but no rows")
+        raise _error(error, f"{what} file {str(path)!r} has a header but no rows", path)
     return header, np.array(rows, dtype=float), np.array(numbers, dtype=int)
 
 

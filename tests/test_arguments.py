@@ -48,3 +48,38 @@ def test_every_seed_argument_takes_a_generator(planar):
     )
     with pytest.raises(pincal.PincalError, match="seed must be"):
         pincal.design(params, 2, seed=-3, **fast)
+
+
+def test_bad_arguments_are_value_errors_carrying_what_they_name(tmp_path, kr270):
+    # Ordinary Python code catches them as ValueError.
+    with pytest.raises(ValueError):
+        pincal.load_robot("planar_2r").parameters("no_such_parameter")
+    with pytest.raises(pincal.BadConfiguration) as caught:
+        kr270.configurations([0, 0, 0, 0, 0, 0])  # A2's limits are [-140°, -5°]
+    error = caught.value
+    assert isinstance(error, ValueError)
+    assert error.joint == "joint_a2" and error.value == 0.0
+    assert error.valid == pytest.approx((-np.radians(140), -np.radians(5)))
+    plan = tmp_path / "plan.csv"
+    plan.write_text("joint1,joint2\n0.1,0.2\n0.3,x\n")
+    with pytest.raises(pincal.BadPlanFile) as caught:
+        pincal.Plan.from_csv(plan)
+    assert (caught.value.file, caught.value.line) == (str(plan), 3)
+    with pytest.raises(pincal.BadArgument) as caught:
+        pincal.design(pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx"), 0, test_pose=[0, 1])
+    assert caught.value.argument == "m (number of configurations)" and caught.value.value == 0
+    with pytest.raises(pincal.UnknownParameter) as caught:
+        kr270.parameters("joint_a9.tx")
+    assert caught.value.name == "joint_a9.tx" and "joint_a2.tx" in caught.value.valid
+
+
+def test_every_exception_is_a_pincal_error_and_input_errors_are_value_errors():
+    import pincal.errors as errors
+
+    for name in dir(errors):
+        cls = getattr(errors, name)
+        if isinstance(cls, type) and issubclass(cls, Exception):
+            assert issubclass(cls, pincal.PincalError), name
+    for cls in (pincal.UnknownName, pincal.BadConfiguration, pincal.BadConstraint, pincal.BadMeasurementData,
+                pincal.BadPlanFile, pincal.RobotNotFound, pincal.UnsupportedJoint):  # fmt: skip
+        assert issubclass(cls, pincal.BadArgument) and issubclass(cls, ValueError), cls

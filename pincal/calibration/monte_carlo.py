@@ -17,7 +17,7 @@ import numpy as np
 from pincal.arguments import Seed, generator
 from pincal.calibration.identification import identify
 from pincal.calibration.synthetic import error_std_pair, random_errors, simulate_measurements
-from pincal.errors import PincalError
+from pincal.errors import BadArgument, PincalError
 from pincal.evaluation.test_pose import rho0
 from pincal.model.parameters import ParameterSet
 
@@ -135,9 +135,9 @@ def monte_carlo(
         BadConfiguration: a configuration or test pose outside the limits.
     """
     if not (np.isfinite(sigma) and sigma > 0):
-        raise PincalError(f"sigma must be a positive number of metres, got {sigma!r}")
+        raise BadArgument(f"sigma must be a positive number of metres, got {sigma!r}")
     if int(trials) != trials or trials < 2:
-        raise PincalError(f"trials must be an integer of at least 2, got {trials!r}")
+        raise BadArgument(f"trials must be an integer of at least 2, got {trials!r}")
     length, angle = error_std_pair(error_std)
     robot = params.robot
     qs = robot.configurations(plan)

@@ -18,7 +18,7 @@ import numpy as np
 
 from pincal.arguments import Seed, generator
 from pincal.calibration.measurements import MeasurementData
-from pincal.errors import PincalError
+from pincal.errors import BadArgument
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 
@@ -54,13 +54,13 @@ def error_std_pair(error_std: Mapping[str, float] | None) -> tuple[float, float]
     """
     std = DEFAULT_ERROR_STD if error_std is None else error_std
     if not isinstance(std, Mapping) or set(std) - {"length", "angle"}:
-        raise PincalError(
+        raise BadArgument(
             f"error std must be a mapping with keys 'length' [m] and 'angle' [rad], got {std!r}"
         )
     values = (std.get("length", 0.0), std.get("angle", 0.0))
     for key, v in zip(("length", "angle"), values, strict=True):
         if not (isinstance(v, (int, float, np.floating)) and np.isfinite(v) and v >= 0):
-            raise PincalError(f"error std {key!r} must be a non-negative number, got {v!r}")
+            raise BadArgument(f"error std {key!r} must be a non-negative number, got {v!r}")
     return float(values[0]), float(values[1])
 
 
@@ -108,9 +108,9 @@ def simulate_measurements(
     """
     robot = true_robot.robot if isinstance(true_robot, RandomErrors) else true_robot
     if not isinstance(robot, Robot):
-        raise PincalError(f"simulate_measurements needs a Robot, got {type(true_robot).__name__}")
+        raise BadArgument(f"simulate_measurements needs a Robot, got {type(true_robot).__name__}")
     if not (np.isfinite(sigma) and sigma >= 0):
-        raise PincalError(f"sigma must be a non-negative number of metres, got {sigma!r}")
+        raise BadArgument(f"sigma must be a non-negative number of metres, got {sigma!r}")
     qs = robot.configurations(plan)
     points = robot.points(qs)
     if sigma > 0:

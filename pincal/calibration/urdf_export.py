@@ -37,7 +37,13 @@ import pinocchio as pin
 from lxml import etree
 
 from pincal.calibration.identification import IdentificationResult
-from pincal.errors import IdentificationFailed, OverwriteRefused, PincalError, PincalWarning, UrdfError
+from pincal.errors import (
+    BadArgument,
+    IdentificationFailed,
+    OverwriteRefused,
+    PincalWarning,
+    UrdfError,
+)
 from pincal.files import atomic_write_text
 from pincal.model.robot import Robot, load_robot
 from pincal.model.urdf import model_from_text, prepare
@@ -75,7 +81,7 @@ def export_urdf(
     if result is not None and not result.success:
         raise IdentificationFailed(result)
     if not isinstance(robot, Robot):
-        raise PincalError(
+        raise BadArgument(
             f"export_urdf needs an IdentificationResult or a Robot, got {type(calibrated).__name__}"
         )
     source = source_urdf if source_urdf is not None else robot.urdf_path

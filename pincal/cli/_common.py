@@ -8,7 +8,7 @@ import sys
 
 import numpy as np
 
-from pincal.errors import BadConfiguration, PincalError
+from pincal.errors import BadArgument, BadConfiguration
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot, load_robot
 from pincal.planning.constraints import load_constraints
@@ -152,7 +152,7 @@ def robot_from_args(args: argparse.Namespace) -> Robot:
 def _name_value(text: str, option: str, form: str) -> tuple[str, str]:
     name, sep, value = text.partition("=")
     if not sep or not name.strip() or not value.strip():
-        raise PincalError(f"{option} {text!r}: expected {form}")
+        raise BadArgument(f"{option} {text!r}: expected {form}")
     return name.strip(), value.strip()
 
 
@@ -227,7 +227,7 @@ def _chain_params(robot: Robot, spec: str | None, robot_arg: str) -> tuple[Param
     if ident.dropped:
         names = list(ident.dropped)
         shown = ", ".join(names[:8]) + (f", ... ({len(names)} in all)" if len(names) > 8 else "")
-        raise PincalError(
+        raise BadArgument(
             f"--params {spec}: {len(names)} parameter(s) cannot be identified from position "
             f"measurements ({shown}); use the identifiable set --params "
             f"{','.join(ident.identifiable.names)} (see 'pincal params {robot_arg}')"
@@ -257,7 +257,7 @@ def read_plan(robot: Robot, path: str, degrees: bool) -> Plan:
 
 def positive(value: float, name: str) -> float:
     if not (np.isfinite(value) and value > 0):
-        raise PincalError(f"{name} must be a positive number, got {value}")
+        raise BadArgument(f"{name} must be a positive number, got {value}")
     return value
 
 

@@ -22,7 +22,7 @@ from pincal.cli._common import (
     test_poses_from_args,
 )
 from pincal.cli._plot import add_plot_argument, save_design_plot
-from pincal.errors import PincalError
+from pincal.errors import BadArgument
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
 from pincal.planning.objectives import CRITERIA
@@ -132,9 +132,9 @@ def run(args: argparse.Namespace) -> int:
     constraints = constraints_from_args(args)
     criterion = "test-pose-worst" if args.worst else args.criterion
     if args.worst and args.criterion not in ("test-pose", "test-pose-worst"):
-        raise PincalError(f"--worst applies to the test-pose criterion, not {args.criterion!r}")
+        raise BadArgument(f"--worst applies to the test-pose criterion, not {args.criterion!r}")
     if args.pool and args.pool_size is not None:
-        raise PincalError("give --pool FILE.csv or --pool-size N, not both")
+        raise BadArgument("give --pool FILE.csv or --pool-size N, not both")
     taught = read_plan(robot, args.pool, args.deg) if args.pool else None
     pool = taught if taught is not None else args.pool_size
     progress = not args.no_progress and sys.stderr.isatty()

@@ -20,7 +20,7 @@ from pincal.cli._common import (
     robot_from_args,
 )
 from pincal.cli.simulate import parse_error_std
-from pincal.errors import BadConfiguration, OverwriteRefused, PincalError, UrdfError
+from pincal.errors import BadArgument, BadConfiguration, OverwriteRefused, UrdfError
 from pincal.model.robot import load_robot
 
 HELP = "simulate the measurements of a plan on a 'true' robot, to rehearse a calibration"
@@ -81,9 +81,9 @@ def _refuse_inputs(out: str, inputs: dict[str, object]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if not (np.isfinite(args.sigma) and args.sigma >= 0):
-        raise PincalError(f"--sigma must be a non-negative number of metres, got {args.sigma}")
+        raise BadArgument(f"--sigma must be a non-negative number of metres, got {args.sigma}")
     if args.save_true and not args.error_std:
-        raise PincalError("--save-true needs --error-std (the true robot is then drawn at random)")
+        raise BadArgument("--save-true needs --error-std (the true robot is then drawn at random)")
     robot = robot_from_args(args)
     inputs = {"plan file": args.plan, "ROBOT URDF": robot.urdf_path, "true URDF": args.true}
     _refuse_inputs(args.out, inputs)

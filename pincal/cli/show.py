@@ -25,7 +25,7 @@ from pincal.cli._common import (
     robot_from_args,
     test_poses_from_args,
 )
-from pincal.errors import BadConfiguration, PincalError
+from pincal.errors import BadArgument, BadConfiguration, PincalError
 from pincal.evaluation.test_pose import rho0
 from pincal.optional import require
 from pincal.planning.baselines import random_plans
@@ -104,11 +104,11 @@ def run(args: argparse.Namespace) -> int:
     if args.scale is not None:
         positive(args.scale, "--scale")
     if args.plot and not args.test_pose:
-        raise PincalError("--plot compares rho0 at the test pose: give --test-pose")
+        raise BadArgument("--plot compares rho0 at the test pose: give --test-pose")
     if args.pool and not args.plot:
-        raise PincalError("--pool is where --plot draws its random plans: give --plot too")
+        raise BadArgument("--pool is where --plot draws its random plans: give --plot too")
     if args.baseline < 1:
-        raise PincalError(f"--baseline must be a positive number of random plans, got {args.baseline}")
+        raise BadArgument(f"--baseline must be a positive number of random plans, got {args.baseline}")
     robot = robot_from_args(args)
     params, _ = params_from_args(robot, args)
     plan = read_plan(robot, args.plan, args.deg)

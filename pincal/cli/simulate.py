@@ -21,7 +21,7 @@ from pincal.cli._common import (
     test_poses_from_args,
 )
 from pincal.cli._plot import add_simulation_plot_arguments, save_simulation_plot
-from pincal.errors import PincalError
+from pincal.errors import BadArgument
 
 HELP = "Monte-Carlo simulation of a calibration with a plan: empirical vs predicted rho0"
 EXAMPLES = """\
@@ -67,7 +67,7 @@ def parse_error_std(text: str) -> dict[str, float]:
     """'LEN,ANG' (metres, radians) as the error_std of :func:`pincal.monte_carlo`."""
     values = parse_floats(text, "--error-std")
     if len(values) != 2 or min(values) < 0:
-        raise PincalError(
+        raise BadArgument(
             f"--error-std {text!r}: expected LEN,ANG, two non-negative numbers (metres, radians)"
         )
     return {"length": values[0], "angle": values[1]}
@@ -76,7 +76,7 @@ def parse_error_std(text: str) -> dict[str, float]:
 def run(args: argparse.Namespace) -> int:
     sigma = positive(args.sigma, "--sigma")
     if args.trials < 2:
-        raise PincalError(f"--trials must be at least 2, got {args.trials}")
+        raise BadArgument(f"--trials must be at least 2, got {args.trials}")
     error_std = parse_error_std(args.error_std)
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg.lapack import dtrtrs as _trtrs
 
-from pincal.errors import PincalError
+from pincal.errors import BadArgument
 from pincal.evaluation.information import factor, information_matrix
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import resolve_test_poses
@@ -75,9 +75,9 @@ class TestPoseCriterion:
         prior: Prior | None = None,
     ) -> None:
         if aggregate not in AGGREGATES:
-            raise PincalError(f"unknown aggregate {aggregate!r}; valid: {', '.join(AGGREGATES)}")
+            raise BadArgument(f"unknown aggregate {aggregate!r}; valid: {', '.join(AGGREGATES)}")
         if not (np.isfinite(sigma) and sigma > 0):
-            raise PincalError(f"sigma must be a positive number of metres, got {sigma!r}")
+            raise BadArgument(f"sigma must be a positive number of metres, got {sigma!r}")
         self.params = params
         self.engine = JacobianEngine(params)
         self.test_poses, self.region = resolve_test_poses(params.robot, test_poses)

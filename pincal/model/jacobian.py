@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from pincal.errors import PincalError
+from pincal.errors import BadArgument
 
 FD_STEP = 1e-6
 """Central finite-difference step [m or rad]."""
@@ -182,7 +182,7 @@ class JacobianEngine:
 def analytic_jacobian(params, qs: np.ndarray, frame: str = "world") -> np.ndarray:
     """(m, 3K, P) analytic parameter Jacobian (see :meth:`ParameterSet.jacobian`)."""
     if frame not in ("world", "tip"):
-        raise PincalError(f"unknown Jacobian frame {frame!r}; valid: world, tip")
+        raise BadArgument(f"unknown Jacobian frame {frame!r}; valid: world, tip")
     return JacobianEngine(params).jacobian(qs, frame=frame)
 
 

@@ -30,7 +30,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.arguments import Seed
-from pincal.errors import PincalError, UnknownParameter
+from pincal.errors import BadArgument, UnknownParameter
 from pincal.model.base_parameters import identifiability
 from pincal.model.catalogue import GROUPS, Parameter, catalogue, group, split_spec
 from pincal.model.jacobian import analytic_jacobian, finite_difference_jacobian
@@ -73,7 +73,7 @@ class ParameterSet:
             else:
                 raise UnknownParameter(token, list(GROUPS) + list(by_name))
         if not chosen:
-            raise PincalError(f"parameter set {spec!r} is empty for robot {robot.name!r}")
+            raise BadArgument(f"parameter set {spec!r} is empty for robot {robot.name!r}")
         return cls(robot, tuple(p for p in every if p.name in chosen))
 
     # ---------------------------------------------------------------------- naming
@@ -123,13 +123,13 @@ class ParameterSet:
         try:
             arr = np.array(values, dtype=float).reshape(-1)
         except (TypeError, ValueError):
-            raise PincalError(f"parameter values must be numbers, got {values!r}") from None
+            raise BadArgument(f"parameter values must be numbers, got {values!r}") from None
         if arr.shape != (len(self),):
-            raise PincalError(
+            raise BadArgument(
                 f"expected {len(self)} parameter values ({', '.join(self.names)}), got {arr.size}"
             )
         if not np.all(np.isfinite(arr)):
-            raise PincalError("parameter values must be finite")
+            raise BadArgument("parameter values must be finite")
         return arr
 
     def as_dict(self, values: Sequence[float] | np.ndarray) -> dict[str, float]:
@@ -194,9 +194,9 @@ class ParameterSet:
             return analytic_jacobian(self, qs, frame=frame)
         if method == "fd":
             if frame != "world":
-                raise PincalError("finite differences give world-frame rows only (frame='world')")
+                raise BadArgument("finite differences give world-frame rows only (frame='world')")
             return finite_difference_jacobian(self, qs)
-        raise PincalError(f"unknown Jacobian method {method!r}; valid: analytic, fd")
+        raise BadArgument(f"unknown Jacobian method {method!r}; valid: analytic, fd")
 
     def identifiable(
         self, n_configurations: int = 200, seed: Seed = 0, tol: float = 1e-6, prefer: str | Iterable[str] = ()

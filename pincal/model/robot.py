@@ -359,7 +359,11 @@ class Robot:
             hint = "; the values look like degrees: add --deg (degrees=True)"
         raise BadConfiguration(
             f"{labels[i]}: joint {self.joint_names[j]} = {shown(q[i, j]):.6g} is outside its "
-            f"limits [{shown(lo[j]):.6g}, {shown(hi[j]):.6g}] ({unit}){hint}"
+            f"limits [{shown(lo[j]):.6g}, {shown(hi[j]):.6g}] ({unit}){hint}",
+            argument=labels[i],
+            joint=self.joint_names[j],
+            value=float(shown(q[i, j])),
+            valid=(float(shown(lo[j])), float(shown(hi[j]))),
         )
 
     def random_configurations(self, n: int, rng: Seed = None, margin: float = 0.0) -> np.ndarray:

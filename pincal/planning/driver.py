@@ -42,7 +42,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from pincal.arguments import Seed, positive_int, positive_sigma, seed_entropy
-from pincal.errors import DegenerateOptimum, DegenerateOptimumWarning, Infeasible, PincalError, SingularPlan
+from pincal.errors import (
+    BadArgument,
+    DegenerateOptimum,
+    DegenerateOptimumWarning,
+    Infeasible,
+    SingularPlan,
+)
 from pincal.evaluation.classic import criteria_from_jacobian
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import TestPoseCriterion
@@ -232,9 +238,9 @@ def _validate(
     """Check every argument (in the order of the signature) and settle the defaults."""
     criterion = criterion_name(criterion)
     if method not in METHODS:
-        raise PincalError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+        raise BadArgument(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
     if prior is not None and not isinstance(prior, Prior):
-        raise PincalError(f"prior must be a pincal.Prior (e.g. Prior.parse('1mm,1mrad')), got {prior!r}")
+        raise BadArgument(f"prior must be a pincal.Prior (e.g. Prior.parse('1mm,1mrad')), got {prior!r}")
     sigma = positive_sigma(sigma)
     information = None if prior is None else prior.information(params, sigma)
     m = _check_m(params, m, information)
@@ -242,28 +248,28 @@ def _validate(
     starts = positive_int(starts, "starts")
     workers = _multistart.default_workers() if workers is None else positive_int(workers, "workers")
     if not (isinstance(keep, (int, float)) and 0 < keep <= 1):
-        raise PincalError(f"keep must be a fraction in (0, 1], got {keep!r}")
+        raise BadArgument(f"keep must be a fraction in (0, 1], got {keep!r}")
     screen_iterations = positive_int(screen_iterations, "screen_iterations", 0)
     maxiter = positive_int(maxiter, "maxiter")
     floor = (MIN_CONDITIONING if prior is None else 0.0) if min_conditioning is None else min_conditioning
     low = 0 if prior is not None else math.ulp(0.0)
     if isinstance(floor, bool) or not (isinstance(floor, (int, float)) and low <= floor < 0.1):
         valid = "[0, 0.1) with a prior" if prior is not None else "(0, 0.1) (0 only with a prior)"
-        raise PincalError(f"min_conditioning must be a number in {valid}, got {floor!r}")
+        raise BadArgument(f"min_conditioning must be a number in {valid}, got {floor!r}")
     constraints = tuple(constraints)
     feasibility = Feasibility(params.robot, constraints)
     entropy = seed_entropy(seed)
     if method == "continuous":
         if polish:
-            raise PincalError("polish refines exchange results; the continuous method needs none")
+            raise BadArgument("polish refines exchange results; the continuous method needs none")
         polish = False
     elif polish is None:
         polish = not user_pool
     if user_pool:
         if method != "exchange":
-            raise PincalError("a pool of configurations is searched by method='exchange'")
+            raise BadArgument("a pool of configurations is searched by method='exchange'")
         if polish:
-            raise PincalError("polish would move the plan off the given pool; use a generated pool to polish")
+            raise BadArgument("polish would move the plan off the given pool; use a generated pool to polish")
     return Settings(
         criterion=criterion,
         method=method,
@@ -310,7 +316,7 @@ def _pool(params: ParameterSet, settings: Settings, pool: object, init: Sequence
         candidates = feasibility.sample(size, rng, minimum=m, strict=strict)
     plans = tuple(robot.configurations(q, what="init plan configuration") for q in init)
     if plans and settings.method != "continuous":
-        raise PincalError("init plans start the continuous method; use method='continuous'")
+        raise BadArgument("init plans start the continuous method; use method='continuous'")
     for q in plans:
         if (
             q.shape != (m, robot.nq)

@@ -34,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg.lapack import dtrtrs as _trtrs
 
-from pincal.errors import PincalError, UnknownName
+from pincal.errors import BadArgument, UnknownName
 from pincal.evaluation.information import RCOND, factor, jacobi_scaled
 from pincal.evaluation.region import resolve_test_poses
 from pincal.evaluation.test_pose import mean_weight_factor
@@ -74,7 +74,7 @@ def checked_test_poses(params: ParameterSet, test_pose: object, criterion: str) 
     """
     if test_pose is None:
         if criterion in TEST_POSE_CRITERIA:
-            raise PincalError(f"criterion {criterion!r} needs a test pose (test_pose=...)")
+            raise BadArgument(f"criterion {criterion!r} needs a test pose (test_pose=...)")
         return None
     return resolve_test_poses(params.robot, test_pose)[0]
 
@@ -333,7 +333,7 @@ def make_objective(
     """
     if criterion in TEST_POSE_CRITERIA:
         if J0 is None:
-            raise PincalError(f"criterion {criterion!r} needs a test pose")
+            raise BadArgument(f"criterion {criterion!r} needs a test pose")
         if criterion == "test-pose":  # the mean: one weighted trace, whatever the number of poses
             return TraceObjective(criterion, mean_weight_factor(J0), 1, sigma, rows, prior=prior)
         return TraceObjective(criterion, J0.reshape(-1, n_params).T, len(J0), sigma, rows, prior=prior)

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pincal.errors import PincalError
+from pincal.errors import BadArgument
 from pincal.optional import require
 
 if TYPE_CHECKING:  # matplotlib is optional: imported when a figure is drawn
@@ -35,7 +35,7 @@ def _pyplot():
 
 def _factor(unit: str) -> float:
     if unit not in UNITS:
-        raise PincalError(f"unknown unit {unit!r}; valid: {', '.join(UNITS)}")
+        raise BadArgument(f"unknown unit {unit!r}; valid: {', '.join(UNITS)}")
     return UNITS[unit]
 
 
@@ -51,7 +51,7 @@ def _finite_positive(values: object, what: str) -> np.ndarray:
     arr = np.asarray(values, dtype=float).reshape(-1)
     arr = arr[np.isfinite(arr)]
     if arr.size == 0 or np.any(arr <= 0):
-        raise PincalError(f"{what}: expected positive finite lengths in metres, got {arr.size} usable values")
+        raise BadArgument(f"{what}: expected positive finite lengths in metres, got {arr.size} usable values")
     return arr
 
 
@@ -80,7 +80,7 @@ def rho0_histogram(
     random = _finite_positive(random_rho0, "random_rho0") * f
     marks = {"designed plan": plans} if np.isscalar(plans) else dict(plans)  # type: ignore[arg-type]
     if not marks:
-        raise PincalError("plans: give at least one plan's rho0")
+        raise BadArgument("plans: give at least one plan's rho0")
     values = {k: float(_finite_positive(v, f"plans[{k!r}]")[0]) * f for k, v in marks.items()}
     lo = min(random.min(), *values.values())
     hi = max(random.max(), *values.values())
@@ -135,7 +135,7 @@ def error_comparison(
     """
     f = _factor(unit)
     if not errors:
-        raise PincalError("errors: give at least one plan's Monte-Carlo errors")
+        raise BadArgument("errors: give at least one plan's Monte-Carlo errors")
     samples, expected = {}, dict(predicted or {})
     for label, value in errors.items():
         samples[label] = _finite_positive(getattr(value, "errors", value), f"errors[{label!r}]") * f
@@ -201,7 +201,7 @@ def search_progress(
     """
     entries = list(getattr(history, "history", history))
     if not entries:
-        raise PincalError("history: give at least one start")
+        raise BadArgument("history: give at least one start")
     fig = _figure((7.0, 4.0))
     ax = fig.add_subplot()
     points: list[tuple[float, float, bool]] = []
@@ -217,14 +217,14 @@ def search_progress(
         t = np.asarray(times, dtype=float).reshape(-1)
         v = np.asarray(values, dtype=float).reshape(-1) * scale
         if t.size != v.size or t.size == 0:
-            raise PincalError(f"history[{i}]: times and values must be non-empty and of equal length")
+            raise BadArgument(f"history[{i}]: times and values must be non-empty and of equal length")
         keep = np.isfinite(v)
         if keep.any():
             t, v = t[keep], np.minimum.accumulate(v[keep])
             ax.step(t, v, where="post", linewidth=1, alpha=0.7, color=_COLORS[1 + i % (len(_COLORS) - 1)])
             finals.append(v[-1])
     if not finals:
-        raise PincalError("history: no start has a finite criterion value")
+        raise BadArgument("history: no start has a finite criterion value")
     if points:
         t, v, continued = (np.array(c) for c in zip(*points, strict=True))
         ax.scatter(t[continued], v[continued], s=18, color=_COLORS[1], label="run to convergence")
