@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.errors import BadMeasurementData
+from pincal.errors import BadArgument, BadMeasurementData
 from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
 from pincal.model.robot import Robot
 
@@ -179,14 +179,22 @@ class MeasurementData:
         """CSV text of these data (format: see the module doc).
 
         Args:
-            degrees: write joint values in degrees (only revolute joints if ``robot`` is given,
-                else every joint).
+            degrees: write the revolute joints in degrees (prismatic joints stay in metres).
             millimetres: write coordinates in millimetres.
-            robot: the robot, to tell revolute from prismatic joints when writing degrees.
+            robot: the robot, to tell revolute from prismatic joints; needed with ``degrees``.
+
+        Raises:
+            BadArgument: ``degrees`` without ``robot``.
         """
         q = np.array(self.q)
         if degrees:
-            q = robot.to_degrees(q) if robot is not None else np.degrees(q)
+            if robot is None:
+                raise BadArgument(
+                    "writing measurements in degrees needs the robot (robot=), to leave its prismatic "
+                    "joints in metres",
+                    argument="degrees",
+                )
+            q = robot.to_degrees(q)
         points = self.points * (1000.0 if millimetres else 1.0)
         K = self.n_markers
         coords = ["x", "y", "z"] if K == 1 else [f"{c}{k}" for k in range(K) for c in "xyz"]

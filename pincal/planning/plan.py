@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.errors import BadPlanFile
+from pincal.errors import BadArgument, BadPlanFile
 from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
 
 
@@ -24,10 +24,14 @@ class Plan:
     Attributes:
         q: (m, nq) joint values [rad or m], read-only.
         joint_names: the joint of each column.
+        revolute: for each column, True if its joint is revolute (its values are angles), False
+            if prismatic (lengths); None when unknown (a plan not made for a robot). Writing or
+            reading degrees converts the revolute columns only, so it needs to know them.
     """
 
     q: np.ndarray
     joint_names: tuple[str, ...]
+    revolute: tuple[bool, ...] | None = None
 
     def __post_init__(self) -> None:
         q = np.array(self.q, dtype=float, copy=True)
@@ -39,14 +43,20 @@ class Plan:
                 f"a plan needs one column per joint ({len(names)}: {', '.join(names)}), "
                 f"got shape {np.shape(self.q)}"
             )
+        revolute = None if self.revolute is None else tuple(bool(r) for r in self.revolute)
+        if revolute is not None and len(revolute) != len(names):
+            raise BadPlanFile(
+                f"a plan's revolute flags need one per joint ({len(names)}), got {len(revolute)}"
+            )
         q.flags.writeable = False
         object.__setattr__(self, "q", q)
         object.__setattr__(self, "joint_names", names)
+        object.__setattr__(self, "revolute", revolute)
 
     @classmethod
     def for_robot(cls, robot, q: object) -> Plan:
         """A plan for ``robot`` from (m, nq) joint values, checked against its limits."""
-        return cls(robot.configurations(q), robot.joint_names)
+        return cls(robot.configurations(q), robot.joint_names, tuple(robot.revolute))
 
     def __len__(self) -> int:
         return len(self.q)
@@ -63,7 +73,7 @@ class Plan:
         """The whole plan measured ``k`` times (ρ0² is divided by k exactly)."""
         if int(k) != k or k < 1:
             raise BadPlanFile(f"repeat count must be a positive integer, got {k!r}")
-        return Plan(np.tile(self.q, (int(k), 1)), self.joint_names)
+        return Plan(np.tile(self.q, (int(k), 1)), self.joint_names, self.revolute)
 
     def concat(self, *others: Plan) -> Plan:
         """This plan followed by ``others`` (same joints)."""
@@ -73,23 +83,48 @@ class Plan:
                     f"cannot concatenate plans of different joints: {list(self.joint_names)} "
                     f"and {list(other.joint_names)}"
                 )
-        return Plan(np.vstack([self.q, *(o.q for o in others)]), self.joint_names)
+        known = [p.revolute for p in (self, *others) if p.revolute is not None]
+        return Plan(
+            np.vstack([self.q, *(o.q for o in others)]), self.joint_names, known[0] if known else None
+        )
 
     __add__ = concat
 
     # -------------------------------------------------------------------------- I/O
-    def to_csv_text(self, degrees: bool = False) -> str:
-        """CSV text: a header of joint names, one configuration per row."""
-        values = np.degrees(self.q) if degrees else self.q
+    def to_csv_text(self, degrees: bool = False, robot=None) -> str:
+        """CSV text: a header of joint names, one configuration per row.
+
+        Args:
+            degrees: write the revolute joints in degrees (prismatic joints stay in metres).
+            robot: tells revolute from prismatic joints when the plan does not know (see
+                :attr:`revolute`).
+
+        Raises:
+            BadArgument: degrees asked of a plan that does not know its revolute joints, without
+                a robot.
+        """
+        values = np.where(self._revolute(robot, "write"), np.degrees(self.q), self.q) if degrees else self.q
         out = io.StringIO()
         out.write(",".join(self.joint_names) + "\n")
         for row in values:
             out.write(",".join(repr(float(v)) for v in row) + "\n")
         return out.getvalue()
 
-    def to_csv(self, path: str | os.PathLike, degrees: bool = False) -> None:
-        """Write the plan as CSV (radians, or degrees if asked), atomically."""
-        atomic_write_text(path, self.to_csv_text(degrees))
+    def to_csv(self, path: str | os.PathLike, degrees: bool = False, robot=None) -> None:
+        """Write the plan as CSV (radians and metres, or the revolute joints in degrees if asked),
+        atomically (see :meth:`to_csv_text`)."""
+        atomic_write_text(path, self.to_csv_text(degrees, robot))
+
+    def _revolute(self, robot, verb: str) -> np.ndarray:
+        if robot is not None:
+            return np.asarray(robot.revolute)
+        if self.revolute is None:
+            raise BadArgument(
+                f"cannot {verb} a plan in degrees without knowing which joints are revolute: build it "
+                f"with Plan.for_robot(robot, q) or pass robot=",
+                argument="degrees",
+            )
+        return np.asarray(self.revolute)
 
     @classmethod
     def from_csv(cls, path: str | os.PathLike, robot=None, degrees: bool = False, what: str = "plan") -> Plan:
@@ -103,8 +138,14 @@ class Plan:
         """
         header, rows, lines = read_numeric_csv(path, what=what)
         if robot is None:
-            q = np.radians(rows) if degrees else rows
-            return cls(q, tuple(header))
+            if degrees:
+                raise BadArgument(
+                    f"{what} file {str(path)!r}: reading degrees needs the robot (robot=), to leave its "
+                    f"prismatic joints in metres",
+                    argument="degrees",
+                    file=str(path),
+                )
+            return cls(rows, tuple(header))
         names = robot.joint_names
         mismatch = column_mismatch(names, header)
         if mismatch:
