@@ -185,11 +185,12 @@ def main() -> list[str]:
     return lines
 
 
-def write(lines: list[str]) -> None:
+def write(lines: list[str], name: str = "bench_design") -> None:
+    """Replace (or append) the ``## name`` section of RESULTS.md with ``lines``."""
     path = ROOT / "benchmarks" / "RESULTS.md"
     text = path.read_text() if path.exists() else "# Benchmark results\n"
-    section = "## bench_design\n\n" + "\n".join(lines).rstrip() + "\n"
-    pattern = re.compile(r"^## bench_design\n.*?(?=^## |\Z)", re.S | re.M)
+    section = f"## {name}\n\n" + "\n".join(lines).rstrip() + "\n"
+    pattern = re.compile(rf"^## {re.escape(name)}\n.*?(?=^## |\Z)", re.S | re.M)
     if pattern.search(text):
         text = pattern.sub(lambda _: section + "\n", text).rstrip() + "\n"
     else:

@@ -1,7 +1,7 @@
-"""Plans designed for one test pose, a neighbourhood and a path keep their promises where they are
-checked: real nonlinear identifications (pincal.monte_carlo: random true robots with errors of
-1 mm / 1 mrad, noisy measurements, Gauss-Newton) against the predicted error, at the test poses
-and away from them (issue 9, item 4).
+"""Plans designed for one test pose, a neighbourhood (``pincal.around``) and a path
+(``pincal.TestPath``) keep their promises where they are checked: real nonlinear identifications
+(pincal.monte_carlo: random true robots with errors of 1 mm / 1 mrad, noisy measurements,
+Gauss-Newton) against the predicted error, at the test poses and away from them (issue 9, item 4).
 
 Tolerance. ``monte_carlo`` gives the empirical RMS error and its standard error from the trials'
 spread (delta method on the mean squared error). The prediction is linearised at the nominal
@@ -34,9 +34,7 @@ ERRORS = {"length": 1e-3, "angle": 1e-3}
 def calibrations(kr270_marker):
     params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
     rng = np.random.default_rng(2024)
-    step = np.radians(10) * np.eye(6)
-    neighbourhood = np.vstack([Q0, Q0 + step, Q0 - step])  # q0 and ±10° on each joint: 13 poses
-    path = Q0 + np.linspace(-1, 1, 12)[:, None] * np.radians([30, 10, -10, 20, 15, 30])
+    path = Q0 + np.linspace(-1, 1, 100)[:, None] * np.radians([30, 10, -10, 20, 15, 30])
 
     def box(degrees):
         return Q0 + np.radians(degrees) * rng.uniform(-1, 1, (25, 6))
@@ -47,8 +45,8 @@ def calibrations(kr270_marker):
         warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
         plans = {
             "single pose": pincal.design(params, M, Q0, **options).plan,
-            "neighbourhood": pincal.design(params, M, neighbourhood, **options).plan,
-            "path": pincal.design(params, M, path, **options).plan,
+            "neighbourhood": pincal.design(params, M, pincal.around(Q0, np.radians(10)), **options).plan,
+            "path": pincal.design(params, M, pincal.TestPath(path), **options).plan,
         }
     measured = {
         (plan_name, region): pincal.monte_carlo(
