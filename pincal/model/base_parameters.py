@@ -6,8 +6,13 @@ is chosen greedily in a fixed order of preference — joint offsets, then the le
 components), then other translations, rotations, markers, base — keeping a parameter when its
 column is not in the span of those kept before (QR, i.e. Gram–Schmidt, in that order); the
 number kept is the numerical rank. Each
-dropped parameter is reported either as *invisible* (its column is zero: nothing it does moves the
-measured points) or as a *combination* of kept ones, with the coefficients.
+dropped parameter is reported as *invisible* (its column is zero: nothing it does moves the
+measured points), as *redundant* (an exact combination of kept ones, with the coefficients), or
+as *nearly redundant*: within ``tol`` (default 1e-3, scale-free: the sine of the angle between
+its unit column and the span of the kept ones) of such a combination. Near dependences come from
+vendor URDFs whose angles are rounded (1.5708 for π/2: the axes are then parallel to ~4e-6) and
+from nearly parallel axes; identifying such a parameter would cost 1/distance times its own
+precision, so it is left to the kept ones, which absorb it.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from pincal.arguments import Seed, generator
+from pincal.evaluation.information import NEARLY_REDUNDANT, REDUNDANT, independent_columns
 from pincal.model.catalogue import LENGTH_TOLERANCE, split_spec
 from pincal.model.jacobian import unit_columns
 
@@ -34,8 +40,12 @@ class Identifiability:
         params: the set examined.
         identifiable: the base set kept (a ParameterSet, canonical order).
         dropped: ``{name: reason}`` for each parameter not kept.
-        combinations: ``{name: {kept name: coefficient}}`` for the redundant ones: the dropped
-            column equals Σ coefficient × kept column (units: dropped unit / kept unit).
+        combinations: ``{name: {kept name: coefficient}}`` for the redundant and nearly
+            redundant ones: the dropped column equals (or nearly equals) Σ coefficient × kept
+            column (units: dropped unit / kept unit).
+        nearly_redundant: ``{name: distance}`` for the nearly redundant ones: the sine of the angle
+            between the parameter's column and the span of the identifiable ones (0 would be an
+            exact combination).
         rank: numerical rank of the stacked Jacobian (== len(identifiable)).
         singular_values: of the column-normalised stacked Jacobian, decreasing (how close to
             dependent the set is: the smallest ones belong to redundant combinations).
@@ -46,6 +56,7 @@ class Identifiability:
     identifiable: ParameterSet
     dropped: dict[str, str]
     combinations: dict[str, dict[str, float]]
+    nearly_redundant: dict[str, float]
     rank: int
     singular_values: np.ndarray
     n_configurations: int
@@ -86,7 +97,7 @@ def identifiability(
     params: ParameterSet,
     n_configurations: int = 200,
     seed: Seed = 0,
-    tol: float = 1e-6,
+    tol: float = NEARLY_REDUNDANT,
     prefer: str | Iterable[str] = (),
 ) -> Identifiability:
     """Identifiability report of ``params`` (see module doc).
@@ -96,8 +107,9 @@ def identifiability(
         n_configurations: random configurations within the joint limits.
         seed: seed of the random configurations (same seed, same report).
         tol: a unit-normalised column whose distance to the span of the kept ones is below
-            this is redundant (~1e-13 for exact dependencies, ≥ 1e-4 for weak but real
-            independence). Columns below ZERO_COLUMN × the largest norm are invisible.
+            this is dropped: redundant below 1e-8 (exact dependences leave ~1e-12), nearly
+            redundant above (see module doc). Columns below ZERO_COLUMN × the largest norm are
+            invisible.
         prefer: names and/or groups kept before the default order (if in ``params``), e.g. ``"base"``
             when measurements are in the instrument's frame (the base is then identified and the
             chain parameters it makes redundant are dropped).
@@ -108,22 +120,13 @@ def identifiability(
     A, visible = unit_columns(J)
     singular_values = np.linalg.svd(A, compute_uv=False)
 
-    kept: list[int] = []
-    basis = np.zeros((A.shape[0], 0))
     preferred = frozenset(robot.parameters(prefer).names) if split_spec(prefer) else frozenset()
-    for i in _preference(params, preferred):
-        if not visible[i]:
-            continue
-        residual = A[:, i] - basis @ (basis.T @ A[:, i])
-        residual -= basis @ (basis.T @ residual)  # re-orthogonalise once
-        size = np.linalg.norm(residual)
-        if size > tol:
-            kept.append(i)
-            basis = np.column_stack([basis, residual / size])
-    kept.sort()
+    order = [i for i in _preference(params, preferred) if visible[i]]
+    kept, distance = independent_columns(A, order, tol)
     names = params.names
     dropped: dict[str, str] = {}
     combinations: dict[str, dict[str, float]] = {}
+    nearly: dict[str, float] = {}
     for i in range(len(params)):
         if i in kept:
             continue
@@ -136,12 +139,21 @@ def identifiability(
         combinations[names[i]] = combo
         terms = " ".join(f"{'+' if c >= 0 else '-'} {abs(c):.6g}·{n}" for n, c in combo.items())
         terms = terms[2:] if terms.startswith("+ ") else "-" + terms[2:]
-        dropped[names[i]] = f"redundant: equals {terms}"
+        if distance[i] < REDUNDANT:
+            dropped[names[i]] = f"redundant: equals {terms}"
+        else:
+            nearly[names[i]] = float(distance[i])
+            dropped[names[i]] = (
+                f"nearly redundant: equals {terms} to within {distance[i]:.2g} (sine of the angle "
+                f"between its column and theirs; rounded angles in the URDF, e.g. 1.5708 for pi/2, "
+                f"or nearly parallel axes): left to them"
+            )
     return Identifiability(
         params=params,
         identifiable=replace(params, parameters=tuple(params.parameters[i] for i in kept)),
         dropped=dropped,
         combinations=combinations,
+        nearly_redundant=nearly,
         rank=len(kept),
         singular_values=singular_values,
         n_configurations=n_configurations,

@@ -199,7 +199,7 @@ class ParameterSet:
         raise BadArgument(f"unknown Jacobian method {method!r}; valid: analytic, fd")
 
     def identifiable(
-        self, n_configurations: int = 200, seed: Seed = 0, tol: float = 1e-6, prefer: str | Iterable[str] = ()
+        self, n_configurations: int = 200, seed: Seed = 0, tol: float = 1e-3, prefer: str | Iterable[str] = ()
     ):
         """Which of these parameters position measurements can identify.
 
