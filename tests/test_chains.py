@@ -197,6 +197,14 @@ def test_xacro_gives_the_command(tmp_path, capsys):
         pincal.load_robot(path)
     assert main(["params", str(path)]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+    saved = tmp_path / "saved.urdf"  # a xacro source saved as .urdf: urdfdom cannot read ${...}
+    saved.write_text(
+        '<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="a"><xacro:property name="l" value="1"/>'
+        '<link name="a"/><link name="b"/><joint name="j" type="revolute"><parent link="a"/>'
+        '<child link="b"/><limit lower="${-l}" upper="1" effort="1" velocity="1"/></joint></robot>'
+    )
+    with pytest.raises(UrdfError, match=r"is a xacro file.*xacro .*saved\.urdf -o .*saved\.expanded\.urdf"):
+        pincal.load_robot(saved)
 
 
 def test_missing_mesh_is_one_warning_line(tree, tmp_path, capsys):

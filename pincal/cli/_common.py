@@ -84,7 +84,8 @@ def add_robot_arguments(parser: argparse.ArgumentParser, params: bool = True) ->
         "--joint-range",
         action="append",
         metavar="NAME=LO,HI",
-        help="range joint NAME moves in during the experiment, radians or metres (degrees with --deg), "
+        help="range joint NAME moves in during the experiment, radians or metres (degrees with the "
+        "command's --deg), "
         "replacing its URDF limits; continuous joints default to one turn, -pi,pi; repeatable",
     )
     parser.add_argument(

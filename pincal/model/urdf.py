@@ -65,8 +65,11 @@ def resolve_mesh(filename: str, urdf: Path, extra: Mapping[str, str] | None = No
 
 def xacro_command(path: Path) -> str:
     """The shell command that expands a xacro file next to it."""
-    name = path.name[: -len(".xacro")] if path.name.endswith(".xacro") else path.stem
-    out = path.with_name(name if name.endswith(".urdf") else name + ".urdf")
+    if path.name.endswith(".xacro"):
+        name = path.name[: -len(".xacro")]
+        out = path.with_name(name if name.endswith(".urdf") else name + ".urdf")
+    else:  # a xacro source saved as .urdf: never write over it
+        out = path.with_name(path.stem + ".expanded.urdf")
     return f"xacro {shlex.quote(str(path))} -o {shlex.quote(str(out))}"
 
 
@@ -202,13 +205,13 @@ def read_urdf(
     """The Pinocchio model of the URDF (or xacro) file ``path`` (see module doc)."""
     where = repr(str(path))
     text = read_text(path)
-    prepared = prepare(text, ranges or {}, where)
     try:
-        model = model_from_text(prepared, where)
+        model = model_from_text(prepare(text, ranges or {}, where), where)
     except UrdfError:
-        if "<xacro:" in text:  # a xacro source saved as .urdf
-            _expand_xacro(path)
-        raise
+        if "<xacro:" not in text:
+            raise
+        text = _expand_xacro(path)  # a xacro source saved as .urdf: expanded, or the command
+        model = model_from_text(prepare(text, ranges or {}, where), where)
     if meshes:
         check_meshes(text, path, package_dirs)
     return model
