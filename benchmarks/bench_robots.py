@@ -47,12 +47,17 @@ def vendor_like(folder: Path) -> list[tuple[str, Path]]:
 def row(label: str, robot: pincal.Robot | None, refused: str) -> str:
     if robot is None:
         return f"| {label} | refused: {refused} | | | | | |"
-    r = rehearse(robot)
     chain = f"{robot.root or robot.model.frames[1].name} → {robot.tip}"
+    note = ""
+    try:
+        r = rehearse(robot)
+    except pincal.PincalError as exc:  # no plan of minimum + 2 reaches the conditioning floor
+        note = f" (m = min + 2 refused: {exc}; m = min + 6 shown)"
+        r = rehearse(robot, extra=6)
     return (
         f"| {label} | {chain} | {robot.nq} | {r.identifiable}/{r.total} | {-(-r.identifiable // 3)} "
         f"| {r.design_seconds:.1f} | {r.worst_z:.2f} σ; {r.error_before * 1e3:.3g} → "
-        f"{r.error_after * 1e3:.3g} mm (ρ0 {r.rho0 * 1e3:.3g} mm) |"
+        f"{r.error_after * 1e3:.3g} mm (ρ0 {r.rho0 * 1e3:.3g} mm){note} |"
     )
 
 

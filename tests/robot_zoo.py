@@ -65,11 +65,14 @@ class Rehearsal:
     error_before: float  # ... before calibration [m]
 
 
-def rehearse(robot: pincal.Robot, seed: int = 0, starts: int = 2) -> Rehearsal:
-    """Design with m = minimum + 2, simulate measurements on a perturbed robot, identify."""
+def rehearse(robot: pincal.Robot, seed: int = 0, starts: int = 2, extra: int = 2) -> Rehearsal:
+    """Design with m = minimum + ``extra``, simulate measurements on a perturbed robot, identify.
+
+    Raises the design's one-line PincalError when no plan of m configurations reaches the
+    conditioning floor."""
     full = robot.parameters("full,offsets")
     params = full.identifiable().identifiable
-    m = -(-len(params) // (3 * robot.n_markers)) + 2
+    m = -(-len(params) // (3 * robot.n_markers)) + extra
     q0 = robot.random_configurations(1, seed)
     start = time.perf_counter()
     with warnings.catch_warnings():
