@@ -214,6 +214,18 @@ class Infeasible(PincalError):
     """No configuration (or no plan) satisfies the constraints."""
 
 
+class FloorUnreachable(Infeasible):
+    """No plan of m configurations reaches the conditioning floor: even the D-optimal plan found
+    stays below it (``reached``)."""
+
+    def __init__(self, m: int, floor: float, reached: float):
+        self.m, self.floor, self.reached = m, floor, reached
+        super().__init__(
+            f"no plan of {m} configurations reaches the conditioning floor {floor:g} (the D-optimal plan "
+            f"found reaches {reached:.3g}); add configurations or lower min_conditioning"
+        )
+
+
 def _degenerate_text(criterion: str, m: int, floor: float) -> str:
     return (
         f"the {criterion} criterion would improve further as the {m} configurations approach a singular "

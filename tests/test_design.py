@@ -66,7 +66,7 @@ def test_both_methods_reach_the_closed_form_minimum(lengths, deg, method):
 @pytest.mark.parametrize("q20", [0.0, math.pi])
 def test_singular_limit_is_reported_not_returned_silently(lengths, q20, method):
     with pytest.warns(DegenerateOptimumWarning, match="not attained"):
-        result = design(lengths, 2, test_pose=[0.2, q20], method=method, **FAST)
+        result = design(lengths, 2, test_pose=[0.2, q20], method=method, min_conditioning=1e-4, **FAST)
     # The plan returned is regular (above the floor) but at it, and close to the infimum σ²/m.
     assert 1e-4 < result.conditioning < 2e-4
     assert result.rho0**2 == pytest.approx(0.5, rel=1e-3)

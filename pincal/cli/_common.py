@@ -18,7 +18,7 @@ DEFAULT_PARAMS = "full,offsets"
 
 # Options whose value may start with "-" (negative numbers): "--test-pose -45,20" is rewritten
 # "--test-pose=-45,20" before argparse sees it.
-VALUE_OPTIONS = ("--test-pose", "--marker", "--base-pose", "--instrument")
+VALUE_OPTIONS = ("--test-pose", "--marker", "--base-pose", "--instrument", "--around", "--test-box")
 
 
 def join_negative_values(argv: list[str]) -> list[str]:
@@ -252,8 +252,8 @@ def test_poses_from_args(robot: Robot, args: argparse.Namespace) -> np.ndarray:
     return np.array([parse_configuration(robot, t, args.deg, "--test-pose") for t in args.test_pose])
 
 
-def read_plan(robot: Robot, path: str, degrees: bool) -> Plan:
-    return Plan.from_csv(path, robot=robot, degrees=degrees)
+def read_plan(robot: Robot, path: str, degrees: bool, what: str = "plan") -> Plan:
+    return Plan.from_csv(path, robot=robot, degrees=degrees, what=what)
 
 
 def positive(value: float, name: str) -> float:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import warnings
 
+from pincal.cli._accuracy import prior_from_args, test_region_from_args
 from pincal.cli._common import (
     add_command,
     add_output_arguments,
@@ -14,7 +15,6 @@ from pincal.cli._common import (
     positive,
     read_plan,
     robot_from_args,
-    test_poses_from_args,
 )
 from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
 from pincal.planning.baselines import random_plans
@@ -64,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
     sigma = positive(args.sigma, "--sigma")
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)
-    q0 = test_poses_from_args(robot, args)
+    q0 = test_region_from_args(robot, args)
+    prior = prior_from_args(args)
     constraints = constraints_from_args(args)
     criterion = "test-pose-worst" if args.worst else "test-pose"
     pool = read_plan(robot, args.pool, args.deg) if args.pool else None
@@ -77,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
             q0,
             criterion=criterion,
             sigma=sigma,
+            prior=prior,
             constraints=constraints,
             seed=args.seed,
             pool=pool,
@@ -92,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
                 pool=pool,
                 constraints=constraints,
                 sigma=sigma,
+                prior=prior,
                 seed=args.seed,
                 starts=args.starts,
                 workers=args.workers,

@@ -6,6 +6,14 @@ import argparse
 import sys
 import warnings
 
+from pincal.cli._accuracy import (
+    REGION_HELP,
+    add_region_arguments,
+    add_report_arguments,
+    prior_from_args,
+    report_accuracy,
+    test_region_from_args,
+)
 from pincal.cli._common import (
     add_base_argument,
     add_command,
@@ -19,7 +27,6 @@ from pincal.cli._common import (
     positive,
     read_plan,
     robot_from_args,
-    test_poses_from_args,
 )
 from pincal.cli._plot import add_plot_argument, save_design_plot
 from pincal.errors import BadArgument
@@ -37,6 +44,10 @@ examples:
   pincal design planar_2r -m 2 --test-pose=0.3,1.2 --params joint2.tx,tip.tx --json
   pincal design ur10 -m 12 --test-pose=0,-1.2,1.5,-1,-1.5,0 --method exchange --pool taught.csv
   pincal design kr270 -m 8 --test-pose=0,-90,90,0,45,0 --deg --constraints cell.yaml --starts 128
+  pincal design kr270 -m 12 --test-pose=0,-60,60,0,45,0 --deg --around 10deg --marker 0.1,0.05,0.2 \
+      --sigma 3e-5 --out plan.csv                   # accurate over ±10°, not only at the test pose
+  pincal design kr270 -m 12 --test-path weld.csv --deg --marker 0.1,0.05,0.2 --sigma 3e-5
+  pincal design kr270 -m 6 --test-pose=0,-60,60,0,45,0 --deg --prior 1mm,1mrad --sigma 3e-5
 
 Criteria (--criterion): test-pose (rho0, root mean square over several --test-pose), test-pose-worst
 (the worst test pose; --worst is the same), D, A, E, cond. Methods: exchange (the default: best m of
@@ -48,9 +59,13 @@ limits and --constraints) and of the D-optimal plan, next to the designed plan's
 --base: the tracker measures in its own frame, so base.* are identified too (as 'identify --base').
 --constraints FILE.yaml: joint_limits, workspace_box, half_space, visibility, self_collision,
 min_spacing (see pincal.constraints.load_constraints for the layout).
+--min-conditioning X: no plan whose Jacobi-scaled information matrix has its smallest eigenvalue
+below X (default 1e-2, none with --prior); a plan below 1e-6 is warned about whatever the floor.
+{region}
 Units: metres and radians; --deg reads test poses and --pool, and writes --out and prints the plan,
 in degrees. The JSON plan is always in radians; rho0 is in metres for --sigma (default 1).
 """
+EXAMPLES = EXAMPLES.replace("{region}", REGION_HELP.rstrip())
 
 
 def add_design_arguments(p: argparse.ArgumentParser) -> None:
@@ -59,7 +74,8 @@ def add_design_arguments(p: argparse.ArgumentParser) -> None:
     add_robot_arguments(p)
     add_base_argument(p)
     p.add_argument("-m", type=int, required=True, metavar="M", help="number of configurations to measure")
-    add_test_pose_argument(p)
+    add_test_pose_argument(p, required=False)
+    add_region_arguments(p)
     p.add_argument("--constraints", metavar="FILE.yaml", help="workcell constraints (YAML)")
     p.add_argument(
         "--sigma", type=float, default=1.0, help="measurement noise per coordinate [m] (default 1)"
@@ -102,10 +118,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--min-conditioning",
         type=float,
-        default=MIN_CONDITIONING,
+        default=None,
         metavar="X",
         help=f"floor of the plan's conditioning, the smallest eigenvalue of its Jacobi-scaled information "
-        f"matrix (default {MIN_CONDITIONING:g})",
+        f"matrix (default {MIN_CONDITIONING:g}; 0 with --prior)",
     )
     p.add_argument(
         "--out", metavar="PLAN.csv", help="write the plan (radians, degrees with --deg), atomically"
@@ -115,6 +131,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     add_plot_argument(p)
+    add_report_arguments(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -128,9 +145,10 @@ def run(args: argparse.Namespace) -> int:
     sigma = positive(args.sigma, "--sigma")
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)
-    q0 = test_poses_from_args(robot, args)
-    constraints = constraints_from_args(args)
     criterion = "test-pose-worst" if args.worst else args.criterion
+    q0 = test_region_from_args(robot, args, required=criterion.lower().startswith("test"))
+    prior = prior_from_args(args)
+    constraints = constraints_from_args(args)
     if args.worst and args.criterion not in ("test-pose", "test-pose-worst"):
         raise BadArgument(f"--worst applies to the test-pose criterion, not {args.criterion!r}")
     if args.pool and args.pool_size is not None:
@@ -153,6 +171,7 @@ def run(args: argparse.Namespace) -> int:
             starts=args.starts,
             polish=args.polish,
             min_conditioning=args.min_conditioning,
+            prior=prior,
             **common,
         )
         baseline = None
@@ -164,6 +183,7 @@ def run(args: argparse.Namespace) -> int:
                 q0,
                 criterion=_rho0_criterion(criterion),
                 sigma=sigma,
+                prior=prior,
                 constraints=constraints,
                 seed=args.seed,
                 pool=taught,
@@ -178,19 +198,26 @@ def run(args: argparse.Namespace) -> int:
                 starts=args.starts,
                 polish=args.polish,
                 min_conditioning=args.min_conditioning,
+                prior=prior,
                 **common,
             )
             baseline = (randoms, d_opt)
+        reference = None if baseline is None else baseline[1].plan
+        report = report_accuracy(args, params, result.plan, q0, sigma, prior, reference, constraints, pool)
     if args.out:
         result.plan.to_csv(args.out, degrees=args.deg)
     if args.plot:
         save_design_plot(args.plot, result, baseline)
     if args.json:
-        emit_json(design_json(robot, params, result, baseline, args.out))
+        payload = design_json(robot, params, result, baseline, args.out)
+        payload["accuracy"] = None if report is None else report.as_dict()
+        emit_json(payload)
     else:
         print_design(robot, params, source, result, args.deg)
         if baseline is not None:
             print_baseline(*baseline, pool=args.pool)
+        if report is not None:
+            print("\n".join(report.lines(degrees=args.deg)))
         if args.out:
             print(f"wrote {args.out} ({'degrees' if args.deg else 'radians'})")
     sys.stdout.flush()
@@ -243,8 +270,10 @@ def print_design(robot, params, source: str, result: DesignResult, degrees: bool
             f"rho0 over {len(result.rho0_each)} test poses ({agg}): {fmt_length(result.rho0)}  "
             f"({result.rho0:.6g} m)"
         )
-        for i, r in enumerate(result.rho0_each):
+        for i, r in enumerate(result.rho0_each[:10]):
             print(f"  test pose {i}: {fmt_length(r)}")
+        if len(result.rho0_each) > 10:
+            print(f"  ... ({len(result.rho0_each)} test poses in all; --json lists each)")
     elif result.rho0 is not None:
         print(f"rho0 at the test pose: {fmt_length(result.rho0)}  ({result.rho0:.6g} m)")
     if result.criterion not in ("test-pose", "test-pose-worst"):

@@ -6,6 +6,14 @@ import argparse
 
 import numpy as np
 
+from pincal.cli._accuracy import (
+    REGION_HELP,
+    add_region_arguments,
+    add_report_arguments,
+    prior_from_args,
+    report_accuracy,
+    test_region_from_args,
+)
 from pincal.cli._common import (
     add_base_argument,
     add_command,
@@ -18,8 +26,8 @@ from pincal.cli._common import (
     positive,
     read_plan,
     robot_from_args,
-    test_poses_from_args,
 )
+from pincal.errors import SingularPlan
 from pincal.evaluation.classic import criteria
 from pincal.evaluation.test_pose import rho0
 
@@ -31,10 +39,13 @@ examples:
   pincal evaluate kr270 --plan plan.csv --deg --test-pose=0,-90,90,0,45,0 --base   # tracker-frame data
   pincal evaluate robots/kr270.urdf --plan plan.csv --test-pose=-0.5,-1.2,1.0,0,0.8,0 \\
       --test-pose=0.5,-1.2,1.0,0,0.8,0 --worst
+  pincal evaluate kr270 --plan plan.csv --deg --test-path weld.csv --marker 0.1,0.05,0.2 --sigma 3e-5 \\
+      --prior 1mm,1mrad --accuracy-plot accuracy.png
 
 PLAN.csv: a header row of joint names, one configuration per row, radians (degrees with --deg).
 rho0 is in metres for the given --sigma (noise per coordinate, metres; default 1, so rho0/sigma).
 """
+EXAMPLES += "\n" + REGION_HELP
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -42,7 +53,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_robot_arguments(p)
     add_base_argument(p)
     p.add_argument("--plan", required=True, metavar="PLAN.csv", help="the configurations to evaluate")
-    add_test_pose_argument(p)
+    add_test_pose_argument(p, required=False)
+    add_region_arguments(p)
     p.add_argument(
         "--worst", action="store_true", help="with several test poses, report the worst, not the mean"
     )
@@ -50,6 +62,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--sigma", type=float, default=1.0, help="measurement noise per coordinate [m] (default 1)"
     )
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
+    add_report_arguments(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -59,10 +72,17 @@ def run(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)
     plan = read_plan(robot, args.plan, args.deg)
-    q0 = test_poses_from_args(robot, args)
-    each = rho0(params, plan, q0, sigma=sigma, aggregate="each")
+    q0 = test_region_from_args(robot, args)
+    prior = prior_from_args(args)
+    each = rho0(params, plan, q0, sigma=sigma, aggregate="each", prior=prior)
     value = float(each.max()) if args.worst else float(np.sqrt(np.mean(each**2)))
-    crit = criteria(params, plan)
+    try:
+        crit = criteria(params, plan)
+    except SingularPlan:
+        if prior is None:
+            raise
+        crit = None  # the prior makes ρ0 finite; the classic criteria of M alone are not
+    report = report_accuracy(args, params, plan, q0, sigma, prior)
     if args.json:
         emit_json(
             {
@@ -76,7 +96,9 @@ def run(args: argparse.Namespace) -> int:
                 "rho0_per_test_pose": each.tolist(),
                 "n_params": len(params),
                 "params": list(params.names),
-                "criteria": crit.as_dict(),
+                "criteria": None if crit is None else crit.as_dict(),
+                "prior": None if prior is None else prior.as_dict(),
+                "accuracy": None if report is None else report.as_dict(),
             }
         )
         return 0
@@ -88,9 +110,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"rho0 at the test pose: {fmt_length(value)}  ({value:.6g} m)")
     else:
         print(f"rho0 over {len(each)} test poses ({agg}): {fmt_length(value)}  ({value:.6g} m)")
-        for i, r in enumerate(each):
+        for i, r in enumerate(each[:10]):
             print(f"  test pose {i}: {fmt_length(r)}")
-    print("criteria (lower is better: log_det, trace, max_eig, cond; higher: O1-O4):")
-    for name, v in crit.as_dict().items():
-        print(f"  {name:8s} {v:.6g}")
+        if len(each) > 10:
+            print(f"  ... ({len(each)} test poses in all; --json lists each)")
+    if crit is None:
+        print("criteria: none (the plan alone cannot identify the parameters; rho0 holds with the prior)")
+    else:
+        print("criteria (lower is better: log_det, trace, max_eig, cond; higher: O1-O4):")
+        for name, v in crit.as_dict().items():
+            print(f"  {name:8s} {v:.6g}")
+    if report is not None:
+        print("\n".join(report.lines(degrees=args.deg)))
     return 0

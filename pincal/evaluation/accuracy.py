@@ -245,8 +245,9 @@ class AccuracyReport:
             "region": self.region,
         }
 
-    def lines(self, unit: str = "mm") -> list[str]:
-        """The report as text lines (a table: one column pair per plan)."""
+    def lines(self, unit: str = "mm", degrees: bool = False) -> list[str]:
+        """The report as text lines (a table: one column pair per plan); worst poses in radians,
+        or degrees."""
         scale = {"mm": 1e3, "m": 1.0, "um": 1e6}[unit]
         names = [p.name for p in self.plans]
         head = f"  {'predicted error after calibration [' + unit + ']':<44}" + "".join(
@@ -266,8 +267,8 @@ class AccuracyReport:
                 out.append(
                     f"  {p.name}: worst {'found' if p.worst.searched else 'of the test poses'} "
                     f"{p.worst.rho * scale:.4g} {unit} at q = "
-                    + ", ".join(f"{v:.4g}" for v in p.worst.pose)
-                    + " rad"
+                    + ", ".join(f"{v:.4g}" for v in (np.degrees(p.worst.pose) if degrees else p.worst.pose))
+                    + (" deg" if degrees else " rad")
                 )
         if self.prior is not None:
             p = self.plans[0]
@@ -321,7 +322,8 @@ def accuracy(
     robot = params.robot
     poses, region = resolve_test_poses(robot, test_pose)
     rng = np.random.default_rng(seed)
-    sets = [("test pose" if len(poses) == 1 else "test poses", poses)]
+    first = "test region" if region is not None else "test pose" if len(poses) == 1 else "test poses"
+    sets = [(first, poses)]
     for delta in neighbourhoods:
         sets.append((f"±{math.degrees(delta):.3g}°", _neighbourhood(robot, poses, delta, samples, rng)))
     sets.append(("workspace", robot.random_configurations(workspace, rng)))

@@ -9,6 +9,7 @@ import numpy as np
 
 from pincal.arguments import Seed, generator, positive_int, positive_sigma
 from pincal.errors import Infeasible
+from pincal.evaluation.prior import Prior
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint
@@ -28,6 +29,7 @@ def random_plans(
     *,
     criterion: str = "test-pose",
     sigma: float = 1.0,
+    prior: Prior | None = None,
     constraints: Iterable[AnyConstraint] = (),
     seed: Seed = 0,
     pool: object = None,
@@ -47,6 +49,7 @@ def random_plans(
         test_pose: (nq,) or (k, nq) test pose(s) (required by the test-pose criteria).
         criterion: one of :data:`CRITERIA` (default ρ0, the mean over the test poses).
         sigma: measurement noise per coordinate [m].
+        prior: the errors' prior: the Bayesian criterion, as :func:`pincal.design` minimises it.
         constraints: as for :func:`design`.
         seed: seed of the draws (an int, a numpy Generator, or None for fresh entropy).
         pool: (N, nq) configurations or a Plan (e.g. taught poses) to draw the plans from, as
@@ -64,10 +67,12 @@ def random_plans(
         (50, 0)
     """
     with single_threaded_blas():
-        return _random_plans(params, m, n, test_pose, criterion, sigma, tuple(constraints), seed, pool)
+        return _random_plans(params, m, n, test_pose, criterion, sigma, tuple(constraints), seed, pool, prior)
 
 
-def _random_plans(params, m, n, test_pose, criterion, sigma, constraints, seed, pool) -> RandomPlans:
+def _random_plans(
+    params, m, n, test_pose, criterion, sigma, constraints, seed, pool, prior=None
+) -> RandomPlans:
     criterion = criterion_name(criterion)
     m = positive_int(m, "m (number of configurations)")
     n = positive_int(n, "n (number of random plans)")
@@ -96,7 +101,10 @@ def _random_plans(params, m, n, test_pose, criterion, sigma, constraints, seed, 
     engine = JacobianEngine(params)
     P, rows = len(params), engine.rows
     J0 = engine.jacobian(test_poses, frame="tip").copy() if test_poses is not None else None
-    objective = make_objective(criterion, P, rows, J0 if criterion in TEST_POSE_CRITERIA else None, sigma)
+    information = None if prior is None else prior.information(params, sigma)
+    objective = make_objective(
+        criterion, P, rows, J0 if criterion in TEST_POSE_CRITERIA else None, sigma, information
+    )
     chunk = max(1, 2_000_000 // (m * rows * P + P * P))
     F = np.empty(n)
     for a in range(0, n, chunk):

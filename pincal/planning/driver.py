@@ -46,6 +46,7 @@ from pincal.errors import (
     BadArgument,
     DegenerateOptimum,
     DegenerateOptimumWarning,
+    FloorUnreachable,
     Infeasible,
     SingularPlan,
 )
@@ -78,9 +79,12 @@ SINGULAR_WARNING = 1e-6
 are barely measured, and the error away from the test pose(s) grows large. It is said, whatever
 the floor."""
 
-MIN_CONDITIONING = 1e-4
+MIN_CONDITIONING = 1e-2
 """Default floor of a plan's conditioning: the smallest eigenvalue of its Jacobi-scaled
-information matrix (σ_min² of the stacked Jacobian with unit columns: 1e-4 keeps σ_min ≥ 1 %).
+information matrix (σ_min² of the stacked Jacobian with unit columns: 1e-2 keeps σ_min ≥ 10 %).
+Measured (benchmarks/RESULTS.md, bench_floor: KR 270 and UR10, m = 12, one test pose): against
+1e-4 it costs 1–4 % of ρ0 at the test pose and makes the error 10° away 5× smaller, 20° away 6×,
+over the workspace 6–8×.
 The test-pose criterion only needs the parameter combinations that move the test pose, so it
 often improves towards singular plans; the floor keeps every parameter identifiable, and keeps
 the search out of near-singular basins, where its local optima are poor."""
@@ -147,9 +151,10 @@ def design(
             returned; the continuous search keeps above it with a barrier. A plan that ends near
             the floor comes with a :class:`DegenerateOptimumWarning`: the criterion would keep
             improving towards singular plans (ρ0 at a test pose at a singular limit does).
-            Default :data:`MIN_CONDITIONING`; with a prior, 0 (no floor: the prior keeps every
-            plan's posterior regular), unless given. A plan whose conditioning is below
-            :data:`SINGULAR_WARNING` is warned about whatever the floor.
+            Default :data:`MIN_CONDITIONING` (or half what a D-optimal plan of m configurations
+            reaches, when that is less); with a prior, 0 (no floor: the prior keeps every plan's
+            posterior regular). A floor given is honoured, or refused (FloorUnreachable). A plan
+            whose conditioning is below :data:`SINGULAR_WARNING` is warned about whatever the floor.
         prior: the errors before calibration (:class:`pincal.Prior`, e.g. ``Prior(1e-3, 1e-3)``):
             every criterion is taken of the posterior information M + σ²Σp⁻¹ (the Bayesian
             criterion tr(J₀(M/σ² + Σp⁻¹)⁻¹J₀ᵀ) for the test pose), finite for every plan, so m may
@@ -197,7 +202,15 @@ def design(
         )
         pooled = _pool(params, settings, pool, init)
         engine = JacobianEngine(params)
-        indices = draw_starts(settings, engine.jacobian(pooled.candidates, frame="tip"), pooled.candidates)
+        J_pool = engine.jacobian(pooled.candidates, frame="tip")
+        try:
+            indices = draw_starts(settings, J_pool, pooled.candidates)
+        except FloorUnreachable as error:
+            if min_conditioning is not None:  # a floor asked for is honoured, or refused
+                raise
+            # The default floor adapts: half what the D-optimal plan of m configurations reaches.
+            settings = replace(settings, floor=error.reached / 2)
+            indices = draw_starts(settings, J_pool, pooled.candidates)
         outcomes = search(settings, params, engine, pooled, indices, executor, progress)
         choice = _choose(settings, engine, outcomes)
         return _result(settings, params, engine, pooled, outcomes, choice, time.perf_counter() - t_start)
@@ -356,7 +369,7 @@ def _choose(settings: Settings, engine: JacobianEngine, outcomes: tuple[Outcome,
     where = "design for a neighbourhood or a path of where you work (pincal.around, TestPath)"
     if near_floor:
         warnings.warn(
-            f"the plan sits at the conditioning floor ({cond[winner]:.3g}; min_conditioning {floor:g}): "
+            f"the plan sits at the conditioning floor ({cond[winner]:.3g}; min_conditioning {floor:.3g}): "
             f"the {criterion} criterion keeps improving towards singular plans, so its infimum is not "
             f"attained, and the error away from the test pose(s) grows; {where}, add test poses around "
             f"where you work, or raise min_conditioning",
@@ -398,7 +411,7 @@ def _result(
     n_starts = len(outcomes)
     message = (
         f"{s.method}: best of {n_starts} starts (start {choice.winner}), {continued} run to convergence, "
-        f"{s.criterion} = {value:.6g} in {elapsed:.3g} s"
+        f"{s.criterion} = {value:.6g} in {elapsed:.3g} s; conditioning floor {s.floor:.3g}"
         + (
             f"; {choice.below_floor} start(s) ended below the conditioning floor"
             if choice.below_floor

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pincal.errors import Infeasible, SingularPlan
+from pincal.errors import FloorUnreachable, Infeasible, SingularPlan
 from pincal.evaluation.information import conditioning, factor, rank
 from pincal.evaluation.prior import Prior
 from pincal.model.jacobian import JacobianEngine
@@ -164,10 +164,7 @@ def _pick(
         reached = conditioning(stacked.T @ stacked)
         if reached > floor:
             return out.index
-        raise Infeasible(
-            f"no plan of {m} configurations reaches the conditioning floor {floor:g} (the D-optimal plan "
-            f"found reaches {reached:.3g}); add configurations or lower min_conditioning"
-        )
+        raise FloorUnreachable(m, floor, reached)
     raise SingularPlan(P, rows, m, best_rank)
 
 

@@ -8,6 +8,8 @@ default). matplotlib is imported when a function is called, never when pincal is
 * :func:`rho0_histogram`: ρ0 of the designed plan(s) against the distribution of random plans.
 * :func:`error_comparison`: Monte-Carlo position errors at the test pose, plans side by side.
 * :func:`search_progress`: the criterion against search time, start by start.
+* :func:`error_vs_distance`: predicted error after calibration against the distance from the test
+  pose (median and 95th percentile), plans side by side.
 """
 
 from __future__ import annotations
@@ -245,4 +247,36 @@ def search_progress(
         title or f"{len(finals)} starts: final values {finals_arr.min():.4g} … {finals_arr.max():.4g}",
         fontsize="medium",
     )
+    return fig
+
+
+def error_vs_distance(profiles, unit: str = "mm", title: str | None = None) -> Figure:
+    """Predicted error after calibration against the joint-space distance from the test pose.
+
+    Args:
+        profiles: :class:`pincal.ErrorProfile` values (from :func:`pincal.error_profile`), one per
+            plan: each drawn as its median (solid) and 95th percentile (dashed).
+        unit: length unit of the axis.
+        title: the figure's title (default: a description).
+
+    Returns:
+        the figure (log scale: a local plan's error grows by orders of magnitude away from q0).
+    """
+    factor = _factor(unit)
+    profiles = list(profiles)
+    if not profiles:
+        raise PincalError("error_vs_distance: no profile to draw")
+    fig = _figure((6.4, 4.2))
+    ax = fig.add_subplot()
+    for i, p in enumerate(profiles):
+        color = _COLORS[(i + 1) % len(_COLORS)]
+        d = np.degrees(p.distance)
+        ax.plot(d, _finite_positive(p.median, p.name) * factor, color=color, label=f"{p.name}: median")
+        ax.plot(d, _finite_positive(p.p95, p.name) * factor, color=color, ls="--", label=f"{p.name}: 95 %")
+    ax.set_yscale("log")
+    ax.set_xlabel("distance from the test pose, max |q − q0| [deg]")
+    ax.set_ylabel(f"predicted error after calibration [{unit}]")
+    ax.set_title(title or "Accuracy away from the test pose")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
     return fig

@@ -1,0 +1,187 @@
+"""Where the robot works and how accurate a plan leaves it there, for design, evaluate, show and
+baseline: --around, --test-path, --test-box, --prior, and the accuracy report (issue 9)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import warnings
+
+import numpy as np
+
+from pincal.cli._common import parse_configuration, parse_floats, read_plan
+from pincal.errors import PincalError
+from pincal.evaluation.accuracy import AccuracyReport, accuracy, error_profile
+from pincal.evaluation.prior import Prior
+from pincal.evaluation.region import TestPath, around, cartesian_box
+
+REGION_HELP = """\
+Where the robot works (any of design, evaluate, show, baseline):
+  --test-pose Q0 [--test-pose Q1 ...]   one or several test poses
+  --around 10deg                        the neighbourhood Q0 ± 10° of each joint (256 samples; with
+                                        several --test-pose, of each); rho0 is then the rms over it
+  --test-path PATH.csv                  a path, plan CSV format (--deg applies), any length: the
+                                        mean costs the same for 10 or 10 000 points
+  --test-box X0,Y0,Z0,X1,Y1,Z1          configurations whose marker lies in this box [m, instrument
+                                        frame] at the tool orientation of --test-pose (inverse
+                                        kinematics from it: 256 targets, unreachable ones dropped)
+  --prior 1mm,1mrad                     errors before calibration: the Bayesian criterion (design),
+                                        rho0 split into measurements and prior; needs the real --sigma
+Every report gives the predicted error at the test pose(s), over ±10° and ±20° around them and
+over the workspace (median, 95th percentile), for the plan and a D-optimal plan of the same size
+(--no-accuracy: skip it); --accuracy-plot FILE.png plots it against the distance from the test pose.
+"""
+
+_ANGLE = re.compile(r"^\s*([0-9.eE+-]+)\s*(deg|rad|mrad)?\s*$")
+
+
+def add_region_arguments(parser: argparse.ArgumentParser) -> None:
+    """--around, --test-path, --test-box, --prior."""
+    parser.add_argument(
+        "--around",
+        metavar="DELTA",
+        help="design/evaluate for the neighbourhood test pose ± DELTA per joint (e.g. 10deg, 0.17rad; "
+        "a bare number follows --deg)",
+    )
+    parser.add_argument(
+        "--test-path", metavar="PATH.csv", help="test configurations of a path (plan CSV format), any length"
+    )
+    parser.add_argument(
+        "--test-box",
+        metavar="X0,Y0,Z0,X1,Y1,Z1",
+        help="test region: the marker in this box [m] at the tool orientation of --test-pose (by IK)",
+    )
+    parser.add_argument(
+        "--prior",
+        metavar="LEN,ANG",
+        help="standard deviations of the errors before calibration, e.g. 1mm,1mrad (Bayesian criterion)",
+    )
+
+
+def add_report_arguments(parser: argparse.ArgumentParser) -> None:
+    """--no-accuracy, --accuracy-plot."""
+    parser.add_argument(
+        "--no-accuracy",
+        action="store_true",
+        help="skip the report of the predicted error away from the test pose (and its D-optimal plan)",
+    )
+    parser.add_argument(
+        "--accuracy-plot",
+        metavar="FILE.png",
+        help="save a plot of the predicted error against the distance from the test pose",
+    )
+
+
+def report_accuracy(
+    args, params, plan, test_pose, sigma: float, prior, reference=None, constraints=(), pool=None
+):
+    """The accuracy report the command prints (None with --no-accuracy or without a test pose), and
+    the --accuracy-plot saved; ``reference`` defaults to a D-optimal plan of the same size."""
+    if test_pose is None or args.no_accuracy:
+        if args.accuracy_plot:
+            raise PincalError("--accuracy-plot needs a test pose or region, and no --no-accuracy")
+        return None
+    if reference is None:
+        reference = d_optimal_plan(params, len(plan), constraints, pool, getattr(args, "seed", 0))
+    report = accuracy_report(params, plan, test_pose, sigma, prior, reference)
+    if args.accuracy_plot:
+        plans = {"plan": plan} if reference is None else {"plan": plan, "D-optimal": reference}
+        save_accuracy_plot(args.accuracy_plot, params, plans, test_pose, sigma, prior)
+    return report
+
+
+def parse_delta(text: str, degrees: bool) -> float:
+    """A half-width from '10deg', '0.17rad', '5mrad' or a bare number (degrees with --deg) [rad]."""
+    match = _ANGLE.match(str(text))
+    try:
+        value = float(match.group(1)) if match else math.nan
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise PincalError(f"--around {text!r}: expected a positive angle, e.g. 10deg, 0.17rad or 5mrad")
+    unit = match.group(2) or ("deg" if degrees else "rad")
+    return value * {"deg": math.pi / 180, "rad": 1.0, "mrad": 1e-3}[unit]
+
+
+def test_region_from_args(robot, args: argparse.Namespace, required: bool = True):
+    """The test pose(s) or region of the arguments: an (k, nq) array, a region or path, or None
+    (none given and ``required`` is False)."""
+    poses = [parse_configuration(robot, t, args.deg, "--test-pose") for t in args.test_pose or ()]
+    if args.test_path:
+        if poses or args.around or args.test_box:
+            raise PincalError(
+                "--test-path is the test region: give it without --test-pose, --around, --test-box"
+            )
+        return TestPath(read_plan(robot, args.test_path, args.deg, what="test path").q)
+    if not poses:
+        if args.around or args.test_box:
+            raise PincalError("--around and --test-box need a --test-pose (the centre, the tool orientation)")
+        if required:
+            raise PincalError("give a test pose (--test-pose Q0) or a path (--test-path PATH.csv)")
+        return None
+    if args.test_box:
+        if args.around or len(poses) > 1:
+            raise PincalError("--test-box takes one --test-pose (its tool orientation), and no --around")
+        box = parse_floats(args.test_box, "--test-box")
+        if len(box) != 6:
+            raise PincalError(
+                f"--test-box {args.test_box!r}: expected X0,Y0,Z0,X1,Y1,Z1 (six numbers, metres)"
+            )
+        return cartesian_box(box[:3], box[3:], poses[0])
+    if args.around:
+        delta = parse_delta(args.around, args.deg)
+        if len(poses) == 1:
+            return around(poses[0], delta)
+        samples = [around(q, delta, samples=max(16, 256 // len(poses))).resolve(robot).poses for q in poses]
+        return TestPath(np.vstack(samples))
+    return np.array(poses)
+
+
+def prior_from_args(args: argparse.Namespace) -> Prior | None:
+    """The --prior, or None."""
+    return Prior.parse(args.prior) if args.prior else None
+
+
+def test_poses_of(robot, test_pose) -> np.ndarray:
+    """(k, nq) configurations of test poses or a region (its samples)."""
+    from pincal.evaluation.region import resolve_test_poses
+
+    return resolve_test_poses(robot, test_pose)[0]
+
+
+def d_optimal_plan(params, m: int, constraints=(), pool=None, seed: int = 0):
+    """A D-optimal plan of m configurations (exchange, 4 starts, no polish; the reports' reference),
+    or None when there is none (too few configurations)."""
+    from pincal.planning.driver import design
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            return design(
+                params,
+                m,
+                criterion="D",
+                constraints=constraints,
+                pool=pool,
+                starts=4,
+                seed=seed,
+                workers=1,
+                polish=False,
+            ).plan
+        except PincalError:
+            return None
+
+
+def accuracy_report(params, plan, test_pose, sigma: float, prior, reference, seed: int = 0) -> AccuracyReport:
+    """The accuracy report of ``plan`` next to ``reference`` (the D-optimal plan, if any)."""
+    compare = {} if reference is None else {"D-optimal": reference}
+    return accuracy(params, plan, test_pose, sigma, prior=prior, compare=compare, seed=seed)
+
+
+def save_accuracy_plot(path: str, params, plans: dict, test_pose, sigma: float, prior) -> None:
+    """The predicted error against the distance from the test pose, for each plan, saved."""
+    from pincal.viewing.plots import error_vs_distance
+
+    profiles = error_profile(params, plans, test_pose, sigma, prior)
+    error_vs_distance(profiles).savefig(path, dpi=120)

@@ -1,0 +1,86 @@
+"""--around, --test-path, --test-box, --prior and the accuracy report on the command line (issue 9).
+Budget: about 10 s."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import pincal
+from pincal.cli import main
+
+PLANAR = ["planar_2r", "--params", "joint2.tx,tip.tx", "--workers", "1", "--starts", "2"]
+SIGMA = 3e-5
+
+
+def run_json(capsys, argv):
+    assert main(argv + ["--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def fails(capsys, argv, match):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("pincal: error: ") and "\n" not in err and "Traceback" not in err
+    assert match in err, err
+
+
+@pytest.fixture(scope="module")
+def planar_params():
+    return pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")
+
+
+def test_design_for_a_path_reports_its_mean_and_the_d_optimal_plan(capsys, tmp_path, planar_params):
+    path = tmp_path / "path.csv"
+    poses = np.column_stack([np.linspace(-1, 1, 500), np.linspace(0.3, 1.4, 500)])
+    pincal.Plan(poses, ("joint1", "joint2")).to_csv(path)
+    data = run_json(capsys, ["design", *PLANAR, "-m", "3", "--test-path", str(path), "--sigma", str(SIGMA)])
+    plan = np.array(data["plan"])
+    expected = pincal.rho0(planar_params, plan, pincal.TestPath(poses), SIGMA)
+    assert data["rho0"] == pytest.approx(expected, rel=1e-12)
+    plans = data["accuracy"]["plans"]
+    assert [p["name"] for p in plans] == ["plan", "D-optimal"]
+    assert plans[0]["rows"][0]["rms"] == pytest.approx(expected, rel=1e-12)
+    assert [r["where"] for r in plans[0]["rows"]] == ["test region", "±10°", "±20°", "workspace"]
+    # The D-optimal plan of the planar arm has Σ cos q2 = 0: ρ0² = 2σ²/m everywhere (SPEC §6).
+    assert plans[1]["rows"][3]["median"] == pytest.approx(np.sqrt(2 * SIGMA**2 / 3), rel=1e-6)
+
+
+def test_evaluate_with_a_prior_and_a_neighbourhood(capsys, tmp_path, planar_params):
+    plan_csv = tmp_path / "plan.csv"
+    plan = np.array([[0.1, 0.0]])  # arm stretched: Δl1 and Δl2 move the tip alike, singular without a prior
+    pincal.Plan(plan, ("joint1", "joint2")).to_csv(plan_csv)
+    argv = ["evaluate", *PLANAR[:3], "--plan", str(plan_csv), "--test-pose=0.2,1.0", "--sigma", str(SIGMA)]
+    fails(capsys, argv, "singular plan")
+    png = tmp_path / "accuracy.png"
+    data = run_json(capsys, argv + ["--prior", "1mm,1mrad", "--around", "5deg", "--accuracy-plot", str(png)])
+    prior = pincal.Prior(1e-3, 1e-3)
+    region = pincal.around([0.2, 1.0], np.radians(5))
+    assert data["rho0"] == pytest.approx(
+        pincal.rho0(planar_params, plan, region, SIGMA, prior=prior), rel=1e-12
+    )
+    assert data["criteria"] is None and png.stat().st_size > 0
+    here = data["accuracy"]["plans"][0]
+    assert here["from_measurements"] ** 2 + here["from_prior"] ** 2 == pytest.approx(
+        data["rho0"] ** 2, rel=1e-9
+    )
+    assert here["worst_found"]["rho"] >= max(data["rho0_per_test_pose"]) * (1 - 1e-12)
+
+
+@pytest.mark.parametrize(
+    "extra, match",
+    [
+        (["--test-pose=0.2,1.0", "--around", "-5deg"], "--around '-5deg'"),
+        (["--test-pose=0.2,1.0", "--around", "5furlongs"], "expected a positive angle"),
+        (["--test-pose=0.2,1.0", "--prior", "1kg,1mrad"], "unknown unit"),
+        (["--test-pose=0.2,1.0", "--test-box", "1,2,3,4,5"], "six numbers"),
+        (["--around", "5deg"], "need a --test-pose"),
+        ([], "give a test pose"),
+    ],
+)
+def test_bad_region_input_is_one_line(capsys, tmp_path, extra, match):
+    plan_csv = tmp_path / "plan.csv"
+    pincal.Plan(np.array([[0.1, 0.4], [0.3, -1.0]]), ("joint1", "joint2")).to_csv(plan_csv)
+    fails(capsys, ["evaluate", *PLANAR[:3], "--plan", str(plan_csv), *extra], match)
