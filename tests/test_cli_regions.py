@@ -84,3 +84,38 @@ def test_bad_region_input_is_one_line(capsys, tmp_path, extra, match):
     plan_csv = tmp_path / "plan.csv"
     pincal.Plan(np.array([[0.1, 0.4], [0.3, -1.0]]), ("joint1", "joint2")).to_csv(plan_csv)
     fails(capsys, ["evaluate", *PLANAR[:3], "--plan", str(plan_csv), *extra], match)
+
+
+def test_scene_colours_sampled_poses_by_predicted_error(capsys, tmp_path, planar_params):
+    from pincal.viewing.scene import error_colors
+
+    plan = np.array([[0.1, 0.4], [0.3, -1.0], [1.0, 2.0]])
+    samples = np.array([[0.0, 0.2], [0.5, 1.0], [-1.0, 3.0]])
+    built = pincal.scene(planar_params, plan, [0.2, 1.0], SIGMA, error_samples=samples)
+    expected = [pincal.rho0(planar_params, plan, q, SIGMA) for q in samples]  # each as a test pose
+    np.testing.assert_allclose(built.error_values, expected, rtol=1e-12)
+    rgb = error_colors(built.error_values)
+    lo, hi = np.argmin(built.error_values), np.argmax(built.error_values)
+    assert rgb[lo][1] > rgb[lo][0] and rgb[hi][0] > rgb[hi][1]  # green at the smallest, red at the largest
+    plan_csv, html = tmp_path / "plan.csv", tmp_path / "scene.html"
+    pincal.Plan(plan, ("joint1", "joint2")).to_csv(plan_csv)
+    data = run_json(
+        capsys,
+        [
+            "show",
+            *PLANAR[:3],
+            "--plan",
+            str(plan_csv),
+            "--test-pose=0.2,1.0",
+            "--sigma",
+            str(SIGMA),
+            "--error-cloud",
+            "50",
+            "--html",
+            str(html),
+        ],
+    )
+    assert data["error_cloud"]["n"] == 50 and html.stat().st_size > 0
+    assert data["accuracy"]["plans"][0]["rows"][0]["rms"] == pytest.approx(
+        pincal.rho0(planar_params, plan, [0.2, 1.0], SIGMA), rel=1e-12
+    )

@@ -277,8 +277,11 @@ def test_a_floor_a_d_optimal_plan_meets_is_not_refused(kr):
     # Issue 9: at floor 1e-2, m = 4 was refused ("no start meets the floor") although a D-optimal
     # plan above it exists. The starts now come from a D-optimal exchange when random plans fail.
     params, q0 = kr
-    with pytest.warns(pincal.DegenerateOptimumWarning) as caught:
-        result = pincal.design(params, 4, q0, sigma=SIGMA, min_conditioning=1e-2, starts=2, workers=1)
+    result = pincal.design(params, 4, q0, sigma=SIGMA, min_conditioning=1e-2, starts=2, workers=1)
     assert result.conditioning > 1e-2
+    # A low floor that binds is warned about, and the advice is never to lower it.
+    lengths = pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")  # q20 = 0: singular limit
+    with pytest.warns(pincal.DegenerateOptimumWarning) as caught:
+        pincal.design(lengths, 2, [0.2, 0.0], sigma=SIGMA, min_conditioning=1e-4, starts=2, workers=1)
     advice = " ".join(str(w.message) for w in caught)
     assert "raise min_conditioning" in advice and "lower" not in advice

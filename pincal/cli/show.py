@@ -10,6 +10,15 @@ import time
 
 import numpy as np
 
+from pincal.cli._accuracy import (
+    REGION_HELP,
+    add_region_arguments,
+    add_report_arguments,
+    prior_from_args,
+    report_accuracy,
+    test_poses_of,
+    test_region_from_args,
+)
 from pincal.cli._common import (
     add_command,
     add_output_arguments,
@@ -23,7 +32,6 @@ from pincal.cli._common import (
     positive,
     read_plan,
     robot_from_args,
-    test_poses_from_args,
 )
 from pincal.errors import BadArgument, BadConfiguration, PincalError
 from pincal.evaluation.test_pose import rho0
@@ -41,11 +49,17 @@ examples:
                                               # starts a meshcat server; Ctrl-C to stop
   pincal show planar_2r --plan plan.csv --test-pose=0.3,1.2 --params joint2.tx,tip.tx \\
       --plot rho0.png --baseline 2000         # the plan's rho0 against 2000 random plans
+  pincal show kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --around 10deg --marker 0.1,0.05,0.2 \\
+      --sigma 3e-5 --error-cloud 500 --html scene.html   # where the plan leaves the robot accurate
 
 The scene: the robot at the test pose (opaque), one translucent numbered ghost per configuration
 with its measured points, the 3-sigma ellipsoid of the predicted error at the test pose after
-calibration (drawn larger than life by the stated factor), the instrument if --instrument is given.
+calibration (drawn larger than life by the stated factor), the instrument if --instrument is given;
+with --error-cloud N, the measured point at N random configurations coloured by the predicted error
+after calibration (green: smallest, red: largest, log scale). Of a region or path, the scene draws
+its first configuration (the centre of --around); the report covers the whole region.
 """
+EXAMPLES += "\n" + REGION_HELP
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -53,6 +67,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_robot_arguments(p)
     p.add_argument("--plan", required=True, metavar="PLAN.csv", help="the measurement configurations")
     add_test_pose_argument(p, required=False)
+    add_region_arguments(p)
+    p.add_argument(
+        "--error-cloud",
+        type=int,
+        metavar="N",
+        help="draw the measured point at N random configurations, coloured by the predicted error after "
+        "calibration (green: smallest, red: largest)",
+    )
     p.add_argument(
         "--sigma", type=float, default=1.0, help="measurement noise per coordinate [m] (default 1)"
     )
@@ -93,6 +115,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="FILE.csv",
         help="draw --plot's random plans from these configurations (plan CSV format, e.g. taught poses)",
     )
+    add_report_arguments(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -112,7 +135,15 @@ def run(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     params, _ = params_from_args(robot, args)
     plan = read_plan(robot, args.plan, args.deg)
-    q0 = test_poses_from_args(robot, args) if args.test_pose else None
+    q0 = test_region_from_args(robot, args, required=False)
+    prior = prior_from_args(args)
+    if args.error_cloud is not None and args.error_cloud < 1:
+        raise PincalError(
+            f"--error-cloud must be a positive number of configurations, got {args.error_cloud}"
+        )
+    # The scene draws the test pose(s); of a region or path, its first configuration (the centre).
+    drawn = None if q0 is None else test_poses_of(robot, q0)
+    drawn = drawn if drawn is None or isinstance(q0, np.ndarray) else drawn[:1]
     constraints = constraints_from_args(args)
     visible = [c for c in constraints if isinstance(c, Visibility)]
     instrument = visible[0] if visible else None
@@ -125,7 +156,18 @@ def run(args: argparse.Namespace) -> int:
 
     serve = not (args.html or args.plot)
     viewer = _start_server() if serve else "static"
-    built = scene(params, plan, q0, sigma, instrument, args.scale, viewer=viewer)
+    built = scene(
+        params,
+        plan,
+        drawn,
+        sigma,
+        instrument,
+        args.scale,
+        viewer=viewer,
+        error_samples=args.error_cloud,
+        prior=prior,
+    )
+    report = report_accuracy(args, params, plan, q0, sigma, prior)
     summary: dict = {
         "robot": robot.name,
         "m": len(plan),
@@ -137,6 +179,14 @@ def run(args: argparse.Namespace) -> int:
         "plot": None,
         "url": None,
         "note": built.note,
+        "accuracy": None if report is None else report.as_dict(),
+        "error_cloud": None
+        if built.error_values is None
+        else {
+            "n": len(built.error_values),
+            "min": float(built.error_values.min()),
+            "max": float(built.error_values.max()),
+        },
     }
     if args.html:
         built.save_html(args.html)
@@ -152,6 +202,8 @@ def run(args: argparse.Namespace) -> int:
             emit_json(summary)
         else:
             _print_summary(summary)
+            if report is not None:
+                print("\n".join(report.lines(degrees=args.deg)))
         sys.stdout.flush()
         while serve:  # until Ctrl-C; meshcat stops its server when pincal exits
             time.sleep(1.0)

@@ -10,6 +10,9 @@ The scene holds, under ``/meshcat/pincal``:
 * ``ghosts/pose_<i>``: one translucent "ghost" of the robot per measurement configuration, each
   in its own colour, with its measured point(s) as spheres and its number as a label.
 * ``instrument``: the instrument (a dark box) and its lines of sight, when its position is given.
+* ``error_cloud``: with ``error_samples``, the measured point at each sampled configuration,
+  coloured by the predicted error after calibration there (green: the smallest, red: the largest,
+  on a log scale; the range is written next to it): where the plan leaves the robot accurate.
 
 Robots whose URDF has meshes (example-robot-data) show them, through Pinocchio's
 ``MeshcatVisualizer`` and the URDF's geometry models: the test pose with its visual meshes, the
@@ -35,6 +38,8 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import BadConfiguration, SingularPlan
+from pincal.evaluation.accuracy import PredictedError
+from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import position_covariance
 from pincal.files import atomic_write_text
 from pincal.model.parameters import ParameterSet
@@ -118,6 +123,8 @@ class Scene:
         ellipsoid_scale: factor by which the ellipsoids are drawn larger than life.
         rho0: (k,) expected position error at each test pose [m] (sqrt of the covariance's trace).
         note: why something is missing from the scene, or "".
+        error_samples: (n, nq) configurations of the error cloud, or None.
+        error_values: (n,) predicted error after calibration at each [m], or None.
     """
 
     viewer: Any
@@ -131,6 +138,8 @@ class Scene:
     ellipsoid_scale: float
     rho0: np.ndarray | None
     note: str = ""
+    error_samples: np.ndarray | None = None
+    error_values: np.ndarray | None = None
 
     def html(self) -> str:
         """The scene as one self-contained HTML page (meshcat's static export)."""
@@ -160,6 +169,8 @@ def show(
     instrument: object = None,
     scale: float | None = None,
     viewer: object = None,
+    error_samples: object = None,
+    prior: Prior | None = None,
 ) -> Visualizer:
     """Show a plan in meshcat: ghosts of the measurement poses, the test pose and its error.
 
@@ -177,6 +188,9 @@ def show(
             (see :attr:`Scene.ellipsoid_scale`, written next to it in the scene).
         viewer: a ``meshcat.Visualizer`` to draw into, ``"static"`` for a serverless one (see
             :func:`static_viewer`), or None to start a meshcat server (its URL is printed).
+        error_samples: configurations, or a number of random ones, at which the measured point is
+            drawn coloured by the predicted error after calibration (green low, red high).
+        prior: the errors' prior for that prediction, or None.
 
     Returns:
         the ``meshcat.Visualizer``; :func:`scene` returns the full :class:`Scene`.
@@ -185,7 +199,9 @@ def show(
         MissingDependency: meshcat is not installed.
         BadConfiguration: a configuration of the wrong size or outside the joint limits.
     """
-    return scene(params_or_robot, plan, test_pose, sigma, instrument, scale, viewer).viewer
+    return scene(
+        params_or_robot, plan, test_pose, sigma, instrument, scale, viewer, error_samples, prior
+    ).viewer
 
 
 def scene(
@@ -196,10 +212,18 @@ def scene(
     instrument: object = None,
     scale: float | None = None,
     viewer: object = "static",
+    error_samples: object = None,
+    prior: Prior | None = None,
 ) -> Scene:
     """Build the scene of :func:`show` (same arguments) and return it with what it shows.
 
     The default ``viewer="static"`` needs no server: save the result with :meth:`Scene.save_html`.
+
+    Args (beyond :func:`show`'s):
+        error_samples: configurations (n, nq) — or a number n of configurations drawn within the
+            joint limits (seed 0) — at which to draw the measured point coloured by the predicted
+            error after calibration with ``plan`` (see the module doc).
+        prior: the errors' prior for that prediction (and the ellipsoids are still σ²J₀M⁻¹J₀ᵀ).
     """
     meshcat = require("meshcat", "pincal.visualize", "meshcat")
     if isinstance(params_or_robot, ParameterSet):
@@ -240,6 +264,18 @@ def scene(
         if scale is None:
             drawn_scale = _nice_scale(ELLIPSOID_SIZE * reach / max(radii.max(), 1e-300))
     _draw_test_poses(vis, robot, visual, q0, radii, axes, drawn_scale, reach)
+    samples = values = None
+    if error_samples is not None:
+        if isinstance(error_samples, (int, np.integer)) and not isinstance(error_samples, bool):
+            samples = robot.random_configurations(int(error_samples), 0)
+        else:
+            samples = robot.configurations(error_samples, what="error sample")
+        try:
+            values = PredictedError(params, qs, sigma, prior)(samples)
+            _add_error_cloud(vis, robot.points(samples)[:, 0], values, reach)
+        except SingularPlan as exc:
+            note = (note + "; " if note else "") + f"no error cloud: {exc}"
+            samples = None
     if where is not None:
         _add_instrument(vis, where, points, colors, reach)
     _set_view(vis, robot, np.vstack([qs, q0]), reach)
@@ -255,6 +291,8 @@ def scene(
         ellipsoid_scale=drawn_scale,
         rho0=rho,
         note=note,
+        error_samples=samples,
+        error_values=values,
     )
 
 
@@ -455,6 +493,26 @@ def _add_points(vis, node: str, points: np.ndarray, reach: float, color: str, si
         path = f"{node}/marker_{j}"
         vis[path].set_object(mg.Sphere(size * _POINT_RADIUS * reach), _material(color))
         vis[path].set_transform(_translation(p))
+
+
+def error_colors(values: np.ndarray) -> np.ndarray:
+    """(n, 3) RGB in [0, 1] for errors ``values``: green at the smallest, through yellow, to red at
+    the largest, on a log scale."""
+    logs = np.log(np.maximum(values, 1e-300))
+    span = logs.max() - logs.min()
+    t = (logs - logs.min()) / span if span > 0 else np.zeros_like(logs)
+    return np.array([colorsys.hsv_to_rgb(0.33 * (1.0 - x), 0.85, 0.9) for x in t])
+
+
+def _add_error_cloud(vis, points: np.ndarray, values: np.ndarray, reach: float) -> None:
+    import meshcat.geometry as mg
+
+    node = f"{ROOT}/error_cloud"
+    cloud = mg.PointCloud(points.T, error_colors(values).T, size=0.6 * _POINT_RADIUS * reach)
+    vis[node].set_object(cloud)
+    top = points[np.argmax(points[:, 2])]
+    low, high = values.min() * 1e3, values.max() * 1e3
+    _add_label(vis, f"{node}/range", f"error {low:.3g}–{high:.3g} mm", top, reach, size=0.3)
 
 
 def _add_ellipsoid(vis, path: str, centre: np.ndarray, radii: np.ndarray, axes: np.ndarray) -> None:
