@@ -3,28 +3,14 @@ Budget: about 10 s."""
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 
 import pincal
-from pincal.cli import main
+from tests.test_cli_design import fails, run_json
 
 PLANAR = ["planar_2r", "--params", "joint2.tx,tip.tx", "--workers", "1", "--starts", "2"]
 SIGMA = 3e-5
-
-
-def run_json(capsys, argv):
-    assert main(argv + ["--json"]) == 0
-    return json.loads(capsys.readouterr().out)
-
-
-def fails(capsys, argv, match):
-    assert main(argv) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.startswith("pincal: error: ") and "\n" not in err and "Traceback" not in err
-    assert match in err, err
 
 
 @pytest.fixture(scope="module")

@@ -74,6 +74,9 @@ METHODS = ("continuous", "exchange")
 DEFAULT_POOL = 2000
 """Candidate configurations drawn when no pool is given."""
 
+MAX_WORST_POSES = 2000
+"""Test poses a worst-case design may take (each is a weighted trace of its own in the search)."""
+
 SINGULAR_WARNING = 1e-3
 """A plan whose conditioning is below this is effectively singular: some parameter combinations
 are barely measured, and the error away from the test pose(s) grows large (bench_floor: at 1e-3 the
@@ -259,6 +262,12 @@ def _validate(
     information = None if prior is None else prior.information(params, sigma)
     m = _check_m(params, m, information)
     test_poses = checked_test_poses(params, test_pose, criterion)
+    if criterion == "test-pose-worst" and test_poses is not None and len(test_poses) > MAX_WORST_POSES:
+        raise PincalError(
+            f"the worst case is searched pose by pose: {len(test_poses)} test poses are too many (at most "
+            f"{MAX_WORST_POSES}); take every k-th point of the path, or minimise the mean (test-pose), whose "
+            "cost does not depend on the number of poses"
+        )
     starts = positive_int(starts, "starts")
     workers = _multistart.default_workers() if workers is None else positive_int(workers, "workers")
     if not (isinstance(keep, (int, float)) and 0 < keep <= 1):
