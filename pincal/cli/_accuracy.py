@@ -14,7 +14,9 @@ from pincal.cli._common import parse_configuration, parse_floats, read_plan
 from pincal.errors import PincalError
 from pincal.evaluation.accuracy import AccuracyReport, accuracy, error_profile
 from pincal.evaluation.prior import Prior
-from pincal.evaluation.region import TestPath, around, cartesian_box
+from pincal.evaluation.region import TestPath, around, cartesian_box, resolve_test_poses
+from pincal.planning.driver import design
+from pincal.viewing.plots import error_vs_distance
 
 REGION_HELP = """\
 Where the robot works (any of design, evaluate, show, baseline):
@@ -145,16 +147,12 @@ def prior_from_args(args: argparse.Namespace) -> Prior | None:
 
 def test_poses_of(robot, test_pose) -> np.ndarray:
     """(k, nq) configurations of test poses or a region (its samples)."""
-    from pincal.evaluation.region import resolve_test_poses
-
     return resolve_test_poses(robot, test_pose)[0]
 
 
 def d_optimal_plan(params, m: int, constraints=(), pool=None, seed: int = 0):
     """A D-optimal plan of m configurations (exchange, 4 starts, no polish; the reports' reference),
     or None when there is none (too few configurations)."""
-    from pincal.planning.driver import design
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
@@ -181,7 +179,5 @@ def accuracy_report(params, plan, test_pose, sigma: float, prior, reference, see
 
 def save_accuracy_plot(path: str, params, plans: dict, test_pose, sigma: float, prior) -> None:
     """The predicted error against the distance from the test pose, for each plan, saved."""
-    from pincal.viewing.plots import error_vs_distance
-
     profiles = error_profile(params, plans, test_pose, sigma, prior)
     error_vs_distance(profiles).savefig(path, dpi=120)
