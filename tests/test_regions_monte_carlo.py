@@ -44,7 +44,9 @@ def calibrations(kr270_marker):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
         plans = {
-            "single pose": pincal.design(params, M, Q0, **options).plan,
+            # At the former default floor 1e-4 (issue 9's case): the default 1e-2 already keeps a
+            # single-pose plan far more regular (benchmarks/RESULTS.md, bench_floor).
+            "single pose": pincal.design(params, M, Q0, min_conditioning=1e-4, **options).plan,
             "neighbourhood": pincal.design(params, M, pincal.around(Q0, np.radians(10)), **options).plan,
             "path": pincal.design(params, M, pincal.TestPath(path), **options).plan,
         }

@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 
 from pincal.cli._common import parse_configuration, parse_floats, read_plan
-from pincal.errors import PincalError
+from pincal.errors import PincalError, SingularPlan
 from pincal.evaluation.accuracy import AccuracyReport, accuracy, error_profile
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestPath, around, cartesian_box, resolve_test_poses
@@ -86,7 +86,12 @@ def report_accuracy(
         return None
     if reference is None:
         reference = d_optimal_plan(params, len(plan), constraints, pool, getattr(args, "seed", 0))
-    report = accuracy_report(params, plan, test_pose, sigma, prior, reference)
+    try:
+        report = accuracy_report(params, plan, test_pose, sigma, prior, reference)
+    except SingularPlan:
+        if args.accuracy_plot:
+            raise
+        return None  # the command says the plan is singular its own way
     if args.accuracy_plot:
         plans = {"plan": plan} if reference is None else {"plan": plan, "D-optimal": reference}
         save_accuracy_plot(args.accuracy_plot, params, plans, test_pose, sigma, prior)

@@ -44,7 +44,7 @@ examples:
   pincal design planar_2r -m 2 --test-pose=0.3,1.2 --params joint2.tx,tip.tx --json
   pincal design ur10 -m 12 --test-pose=0,-1.2,1.5,-1,-1.5,0 --method exchange --pool taught.csv
   pincal design kr270 -m 8 --test-pose=0,-90,90,0,45,0 --deg --constraints cell.yaml --starts 128
-  pincal design kr270 -m 12 --test-pose=0,-60,60,0,45,0 --deg --around 10deg --marker 0.1,0.05,0.2 \
+  pincal design kr270 -m 12 --test-pose=0,-60,60,0,45,0 --deg --around 10deg --marker 0.1,0.05,0.2 \\
       --sigma 3e-5 --out plan.csv                   # accurate over ±10°, not only at the test pose
   pincal design kr270 -m 12 --test-path weld.csv --deg --marker 0.1,0.05,0.2 --sigma 3e-5
   pincal design kr270 -m 6 --test-pose=0,-60,60,0,45,0 --deg --prior 1mm,1mrad --sigma 3e-5
@@ -60,7 +60,8 @@ limits and --constraints) and of the D-optimal plan, next to the designed plan's
 --constraints FILE.yaml: joint_limits, workspace_box, half_space, visibility, self_collision,
 min_spacing (see pincal.constraints.load_constraints for the layout).
 --min-conditioning X: no plan whose Jacobi-scaled information matrix has its smallest eigenvalue
-below X (default 1e-2, none with --prior); a plan below 1e-6 is warned about whatever the floor.
+below X (default 1e-2, none with --prior); a plan below 1e-3 is warned about whatever the floor.
+
 {region}
 Units: metres and radians; --deg reads test poses and --pool, and writes --out and prints the plan,
 in degrees. The JSON plan is always in radians; rho0 is in metres for --sigma (default 1).
