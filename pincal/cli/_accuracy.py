@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 
 from pincal.cli._common import parse_configuration, parse_floats, read_plan
-from pincal.errors import PincalError, SingularPlan
+from pincal.errors import BadArgument, PincalError, SingularPlan
 from pincal.evaluation.accuracy import AccuracyReport, accuracy, error_profile
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestPath, around, cartesian_box, resolve_test_poses
@@ -82,7 +82,7 @@ def report_accuracy(
     the --accuracy-plot saved; ``reference`` defaults to a D-optimal plan of the same size."""
     if test_pose is None or args.no_accuracy:
         if args.accuracy_plot:
-            raise PincalError("--accuracy-plot needs a test pose or region, and no --no-accuracy")
+            raise BadArgument("--accuracy-plot needs a test pose or region, and no --no-accuracy")
         return None
     if reference is None:
         reference = d_optimal_plan(params, len(plan), constraints, pool, getattr(args, "seed", 0))
@@ -106,7 +106,7 @@ def parse_delta(text: str, degrees: bool) -> float:
     except ValueError:
         value = math.nan
     if not (math.isfinite(value) and value > 0):
-        raise PincalError(f"--around {text!r}: expected a positive angle, e.g. 10deg, 0.17rad or 5mrad")
+        raise BadArgument(f"--around {text!r}: expected a positive angle, e.g. 10deg, 0.17rad or 5mrad")
     unit = match.group(2) or ("deg" if degrees else "rad")
     return value * {"deg": math.pi / 180, "rad": 1.0, "mrad": 1e-3}[unit]
 
@@ -117,22 +117,22 @@ def test_region_from_args(robot, args: argparse.Namespace, required: bool = True
     poses = [parse_configuration(robot, t, args.deg, "--test-pose") for t in args.test_pose or ()]
     if args.test_path:
         if poses or args.around or args.test_box:
-            raise PincalError(
+            raise BadArgument(
                 "--test-path is the test region: give it without --test-pose, --around, --test-box"
             )
         return TestPath(read_plan(robot, args.test_path, args.deg, what="test path").q)
     if not poses:
         if args.around or args.test_box:
-            raise PincalError("--around and --test-box need a --test-pose (the centre, the tool orientation)")
+            raise BadArgument("--around and --test-box need a --test-pose (the centre, the tool orientation)")
         if required:
-            raise PincalError("give a test pose (--test-pose Q0) or a path (--test-path PATH.csv)")
+            raise BadArgument("give a test pose (--test-pose Q0) or a path (--test-path PATH.csv)")
         return None
     if args.test_box:
         if args.around or len(poses) > 1:
-            raise PincalError("--test-box takes one --test-pose (its tool orientation), and no --around")
+            raise BadArgument("--test-box takes one --test-pose (its tool orientation), and no --around")
         box = parse_floats(args.test_box, "--test-box")
         if len(box) != 6:
-            raise PincalError(
+            raise BadArgument(
                 f"--test-box {args.test_box!r}: expected X0,Y0,Z0,X1,Y1,Z1 (six numbers, metres)"
             )
         return cartesian_box(box[:3], box[3:], poses[0])

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pincal.errors import PincalError
+from pincal.errors import BadArgument
 from pincal.model.parameters import ParameterSet
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "cm": 1e-2}
@@ -43,7 +43,7 @@ def _positive(value: object, what: str) -> float:
     except (TypeError, ValueError):
         v = math.nan
     if not (v > 0):  # NaN fails too; inf is allowed: no prior
-        raise PincalError(f"prior standard deviation of {what} must be a positive number, got {value!r}")
+        raise BadArgument(f"prior standard deviation of {what} must be a positive number, got {value!r}")
     return v
 
 
@@ -85,12 +85,12 @@ class Prior:
             f"angle units: {', '.join(ANGLE_UNITS)}; bare numbers are m then rad)"
         )
         if len(tokens) != 2:
-            raise PincalError(f"bad prior {text!r}: {valid}")
+            raise BadArgument(f"bad prior {text!r}: {valid}")
         found: dict[str, float] = {}
         for position, token in enumerate(tokens):
             match = _TOKEN.match(token.strip().lower())
             if match is None:
-                raise PincalError(f"bad prior {text!r}: cannot read {token.strip()!r}; {valid}")
+                raise BadArgument(f"bad prior {text!r}: cannot read {token.strip()!r}; {valid}")
             number, unit = match.groups()
             if unit in LENGTH_UNITS:
                 kind, scale = "length", LENGTH_UNITS[unit]
@@ -99,13 +99,13 @@ class Prior:
             elif unit == "":
                 kind, scale = ("length", "angle")[position], 1.0
             else:
-                raise PincalError(f"bad prior {text!r}: unknown unit {unit!r}; {valid}")
+                raise BadArgument(f"bad prior {text!r}: unknown unit {unit!r}; {valid}")
             if kind in found:
-                raise PincalError(f"bad prior {text!r}: two {kind}s; {valid}")
+                raise BadArgument(f"bad prior {text!r}: two {kind}s; {valid}")
             try:
                 found[kind] = float(number) * scale
             except ValueError:
-                raise PincalError(f"bad prior {text!r}: cannot read {token.strip()!r}; {valid}") from None
+                raise BadArgument(f"bad prior {text!r}: cannot read {token.strip()!r}; {valid}") from None
         return cls(found["length"], found["angle"])
 
     def std(self, params: ParameterSet) -> np.ndarray:

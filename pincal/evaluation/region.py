@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from pincal.errors import Infeasible, PincalError
+from pincal.errors import BadArgument, Infeasible
 from pincal.model.robot import Robot
 
 DEFAULT_SAMPLES = 256
@@ -89,7 +89,7 @@ def _latin_hypercube(dimension: int, n: int, seed: int) -> np.ndarray:
 
 def _samples(samples: object) -> int:
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise PincalError(f"samples must be an integer ≥ 1, got {samples!r}")
+        raise BadArgument(f"samples must be an integer ≥ 1, got {samples!r}")
     return int(samples)
 
 
@@ -152,7 +152,7 @@ def around(q0: object, delta: object, samples: int = DEFAULT_SAMPLES, seed: int 
     """
     d = np.asarray(delta, dtype=float)
     if not (np.all(np.isfinite(d)) and np.all(d > 0)):
-        raise PincalError(f"the neighbourhood's half-width must be positive [rad or m], got {delta!r}")
+        raise BadArgument(f"the neighbourhood's half-width must be positive [rad or m], got {delta!r}")
     return Neighbourhood(np.asarray(q0, dtype=float).reshape(-1), d, _samples(samples), int(seed))
 
 
@@ -259,14 +259,14 @@ def cartesian_box(
         lo = np.array(lower, dtype=float).reshape(3)
         hi = np.array(upper, dtype=float).reshape(3)
     except (TypeError, ValueError):
-        raise PincalError(f"box corners must be 3 numbers each [m], got {lower!r} and {upper!r}") from None
+        raise BadArgument(f"box corners must be 3 numbers each [m], got {lower!r} and {upper!r}") from None
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi >= lo)):
-        raise PincalError(f"box: need finite lower <= upper [m], got {lo.tolist()} and {hi.tolist()}")
+        raise BadArgument(f"box: need finite lower <= upper [m], got {lo.tolist()} and {hi.tolist()}")
     R = None
     if rotation is not None:
         R = np.array(rotation, dtype=float).reshape(3, 3)
         if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
-            raise PincalError("rotation must be a 3×3 rotation matrix")
+            raise BadArgument("rotation must be a 3×3 rotation matrix")
     return CartesianBox(
         lo, hi, np.asarray(reference, dtype=float).reshape(-1), R, _samples(samples), int(seed)
     )

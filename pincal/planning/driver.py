@@ -263,7 +263,7 @@ def _validate(
     m = _check_m(params, m, information)
     test_poses = checked_test_poses(params, test_pose, criterion)
     if criterion == "test-pose-worst" and test_poses is not None and len(test_poses) > MAX_WORST_POSES:
-        raise PincalError(
+        raise BadArgument(
             f"the worst case is searched pose by pose: {len(test_poses)} test poses are too many (at most "
             f"{MAX_WORST_POSES}); take every k-th point of the path, or minimise the mean (test-pose), whose "
             "cost does not depend on the number of poses"

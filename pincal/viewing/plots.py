@@ -265,7 +265,7 @@ def error_vs_distance(profiles, unit: str = "mm", title: str | None = None) -> F
     factor = _factor(unit)
     profiles = list(profiles)
     if not profiles:
-        raise PincalError("error_vs_distance: no profile to draw")
+        raise BadArgument("error_vs_distance: no profile to draw")
     fig = _figure((6.4, 4.2))
     ax = fig.add_subplot()
     for i, p in enumerate(profiles):
