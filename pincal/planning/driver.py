@@ -153,8 +153,9 @@ def design(
         min_conditioning: floor of the plan's conditioning, the smallest eigenvalue of its
             Jacobi-scaled information matrix (in (0, 0.1); 0 is singular). No plan below it is
             returned; the continuous search keeps above it with a barrier. A plan that ends near
-            the floor comes with a :class:`DegenerateOptimumWarning`: the criterion would keep
-            improving towards singular plans (ρ0 at a test pose at a singular limit does).
+            a floor below :data:`SINGULAR_WARNING` comes with a :class:`DegenerateOptimumWarning`:
+            the criterion would keep improving towards singular plans (ρ0 at a test pose at a
+            singular limit does); near a higher floor, the result's message says the floor binds.
             Default :data:`MIN_CONDITIONING` (or half what a D-optimal plan of m configurations
             reaches, when that is less); with a prior, 0 (no floor: the prior keeps every plan's
             posterior regular). A floor given is honoured, or refused (FloorUnreachable). A plan
