@@ -3,6 +3,7 @@ xacro files, missing meshes (issue 11)."""
 
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
@@ -239,3 +240,19 @@ def test_malformed_urdf_is_one_error_line(tmp_path, capsys, text):
     assert main(["params", str(path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("pincal: error:"), err
+
+
+def test_robots_lists_the_chains_each_robot_offers(capsys):
+    assert main(["robots", "--json"]) == 0
+    chains = json.loads(capsys.readouterr().out)["chains"]
+    assert chains["kr270"]["default_tip"] == "tool0" and not chains["kr270"]["floating"]
+    panda = chains["panda"]
+    assert panda["default_tip"] == "panda_hand_tcp"
+    assert any(t["finger"] for t in panda["tips"]) and "panda_finger_joint1" in panda["tips"][0]["hand"]
+    assert chains["talos"]["floating"] and chains["talos"]["default_tip"] is None
+    assert not chains["cassie"]["loadable"] and "URDF" in chains["cassie"]["reason"]
+    pendulum = chains["double_pendulum"]  # zero-range joints only
+    assert not pendulum["loadable"] and "--joint-range" in pendulum["reason"]
+    assert main(["robots", "talos", "--root", "torso_2_link"]) == 0
+    out = capsys.readouterr().out
+    assert "chains from torso_2_link" in out and "--tip gripper_left_base_link (7 joints" in out
