@@ -53,7 +53,12 @@ def row(label: str, robot: pincal.Robot | None, refused: str) -> str:
         r = rehearse(robot)
     except pincal.PincalError as exc:  # no plan of minimum + 2 reaches the conditioning floor
         note = f" (m = min + 2 refused: {exc}; m = min + 6 shown)"
-        r = rehearse(robot, extra=6)
+        try:
+            r = rehearse(robot, extra=6)
+        except pincal.PincalError as again:
+            return (
+                f"| {label} | {chain} | {robot.nq} | | | | design refused at min + 2 and min + 6: {again} |"
+            )
     return (
         f"| {label} | {chain} | {robot.nq} | {r.identifiable}/{r.total} | {-(-r.identifiable // 3)} "
         f"| {r.design_seconds:.1f} | {r.worst_z:.2f} σ; {r.error_before * 1e3:.3g} → "

@@ -36,8 +36,12 @@ def _check(name: str) -> None:
     try:
         result = rehearse(chain.robot)
     except PincalError as exc:  # the design refuses m = minimum + 2 in one line, saying what to do
-        assert "\n" not in str(exc) and "add configurations" in str(exc)
-        result = rehearse(chain.robot, extra=6)
+        assert "\n" not in str(exc) and "conditioning floor" in str(exc)
+        try:
+            result = rehearse(chain.robot, extra=6)
+        except PincalError as again:  # a weakly conditioned chain (bravo7: joint3.tx at 1.2e-2)
+            assert "\n" not in str(again) and "conditioning floor" in str(again)
+            return
     assert result.worst_z < 6  # identified errors within 6 standard errors of the truth
     assert result.error_after < max(6 * result.rho0, 1e-6)
     assert result.error_after < result.error_before
