@@ -208,14 +208,16 @@ def design(
         pooled = _pool(params, settings, pool, init)
         engine = JacobianEngine(params)
         J_pool = engine.jacobian(pooled.candidates, frame="tip")
-        try:
-            indices = draw_starts(settings, J_pool, pooled.candidates)
-        except FloorUnreachable as error:
-            if min_conditioning is not None:  # a floor asked for is honoured, or refused
-                raise
-            # The default floor adapts: half what the D-optimal plan of m configurations reaches.
-            settings = replace(settings, floor=error.reached / 2)
-            indices = draw_starts(settings, J_pool, pooled.candidates)
+        indices = None
+        while indices is None:
+            try:
+                indices = draw_starts(settings, J_pool, pooled.candidates)
+            except FloorUnreachable as error:
+                if min_conditioning is not None:  # a floor asked for is honoured, or refused
+                    raise
+                # The default floor adapts: half what the D-optimal plan of m configurations
+                # reaches (each start's D-optimal exchange may end a little lower: adapt again).
+                settings = replace(settings, floor=error.reached / 2)
         outcomes = search(settings, params, engine, pooled, indices, executor, progress)
         choice = _choose(settings, engine, outcomes)
         return _result(settings, params, engine, pooled, outcomes, choice, time.perf_counter() - t_start)
