@@ -105,3 +105,43 @@ def test_scene_colours_sampled_poses_by_predicted_error(capsys, tmp_path, planar
     assert data["accuracy"]["plans"][0]["rows"][0]["rms"] == pytest.approx(
         pincal.rho0(planar_params, plan, [0.2, 1.0], SIGMA), rel=1e-12
     )
+
+
+def test_evaluate_over_a_cartesian_box(capsys, tmp_path):
+    robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
+    params = robot.parameters("lengths,offsets").identifiable().identifiable
+    q0 = np.radians([0, -60, 60, 0, 45, 0])
+    p0 = robot.points(q0)[0, 0]
+    plan = robot.random_configurations(10, 3)
+    plan_csv = tmp_path / "plan.csv"
+    pincal.Plan.for_robot(robot, plan).to_csv(plan_csv, degrees=True)  # --deg: the plan file too
+    box = ",".join(f"{v:.6f}" for v in np.concatenate([p0 - 0.05, p0 + 0.05]))
+    data = run_json(
+        capsys,
+        [
+            "evaluate",
+            "kr270",
+            "--marker",
+            "0.1,0.05,0.2",
+            "--params",
+            "lengths,offsets",
+            "--plan",
+            str(plan_csv),
+            "--test-pose=0,-60,60,0,45,0",
+            "--deg",
+            "--test-box",
+            box,
+            "--sigma",
+            str(SIGMA),
+            "--no-accuracy",
+        ],
+    )
+    corners = np.array(box.split(","), dtype=float)  # the box as the command reads it
+    region = pincal.cartesian_box(corners[:3], corners[3:], q0).resolve(robot)
+    points = robot.points(region.poses)[:, 0]
+    assert np.all(np.abs(points - p0) <= 0.05 + 1e-6)  # forward kinematics: every pose is in the box
+    read = pincal.Plan.from_csv(plan_csv, robot, degrees=True)  # as the command reads it (rounded)
+    expected = pincal.rho0(params, read, pincal.TestPath(region.poses), SIGMA)
+    assert data["rho0"] == pytest.approx(expected, rel=1e-9) and len(data["rho0_per_test_pose"]) == len(
+        points
+    )
