@@ -14,8 +14,10 @@ export / visualise.
 from pincal.calibration.identification import IdentificationResult, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
+from pincal.calibration.sanity import Outlier
 from pincal.calibration.synthetic import RandomErrors, random_errors, simulate_measurements
 from pincal.calibration.urdf_export import export_urdf
+from pincal.calibration.validation import Validation, holdout, kfold, validate
 from pincal.errors import (
     AmbiguousTip,
     BadArgument,
@@ -52,6 +54,7 @@ from pincal.evaluation.accuracy import (
     worst_found,
 )
 from pincal.evaluation.classic import Criteria, criteria
+from pincal.evaluation.data_check import DataCheck, check_plan
 from pincal.evaluation.information import information_matrix
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import CartesianBox, Neighbourhood, TestPath, TestRegion, around, cartesian_box
@@ -90,6 +93,7 @@ __all__ = [
     "CartesianBox",
     "Criteria",
     "DHTable",
+    "DataCheck",
     "DegenerateOptimum",
     "DegenerateOptimumWarning",
     "DesignResult",
@@ -107,6 +111,7 @@ __all__ = [
     "MissingDependency",
     "MonteCarloResult",
     "Neighbourhood",
+    "Outlier",
     "OverwriteRefused",
     "Parameter",
     "ParameterSet",
@@ -130,6 +135,7 @@ __all__ = [
     "UnknownParameter",
     "UnsupportedJoint",
     "UrdfError",
+    "Validation",
     "Visibility",
     "WorkspaceBox",
     "WorstFound",
@@ -137,13 +143,16 @@ __all__ = [
     "accuracy",
     "around",
     "cartesian_box",
+    "check_plan",
     "criteria",
     "design",
     "error_profile",
     "export_urdf",
+    "holdout",
     "identifiability",
     "identify",
     "information_matrix",
+    "kfold",
     "load_constraints",
     "load_robot",
     "monte_carlo",
@@ -156,5 +165,6 @@ __all__ = [
     "show",
     "simulate_measurements",
     "urdf_from_dh",
+    "validate",
     "worst_found",
 ]

@@ -191,7 +191,8 @@ class BadMeasurementData(BadArgument):
 
 class IdentificationFailed(PincalError):
     """An identification that did not produce a calibrated robot (rank deficient data, no
-    convergence). ``result`` is the :class:`~pincal.calibration.identification.IdentificationResult`."""
+    convergence, an implausible result). ``result`` is the
+    :class:`~pincal.calibration.identification.IdentificationResult`."""
 
     def __init__(self, result: object):
         self.result = result

@@ -2,45 +2,79 @@
 
 The unknowns x are the values of a :class:`~pincal.ParameterSet`: the *total* errors of the real
 robot relative to the set's (nominal) robot, in the parameter conventions (SPEC §2), so the
-calibrated robot is ``params.apply(x)``. Least squares over all configurations and markers,
+calibrated robot is ``params.apply(x)``. Weighted least squares over all configurations, markers
+and sessions,
 
-    x̂ = argmin Σᵢ ‖pᵢ − g(qᵢ, Π0 ⊕ x)‖²,
+    x̂ = argmin Σᵢ ρ(‖(pᵢ − g(qᵢ, Π0 ⊕ x)) / σᵢ‖²)  [+ ‖x / σ_prior‖² with a prior],
 
-by Gauss–Newton on the nonlinear model: linearise at the current estimate with the analytic
-parameter Jacobian (a perturbation *on top of* the current robot, :meth:`ParameterSet.on`),
-chained with the right Jacobian of exp3 for rotation errors, solve for the correction, repeat
-until every component of the correction is below ``tol`` (relative to 1 + |x|). If a Gauss–Newton
-step fails to decrease the sum of squares, or the iterations run out, Levenberg–Marquardt
-(``scipy.optimize.least_squares(method="lm")``) takes over from the best estimate.
+solved by ``scipy.optimize.least_squares`` (``trf``, or ``lm`` without a robust loss) with the
+analytic Jacobian (:mod:`pincal.calibration.problem`). σᵢ is the per-point uncertainty of the
+data when they have one, else σ. Robust losses (``huber``, ``soft_l1``, ``cauchy``) take
+``f_scale`` = :data:`ROBUST_SCALE` standard deviations: σ when it is known (given or per point),
+else a robust estimate (1.4826·median|r|) from a plain least-squares fit.
 
-When ``base.*`` parameters are identified (measurements in the instrument's frame), the starting
-base is the rigid fit (Kabsch) of the nominal points onto the measured ones, so the linearisation
-holds even when the instrument is metres away and rotated.
+The steps, each reported:
 
-Standard errors: cov(x̂) = σ² M⁻¹, M = JᵀJ at the solution, with σ the given noise per coordinate
-or, by default, σ̂² = Σ residual² / (3Km − P).
+1. **Data identifiability** (:mod:`pincal.evaluation.data_check`): rank and condition number of
+   the column-scaled Jacobian of *these* configurations, the weakest combinations, and the subset
+   the data determine to better than 1 mm / 1 mrad; the others stay at their nominal value, named
+   with the reason. With a :class:`~pincal.Prior` nothing is dropped: the fit is the MAP estimate.
+2. **Fit**, from zero errors except each session's base, from a rigid fit (Kabsch) of the nominal
+   points onto the measured ones when ``base.*`` is identified. The "before" residual is the
+   residual there (after the rigid fit), not at a base at the identity.
+3. **Outliers**: rows above :data:`~pincal.calibration.sanity.OUTLIER_SCORE` robust σ are named
+   by file and line; with ``reject=K`` the rows above K robust σ (scored on a ``soft_l1`` fit) are
+   dropped and the fit repeated until none is left.
+4. **Sanity** (:mod:`pincal.calibration.sanity`): a fit with values or residuals no real robot has
+   is ``implausible``, with its likely causes, never ``converged``.
+
+Standard errors: cov(x̂) = (JᵀWJ + Σp⁻¹)⁻¹ at the solution; without per-point σ and without a
+given σ, scaled by σ̂² = Σ residual² / (N − P) (σ estimated from the residuals).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
 
+from pincal.arguments import positive_sigma
 from pincal.calibration.measurements import MeasurementData
+from pincal.calibration.problem import Problem, initial_values
+from pincal.calibration.sanity import (
+    OUTLIER_SCORE,
+    Outlier,
+    find_outliers,
+    implausible,
+    likely_causes,
+    robust_sigma,
+    row_scores,
+)
 from pincal.errors import BadMeasurementData, PincalError, SingularPlan
-from pincal.evaluation.information import RCOND
-from pincal.model.jacobian import ZERO_COLUMN, JacobianEngine
+from pincal.evaluation.data_check import DataCheck, check_information
+from pincal.evaluation.prior import Prior
+from pincal.model.base_parameters import preference_order
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 
-STATUSES = ("converged", "rank_deficient", "not_converged", "failed")
+STATUSES = ("converged", "implausible", "rank_deficient", "not_converged", "failed")
 """Values of :attr:`IdentificationResult.status`; only ``"converged"`` gives a calibrated robot."""
+
+DEFAULT_SIGMA = 3e-5
+"""The instrument's σ per coordinate [m] assumed when none is given (a laser tracker): it sets the
+data-identifiability limits and the sanity limits, never the standard errors (those use σ
+estimated from the residuals unless σ is given)."""
+
+LOSSES = ("linear", "huber", "soft_l1", "cauchy")
+METHODS = ("trf", "lm")
+ROBUST_SCALE = 2.0
+"""``f_scale`` of a robust loss, in standard deviations of the whitened residuals."""
 
 POOR_FIT = 1e-3
 """Residual RMS [m] after calibration above which the result's message warns that geometric
-errors do not explain the data (units, markers, base frame, non-geometric errors)."""
+errors do not explain the data (non-geometric errors, a model that is too small)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,22 +82,37 @@ class IdentificationResult:
     """The outcome of :func:`identify`.
 
     Attributes:
-        params: the parameters identified, on the nominal robot.
+        params: the parameters asked for, on the nominal robot.
         values: (P,) estimated errors relative to the nominal robot [m or rad]: the last
-            estimate if the fit did not converge, NaN if the data are rank deficient.
-        std: (P,) standard errors, sqrt(diag(σ² M⁻¹)) [m or rad].
+            estimate if the fit did not converge; 0 for a parameter the data cannot identify
+            (``dropped``); NaN if nothing is identifiable.
+        std: (P,) standard errors [m or rad] (NaN for a dropped parameter).
         correlation: (P, P) correlations of the estimates.
-        sigma: noise standard deviation per coordinate used for ``std`` [m].
+        sigma: noise standard deviation per coordinate used for ``std`` [m] (the median
+            per-point σ when the data have them).
         sigma_estimated: True when ``sigma`` was estimated from the residuals.
-        residuals: (m, K, 3) measured − calibrated model [m].
-        residuals_before: (m, K, 3) measured − nominal model [m].
-        iterations: Gauss–Newton iterations plus Levenberg–Marquardt Jacobian evaluations.
+        residuals: (m, K, 3) measured − calibrated model [m] (sessions stacked, rows rejected
+            as outliers included).
+        residuals_before: (m, K, 3) measured − nominal model [m], each session's base from the
+            initial rigid fit when ``base.*`` is identified.
+        iterations: Jacobian evaluations of the solver.
         status: one of :data:`STATUSES`.
         message: what happened, in words (why it failed and what to do, if it did).
-        method: ``"gauss-newton"`` or ``"levenberg-marquardt"`` (the one that finished).
-        robot: the robot of ``values``, ``params.apply(values)`` (the calibrated robot when
-            ``success``; the nominal robot when the data are rank deficient).
-        data: the measurements, in the robot's joint order.
+        method: the scipy ``least_squares`` method, ``"trf"`` or ``"lm"``.
+        robot: the robot of ``values`` (first session's base), ``params.apply(values)``.
+        data: the measurements, in the robot's joint order (sessions stacked).
+        check: the identifiability of ``params`` on these data (rank, condition number, ...).
+        dropped: ``{name: reason}`` for the parameters the data cannot identify (left nominal).
+        outliers: suspicious rows of the final fit, worst first.
+        rejected: rows dropped by ``reject``, in the order they were dropped.
+        loss: the loss function.
+        prior: the prior of a MAP fit, or None.
+        causes: the likely causes of an ``implausible`` result.
+        sessions: the data of each session (one file each).
+        bases: the instrument base of each session (``base`` of the robot in each instrument
+            frame; the identity when ``base.*`` is not identified).
+        initial_robot: the robot the "before" residuals are of (nominal, rigid-fit base).
+        initial_bases: each session's base of the "before" residuals (the rigid fits).
     """
 
     params: ParameterSet
@@ -80,6 +129,17 @@ class IdentificationResult:
     method: str
     robot: Robot
     data: MeasurementData
+    check: DataCheck | None = None
+    dropped: dict[str, str] = field(default_factory=dict)
+    outliers: tuple[Outlier, ...] = ()
+    rejected: tuple[Outlier, ...] = ()
+    loss: str = "linear"
+    prior: Prior | None = None
+    causes: tuple[str, ...] = ()
+    sessions: tuple[MeasurementData, ...] = ()
+    bases: tuple[pin.SE3, ...] = ()
+    initial_robot: Robot | None = None
+    initial_bases: tuple[pin.SE3, ...] = ()
 
     @property
     def success(self) -> bool:
@@ -93,21 +153,33 @@ class IdentificationResult:
 
     @property
     def covariance(self) -> np.ndarray:
-        """(P, P) covariance σ² M⁻¹ of the estimates [m², m·rad, rad²]."""
+        """(P, P) covariance of the estimates [m², m·rad, rad²]."""
         return self.correlation * np.outer(self.std, self.std)
+
+    @property
+    def condition_number(self) -> float:
+        """Condition number of the column-scaled data Jacobian of the parameters asked for."""
+        return self.check.condition_number if self.check is not None else float("nan")
 
     @property
     def residual_rms_before(self) -> float:
         """RMS distance between measured and nominal points [m] (over configurations and markers)."""
-        return _rms(self.residuals_before)
+        return _rms(self.residuals_before[self._used])
 
     @property
     def residual_rms_after(self) -> float:
-        """RMS distance between measured and calibrated points [m]."""
-        return _rms(self.residuals)
+        """RMS distance between measured and calibrated points [m] (rejected rows excluded)."""
+        return _rms(self.residuals[self._used])
+
+    @property
+    def _used(self) -> np.ndarray:
+        used = np.ones(len(self.residuals), dtype=bool)
+        used[[o.row for o in self.rejected]] = False
+        return used
 
     def as_dict(self) -> dict:
-        """JSON-ready summary: parameters (value, std, unit), residuals, status, markers, base."""
+        """JSON-ready summary: parameters (value, std, unit), residuals, status, markers, base,
+        data identifiability, outliers."""
         base = self.robot.base
         return {
             "params": {
@@ -120,32 +192,57 @@ class IdentificationResult:
             "status": self.status,
             "message": self.message,
             "method": self.method,
+            "loss": self.loss,
             "sigma": _num(self.sigma),
             "sigma_estimated": self.sigma_estimated,
             "m": self.data.m,
             "markers": self.robot.markers.tolist(),
-            "base": {
-                "xyz": base.translation.tolist(),
-                "rpy": pin.rpy.matrixToRpy(base.rotation).tolist(),
-            },
+            "base": _pose(base),
+            "bases": [_pose(b) for b in self.bases],
+            "condition_number": _num(self.condition_number),
+            "identifiability": self.check.as_dict() if self.check is not None else None,
+            "dropped": dict(self.dropped),
+            "outliers": [o.as_dict() for o in self.outliers],
+            "rejected": [o.as_dict() for o in self.rejected],
+            "causes": list(self.causes),
+            "prior": self.prior.as_dict() if self.prior is not None else None,
         }
 
     def report(self) -> str:
-        """A human-readable report: status, residuals, estimates ± standard errors (mm, mrad)."""
-        lines = [
-            f"{self.status}: {self.message}",
+        """A human-readable report: status, residuals, data identifiability, estimates ± standard
+        errors (mm, mrad), outliers."""
+        lines = [f"{self.status}: {self.message}"]
+        lines += [f"  likely cause: {c}" for c in self.causes]
+        lines += [
             f"residual RMS: {self.residual_rms_before * 1e3:.4g} mm before, "
             f"{self.residual_rms_after * 1e3:.4g} mm after ({self.data.m} configurations, "
             f"{self.data.n_markers} marker(s), {len(self.params)} parameters, {self.iterations} "
-            f"iterations, {self.method})",
+            f"iterations, {self.method}, loss {self.loss})",
             f"sigma: {self.sigma * 1e3:.4g} mm per coordinate"
             + (" (estimated from the residuals)" if self.sigma_estimated else " (given)"),
         ]
+        if self.prior is not None:
+            lines.append(f"prior: {self.prior} (MAP estimate)")
+        if self.check is not None:
+            lines.append(self.check.report())
         width = max(len(n) for n in self.names)
         for name, v, s, unit in zip(self.names, self.values, self.std, self.params.units, strict=True):
             shown = "mm" if unit == "m" else "mrad"
-            lines.append(f"  {name:{width}s} {v * 1e3:+11.5f} ± {s * 1e3:.5f} {shown}")
+            if name in self.dropped:
+                lines.append(f"  {name:{width}s} not identified (nominal)")
+            else:
+                lines.append(f"  {name:{width}s} {v * 1e3:+11.5f} ± {s * 1e3:.5f} {shown}")
+        if self.rejected:
+            lines.append(f"rejected {len(self.rejected)} row(s) and refitted:")
+            lines += [f"  {o}" for o in self.rejected]
+        if self.outliers:
+            lines.append(f"suspicious rows (over {OUTLIER_SCORE:g} robust sigma):")
+            lines += [f"  {o}" for o in self.outliers]
         return "\n".join(lines)
+
+
+def _pose(placement: pin.SE3) -> dict:
+    return {"xyz": placement.translation.tolist(), "rpy": pin.rpy.matrixToRpy(placement.rotation).tolist()}
 
 
 def _rms(residuals: np.ndarray) -> float:
@@ -157,284 +254,375 @@ def _num(v: float) -> float | None:
     return float(v) if np.isfinite(v) else None
 
 
-class _Problem:
-    """The least-squares problem r(x) = measured − g(q, params.apply(x)), with its Jacobian."""
-
-    def __init__(self, params: ParameterSet, data: MeasurementData) -> None:
-        self.params = params
-        self.qs = np.array(data.q)
-        self.measured = data.points.reshape(-1)
-        # Rotation errors compose on the right, R·exp3(ω): the Jacobian with respect to ω is the
-        # Jacobian of a perturbation on top of the current robot times the right Jacobian of exp3.
-        # That needs all three rotation columns of each rotated placement (and of the base).
-        groups: dict[tuple[str, int], list[int]] = {}
-        for i, p in enumerate(params.parameters):
-            if p.kind in ("placement", "base") and p.component >= 3:
-                groups.setdefault((p.kind, p.index), []).append(i)
-        prefix = {("base", 0): "base"}
-        extra = []
-        for kind, index in groups:
-            name = prefix.get((kind, index)) or params.robot.origins[index].name
-            extra += [f"{name}.{c}" for c in ("rx", "ry", "rz")]
-        self.augmented = ParameterSet.from_spec(params.robot, list(params.names) + extra)
-        self.D0 = np.zeros((len(self.augmented), len(params)))
-        self.rotations = []  # (augmented columns of rx ry rz, set columns, their components 0..2)
-        for i, name in enumerate(params.names):
-            self.D0[self.augmented.index(name), i] = 1.0
-        for (kind, index), cols in groups.items():
-            name = prefix.get((kind, index)) or params.robot.origins[index].name
-            aug = [self.augmented.index(f"{name}.{c}") for c in ("rx", "ry", "rz")]
-            comps = [params.parameters[i].component - 3 for i in cols]
-            self.rotations.append((aug, cols, comps))
-
-    def robot(self, x: np.ndarray) -> Robot:
-        return self.params.apply(x)
-
-    def residual(self, x: np.ndarray) -> np.ndarray:
-        return self.measured - self.robot(x).points(self.qs, check=False).reshape(-1)
-
-    def jacobian(self, x: np.ndarray) -> np.ndarray:
-        """(3Km, P) derivative of the model points with respect to x (= −∂r/∂x)."""
-        J = JacobianEngine(self.augmented.on(self.robot(x))).jacobian(self.qs, frame="world")
-        D = self.D0.copy()
-        for aug, cols, comps in self.rotations:
-            omega = np.zeros(3)
-            omega[comps] = x[cols]
-            Jr = pin.Jexp3(omega)
-            for col, comp in zip(cols, comps, strict=True):
-                D[aug, col] = Jr[:, comp]
-        return J.reshape(-1, J.shape[-1]) @ D
-
-
-def _rigid_fit(source: np.ndarray, target: np.ndarray) -> pin.SE3 | None:
-    """The rigid motion T minimising Σ‖T·source − target‖² (Kabsch), or None if degenerate."""
-    cs, ct = source.mean(axis=0), target.mean(axis=0)
-    A, B = source - cs, target - ct
-    if np.linalg.matrix_rank(A, tol=1e-9 * max(np.abs(A).max(), 1e-300)) < 2:
-        return None
-    U, _, Vt = np.linalg.svd(A.T @ B)
-    d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
-    R = Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
-    return pin.SE3(R, ct - R @ cs)
-
-
-def _initial(params: ParameterSet, data: MeasurementData) -> np.ndarray:
-    """Zero errors, except the base components, from a rigid fit when base.* is identified."""
-    x0 = np.zeros(len(params))
-    base = {p.component: i for i, p in enumerate(params.parameters) if p.kind == "base"}
-    if not base:
-        return x0
-    robot = params.robot
-    fit = _rigid_fit(robot.points(data.q, check=False).reshape(-1, 3), data.points.reshape(-1, 3))
-    if fit is None:
-        return x0
-    new = fit * robot.base
-    twist = np.concatenate(
-        [new.translation - robot.base.translation, pin.log3(robot.base.rotation.T @ new.rotation)]
-    )
-    for component, i in base.items():
-        x0[i] = twist[component]
-    return x0
-
-
-def _scaled_lstsq(J: np.ndarray, r: np.ndarray) -> np.ndarray:
-    scale = np.linalg.norm(J, axis=0)
-    scale[scale == 0] = 1.0
-    step, *_ = np.linalg.lstsq(J / scale, r, rcond=None)
-    return step / scale
-
-
-def _rank_deficiency(params: ParameterSet, J: np.ndarray, m: int, rows: int) -> str | None:
-    """Why ``J`` (stacked, at the start) cannot identify ``params``, or None if it can."""
-    norms = np.linalg.norm(J, axis=0)
-    visible = norms > ZERO_COLUMN * max(norms.max(), 1e-300)
-    scaled = np.where(visible, J / np.where(visible, norms, 1.0), 0.0)
-    _, s, Vt = np.linalg.svd(scaled, full_matrices=False)
-    threshold = np.sqrt(RCOND) * max(s[0], 1e-300)
-    if s[-1] > threshold and np.all(visible):
-        return None
-    rank = int(np.sum(s > threshold))
-    ident = params.identifiable()
-    if ident.dropped:
-        names = list(ident.dropped)
-        shown = ", ".join(names[:10]) + (f", ... ({len(names)} in all)" if len(names) > 10 else "")
-        return (
-            f"the data cannot identify the requested parameters: {len(names)} of the {len(params)} "
-            f"cannot be identified from position measurements at all ({shown}: "
-            f"{ident.dropped[names[0]]}); identify the identifiable set instead "
-            f"(params.identifiable().identifiable, --params {','.join(ident.identifiable.names)})"
+def _sessions(data: object, robot: Robot) -> list[MeasurementData]:
+    items = [data] if isinstance(data, MeasurementData) else data
+    if not isinstance(items, Sequence) or not items or not all(isinstance(d, MeasurementData) for d in items):
+        raise BadMeasurementData(
+            f"identify needs a MeasurementData or a list of them (one per session), got {type(data).__name__}"
         )
-    null = np.abs(Vt[s <= threshold]).max(axis=0) if rank < len(params) else np.zeros(len(params))
-    null[~visible] = 1.0
-    names = [params.names[i] for i in np.flatnonzero(null > 0.1)]
-    minimum = SingularPlan(len(params), rows, m).min_configurations
-    return (
-        f"the data cannot identify the requested parameters: the {m} configurations leave "
-        f"{', '.join(names)} inseparable (rank {rank} < {len(params)} parameters); measure more "
-        f"varied configurations (at least {minimum} are needed) or identify fewer parameters"
+    return [d.for_robot(robot) for d in items]
+
+
+def _stacked(sessions: list[MeasurementData]) -> MeasurementData:
+    if len(sessions) == 1:
+        return sessions[0]
+    sigma = None
+    if any(d.sigma is not None for d in sessions):
+        sigma = np.concatenate(
+            [d.sigma if d.sigma is not None else np.full(d.points.shape, np.nan) for d in sessions]
+        )
+    return MeasurementData(
+        np.concatenate([d.q for d in sessions]),
+        np.concatenate([d.points for d in sessions]),
+        sessions[0].joint_names,
+        sigma=None if sigma is None or np.isnan(sigma).any() else sigma,
+        source=" + ".join(str(d.source) for d in sessions),
     )
+
+
+def _labels(sessions: list[MeasurementData]) -> list[str]:
+    return [label for d in sessions for label in d.labels()]
+
+
+def _coordinate_sigma(sessions: list[MeasurementData], sigma: float | None) -> tuple[np.ndarray, float, bool]:
+    """(σ per coordinate, the reference σ, whether the data carry their own)."""
+    per_point = [d.sigma is not None for d in sessions]
+    if any(per_point) and not all(per_point):
+        raise BadMeasurementData("either every data file has uncertainty columns (s or sx,sy,sz), or none")
+    if all(per_point):
+        values = np.concatenate([d.sigma.reshape(-1) for d in sessions])
+        return values, float(np.median(values)), True
+    reference = DEFAULT_SIGMA if sigma is None else sigma
+    return np.full(sum(d.points.size for d in sessions), reference), reference, False
 
 
 def identify(
     params: ParameterSet,
-    data: MeasurementData,
+    data: MeasurementData | Sequence[MeasurementData],
     sigma: float | None = None,
-    max_iterations: int = 50,
+    max_iterations: int = 100,
     tol: float = 1e-10,
+    *,
+    prior: Prior | None = None,
+    loss: str = "linear",
+    method: str = "trf",
+    reject: float | None = None,
+    sanity: bool = True,
 ) -> IdentificationResult:
     """Identify the errors ``params`` from measurements (see the module doc).
 
     Args:
-        params: the parameters to identify, on the nominal robot (use an identifiable set:
+        params: the parameters to identify, on the nominal robot (e.g. the identifiable set
             ``robot.parameters(...).identifiable().identifiable``; add ``base`` with
-            ``identifiable(prefer="base")`` when the data are in the instrument's frame).
-        data: the measurements (any joint column order; the robot's markers, in order).
-        sigma: measurement noise per coordinate [m] for the standard errors; default: estimated
-            from the residuals.
-        max_iterations: Gauss–Newton iterations; the Levenberg–Marquardt fallback may use
-            2·max_iterations evaluations more.
-        tol: convergence threshold on each component of the correction, relative to 1 + |x|
-            [m or rad].
+            ``identifiable(prefer="base")`` when the data are in the instrument's frame). Those
+            the data cannot identify are left at zero (nominal) unless a ``prior`` is given.
+        data: the measurements (any joint column order; the robot's markers, in order), or a
+            list of them, one per session: each measured from its own instrument placement (one
+            base each when ``base.*`` is identified), all sharing the robot's parameters.
+        sigma: the instrument's noise per coordinate [m]; default: estimated from the residuals
+            for the standard errors, and :data:`DEFAULT_SIGMA` for the checks. Data with
+            uncertainty columns use theirs.
+        max_iterations: the solver's function evaluations (``max_nfev``).
+        tol: the solver's ``xtol`` (relative change of the estimate at convergence).
+        prior: a prior on the errors (MAP estimate; every parameter kept); the base is left free
+            unless the prior names it.
+        loss: ``linear``, ``huber``, ``soft_l1`` or ``cauchy``.
+        method: ``trf`` or ``lm`` (linear loss only).
+        reject: drop the rows beyond this many robust σ and refit, until none is left.
+        sanity: judge the result's plausibility (``False`` for simulations whose true errors are
+            known to be what they are, e.g. Monte-Carlo with huge errors).
 
     Returns:
-        the result; its ``status`` says whether it converged, and ``message`` why not (rank
-        deficient data: which parameters and what to identify instead; no convergence).
+        the result; its ``status`` says whether it converged, and ``message`` (and ``causes``)
+        why not.
 
     Raises:
         BadMeasurementData: data of the wrong joints or number of markers.
         BadConfiguration: a configuration outside the joint limits.
         SingularPlan: fewer measured coordinates than parameters (names the minimum number of
             configurations).
+        PincalError: a bad argument (named, with the valid values).
     """
     robot = params.robot
-    if not isinstance(data, MeasurementData):
-        raise BadMeasurementData(f"identify needs a MeasurementData, got {type(data).__name__}")
-    data = data.for_robot(robot)
-    if sigma is not None and not (np.isfinite(sigma) and sigma > 0):
-        raise PincalError(f"sigma must be a positive number of metres, got {sigma!r}")
-    if int(max_iterations) != max_iterations or max_iterations < 1:
+    sessions = _sessions(data, robot)
+    sigma = None if sigma is None else positive_sigma(sigma)
+    if isinstance(max_iterations, bool) or int(max_iterations) != max_iterations or max_iterations < 1:
         raise PincalError(f"max_iterations must be a positive integer, got {max_iterations!r}")
-    n_params, rows, m = len(params), 3 * robot.n_markers, data.m
-    if m * rows < n_params:
-        raise SingularPlan(n_params, rows, m)
+    if loss not in LOSSES:
+        raise PincalError(f"unknown loss {loss!r}; valid: {', '.join(LOSSES)}")
+    if method not in METHODS:
+        raise PincalError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+    if method == "lm" and loss != "linear":
+        raise PincalError(f"method 'lm' takes the linear loss only; use method 'trf' with loss {loss!r}")
+    if reject is not None and not (np.isfinite(reject) and reject > 0):
+        raise PincalError(f"reject must be a positive number of robust standard deviations, got {reject!r}")
+    if prior is not None and not isinstance(prior, Prior):
+        raise PincalError(f"prior must be a pincal.Prior (e.g. Prior.parse('1mm,1mrad')), got {prior!r}")
+    m, rows = sum(d.m for d in sessions), 3 * robot.n_markers
+    if m * rows < len(params):
+        raise SingularPlan(len(params), rows, m)
 
-    problem = _Problem(params, data)
-    before = data.points - robot.points(data.q, check=False)
-    x = _initial(params, data)
-    r = problem.residual(x)
-    J = problem.jacobian(x)
-    why = _rank_deficiency(params, J, m, rows)
-    if why is not None:
-        return _result(params, data, before, None, sigma, 0, "rank_deficient", why, "gauss-newton", problem)
+    coordinate_sigma, reference, per_point = _coordinate_sigma(sessions, sigma)
+    problem = Problem(params, sessions, coordinate_sigma)
+    z0 = initial_values(problem)
+    before = problem.residual(z0)
+    J0 = problem.jacobian(z0) / coordinate_sigma[:, None]
+    always = list(problem.base) + list(range(len(params), len(problem)))
+    order = (
+        preference_order(params, frozenset(params.names[i] for i in problem.base))
+        + always[len(problem.base) :]
+    )
+    check = check_information(problem.names, problem.units, J0.T @ J0, order, m, reference, always=always)
+    prior_std = _prior_std(prior, params, len(problem))
+    free = np.arange(len(problem)) if prior is not None else np.array(check.kept, dtype=int)
+    dropped = {} if prior is not None else dict(check.dropped)
+    labels = _labels(sessions)
+    distinct = len(np.unique(np.concatenate([d.q for d in sessions]), axis=0))
+    minimum = SingularPlan(len(params), rows, m).min_configurations
+    if free.size == 0 or (check.dropped and distinct < minimum):
+        why = (
+            f"the data cannot identify the parameters: {distinct} distinct configuration(s) for "
+            f"{len(params)} parameters (rank {check.rank}); measure more varied configurations (at "
+            f"least {minimum} are needed)"
+        )
+        return _result(problem, check, z0, None, before, "rank_deficient", why, 0, sigma, reference)
 
-    cost = float(r @ r)
-    tiny = r.size * 1e-24  # (1e-12 m)² per coordinate: rounding
-    iterations, converged, method = 0, False, "gauss-newton"
-    for _ in range(int(max_iterations)):
-        iterations += 1
-        step = _scaled_lstsq(J, r)
-        if not np.all(np.isfinite(step)):
-            break
-        x_new = x + step
-        r_new = problem.residual(x_new)
-        cost_new = float(r_new @ r_new)
-        small = bool(np.all(np.abs(step) <= tol * (1.0 + np.abs(x_new))))
-        if cost_new > cost * (1.0 + 1e-9) + tiny:
-            break  # Gauss–Newton failed to decrease: Levenberg–Marquardt from x
-        x, r, cost = x_new, r_new, cost_new
-        if small:
-            converged = True
-            break
-        J = problem.jacobian(x)
+    def fit(used: np.ndarray, fit_loss: str, z_start: np.ndarray) -> tuple[np.ndarray, int, bool, str]:
+        return _solve(
+            problem,
+            free,
+            used,
+            z_start,
+            prior_std,
+            fit_loss,
+            method,
+            max_iterations,
+            tol,
+            per_point or sigma is not None,
+        )
 
-    note = ""
-    if not converged:
-        method = "levenberg-marquardt"
-        x_lm, n_lm, converged, note = _levenberg_marquardt(problem, x, 2 * int(max_iterations), tol)
-        iterations += n_lm
-        if x_lm is not None:
-            r_lm = problem.residual(x_lm)
-            if float(r_lm @ r_lm) <= cost * (1.0 + 1e-9) + tiny:
-                x, r, cost = x_lm, r_lm, float(r_lm @ r_lm)
-    if converged:
+    used = np.ones(m, dtype=bool)
+    rejected: list[Outlier] = []
+    if reject is not None:
+        for _ in range(10):
+            z_scoring, *_ = fit(used, "soft_l1" if loss == "linear" else loss, z0)
+            distance, score = row_scores(problem.residual(z_scoring), coordinate_sigma, m)
+            score[~used] = 0.0
+            new = [i for i in np.argsort(-score) if score[i] > reject]
+            if not new:
+                break
+            rejected += [Outlier(int(i), labels[i], float(distance[i]), float(score[i])) for i in new]
+            used[new] = False
+        if used.sum() * rows < free.size:
+            raise SingularPlan(free.size, rows, int(used.sum()))
+    z, iterations, converged, note = fit(used, loss, z0)
+    if z is None:
+        return _result(
+            problem,
+            check,
+            z0,
+            None,
+            before,
+            "failed",
+            f"identification {note}",
+            iterations,
+            sigma,
+            reference,
+            dropped,
+        )
+    residual = problem.residual(z)
+    keep = np.repeat(used, residual.size // m)
+    outliers = tuple(
+        o for o in find_outliers(np.where(keep, residual, 0.0), coordinate_sigma, labels) if used[o.row]
+    )
+    before_rms = _rms(before.reshape(m, -1, 3)[used])
+    after_rms = _rms(residual.reshape(m, -1, 3)[used])
+    problems = implausible(params, z[: len(params)], before_rms, after_rms, reference) if sanity else []
+    if not converged:  # an unfinished estimate is judged by its data only
+        problems = [p for p in problems if "before calibration" in p]
+    causes: tuple[str, ...] = ()
+    if problems:
+        status = "implausible"
+        causes = tuple(likely_causes(problem, z, problems))
+        message = (
+            "no real robot has this: "
+            + "; ".join(problems)
+            + " (not a calibration; --force writes it anyway)"
+        )
+    elif converged:
         status = "converged"
-        message = f"{iterations} iteration(s) of {method}"
-        if method != "gauss-newton":
-            message += f", after Gauss–Newton stalled ({note.rstrip('.')})"
-    elif note.startswith("failed"):
-        status, message = "failed", f"identification {note}"
+        message = f"{iterations} Jacobian evaluation(s) of scipy least_squares ({method}, loss {loss})"
+        if dropped:
+            message += (
+                f"; {len(dropped)} parameter(s) the data cannot identify left nominal: {', '.join(dropped)}"
+            )
+        message += _warnings(
+            after_rms, residual[keep], coordinate_sigma[keep], per_point or sigma is not None, len(free)
+        )
     else:
         status = "not_converged"
         message = (
-            f"no convergence after {iterations} iteration(s) ({note or 'iteration limit'}); the "
-            f"last estimate is not a calibration. Check the data (units: --mm, --deg; markers; a "
-            f"base frame: identify base.*) or allow more iterations"
+            f"no convergence after {iterations} Jacobian evaluation(s) ({note}); the last estimate is "
+            f"not a calibration: allow more iterations (max_iterations, --max-iterations)"
         )
-    return _result(params, data, before, x, sigma, iterations, status, message, method, problem)
+    return _result(
+        problem, check, z0, z, before, status, message, iterations, sigma, reference, dropped,
+        free=free, used=used, outliers=outliers, rejected=tuple(rejected), loss=loss, prior=prior,
+        prior_std=prior_std, causes=causes, method=method, per_point=per_point,
+    )  # fmt: skip
 
 
-def _levenberg_marquardt(
-    problem: _Problem, x0: np.ndarray, max_nfev: int, tol: float
+def _prior_std(prior: Prior | None, params: ParameterSet, n: int) -> np.ndarray:
+    """(n,) prior std of every unknown (inf: none); bases free unless the prior names them."""
+    std = np.full(n, np.inf)
+    if prior is None:
+        return std
+    std[: len(params)] = prior.std(params)
+    named = set()
+    for key in prior.overrides:
+        named.update(params.select(key).names if any(p.kind == "base" for p in params) else ())
+    for i, p in enumerate(params):
+        if p.kind == "base" and p.name not in named:
+            std[i] = np.inf
+    return std
+
+
+def _solve(
+    problem: Problem,
+    free: np.ndarray,
+    used: np.ndarray,
+    z0: np.ndarray,
+    prior_std: np.ndarray,
+    loss: str,
+    method: str,
+    max_iterations: int,
+    tol: float,
+    sigma_known: bool,
+    robust_scale: float | None = None,
 ) -> tuple[np.ndarray | None, int, bool, str]:
-    """(estimate or None, Jacobian evaluations, converged, note) of scipy's LM from ``x0``."""
+    """(estimate or None, Jacobian evaluations, converged, scipy's message) of least_squares."""
     from scipy.optimize import least_squares  # imported on first use (it is slow to import)
 
+    keep = np.repeat(used, problem.measured.size // len(used))
+    w = 1.0 / problem.sigma[keep]
+    priors = np.flatnonzero(np.isfinite(prior_std[free]))
+    inv_prior = 1.0 / prior_std[free][priors]
+
+    def unknowns(zf: np.ndarray) -> np.ndarray:
+        z = z0.copy()
+        z[free] = zf
+        return z
+
+    def fun(zf: np.ndarray) -> np.ndarray:
+        z = unknowns(zf)
+        e = -problem.residual(z)[keep] * w
+        return np.concatenate([e, zf[priors] * inv_prior])
+
+    def jac(zf: np.ndarray) -> np.ndarray:
+        J = problem.jacobian(unknowns(zf))[np.ix_(keep, free)] * w[:, None]
+        P = np.zeros((priors.size, free.size))
+        P[np.arange(priors.size), priors] = inv_prior
+        return np.vstack([J, P])
+
+    f_scale = 1.0
+    if loss != "linear" and not sigma_known:
+        # σ unknown: its robust estimate from a plain fit, then from the robust fit, until stable
+        z_prev, loss_prev, scale = z0, "linear", None
+        for _ in range(5):
+            z_prev, *_ = _solve(
+                problem, free, used, z_prev, prior_std, loss_prev, method, max_iterations, tol, True, scale
+            )
+            if z_prev is None:
+                break
+            new_scale = max(robust_sigma(-problem.residual(z_prev)[keep] * w), 1e-12)
+            if scale is not None and abs(new_scale - scale) < 0.05 * scale:
+                break
+            scale, loss_prev = new_scale, loss
+        f_scale = ROBUST_SCALE * (scale or 1.0)
+    elif loss != "linear":
+        f_scale = ROBUST_SCALE * (1.0 if robust_scale is None else robust_scale)
+    if method == "lm" and fun(z0[free]).size < free.size:
+        method = "trf"
     try:
         solution = least_squares(
-            lambda x: -problem.residual(x),
-            x0,
-            jac=problem.jacobian,
-            method="lm",
+            fun,
+            z0[free],
+            jac=jac,
+            method=method,
+            loss=loss,
+            f_scale=f_scale,
             x_scale="jac",
-            xtol=min(tol, 1e-8),
+            xtol=min(tol, 1e-8) if method == "lm" else tol,
             ftol=1e-15,
             gtol=1e-15,
-            max_nfev=max(max_nfev, 1),
+            max_nfev=int(max_iterations),
         )
     except (ValueError, ArithmeticError, np.linalg.LinAlgError, PincalError) as exc:
         text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        return None, 0, False, f"failed: Levenberg–Marquardt stopped on {text}"
-    njev = int(solution.njev or 0)
+        return None, 0, False, f"failed: least_squares stopped on {text}"
+    njev = int(solution.njev or solution.nfev or 0)
     if not np.all(np.isfinite(solution.x)):
-        return None, njev, False, "failed: Levenberg–Marquardt diverged"
-    return solution.x, njev, solution.status > 0, solution.message
+        return None, njev, False, "failed: least_squares diverged"
+    return unknowns(solution.x), njev, solution.status > 0, solution.message
 
 
 def _result(
-    params: ParameterSet,
-    data: MeasurementData,
+    problem: Problem,
+    check: DataCheck,
+    z0: np.ndarray,
+    z: np.ndarray | None,
     before: np.ndarray,
-    x: np.ndarray | None,
-    sigma: float | None,
-    iterations: int,
     status: str,
     message: str,
-    method: str,
-    problem: _Problem,
+    iterations: int,
+    sigma: float | None,
+    reference: float,
+    dropped: dict[str, str] | None = None,
+    *,
+    free: np.ndarray | None = None,
+    used: np.ndarray | None = None,
+    outliers: tuple[Outlier, ...] = (),
+    rejected: tuple[Outlier, ...] = (),
+    loss: str = "linear",
+    prior: Prior | None = None,
+    prior_std: np.ndarray | None = None,
+    causes: tuple[str, ...] = (),
+    method: str = "trf",
+    per_point: bool = False,
 ) -> IdentificationResult:
-    n = len(params)
-    estimated = sigma is None
-    if x is None:  # rank deficient: no estimate
+    params, sessions = problem.params, list(problem.sessions)
+    n, m = len(params), sum(d.m for d in sessions)
+    estimated = sigma is None and not per_point
+    shape = (m, params.robot.n_markers, 3)
+    if z is None:
         values, std, correlation = np.full(n, np.nan), np.full(n, np.nan), np.full((n, n), np.nan)
-        robot, residuals = params.robot, before
-        sigma = np.nan if estimated else sigma
+        robot, residuals = problem.robot(z0), before.reshape(shape)
+        sigma_out = np.nan if estimated else reference
+        z_final = z0
     else:
-        values, robot = x.copy(), problem.robot(x)
-        residuals = data.points - robot.points(data.q, check=False)
-        dof = residuals.size - n
-        per_coordinate = float(np.sqrt(np.sum(residuals**2) / dof)) if dof > 0 else np.nan
-        sigma = per_coordinate if estimated else sigma
-        std, correlation = _covariance(problem.jacobian(x), float(sigma))
-        if status == "converged":
-            message += _warnings(_rms(residuals), per_coordinate, None if estimated else sigma)
-    for array in (values, std, correlation, residuals, before):
+        values, robot = z[:n].copy(), problem.robot(z)
+        residuals = problem.residual(z).reshape(shape)
+        used = np.ones(m, dtype=bool) if used is None else used
+        keep = np.repeat(used, 3 * params.robot.n_markers)
+        dof = int(keep.sum()) - len(free)
+        per_coordinate = float(np.sqrt(np.sum(residuals.reshape(-1)[keep] ** 2) / dof)) if dof > 0 else np.nan
+        sigma_out = per_coordinate if estimated else reference
+        std, correlation = _covariance(
+            problem, z, free, keep, prior_std, per_coordinate if estimated and prior is None else None
+        )
+        z_final = z
+    bases = tuple(problem.robot(z_final, s).base for s in range(len(sessions))) if problem.base else ()
+    initial_bases = tuple(problem.robot(z0, s).base for s in range(len(sessions))) if problem.base else ()
+    for array in (values, std, correlation, residuals):
         array.flags.writeable = False
+    before = before.reshape(shape)
+    before.flags.writeable = False
     return IdentificationResult(
         params=params,
         values=values,
         std=std,
         correlation=correlation,
-        sigma=float(sigma),
+        sigma=float(sigma_out),
         sigma_estimated=estimated,
         residuals=residuals,
         residuals_before=before,
@@ -443,39 +631,66 @@ def _result(
         message=message,
         method=method,
         robot=robot,
-        data=data,
+        data=_stacked(sessions),
+        check=check,
+        dropped=dict(dropped or {}),
+        outliers=outliers,
+        rejected=rejected,
+        loss=loss,
+        prior=prior,
+        causes=causes,
+        sessions=tuple(sessions),
+        bases=bases,
+        initial_robot=problem.robot(z0),
+        initial_bases=initial_bases,
     )
 
 
-def _warnings(rms: float, per_coordinate: float, sigma: float | None) -> str:
+def _covariance(
+    problem: Problem,
+    z: np.ndarray,
+    free: np.ndarray,
+    keep: np.ndarray,
+    prior_std: np.ndarray,
+    scale_to: float | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(std, correlation) of the parameters: (JᵀWJ + Σp⁻¹)⁻¹ over the free unknowns, scaled to
+    σ̂² when σ is estimated; NaN for the parameters left out."""
+    n = len(problem.params)
+    J = problem.jacobian(z)[np.ix_(keep, free)] / problem.sigma[keep, None]
+    M = J.T @ J + np.diag(np.where(np.isfinite(prior_std[free]), 1.0 / prior_std[free] ** 2, 0.0))
+    d = np.sqrt(np.diag(M))
+    d[d == 0] = 1.0
+    std, correlation = np.full(n, np.nan), np.full((n, n), np.nan)
+    try:
+        cov = np.linalg.inv(M / np.outer(d, d)) / np.outer(d, d)
+    except np.linalg.LinAlgError:
+        return std, correlation
+    if scale_to is not None:
+        cov = cov * (scale_to / np.median(problem.sigma)) ** 2
+    inside = free < n
+    idx = free[inside]
+    sub = cov[np.ix_(inside, inside)]
+    std[idx] = np.sqrt(np.clip(np.diag(sub), 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        correlation[np.ix_(idx, idx)] = sub / np.outer(std[idx], std[idx])
+    return std, correlation
+
+
+def _warnings(rms: float, r: np.ndarray, sigma: np.ndarray, known: bool, n_free: int) -> str:
     """What a converged fit's residuals say about the data, as a message suffix."""
+    dof = r.size - n_free
+    if dof <= 0:
+        return "; as many parameters as measured coordinates: no residual degrees of freedom"
+    chi = float(np.sqrt(np.sum((r / sigma) ** 2) / dof))
     if rms > POOR_FIT:
         return (
             f"; but the residuals stay at {rms * 1e3:.3g} mm RMS, more than geometric errors explain: "
-            f"check the units (--mm, --deg), the marker position(s), and whether the data are in the "
-            f"instrument's frame (identify base.*)"
+            f"non-geometric errors (compliance, gear errors) or parameters missing from the set"
         )
-    if sigma is not None and per_coordinate > 3 * sigma:
+    if known and chi > 3:
         return (
-            f"; the residuals ({per_coordinate * 1e3:.3g} mm per coordinate) are over 3 times the given "
-            f"sigma: the data hold errors the model does not"
+            f"; the residuals are {chi:.3g} times the instrument's sigma per coordinate: the data "
+            f"hold errors the model does not"
         )
-    if np.isnan(per_coordinate):
-        return "; as many parameters as measured coordinates: no residual degrees of freedom"
     return ""
-
-
-def _covariance(J: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
-    """(std, correlation) of σ² (JᵀJ)⁻¹, computed on the column-scaled Jacobian."""
-    n = J.shape[1]
-    d = np.linalg.norm(J, axis=0)
-    d[d == 0] = 1.0
-    try:
-        inverse = np.linalg.inv((J / d).T @ (J / d))
-    except np.linalg.LinAlgError:
-        return np.full(n, np.inf), np.full((n, n), np.nan)
-    cov = sigma**2 * inverse / np.outer(d, d)
-    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        correlation = cov / np.outer(std, std)
-    return std, correlation

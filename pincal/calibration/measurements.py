@@ -13,6 +13,10 @@ CSV format (read by :meth:`MeasurementData.from_csv`, written by :meth:`Measurem
 * the measured coordinates: ``x,y,z`` for one marker, ``x0,y0,z0,x1,y1,z1,...`` for several
   (``x0,y0,z0`` is accepted for one), in metres, or millimetres with ``millimetres=True``
   (``--mm``); marker k is the k-th ``--marker`` of the robot;
+* optionally, the instrument's standard uncertainty of each point, per coordinate: ``s`` (one
+  value for x, y and z) or ``sx,sy,sz``, for every marker, or ``s0,s1,...``/``sx0,sy0,sz0,...``
+  per marker; in the unit of the coordinates (metres, millimetres with ``--mm``). Identification
+  weights each coordinate by 1/s²;
 * a row with a missing, empty, non-numeric, NaN or infinite cell, the wrong number of cells, or a
   joint value outside the joint limits is an error naming the file and its line; nothing is
   silently dropped.
@@ -37,6 +41,7 @@ from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
 from pincal.model.robot import Robot
 
 _MEASURED = re.compile(r"^([xyz])(\d*)$")
+_SIGMA = re.compile(r"^s([xyz]?)(\d*)$")
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,6 +54,8 @@ class MeasurementData:
         joint_names: the joint of each column of ``q``.
         lines: the line of each configuration in its source file (for messages), or None.
         source: the file the data came from, or None.
+        sigma: (m, K, 3) standard uncertainty of each measured coordinate [m], read-only, or None
+            (the same unknown σ for all).
     """
 
     q: np.ndarray
@@ -56,6 +63,7 @@ class MeasurementData:
     joint_names: tuple[str, ...]
     lines: tuple[int, ...] | None = None
     source: str | None = None
+    sigma: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         try:
@@ -83,6 +91,20 @@ class MeasurementData:
         lines = None if self.lines is None else tuple(int(n) for n in self.lines)
         if lines is not None and len(lines) != len(q):
             raise BadMeasurementData(f"measurements: {len(lines)} line numbers for {len(q)} rows")
+        sigma = None
+        if self.sigma is not None:
+            try:
+                sigma = np.broadcast_to(np.array(self.sigma, dtype=float), points.shape).copy()
+            except (TypeError, ValueError):
+                raise BadMeasurementData(
+                    f"measurements: sigma must be one value or one per point coordinate {points.shape}, "
+                    f"got shape {np.shape(self.sigma)}"
+                ) from None
+            if not np.all(np.isfinite(sigma) & (sigma > 0)):
+                i = int(np.argwhere(~(np.isfinite(sigma) & (sigma > 0)))[0][0])
+                raise BadMeasurementData(f"{self.labels_of(lines)[i]}: sigma must be positive and finite")
+            sigma.flags.writeable = False
+        object.__setattr__(self, "sigma", sigma)
         q.flags.writeable = False
         points.flags.writeable = False
         object.__setattr__(self, "q", q)
@@ -105,9 +127,21 @@ class MeasurementData:
 
     def labels(self) -> list[str]:
         """How messages name each row: the file and line, or the row index."""
-        if self.lines is not None and self.source is not None:
-            return [f"measurement file {self.source!r}, line {n}" for n in self.lines]
-        return [f"measurement {i}" for i in range(self.m)]
+        return self.labels_of(self.lines)
+
+    def labels_of(self, lines: tuple[int, ...] | None) -> list[str]:
+        if lines is not None and self.source is not None:
+            return [f"measurement file {self.source!r}, line {n}" for n in lines]
+        if lines is not None:  # rows of a subset: their index in the data they came from
+            return [f"measurement {n}" for n in lines]
+        return [f"measurement {i}" for i in range(len(self.q))]
+
+    def subset(self, rows: object) -> MeasurementData:
+        """The data of some rows (indices or a boolean mask); their labels, lines and σ kept."""
+        index = np.arange(self.m)[np.asarray(rows)]
+        lines = tuple(int(i) for i in index) if self.lines is None else tuple(self.lines[i] for i in index)
+        sigma = None if self.sigma is None else self.sigma[index]
+        return MeasurementData(self.q[index], self.points[index], self.joint_names, lines, self.source, sigma)
 
     def for_robot(self, robot: Robot) -> MeasurementData:
         """These data with columns in ``robot``'s joint order, checked against the robot.
@@ -124,7 +158,7 @@ class MeasurementData:
         robot.check_limits(q, self.labels(), degrees=False)
         if names == self.joint_names:
             return self
-        return MeasurementData(q, self.points, names, self.lines, self.source)
+        return MeasurementData(q, self.points, names, self.lines, self.source, self.sigma)
 
     def _where(self) -> str:
         return f"measurement file {self.source!r}" if self.source else "the measurements"
@@ -158,7 +192,8 @@ class MeasurementData:
         header, rows, lines = read_numeric_csv(path, what="measurement", error=BadMeasurementData)
         where = f"measurement file {source!r}"
         measured = [h for h in header if _MEASURED.match(h)]
-        joints = [h for h in header if not _MEASURED.match(h)]
+        uncertain = [h for h in header if _SIGMA.match(h)]
+        joints = [h for h in header if not (_MEASURED.match(h) or _SIGMA.match(h))]
         _check_joint_names(tuple(joints), robot.joint_names, where)
         columns = _measured_columns(measured, where)
         K = len(columns) // 3
@@ -166,10 +201,15 @@ class MeasurementData:
         if degrees:
             q = robot.to_radians(q)
         points = rows[:, [header.index(c) for c in columns]].reshape(len(rows), K, 3)
+        sigma = _sigma_columns(header, rows, uncertain, K, where)
         if millimetres:
             points = points / 1000.0
+            sigma = None if sigma is None else sigma / 1000.0
         _check_markers(K, robot, where)
-        data = cls(q, points, robot.joint_names, tuple(lines), source)
+        if sigma is not None and not np.all(sigma > 0):
+            row = int(np.argwhere(~(sigma > 0))[0][0])
+            raise BadMeasurementData(f"{where}, line {lines[row]}: the uncertainty s must be positive")
+        data = cls(q, points, robot.joint_names, tuple(lines), source, sigma)
         robot.check_limits(q, data.labels(), degrees)
         return data
 
@@ -198,10 +238,14 @@ class MeasurementData:
         points = self.points * (1000.0 if millimetres else 1.0)
         K = self.n_markers
         coords = ["x", "y", "z"] if K == 1 else [f"{c}{k}" for k in range(K) for c in "xyz"]
+        values = [q, points.reshape(len(points), -1)]
+        if self.sigma is not None:
+            coords += ["s" + c for c in coords]
+            values.append(self.sigma.reshape(len(points), -1) * (1000.0 if millimetres else 1.0))
         out = io.StringIO()
         out.write(",".join(list(self.joint_names) + coords) + "\n")
-        for qi, pi in zip(q, points.reshape(len(points), -1), strict=True):
-            out.write(",".join(repr(float(v)) for v in (*qi, *pi)) + "\n")
+        for row in np.hstack(values):
+            out.write(",".join(repr(float(v)) for v in row) + "\n")
         return out.getvalue()
 
     def to_csv(
@@ -259,3 +303,25 @@ def _measured_columns(measured: list[str], where: str) -> list[str]:
             + (f"; unexpected {', '.join(extra)}" if extra else "")
         )
     return expected
+
+
+def _sigma_columns(
+    header: list[str], rows: np.ndarray, columns: list[str], K: int, where: str
+) -> np.ndarray | None:
+    """(m, K, 3) uncertainties from s / sx,sy,sz / s0.. / sx0,sy0,sz0.. columns, or None."""
+    if not columns:
+        return None
+    valid = "s, or sx,sy,sz, for every marker; or s0,s1,... or sx0,sy0,sz0,... per marker"
+    out = np.empty((len(rows), K, 3))
+    for k in range(K):
+        for c, axis in enumerate("xyz"):
+            for name in (f"s{axis}{k}", f"s{k}", f"s{axis}", "s"):
+                if name in columns:
+                    out[:, k, c] = rows[:, header.index(name)]
+                    break
+            else:
+                raise BadMeasurementData(
+                    f"{where}: uncertainty columns {','.join(columns)} leave {axis}{k if K > 1 else ''} "
+                    f"without one; valid: {valid}"
+                )
+    return out

@@ -6,8 +6,11 @@ cov(Π̂) = σ² M⁻¹ with M = Σᵢ JᵢᵀJᵢ = JᵀJ, the *information mat
 
 Every test of singularity, rank and conditioning in pincal goes through this module:
 :func:`factor` (Cholesky with a scale-free singularity test), :func:`rank` and
-:func:`conditioning` (smallest eigenvalue of the Jacobi-scaled M), all on :func:`jacobi_scaled`;
-and :func:`independent_columns`, the greedy choice of a base set among unit columns.
+:func:`conditioning` (smallest eigenvalue of the Jacobi-scaled M), :func:`condition_number`
+(σ_max/σ_min of the column-scaled Jacobian), :func:`weakest` (the least determined parameter
+combinations) and :func:`covariance_diagonal` (diag M⁻¹, or None for a singular M), all on
+:func:`jacobi_scaled`; and :func:`independent_columns`, the greedy choice of a base set among
+unit columns.
 """
 
 from __future__ import annotations
@@ -112,6 +115,38 @@ def rank(M: np.ndarray) -> int:
     """Numerical rank of M, from the eigenvalues of its Jacobi scaling (zero columns: rank 0)."""
     w = np.linalg.eigvalsh(jacobi_scaled(M, ZERO_COLUMN)[1])
     return int(np.sum(w > RCOND * max(w.max(), 1e-300)))
+
+
+def condition_number(M: np.ndarray) -> float:
+    """σ_max/σ_min of the column-scaled Jacobian, sqrt(λ_max/λ_min) of the Jacobi-scaled M:
+    1 for orthogonal columns, unchanged by the parameters' units, ``inf`` when M is singular
+    (rank below its size by the RCOND test of :func:`rank`)."""
+    w = np.linalg.eigvalsh(jacobi_scaled(M, ZERO_COLUMN)[1])
+    if w[0] <= RCOND * max(w[-1], 1e-300):
+        return float("inf")
+    return float(np.sqrt(w[-1] / w[0]))
+
+
+def weakest(M: np.ndarray, count: int = 3) -> list[tuple[float, np.ndarray]]:
+    """The ``count`` least determined directions of the column-scaled Jacobian, weakest first:
+    ``(σ_i/σ_max, v_i)`` with v_i a unit vector of coefficients on the unit-scaled parameters
+    (a combination Σ v_ij·Π_j/‖J_j‖ that moves the points by σ_i only)."""
+    w, V = np.linalg.eigh(jacobi_scaled(M, ZERO_COLUMN)[1])
+    top = max(w[-1], 1e-300)
+    return [(float(np.sqrt(max(w[i], 0.0) / top)), V[:, i]) for i in range(min(count, len(w)))]
+
+
+def covariance_diagonal(M: np.ndarray) -> np.ndarray | None:
+    """diag(M⁻¹) by a Cholesky factor of the Jacobi-scaled M, or None when M is singular by the
+    test of :func:`factor` (the standard errors are then σ·sqrt of it)."""
+    d, scaled = jacobi_scaled(M)
+    if d.size == 0 or d.min() <= ZERO_COLUMN * d.max():
+        return None
+    L, info = _potrf(scaled, lower=1, clean=1, overwrite_a=0)
+    if info != 0 or L.diagonal().min() ** 2 < RCOND * L.diagonal().max() ** 2:
+        return None
+    Linv = np.linalg.inv(np.tril(L))
+    return np.sum(Linv**2, axis=0) / d**2
 
 
 def conditioning(M: np.ndarray) -> float:

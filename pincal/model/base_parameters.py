@@ -74,7 +74,7 @@ class Identifiability:
         return "\n".join(lines)
 
 
-def _preference(params: ParameterSet, prefer: frozenset[str] = frozenset()) -> list[int]:
+def preference_order(params: ParameterSet, prefer: frozenset[str] = frozenset()) -> list[int]:
     """Indices of ``params`` in the order the base set prefers them (names in ``prefer`` first)."""
     origins = params.robot.origins
 
@@ -121,7 +121,7 @@ def identifiability(
     singular_values = np.linalg.svd(A, compute_uv=False)
 
     preferred = frozenset(robot.parameters(prefer).names) if split_spec(prefer) else frozenset()
-    order = [i for i in _preference(params, preferred) if visible[i]]
+    order = [i for i in preference_order(params, preferred) if visible[i]]
     kept, distance = independent_columns(A, order, tol)
     names = params.names
     dropped: dict[str, str] = {}

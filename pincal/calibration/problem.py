@@ -1,0 +1,172 @@
+"""The least-squares problem of identification: residuals and their analytic Jacobian.
+
+Unknowns z = (x, b₂, ..., b_S): x the values of a :class:`~pincal.ParameterSet` (total errors
+relative to the nominal robot, SPEC §2) shared by every session, and, when the set holds
+``base.*``, one more base for each extra session (data file measured from another instrument
+placement): session s uses x with its base components replaced by b_s. The points of session s are
+``params.apply(x_s).points(q_s)``.
+
+Rotation errors compose on the right, R·exp3(ω): the Jacobian with respect to ω is the Jacobian of
+a perturbation on top of the current robot (:meth:`ParameterSet.on`, Pinocchio's kinematic
+regressor) times the right Jacobian of exp3.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from pincal.calibration.measurements import MeasurementData
+from pincal.model.jacobian import JacobianEngine
+from pincal.model.parameters import ParameterSet
+from pincal.model.robot import Robot
+
+
+class Problem:
+    """measured − model over sessions, with per-coordinate weights 1/σ.
+
+    Attributes:
+        params: the shared parameter set.
+        sessions: the data of each session, in the robot's joint order.
+        base: indices of the ``base.*`` parameters in ``params``.
+        names: the name of each unknown (``base2.tx`` ... for the bases of extra sessions).
+        units: the unit of each unknown.
+        measured: (N,) the measured coordinates, sessions stacked.
+        sigma: (N,) the standard uncertainty of each coordinate [m].
+    """
+
+    def __init__(self, params: ParameterSet, sessions: Sequence[MeasurementData], sigma: np.ndarray) -> None:
+        self.params = params
+        self.sessions = tuple(sessions)
+        self.base = [i for i, p in enumerate(params) if p.kind == "base"]
+        extra = [(s, params.names[i]) for s in range(2, len(self.sessions) + 1) for i in self.base]
+        self.names = params.names + tuple(f"base{s}.{name.split('.', 1)[1]}" for s, name in extra)
+        self.units = params.units + tuple(params.units[i] for i in self.base) * (len(self.sessions) - 1)
+        self.measured = np.concatenate([d.points.reshape(-1) for d in self.sessions])
+        self.sigma = np.asarray(sigma, dtype=float)
+        self._rows = np.cumsum([0] + [d.points.size for d in self.sessions])
+        # Rotation components need all three rotation columns of their placement (and base).
+        groups: dict[tuple[str, int], list[int]] = {}
+        for i, p in enumerate(params.parameters):
+            if p.kind in ("placement", "base") and p.component >= 3:
+                groups.setdefault((p.kind, p.index), []).append(i)
+        extra_names = []
+        for kind, index in groups:
+            name = "base" if kind == "base" else params.robot.origins[index].name
+            extra_names += [f"{name}.{c}" for c in ("rx", "ry", "rz")]
+        self.augmented = ParameterSet.from_spec(params.robot, list(params.names) + extra_names)
+        self.D0 = np.zeros((len(self.augmented), len(params)))
+        for i, name in enumerate(params.names):
+            self.D0[self.augmented.index(name), i] = 1.0
+        self.rotations = []  # (augmented columns of rx ry rz, set columns, their components 0..2)
+        for (kind, index), cols in groups.items():
+            name = "base" if kind == "base" else params.robot.origins[index].name
+            aug = [self.augmented.index(f"{name}.{c}") for c in ("rx", "ry", "rz")]
+            self.rotations.append((aug, cols, [params.parameters[i].component - 3 for i in cols]))
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def session_values(self, z: np.ndarray, s: int) -> np.ndarray:
+        """x_s: the parameter values session s uses (its own base)."""
+        x = np.array(z[: len(self.params)])
+        if s > 0 and self.base:
+            nb = len(self.base)
+            start = len(self.params) + (s - 1) * nb
+            x[self.base] = z[start : start + nb]
+        return x
+
+    def robot(self, z: np.ndarray, s: int = 0) -> Robot:
+        """The robot of session s (its base) for unknowns z."""
+        return self.params.apply(self.session_values(z, s))
+
+    def model(self, z: np.ndarray) -> np.ndarray:
+        """(N,) model coordinates, sessions stacked."""
+        return np.concatenate(
+            [self.robot(z, s).points(d.q, check=False).reshape(-1) for s, d in enumerate(self.sessions)]
+        )
+
+    def residual(self, z: np.ndarray) -> np.ndarray:
+        """(N,) measured − model [m]."""
+        return self.measured - self.model(z)
+
+    def _jacobian_x(self, x: np.ndarray, qs: np.ndarray) -> np.ndarray:
+        J = JacobianEngine(self.augmented.on(self.params.apply(x))).jacobian(qs, frame="world")
+        D = self.D0.copy()
+        for aug, cols, comps in self.rotations:
+            omega = np.zeros(3)
+            omega[comps] = x[cols]
+            Jr = pin.Jexp3(omega)
+            for col, comp in zip(cols, comps, strict=True):
+                D[aug, col] = Jr[:, comp]
+        return J.reshape(-1, J.shape[-1]) @ D
+
+    def jacobian(self, z: np.ndarray) -> np.ndarray:
+        """(N, len(self)) derivative of the model coordinates with respect to z (= −∂r/∂z)."""
+        P, nb = len(self.params), len(self.base)
+        out = np.zeros((self.measured.size, len(self)))
+        for s, data in enumerate(self.sessions):
+            rows = slice(self._rows[s], self._rows[s + 1])
+            Jx = self._jacobian_x(self.session_values(z, s), data.q)
+            if s == 0 or not nb:
+                out[rows, :P] = Jx
+            else:
+                shared = [i for i in range(P) if i not in self.base]
+                out[rows, shared] = Jx[:, shared]
+                start = P + (s - 1) * nb
+                out[rows, start : start + nb] = Jx[:, self.base]
+        return out
+
+
+def _kabsch(source: np.ndarray, target: np.ndarray, reflection: bool) -> tuple[np.ndarray, np.ndarray] | None:
+    cs, ct = source.mean(axis=0), target.mean(axis=0)
+    A, B = source - cs, target - ct
+    if np.linalg.matrix_rank(A, tol=1e-9 * max(np.abs(A).max(), 1e-300)) < 2:
+        return None
+    U, _, Vt = np.linalg.svd(A.T @ B)
+    d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
+    d = -d if reflection else d  # det R = d·det(VᵀUᵀ)... = +1 (rotation) or −1 (mirror)
+    R = Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
+    return R, ct - R @ cs
+
+
+def rigid_fit(source: np.ndarray, target: np.ndarray) -> pin.SE3 | None:
+    """The rigid motion T minimising Σ‖T·source − target‖² (Kabsch), or None if degenerate."""
+    fit = _kabsch(source, target, reflection=False)
+    return None if fit is None else pin.SE3(*fit)
+
+
+def fit_rms(source: np.ndarray, target: np.ndarray, mirror: bool = False) -> float:
+    """RMS distance [m] left by the best rigid motion (``mirror=True``: the best motion composed
+    with a reflection, as when two coordinate columns are swapped) of (n, 3) ``source`` onto
+    ``target``; inf if degenerate."""
+    fit = _kabsch(source, target, reflection=mirror)
+    if fit is None:
+        return float("inf")
+    R, t = fit
+    return float(np.sqrt(np.mean(np.sum((source @ R.T + t - target) ** 2, axis=1))))
+
+
+def initial_values(problem: Problem) -> np.ndarray:
+    """Zero errors, except each session's base from a rigid fit (Kabsch) of the nominal points
+    onto the measured ones, when base.* is identified: the linearisation then holds even when the
+    instrument is metres away and rotated."""
+    z0 = np.zeros(len(problem))
+    if not problem.base:
+        return z0
+    robot = problem.params.robot
+    components = [problem.params.parameters[i].component for i in problem.base]
+    P, nb = len(problem.params), len(problem.base)
+    for s, data in enumerate(problem.sessions):
+        fit = rigid_fit(robot.points(data.q, check=False).reshape(-1, 3), data.points.reshape(-1, 3))
+        if fit is None:
+            continue
+        new = fit * robot.base
+        twist = np.concatenate(
+            [new.translation - robot.base.translation, pin.log3(robot.base.rotation.T @ new.rotation)]
+        )
+        cols = problem.base if s == 0 else list(range(P + (s - 1) * nb, P + s * nb))
+        z0[cols] = twist[components]
+    return z0

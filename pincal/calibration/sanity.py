@@ -1,0 +1,190 @@
+"""Sanity of a calibration before it is called converged: outliers and implausible results.
+
+* :func:`find_outliers` scores each measured configuration by its residual in robust standard
+  deviations (σ̂ = 1.4826·median|e| of the whitened residual coordinates e) and names the rows
+  above a threshold, by file and line.
+* :func:`implausible` lists what no real robot does — a link origin moving by more than
+  :data:`LINK_LIMIT`, the tool frame or a marker by more than :data:`TOOL_LIMIT`, an angle
+  changing by more than :data:`ANGLE_LIMIT`, residuals :data:`RESIDUAL_FACTOR` times the
+  instrument's σ (before calibration: at least :data:`BEFORE_LIMIT`) — and
+  :func:`likely_causes` names the usual reasons: millimetres read as metres,
+  a forgotten marker, data in the instrument's frame without ``--base``, swapped columns.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pincal.calibration.problem import Problem, fit_rms
+from pincal.model.parameters import ParameterSet
+
+OUTLIER_SCORE = 5.0
+"""Rows whose residual exceeds this many robust σ are reported as suspicious (a 3-D Gaussian
+residual exceeds 5σ once in 70 000 points)."""
+LINK_LIMIT = 0.05
+"""A chain origin moving by more than this [m] is not a calibration result."""
+TOOL_LIMIT = 0.05
+"""A tool frame or marker moving by more than this [m] is not a calibration result."""
+ANGLE_LIMIT = 0.1
+"""An origin turning or a joint zero moving by more than this [rad] (5.7°) is not one either."""
+RESIDUAL_FACTOR = 1000.0
+"""Residuals above this many times the instrument's σ are not robot errors (after calibration;
+before it, above this or :data:`BEFORE_LIMIT`, whichever is larger: a badly mastered joint zero
+moves a large robot's tool by centimetres)."""
+BEFORE_LIMIT = 0.1
+"""Residual RMS before calibration [m] that no real robot's geometric errors reach."""
+
+
+@dataclass(frozen=True)
+class Outlier:
+    """A suspicious measured configuration.
+
+    Attributes:
+        row: index in the data (sessions stacked).
+        label: the file and line (or the row index).
+        distance: largest distance between measured and model point in the row [m].
+        score: its whitened residual in robust standard deviations.
+    """
+
+    row: int
+    label: str
+    distance: float
+    score: float
+
+    def __str__(self) -> str:
+        return f"{self.label}: {self.distance * 1e3:.3g} mm ({self.score:.3g} sigma)"
+
+    def as_dict(self) -> dict:
+        return {"row": self.row, "label": self.label, "distance": self.distance, "score": self.score}
+
+
+def robust_sigma(e: np.ndarray) -> float:
+    """1.4826·median|e|: the standard deviation of Gaussian e, unmoved by a few gross errors."""
+    return float(1.4826 * np.median(np.abs(e)))
+
+
+def row_scores(residual: np.ndarray, sigma: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """(distances [m], scores [robust σ]) of each of the m rows of a stacked (N,) residual."""
+    r = residual.reshape(m, -1, 3)
+    e = (residual / sigma).reshape(m, -1, 3)
+    scale = max(robust_sigma(e), 1e-300)
+    return np.linalg.norm(r, axis=-1).max(axis=1), np.linalg.norm(e, axis=-1).max(axis=1) / scale
+
+
+def find_outliers(
+    residual: np.ndarray, sigma: np.ndarray, labels: Sequence[str], threshold: float = OUTLIER_SCORE
+) -> tuple[Outlier, ...]:
+    """The rows whose residual exceeds ``threshold`` robust σ, worst first."""
+    distance, score = row_scores(residual, sigma, len(labels))
+    rows = sorted(np.flatnonzero(score > threshold), key=lambda i: -score[i])
+    return tuple(Outlier(int(i), labels[i], float(distance[i]), float(score[i])) for i in rows)
+
+
+def implausible(params: ParameterSet, x: np.ndarray, before: float, after: float, sigma: float) -> list[str]:
+    """What no real robot does, in words (empty when the result is plausible).
+
+    Args:
+        params: the set identified; x its values (errors relative to the nominal robot).
+        before, after: residual RMS before and after calibration [m].
+        sigma: the instrument's σ per coordinate [m].
+    """
+    robot = params.robot
+    problems = []
+    moves: dict[tuple[str, int], np.ndarray] = {}
+    for p, v in zip(params, x, strict=True):
+        if p.kind in ("placement", "marker") and (p.kind == "marker" or p.component < 3):
+            moves.setdefault((p.kind, p.index), np.zeros(3))[p.component] = v
+        elif p.kind in ("placement", "offset") and abs(v) > ANGLE_LIMIT and p.unit == "rad":
+            problems.append(f"{p.name} changes by {np.degrees(v):.3g} degrees")
+    for (kind, index), d in moves.items():
+        size = float(np.linalg.norm(d))
+        if kind == "marker" and size > TOOL_LIMIT:
+            problems.append(f"marker {index} moves by {size * 1e3:.4g} mm in the tool frame")
+        elif kind == "placement" and index >= robot.nq and size > TOOL_LIMIT:
+            problems.append(f"the tool frame {robot.tip} moves by {size * 1e3:.4g} mm")
+        elif kind == "placement" and index < robot.nq and size > LINK_LIMIT:
+            problems.append(f"the origin of {robot.origins[index].name} moves by {size:.4g} m")
+    for what, value, limit in (
+        ("before", before, max(RESIDUAL_FACTOR * sigma, BEFORE_LIMIT)),
+        ("after", after, RESIDUAL_FACTOR * sigma),
+    ):
+        if value > limit:
+            problems.append(
+                f"the residual {what} calibration is {value * 1e3:.4g} mm RMS, {value / sigma:.3g} times "
+                f"the instrument's sigma ({sigma * 1e3:.3g} mm)"
+            )
+    return problems
+
+
+def _spread(points: np.ndarray) -> float:
+    p = points.reshape(-1, 3)
+    return float(np.sqrt(np.mean(np.sum((p - p.mean(axis=0)) ** 2, axis=1))))
+
+
+def likely_causes(problem: Problem, z: np.ndarray, problems: list[str]) -> list[str]:
+    """The usual reasons for an implausible result, most likely first (at least one)."""
+    params, data = problem.params, problem.sessions[0]
+    nominal = params.robot.points(data.q, check=False).reshape(-1, 3)
+    measured = data.points.reshape(-1, 3)
+    causes = []
+    ratio = _spread(measured) / max(_spread(nominal), 1e-300)
+    if ratio > 30:
+        causes.append(
+            f"units: the measured points spread {ratio:.3g} times wider than the robot's: millimetres "
+            f"read as metres? try --mm (millimetres=True)"
+        )
+    elif ratio < 1 / 30:
+        causes.append(
+            f"units: the measured points spread {1 / ratio:.3g} times narrower than the robot's: metres "
+            f"read as millimetres? drop --mm"
+        )
+    proper, mirror = fit_rms(nominal, measured), fit_rms(nominal, measured, mirror=True)
+    if mirror < 0.1 * proper:
+        causes.append(
+            "column order: the points are a mirror image of the robot's (two coordinate columns "
+            "swapped?): check the x,y,z columns"
+        )
+    raw = float(np.sqrt(np.mean(np.sum((measured - nominal) ** 2, axis=1))))
+    if not problem.base and proper < 0.1 * raw:
+        causes.append(
+            "frame: a rigid motion explains most of the difference: the points are in the instrument's "
+            "frame; pass --base (identify base.*)"
+        )
+    marker = None if causes else _marker_offset(problem, z)
+    if not causes and (any("tool frame" in p or "marker" in p for p in problems) or marker is not None):
+        where = f" (the data put it {marker * 1e3:.4g} mm from where the model has it)" if marker else ""
+        causes.append(
+            f"marker: the measured point is not where the model puts it on {params.robot.tip}{where}: "
+            f"did you pass --marker X,Y,Z (markers=[...])?"
+        )
+    if not causes:
+        causes.append(
+            "column order or joint units: check that the joint columns hold the joints named in the "
+            "header and their unit (--deg), and the x,y,z columns"
+        )
+    return causes
+
+
+def _marker_offset(problem: Problem, z: np.ndarray) -> float | None:
+    """The size of a marker offset that would explain most of the residual [m], or None."""
+    if any(p.kind == "marker" for p in problem.params):
+        return None
+    data = problem.sessions[0]
+    robot = problem.robot(z, 0)
+    r = (data.points - robot.points(data.q, check=False)).reshape(-1)
+    J = np.hstack(
+        [
+            problem.jacobian(z)[: r.size, : len(problem.params)],
+            robot.parameters("markers").jacobian(data.q, frame="world").reshape(r.size, -1),
+        ]
+    )
+    step, *_ = np.linalg.lstsq(J, r, rcond=None)
+    left = r - J @ step
+    offsets = step[len(problem.params) :].reshape(-1, 3)
+    size = float(np.linalg.norm(offsets, axis=1).max())
+    if np.linalg.norm(left) < 0.1 * np.linalg.norm(r) and size > 0.01:
+        return size
+    return None

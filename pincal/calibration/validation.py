@@ -1,0 +1,207 @@
+"""Validation on held-out data, the way calibration engineers report a calibration.
+
+The position error of each held-out measured point — the distance between what the instrument
+measured and what the model predicts — before calibration (nominal robot, the base of the initial
+rigid fit when the base is identified) and after (the calibrated robot), summarised by RMS, max
+and 95th percentile.
+
+* :func:`validate`: a fitted result on other data (another file measured from the same
+  instrument placement as the result's first data file, or from session ``session``).
+* :func:`holdout`: fit on a random part of the data, validate on the rest (``fraction`` held out,
+  per session).
+* :func:`kfold`: k fits, each validated on the fold it did not see; every point is held out once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pincal.arguments import positive_int
+from pincal.calibration.identification import IdentificationResult, identify
+from pincal.calibration.measurements import MeasurementData
+from pincal.errors import PincalError
+from pincal.model.parameters import ParameterSet
+
+
+@dataclass(frozen=True, eq=False)
+class Validation:
+    """Position errors on held-out points.
+
+    Attributes:
+        before: (n,) error of each held-out point before calibration [m] (one per measured point:
+            configurations × markers).
+        after: (n,) the same after calibration [m].
+        labels: the file and line of each error's configuration.
+        how: how the points were held out, in words.
+        statuses: the status of each fit behind the errors (one for a file or a holdout, k for
+            k-fold).
+    """
+
+    before: np.ndarray
+    after: np.ndarray
+    labels: tuple[str, ...]
+    how: str
+    statuses: tuple[str, ...] = ("converged",)
+
+    @staticmethod
+    def _stats(errors: np.ndarray) -> dict[str, float]:
+        return {
+            "rms": float(np.sqrt(np.mean(errors**2))),
+            "max": float(errors.max()),
+            "p95": float(np.percentile(errors, 95)),
+        }
+
+    @property
+    def stats_before(self) -> dict[str, float]:
+        """``{"rms", "max", "p95"}`` of the errors before calibration [m]."""
+        return self._stats(self.before)
+
+    @property
+    def stats_after(self) -> dict[str, float]:
+        """``{"rms", "max", "p95"}`` of the errors after calibration [m]."""
+        return self._stats(self.after)
+
+    def as_dict(self) -> dict:
+        return {
+            "how": self.how,
+            "n_points": int(self.before.size),
+            "before": self.stats_before,
+            "after": self.stats_after,
+            "statuses": list(self.statuses),
+            "errors_before": self.before.tolist(),
+            "errors_after": self.after.tolist(),
+        }
+
+    def report(self) -> str:
+        b, a = self.stats_before, self.stats_after
+
+        def row(what: str, s: dict[str, float]) -> str:
+            rms, p95, top = (s[k] * 1e3 for k in ("rms", "p95", "max"))
+            return f"  {what:7s} RMS {rms:8.4g} mm, 95% {p95:8.4g} mm, max {top:8.4g} mm"
+
+        lines = [
+            f"validation on {self.before.size} held-out point(s), {self.how}:",
+            row("before", b),
+            row("after", a),
+        ]
+        failed = [s for s in self.statuses if s != "converged"]
+        if failed:
+            lines.append(
+                f"  {len(failed)} of {len(self.statuses)} fit(s) did not converge: {', '.join(failed)}"
+            )
+        return "\n".join(lines)
+
+
+def _errors(
+    result: IdentificationResult, data: MeasurementData, session: int
+) -> tuple[np.ndarray, np.ndarray]:
+    data = data.for_robot(result.params.robot)
+    after_robot, before_robot = result.robot, result.initial_robot or result.params.robot
+    if result.bases:
+        after_robot = after_robot.replace(base=result.bases[session])
+        before_robot = before_robot.replace(base=result.initial_bases[session])
+    before = np.linalg.norm(data.points - before_robot.points(data.q, check=False), axis=-1).reshape(-1)
+    after = np.linalg.norm(data.points - after_robot.points(data.q, check=False), axis=-1).reshape(-1)
+    return before, after
+
+
+def _point_labels(data: MeasurementData) -> list[str]:
+    return [label for label in data.labels() for _ in range(data.n_markers)]
+
+
+def validate(result: IdentificationResult, data: MeasurementData, session: int = 0) -> Validation:
+    """Errors of ``result`` on other measurements ``data`` (in session ``session``'s instrument
+    frame: the first data file's by default)."""
+    if not isinstance(data, MeasurementData):
+        raise PincalError(f"validate needs a MeasurementData, got {type(data).__name__}")
+    if not 0 <= session < max(len(result.sessions), 1):
+        raise PincalError(f"session must be between 0 and {len(result.sessions) - 1}, got {session}")
+    before, after = _errors(result, data, session)
+    source = data.source or "other data"
+    return Validation(before, after, tuple(_point_labels(data)), f"file {source}", (result.status,))
+
+
+def _as_sessions(data: MeasurementData | Sequence[MeasurementData]) -> list[MeasurementData]:
+    return [data] if isinstance(data, MeasurementData) else list(data)
+
+
+def _fit_and_test(
+    params: ParameterSet, sessions: list[MeasurementData], test_rows: list[np.ndarray], kwargs: dict
+) -> tuple[IdentificationResult, np.ndarray, np.ndarray, list[str]]:
+    train = [
+        d.subset(np.setdiff1d(np.arange(d.m), rows)) for d, rows in zip(sessions, test_rows, strict=True)
+    ]
+    result = identify(params, train, **kwargs)
+    before, after, labels = [], [], []
+    for s, (d, rows) in enumerate(zip(sessions, test_rows, strict=True)):
+        if len(rows) == 0:
+            continue
+        held = d.subset(rows)
+        b, a = _errors(result, held, s)
+        before.append(b)
+        after.append(a)
+        labels += _point_labels(held)
+    return result, np.concatenate(before), np.concatenate(after), labels
+
+
+def holdout(
+    params: ParameterSet,
+    data: MeasurementData | Sequence[MeasurementData],
+    fraction: float,
+    seed: int | None = 0,
+    **kwargs: object,
+) -> tuple[IdentificationResult, Validation]:
+    """Fit on a random ``1 − fraction`` of each session's rows, validate on the rest.
+
+    Args:
+        params, data, kwargs: as for :func:`~pincal.identify`.
+        fraction: the share of the rows held out, in (0, 1).
+        seed: of the random split (same seed, same split).
+
+    Returns:
+        (the fit on the training rows, its validation on the held-out rows).
+    """
+    if not (isinstance(fraction, (int, float)) and 0 < fraction < 1):
+        raise PincalError(f"holdout fraction must be between 0 and 1 (exclusive), got {fraction!r}")
+    rng = np.random.default_rng(seed)
+    sessions = _as_sessions(data)
+    rows = [np.sort(rng.permutation(d.m)[: max(1, round(fraction * d.m))]) for d in sessions]
+    result, before, after, labels = _fit_and_test(params, sessions, rows, kwargs)
+    trained = sum(d.m for d in sessions) - sum(map(len, rows))
+    how = f"{fraction:.0%} held out (seed {seed}), fitted on the other {trained} configurations"
+    return result, Validation(before, after, tuple(labels), how, (result.status,))
+
+
+def kfold(
+    params: ParameterSet,
+    data: MeasurementData | Sequence[MeasurementData],
+    k: int,
+    seed: int | None = 0,
+    **kwargs: object,
+) -> Validation:
+    """k-fold cross-validation: each configuration is held out once, predicted by the fit on the
+    other k − 1 folds (rows shuffled with ``seed``, per session).
+
+    Args:
+        params, data, kwargs: as for :func:`~pincal.identify`.
+        k: number of folds, at least 2 and at most the number of configurations of each session.
+    """
+    k = positive_int(k, "k (folds)", low=2)
+    sessions = _as_sessions(data)
+    if any(d.m < k for d in sessions):
+        raise PincalError(f"k-fold: {k} folds need at least {k} configurations in each data file")
+    rng = np.random.default_rng(seed)
+    orders = [rng.permutation(d.m) for d in sessions]
+    before, after, labels, statuses = [], [], [], []
+    for fold in range(k):
+        rows = [np.sort(order[fold::k]) for order in orders]
+        result, b, a, lab = _fit_and_test(params, sessions, rows, kwargs)
+        before.append(b)
+        after.append(a)
+        labels += lab
+        statuses.append(result.status)
+    how = f"{k}-fold cross-validation (seed {seed})"
+    return Validation(np.concatenate(before), np.concatenate(after), tuple(labels), how, tuple(statuses))

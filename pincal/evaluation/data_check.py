@@ -1,0 +1,234 @@
+r"""Identifiability on the data that will be used (issue 10): can *these* configurations identify
+*this* parameter set?
+
+:func:`pincal.model.base_parameters.identifiability` answers the question for random
+configurations over the whole joint range. Real data cover less: a small region, joints parked at
+one value. :func:`check_information` takes the information matrix of the user's own
+configurations, whitened by the measurement noise (M = Σ JᵢᵀWᵢJᵢ, W = diag(1/σ²), so that
+cov(Π̂) = M⁻¹), and reports:
+
+* the rank and the condition number of the column-scaled data Jacobian (the kernel of
+  :mod:`pincal.evaluation.information`);
+* the weakest parameter combinations, in words;
+* the subset the data can identify: parameters are taken greedily in the order of
+  :func:`~pincal.model.base_parameters.preference_order` (offsets, lengths, ...; the base first
+  when it is identified) and one is kept when, with it, the data still determine every kept
+  parameter to better than :data:`IDENTIFIABLE_STD` (1 mm, 1 mrad) for the noise σ; each one left
+  out is named with the reason (invisible in these data, inseparable from a kept one, or
+  determined only to ±x).
+
+A parameter the data determine only to ±1 cm is not identified by estimating it: its estimate
+is noise, and its correlations throw the others off. Either leave it at its nominal value (the
+reduced set) or give a prior (:class:`~pincal.Prior`, MAP identification).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pincal.evaluation.information import (
+    condition_number,
+    covariance_diagonal,
+    information_matrix,
+    jacobi_scaled,
+    rank,
+    weakest,
+)
+from pincal.model.base_parameters import preference_order
+from pincal.model.jacobian import ZERO_COLUMN
+from pincal.model.parameters import ParameterSet
+
+IDENTIFIABLE_STD = {"m": 1e-3, "rad": 1e-3}
+"""A parameter is identifiable on the data when they determine it to better than this standard
+error [m for lengths, rad for angles] (with every other kept parameter estimated too)."""
+
+
+@dataclass(frozen=True, eq=False)
+class DataCheck:
+    """What the user's configurations can identify.
+
+    Attributes:
+        names: the parameters examined (a parameter set's names, plus one base per extra session).
+        units: ``"m"`` or ``"rad"`` for each.
+        kept: indices into ``names`` of the parameters the data identify, in order.
+        dropped: ``{name: reason}`` for the others.
+        rank: numerical rank of the column-scaled data Jacobian.
+        condition_number: σ_max/σ_min of the column-scaled data Jacobian of all of ``names``
+            (``inf`` when rank deficient).
+        condition_number_kept: the same for the kept parameters.
+        weakest: the least determined combinations, in words, weakest first.
+        std: (len(kept),) standard errors of the kept parameters for the noise σ [m or rad].
+        sigma: the noise per coordinate the check assumed [m] (per-point σ when the data had them:
+            then their median).
+        m: number of configurations.
+    """
+
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    kept: tuple[int, ...]
+    dropped: dict[str, str]
+    rank: int
+    condition_number: float
+    condition_number_kept: float
+    weakest: tuple[str, ...]
+    std: np.ndarray
+    sigma: float
+    m: int
+
+    @property
+    def identifiable(self) -> bool:
+        """True when the data identify every parameter examined."""
+        return not self.dropped
+
+    @property
+    def kept_names(self) -> tuple[str, ...]:
+        """Names of the parameters the data identify."""
+        return tuple(self.names[i] for i in self.kept)
+
+    def report(self) -> str:
+        """Text: rank, condition number, weakest combinations, and what is left out and why."""
+        cond = "inf" if not np.isfinite(self.condition_number) else f"{self.condition_number:.3g}"
+        lines = [
+            f"data identifiability ({self.m} configurations, sigma {self.sigma * 1e3:.3g} mm): rank "
+            f"{self.rank} of {len(self.names)} parameters, condition number {cond} (column-scaled)"
+        ]
+        lines += [f"  weakest: {w}" for w in self.weakest]
+        if self.dropped:
+            kept_cond = f"{self.condition_number_kept:.3g}"
+            lines.append(
+                f"  the data cannot identify {len(self.dropped)} of them; kept {len(self.kept)} "
+                f"(condition number {kept_cond}); left at their nominal values:"
+            )
+            lines += [f"    {name}: {why}" for name, why in self.dropped.items()]
+        return "\n".join(lines)
+
+    def as_dict(self) -> dict:
+        """JSON-ready: rank, condition numbers (None for inf), weakest, kept, dropped, sigma."""
+
+        def finite(v: float) -> float | None:
+            return float(v) if np.isfinite(v) else None
+
+        return {
+            "rank": self.rank,
+            "n_params": len(self.names),
+            "condition_number": finite(self.condition_number),
+            "condition_number_kept": finite(self.condition_number_kept),
+            "weakest": list(self.weakest),
+            "kept": list(self.kept_names),
+            "dropped": dict(self.dropped),
+            "sigma": self.sigma,
+            "m": self.m,
+        }
+
+
+def _shown(value: float, unit: str) -> str:
+    return f"{value * 1e3:.3g} {'mm' if unit == 'm' else 'mrad'}"
+
+
+def _combination(names: Sequence[str], v: np.ndarray) -> str:
+    big = sorted(np.flatnonzero(np.abs(v) >= 0.2), key=lambda i: -abs(v[i]))[:4]
+    sign = 1.0 if v[big[0]] >= 0 else -1.0
+    terms = [f"{'+' if sign * v[i] >= 0 else '-'} {abs(v[i]):.2f}·{names[i]}" for i in big]
+    text = " ".join(terms)
+    return text[2:] if text.startswith("+ ") else "-" + text[2:]
+
+
+def check_information(
+    names: Sequence[str],
+    units: Sequence[str],
+    M: np.ndarray,
+    order: Sequence[int],
+    m: int,
+    sigma: float,
+    always: Sequence[int] = (),
+) -> DataCheck:
+    """The data check of a whitened information matrix (see the module doc).
+
+    Args:
+        names, units: of each column of M.
+        M: (P, P) information Σ JᵢᵀWᵢJᵢ with W = 1/σ² per coordinate (so cov = M⁻¹).
+        order: the columns in the order they are preferred (all of them).
+        m: number of configurations (for the report).
+        sigma: the noise per coordinate behind W [m] (for the report).
+        always: columns kept whatever their standard error (instrument bases: never left at the
+            nominal identity).
+    """
+    names, units = tuple(names), tuple(units)
+    bound = np.array([IDENTIFIABLE_STD[u] for u in units])
+    _, scaled = jacobi_scaled(M, ZERO_COLUMN)
+    zero = scaled.diagonal() == 0.0
+    always_set = set(always)
+    kept: list[int] = []
+    dropped: dict[str, str] = {}
+    std = np.zeros(0)
+    for i in sorted(order, key=lambda i: i not in always_set):
+        if zero[i] and i not in always_set:
+            dropped[names[i]] = (
+                "invisible in these data: it does not move the measured points at these configurations"
+            )
+            continue
+        trial = kept + [i]
+        diag = covariance_diagonal(M[np.ix_(trial, trial)])
+        if i in always_set:
+            kept, std = trial, np.sqrt(diag) if diag is not None else np.full(len(trial), np.inf)
+            continue
+        partner = ""
+        if kept:
+            k = max(kept, key=lambda k: abs(scaled[i, k]))
+            partner = f"; it moves the points nearly as {names[k]} does (cosine {abs(scaled[i, k]):.4f})"
+        if diag is None:
+            dropped[names[i]] = "inseparable in these data from the parameters kept before it" + partner
+            continue
+        trial_std = np.sqrt(diag)
+        limited = [j for j in range(len(trial)) if trial[j] not in always_set]
+        worse = [j for j in limited if trial_std[j] > bound[trial[j]]]
+        if worse:
+            j = len(trial) - 1 if worse[-1] == len(trial) - 1 else worse[0]
+            shown = (
+                f"±{_shown(trial_std[j], units[trial[j]])} (limit {_shown(bound[trial[j]], units[trial[j]])})"
+            )
+            if j == len(trial) - 1:
+                why = f"these data determine it only to {shown}"
+            else:
+                why = f"with it, these data would determine {names[trial[j]]} only to {shown}"
+            dropped[names[i]] = why + partner
+            continue
+        kept, std = trial, trial_std
+    position = {i: n for n, i in enumerate(kept)}
+    kept_sorted = sorted(kept)
+    std = np.array([std[position[i]] for i in kept_sorted])
+    words = []
+    for s, v in weakest(M, min(3, len(names))):
+        if s >= 0.05 and words:
+            break
+        words.append(f"{_combination(names, v)} (relative singular value {s:.2g})")
+    return DataCheck(
+        names=names,
+        units=units,
+        kept=tuple(kept_sorted),
+        dropped={n: dropped[n] for n in names if n in dropped},
+        rank=rank(M),
+        condition_number=condition_number(M),
+        condition_number_kept=condition_number(M[np.ix_(kept_sorted, kept_sorted)])
+        if kept_sorted
+        else np.inf,
+        weakest=tuple(words),
+        std=std,
+        sigma=float(sigma),
+        m=int(m),
+    )
+
+
+def check_plan(params: ParameterSet, plan: object, sigma: float, prefer: Sequence[str] = ()) -> DataCheck:
+    """The data check of ``params`` on configurations ``plan`` (a Plan, (m, nq) array, or the
+    ``q`` of measurements) for noise ``sigma`` per coordinate [m]; the base first if in ``prefer``
+    or in ``params``."""
+    qs = params.robot.configurations(plan)
+    M = information_matrix(params.jacobian(qs, frame="tip")) / sigma**2
+    base = [i for i, p in enumerate(params) if p.kind == "base"]
+    preferred = frozenset(params.select("base").names) if base or "base" in prefer else frozenset()
+    order = preference_order(params, preferred)
+    return check_information(params.names, params.units, M, order, len(qs), sigma, always=base)
