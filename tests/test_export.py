@@ -32,7 +32,8 @@ def test_identified_kr270_round_trips_to_1e_9(tmp_path):
     out = export_urdf(result, tmp_path / "kr270_calibrated.urdf")
     assert out == tmp_path / "kr270_calibrated.urdf"
     assert _round_trip_error(result.robot, out) <= 1e-9
-    assert sorted(os.listdir(tmp_path)) == ["kr270_calibrated.urdf"]  # no temporary file left
+    # no temporary file left; the sidecar (issue 10) next to the URDF
+    assert sorted(os.listdir(tmp_path)) == ["kr270_calibrated.calibration.json", "kr270_calibrated.urdf"]
     text = out.read_text()
     assert "Calibrated by pincal" in text and "joint_a2.offset" in text and "+/-" in text
     assert f"{result.robot.markers[1][0]:.9g}" in text  # markers are reported, not lost

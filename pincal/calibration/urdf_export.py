@@ -19,6 +19,13 @@ What :func:`export_urdf` writes, precisely:
 * Marker errors and the base placement are not robot geometry: they are written in an XML comment
   at the top of ``<robot>`` (with the identified parameters and standard errors when a result is
   exported), and are available as ``result.robot.markers`` and ``result.robot.base``.
+* Next to the URDF, a small JSON *sidecar* (:func:`sidecar_path`: ``cal.urdf`` →
+  ``cal.calibration.json``) holds what a program needs to predict instrument coordinates from the
+  URDF without parsing the comment: the tip frame, the markers in it [m], the base in the
+  instrument frame (xyz [m], rpy [rad] and the 4×4 matrix), σ, the data condition number and the
+  residuals::
+
+      p = base · oMf[tip] · marker,   oMf from pin.framesForwardKinematics on the URDF's model
 
 Before writing, the new URDF is loaded back with Pinocchio and must reproduce the calibrated
 model's points at random configurations to 1e-9 m; the file is then written through a temporary
@@ -28,6 +35,7 @@ file and a rename. The source URDF is never overwritten.
 from __future__ import annotations
 
 import io
+import json
 import os
 import warnings
 from pathlib import Path
@@ -53,10 +61,53 @@ ROUND_TRIP_TOLERANCE = 1e-9
 """Largest point distance [m] allowed between the exported URDF and the calibrated model."""
 
 
+def sidecar_path(path: str | os.PathLike) -> Path:
+    """The sidecar of a calibrated URDF: ``cal.urdf`` → ``cal.calibration.json``."""
+    return Path(path).with_suffix(".calibration.json")
+
+
+def sidecar(calibrated: IdentificationResult | Robot, urdf: str | os.PathLike) -> dict:
+    """The sidecar's content for ``calibrated`` exported to ``urdf`` (see the module doc)."""
+    result = calibrated if isinstance(calibrated, IdentificationResult) else None
+    robot = calibrated.robot if result is not None else calibrated
+    base = robot.base
+    out = {
+        "urdf": Path(urdf).name,
+        "tip": robot.tip,
+        "joints": list(robot.joint_names),
+        "markers": robot.markers.tolist(),
+        "base": {
+            "xyz": base.translation.tolist(),
+            "rpy": pin.rpy.matrixToRpy(base.rotation).tolist(),
+            "matrix": base.homogeneous.tolist(),
+        },
+        "units": "metres and radians; points p = base * oMf[tip] * marker",
+    }
+    if result is not None:
+        summary = result.as_dict()
+        out.update(
+            {
+                "status": result.status,
+                "sigma": summary["sigma"],
+                "sigma_estimated": result.sigma_estimated,
+                "condition_number": summary["condition_number"],
+                "residual_rms_before": summary["residual_rms_before"],
+                "residual_rms_after": summary["residual_rms_after"],
+                "m": result.data.m,
+                "dropped": summary["dropped"],
+                "bases": summary["bases"],
+            }
+        )
+    return out
+
+
 def export_urdf(
     calibrated: IdentificationResult | Robot,
     path: str | os.PathLike,
     source_urdf: str | os.PathLike | None = None,
+    *,
+    force: bool = False,
+    write_sidecar: bool = True,
 ) -> Path:
     """Write the calibrated robot as a URDF (what is written: see the module doc).
 
@@ -66,6 +117,8 @@ def export_urdf(
             a perturbed one, ``params.apply(values)`` or ``random_errors(...).robot``).
         path: the URDF file to write; must not be the source.
         source_urdf: the URDF to start from; default the robot's own (``robot.urdf_path``).
+        force: export an ``implausible`` result too (never one that did not converge).
+        write_sidecar: also write the JSON sidecar (:func:`sidecar_path`).
 
     Returns:
         the path written.
@@ -78,7 +131,7 @@ def export_urdf(
     """
     result = calibrated if isinstance(calibrated, IdentificationResult) else None
     robot = calibrated.robot if result is not None else calibrated
-    if result is not None and not result.success:
+    if result is not None and not (result.success or (force and result.status == "implausible")):
         raise IdentificationFailed(result)
     if not isinstance(robot, Robot):
         raise BadArgument(
@@ -114,7 +167,12 @@ def export_urdf(
     _add_comment(root, robot, result, source, changed)
     new = _serialise(root, text)
     _verify(new, robot, origins, source)
-    return atomic_write_text(out, new)
+    written = atomic_write_text(out, new)
+    if write_sidecar:
+        atomic_write_text(
+            sidecar_path(out), json.dumps(sidecar(calibrated, out), indent=2, allow_nan=False) + "\n"
+        )
+    return written
 
 
 def _serialise(root: etree._Element, original: bytes) -> str:
@@ -182,9 +240,7 @@ def _calibrated_origins(robot: Robot) -> dict[str, pin.SE3]:
     out: dict[str, pin.SE3] = {}
     for o, origin in enumerate(robot.origins):
         if o < robot.nq:
-            dq = float(robot.joint_offsets[o])
-            motion = pin.exp6(pin.Motion(robot.motion_axes[origin.joint] * dq))
-            out[origin.urdf_joint] = origin.origin * motion
+            out[origin.urdf_joint] = robot.folded_origin(o)
         elif origin.urdf_joint is not None:
             out[origin.urdf_joint] = pin.SE3(origin.origin)
     return out

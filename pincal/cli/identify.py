@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
-from pincal.calibration.identification import identify
+from pincal.calibration.identification import DEFAULT_SIGMA, LOSSES, METHODS, identify
 from pincal.calibration.measurements import MeasurementData
-from pincal.calibration.urdf_export import export_urdf
+from pincal.calibration.urdf_export import export_urdf, sidecar_path
+from pincal.calibration.validation import holdout, kfold, validate
 from pincal.cli._common import (
     add_base_argument,
     add_command,
@@ -18,34 +20,61 @@ from pincal.cli._common import (
     positive,
     robot_from_args,
 )
-from pincal.errors import IdentificationFailed, OverwriteRefused
+from pincal.errors import IdentificationFailed, OverwriteRefused, PincalError
+from pincal.evaluation.prior import Prior
 
 HELP = "identify the geometric errors from measurements and write the calibrated URDF"
-EXAMPLES = """\
+EXAMPLES = f"""\
 examples:
   pincal identify kr270 --data meas.csv --marker 0.1,0.05,0.2 --out kr270_calibrated.urdf
   pincal identify kr270 --data meas.csv --mm --deg --marker 0.1,0.05,0.2 --json
   pincal identify robots/kr270.urdf --data tracker.csv --base --marker 0.1,0.05,0.2 --out cal.urdf
-  pincal identify planar_2r --data meas.csv --params joint2.tx,tip.tx
+  pincal identify kr270 --data a.csv --data b.csv --base --marker 0.1,0.05,0.2   # two placements
+  pincal identify kr270 --data meas.csv --marker 0.1,0.05,0.2 --reject 5 --holdout 0.2 --seed 1 \\
+      --plot validation.png
+  pincal identify kr270 --data grid.csv --marker 0.1,0.05,0.2 --prior 1mm,1mrad --kfold 5
+  pincal identify planar_2r --data meas.csv --params joint2.tx,tip.tx --loss soft_l1
 
 MEAS.csv: a header row, then one configuration per row: one column per joint, named as in the URDF
 (radians; degrees with --deg), and the measured point(s): x,y,z for one marker or x0,y0,z0,x1,y1,z1,...
-for several, in the order of --marker (metres; millimetres with --mm). Rows with a missing or
-non-numeric cell, NaN, or a joint outside its limits are errors naming the line.
+for several, in the order of --marker (metres; millimetres with --mm). Optional uncertainty columns
+s (or sx,sy,sz; per marker s0,... or sx0,...), in the coordinates' unit, weight each point by 1/s^2.
+Rows with a missing or non-numeric cell, NaN, or a joint outside its limits are errors naming the line.
 --base: the points are in the instrument's frame, not the robot base frame: the base placement
-(base.*) is identified too, starting from a rigid fit, and the chain parameters it makes redundant
-are dropped. --out writes the user's URDF with corrected joint origins (joint offsets folded into
-them) and the tip's fixed joint corrected; markers and base are reported in an XML comment.
+(base.*) is identified too, starting from a rigid fit (the "before" residual is the one after it),
+and the chain parameters it makes redundant are dropped. Several --data files, each measured from its
+own instrument placement, share the robot's parameters with one base each (base2.*, base3.*, ...).
+
+The report gives the data's identifiability first: rank and condition number of the column-scaled
+Jacobian of YOUR configurations, the weakest parameter combinations, and the parameters the data
+cannot determine to 1 mm / 1 mrad, left at their nominal value with the reason (or, with --prior,
+every parameter estimated MAP). Rows over 5 robust sigma are named by file line (mm and sigma);
+--reject K drops rows over K robust sigma and refits. sigma defaults to {DEFAULT_SIGMA:g} m for these
+checks; the standard errors use sigma estimated from the residuals unless --sigma or s columns give it.
+A result no real robot has (a link moving by metres, the tool frame by centimetres, residuals 1000x
+sigma) is "implausible", with the likely cause (units: --mm; a forgotten --marker; --base; columns).
+--out writes the user's URDF with corrected joint origins (joint offsets folded into them) and the
+tip's fixed joint corrected, and a sidecar CAL.calibration.json with the base, markers, sigma and
+condition number: p = base * oMf[tip] * marker predicts the instrument's coordinates.
 Estimates are errors relative to the nominal URDF (m, rad); text output shows mm and mrad.
-Exit code 2 when the data cannot identify the parameters or the fit does not converge.
+Exit code 2 when the data cannot identify the parameters, the fit does not converge, or the result is
+implausible (then no URDF, unless --force).
 """
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = add_command(sub, "identify", HELP, EXAMPLES)
     add_robot_arguments(p)
-    p.add_argument("--data", required=True, metavar="MEAS.csv", help="the measurements (format below)")
-    p.add_argument("--mm", action="store_true", help="measured coordinates are in millimetres")
+    p.add_argument(
+        "--data",
+        required=True,
+        action="append",
+        metavar="MEAS.csv",
+        help="the measurements (format below); repeat for sessions from other instrument placements",
+    )
+    p.add_argument(
+        "--mm", action="store_true", help="measured coordinates (and s columns) are in millimetres"
+    )
     p.add_argument("--deg", action="store_true", help="joint values are in degrees")
     add_base_argument(p)
     p.add_argument(
@@ -53,10 +82,38 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         type=float,
         help="measurement noise per coordinate [m] for the standard errors (default: from the residuals)",
     )
-    p.add_argument("--max-iterations", type=int, default=50, help="Gauss-Newton iterations (default 50)")
-    p.add_argument("--out", metavar="CALIBRATED.urdf", help="write the calibrated URDF here")
+    p.add_argument(
+        "--prior", metavar="LEN,ANGLE", help="prior std of the errors, e.g. 1mm,1mrad: MAP estimate"
+    )
+    p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear)")
+    p.add_argument("--method", choices=METHODS, default="trf", help="least_squares method (default trf)")
+    p.add_argument("--reject", type=float, metavar="K", help="drop rows beyond K robust sigma and refit")
+    p.add_argument("--max-iterations", type=int, default=100, help="solver evaluations (default 100)")
+    p.add_argument("--validate", metavar="OTHER.csv", help="held-out measurements (same placement as --data)")
+    p.add_argument("--holdout", type=float, metavar="FRACTION", help="hold this share of the rows out")
+    p.add_argument("--kfold", type=int, metavar="K", help="k-fold cross-validation of the fit")
+    p.add_argument("--seed", type=int, default=0, help="seed of --holdout and --kfold (default 0)")
+    p.add_argument("--plot", metavar="FILE.png", help="save the validation errors before/after (a figure)")
+    p.add_argument(
+        "--out", metavar="CALIBRATED.urdf", help="write the calibrated URDF (and its sidecar) here"
+    )
+    p.add_argument("--force", action="store_true", help="write the URDF of an implausible result anyway")
     add_output_arguments(p)
     p.set_defaults(run=run)
+
+
+def _check_outputs(args: argparse.Namespace, robot) -> None:
+    inputs = [("measurement file", d) for d in args.data] + [("robot's URDF", robot.urdf_path)]
+    if args.validate:
+        inputs.append(("validation file", args.validate))
+    for option, out in (("--out", args.out), ("--plot", args.plot)):
+        for what, path in inputs:
+            if out and path is not None and Path(out).resolve() == Path(path).resolve():
+                raise OverwriteRefused(f"{option} {out} is the {what}: choose another output path")
+    if args.out and sidecar_path(args.out).resolve() in [Path(p).resolve() for _, p in inputs if p]:
+        raise OverwriteRefused(
+            f"the sidecar of --out {args.out} would overwrite an input: choose another name"
+        )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -64,23 +121,46 @@ def run(args: argparse.Namespace) -> int:
     params, source, dropped = parameters_with_base(robot, args)
     sigma = None if args.sigma is None else positive(args.sigma, "--sigma")
     positive(args.max_iterations, "--max-iterations")
-    if args.out:
-        for what, path in (("measurement file", args.data), ("robot's URDF", robot.urdf_path)):
-            if path is not None and Path(args.out).resolve() == Path(path).resolve():
-                raise OverwriteRefused(f"--out {args.out} is the {what}: choose another output path")
-    data = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm)
-    result = identify(params, data, sigma=sigma, max_iterations=args.max_iterations)
-    out = export_urdf(result, args.out) if args.out and result.success else None
+    prior = Prior.parse(args.prior) if args.prior else None
+    if sum(x is not None for x in (args.validate, args.holdout, args.kfold)) > 1:
+        raise PincalError("choose one of --validate, --holdout and --kfold")
+    if args.plot and not (args.validate or args.holdout or args.kfold):
+        raise PincalError("--plot draws the validation errors: give --validate, --holdout or --kfold")
+    _check_outputs(args, robot)
+    sessions = [MeasurementData.from_csv(d, robot, degrees=args.deg, millimetres=args.mm) for d in args.data]
+    options = dict(
+        sigma=sigma, max_iterations=args.max_iterations, prior=prior, loss=args.loss, method=args.method,
+        reject=args.reject,
+    )  # fmt: skip
+    validation = None
+    if args.holdout is not None:
+        result, validation = holdout(params, sessions, args.holdout, seed=args.seed, **options)
+    else:
+        result = identify(params, sessions, **options)
+        if args.validate:
+            other = MeasurementData.from_csv(args.validate, robot, degrees=args.deg, millimetres=args.mm)
+            validation = validate(result, other)
+        elif args.kfold is not None:
+            validation = kfold(params, sessions, args.kfold, seed=args.seed, **options)
+    writable = result.success or (args.force and result.status == "implausible")
+    out = export_urdf(result, args.out, force=args.force) if args.out and writable else None
+    if args.plot and validation is not None:
+        from pincal.viewing.plots import validation_errors
+
+        validation_errors(validation).savefig(args.plot, dpi=120)
     if args.json:
         payload = {"robot": robot.name, "tip": robot.tip, "params_source": source, **result.as_dict()}
         payload["dropped_for_base"] = dropped
+        payload["validation"] = validation.as_dict() if validation is not None else None
         payload["out"] = str(out) if out else None
+        payload["sidecar"] = str(sidecar_path(out)) if out else None
         emit_json(payload)
-    if not result.success:
+    if not result.success and not (writable and out):
         raise IdentificationFailed(result)
     if args.json:
         return 0
-    print(f"{robot.name}: {len(params)} parameters ({source}), {data.m} configurations from {args.data}")
+    files = ", ".join(args.data)
+    print(f"{robot.name}: {len(params)} parameters ({source}), {result.data.m} configurations from {files}")
     if dropped:
         print(f"dropped as redundant with the base frame: {', '.join(dropped)}")
     print(result.report())
@@ -88,8 +168,15 @@ def run(args: argparse.Namespace) -> int:
     if "marker" in kinds:
         print(f"calibrated markers in {robot.tip} [m]: {result.robot.markers.tolist()}")
     if "base" in kinds:
-        base = result.as_dict()["base"]
-        print(f"robot base in the instrument frame: xyz {base['xyz']} m, rpy {base['rpy']} rad")
+        for i, base in enumerate(result.as_dict()["bases"]):
+            which = "" if len(sessions) == 1 else f" ({args.data[i]})"
+            print(f"robot base in the instrument frame{which}: xyz {base['xyz']} m, rpy {base['rpy']} rad")
+    if validation is not None:
+        print(validation.report())
+    if args.plot:
+        print(f"validation figure written to {args.plot}")
     if out:
-        print(f"calibrated URDF written to {out}")
+        print(f"calibrated URDF written to {out} (sidecar {sidecar_path(out)})")
+    if not result.success:
+        print(f"pincal: warning: the result is {result.status}; written because of --force", file=sys.stderr)
     return 0

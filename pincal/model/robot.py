@@ -424,6 +424,24 @@ class Robot:
             positions[i] = tip.translation
         return rotations, positions
 
+    def folded_origin(self, o: int) -> pin.SE3:
+        """The URDF ``<origin>`` of chain joint ``o`` (0-based) with its joint offset folded in,
+        L·exp(S·Δq), S the joint's motion axis: what the calibrated URDF writes."""
+        origin = self.origins[o]
+        motion = pin.exp6(pin.Motion(self.motion_axes[origin.joint] * float(self.joint_offsets[o])))
+        return origin.origin * motion
+
+    def to_model(self) -> pin.Model:
+        """A plain ``pinocchio.Model`` of this robot (a new copy), joint offsets folded into the
+        joint placements as in the exported URDF: ``pin.framesForwardKinematics(model, data, q)``
+        then ``robot.base * data.oMf[model.getFrameId(robot.tip)]`` applied to each marker gives
+        :meth:`points` (q the joint values as measured, no offset table)."""
+        model = pin.Model(self.model)
+        for o in range(self.nq):
+            joint = self.origins[o].joint
+            model.jointPlacements[joint] = self.origins[o].parent * self.folded_origin(o)
+        return model
+
     def replace(self, **changes: object) -> Robot:
         """A new Robot with some fields changed (the model is copied if given)."""
         fields = {

@@ -10,6 +10,8 @@ default). matplotlib is imported when a function is called, never when pincal is
 * :func:`search_progress`: the criterion against search time, start by start.
 * :func:`error_vs_distance`: predicted error after calibration against the distance from the test
   pose (median and 95th percentile), plans side by side.
+* :func:`validation_errors`: held-out position errors before/after calibration, per point and
+  as histograms.
 """
 
 from __future__ import annotations
@@ -279,4 +281,43 @@ def error_vs_distance(profiles, unit: str = "mm", title: str | None = None) -> F
     ax.set_title(title or "Accuracy away from the test pose")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
+    return fig
+
+
+def validation_errors(validation: Any, unit: str = "mm", bins: int = 30, title: str | None = None) -> Figure:
+    """Held-out position errors before and after calibration: per point (left) and histograms
+    (right), with RMS, 95th percentile and max in the legend.
+
+    Args:
+        validation: a :class:`pincal.Validation` (or anything with ``before`` and ``after``, (n,)
+            errors [m]).
+        unit: length unit of the axes.
+        bins: number of histogram bins.
+        title: figure title (default: how the points were held out).
+    """
+    f = _factor(unit)
+    before = np.asarray(getattr(validation, "before", None), dtype=float).reshape(-1) * f
+    after = np.asarray(getattr(validation, "after", None), dtype=float).reshape(-1) * f
+    if (
+        before.size == 0
+        or before.shape != after.shape
+        or not np.all(np.isfinite(before) & np.isfinite(after))
+    ):
+        raise BadArgument("validation: expected equal numbers of finite errors before and after calibration")
+    fig = _figure((10.0, 4.0))
+    left, right = fig.subplots(1, 2)
+    index = np.arange(before.size)
+    edges = np.linspace(0.0, max(before.max(), after.max()) * 1.02 or 1.0, bins + 1)
+    for errors, label, color in ((before, "before", _COLORS[0]), (after, "after", _COLORS[1])):
+        rms = float(np.sqrt(np.mean(errors**2)))
+        text = f"{label}: RMS {rms:.3g}, 95% {np.percentile(errors, 95):.3g}, max {errors.max():.3g} {unit}"
+        left.plot(index, errors, "o", markersize=3, color=color, label=text)
+        right.hist(errors, bins=edges, color=color, alpha=0.6, label=label)
+    left.set_xlabel("held-out point")
+    left.set_ylabel(f"position error [{unit}]")
+    left.legend(fontsize="small")
+    right.set_xlabel(f"position error [{unit}]")
+    right.set_ylabel("points")
+    right.legend(fontsize="small")
+    fig.suptitle(title or f"validation: {getattr(validation, 'how', 'held-out points')}", fontsize="medium")
     return fig
