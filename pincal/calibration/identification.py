@@ -17,7 +17,7 @@ The steps, each reported:
 
 1. **Data identifiability** (:mod:`pincal.evaluation.data_check`): rank and condition number of
    the column-scaled Jacobian of *these* configurations, the weakest combinations, and the subset
-   the data determine to better than 1 mm / 1 mrad; the others stay at their nominal value, named
+   the data determine to better than 3 mm / 3 mrad; the others stay at their nominal value, named
    with the reason. With a :class:`~pincal.Prior` nothing is dropped: the fit is the MAP estimate.
 2. **Fit**, from zero errors except each session's base, from a rigid fit (Kabsch) of the nominal
    points onto the measured ones when ``base.*`` is identified. The "before" residual is the

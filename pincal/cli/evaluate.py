@@ -14,6 +14,7 @@ from pincal.cli._accuracy import (
     report_accuracy,
     test_region_from_args,
 )
+from pincal.calibration.identification import DEFAULT_SIGMA
 from pincal.cli._common import (
     add_base_argument,
     add_command,
@@ -29,6 +30,7 @@ from pincal.cli._common import (
 )
 from pincal.errors import SingularPlan
 from pincal.evaluation.classic import criteria
+from pincal.evaluation.data_check import check_plan
 from pincal.evaluation.test_pose import rho0
 
 HELP = "criteria of a measurement plan: rho0 at the test pose(s), D, A, E, cond, O1-O4"
@@ -44,6 +46,9 @@ examples:
 
 PLAN.csv: a header row of joint names, one configuration per row, radians (degrees with --deg).
 rho0 is in metres for the given --sigma (noise per coordinate, metres; default 1, so rho0/sigma).
+The report also checks the parameters on the plan's configurations: rank and condition number of the
+column-scaled Jacobian, the weakest combinations, and those the plan cannot determine to 3 mm / 3 mrad
+for the noise --sigma (default 3e-5 m for this check).
 """
 EXAMPLES += "\n" + REGION_HELP
 
@@ -59,7 +64,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--worst", action="store_true", help="with several test poses, report the worst, not the mean"
     )
     p.add_argument(
-        "--sigma", type=float, default=1.0, help="measurement noise per coordinate [m] (default 1)"
+        "--sigma", type=float, help="measurement noise per coordinate [m] (default 1: rho0 in units of sigma)"
     )
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
     add_report_arguments(p)
@@ -68,7 +73,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    sigma = positive(args.sigma, "--sigma")
+    sigma = 1.0 if args.sigma is None else positive(args.sigma, "--sigma")
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)
     plan = read_plan(robot, args.plan, args.deg)
@@ -83,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
             raise
         crit = None  # the prior makes ρ0 finite; the classic criteria of M alone are not
     report = report_accuracy(args, params, plan, q0, sigma, prior)
+    check = check_plan(params, plan, DEFAULT_SIGMA if args.sigma is None else sigma)
     if args.json:
         emit_json(
             {
@@ -99,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
                 "criteria": None if crit is None else crit.as_dict(),
                 "prior": None if prior is None else prior.as_dict(),
                 "accuracy": None if report is None else report.as_dict(),
+                "data_check": check.as_dict(),
             }
         )
         return 0
@@ -120,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
         print("criteria (lower is better: log_det, trace, max_eig, cond; higher: O1-O4):")
         for name, v in crit.as_dict().items():
             print(f"  {name:8s} {v:.6g}")
+    print(check.report())
     if report is not None:
         print("\n".join(report.lines(degrees=args.deg)))
     return 0

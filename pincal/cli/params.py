@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from pincal.calibration.identification import DEFAULT_SIGMA
+from pincal.calibration.measurements import MeasurementData
 from pincal.cli._common import (
     DEFAULT_PARAMS,
     add_base_argument,
@@ -12,8 +14,11 @@ from pincal.cli._common import (
     add_robot_arguments,
     emit_json,
     mentions_base,
+    positive,
+    read_plan,
     robot_from_args,
 )
+from pincal.evaluation.data_check import check_plan
 
 HELP = "list geometric parameters and report which are identifiable, and why not"
 EXAMPLES = """\
@@ -22,6 +27,12 @@ examples:
   pincal params kr270 --marker 0.1,0.05,0.2 --params full
   pincal params ur10 --params lengths,offsets --json
   pincal params kr270 --marker 0.1,0.05,0.2 --base  # the set 'identify --base' uses on tracker data
+  pincal params kr270 --marker 0.1,0.05,0.2 --data meas.csv --deg   # can YOUR data identify them?
+  pincal params kr270 --marker 0.1,0.05,0.2 --plan plan.csv --deg --sigma 3e-5
+
+With --data or --plan, the identifiable set is also checked on those configurations (what identify
+does first): rank and condition number of the column-scaled Jacobian, the weakest combinations, and
+the parameters they cannot determine to 3 mm / 3 mrad for the noise --sigma (default 3e-5 m).
 
 Names: <joint>.tx|ty|tz (origin xyz error, parent link coordinates, m), <joint>.rx|ry|rz (rotation
 about the joint frame's axes, rad), <joint>.offset, <tip>.tx..rz, marker<k>.x|y|z, base.tx..rz.
@@ -40,6 +51,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_base_argument(p)
     p.add_argument("--seed", type=int, default=0, help="seed of the random configurations (default 0)")
+    source = p.add_mutually_exclusive_group()
+    source.add_argument("--data", metavar="MEAS.csv", help="check identifiability on these measurements")
+    source.add_argument("--plan", metavar="PLAN.csv", help="check identifiability on these configurations")
+    p.add_argument("--deg", action="store_true", help="joint values of --data/--plan are in degrees")
+    p.add_argument("--mm", action="store_true", help="coordinates of --data are in millimetres")
+    p.add_argument(
+        "--sigma", type=float, help=f"noise per coordinate [m] for the check (default {DEFAULT_SIGMA:g})"
+    )
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -50,6 +69,14 @@ def run(args: argparse.Namespace) -> int:
     params = robot.parameters(spec)
     # With the base, it is kept first: the chain parameters it makes redundant are the ones dropped.
     ident = params.identifiable(seed=args.seed, prefer="base" if mentions_base(spec) else ())
+    check = None
+    if args.data or args.plan:
+        sigma = DEFAULT_SIGMA if args.sigma is None else positive(args.sigma, "--sigma")
+        if args.data:
+            qs = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm).q
+        else:
+            qs = read_plan(robot, args.plan, args.deg).q
+        check = check_plan(ident.identifiable, qs, sigma)
     if args.json:
         emit_json(
             {
@@ -63,10 +90,14 @@ def run(args: argparse.Namespace) -> int:
                 "rank": ident.rank,
                 "dropped": ident.dropped,
                 "combinations": ident.combinations,
+                "data_check": check.as_dict() if check is not None else None,
             }
         )
         return 0
     joints = ", ".join(robot.joint_names)
     print(f"{robot.name}: joints {joints}; tip {robot.tip}; markers {robot.markers.tolist()}")
     print(ident.report())
+    if check is not None:
+        print(f"on the configurations of {args.data or args.plan}:")
+        print(check.report())
     return 0

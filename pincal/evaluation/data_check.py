@@ -13,7 +13,7 @@ cov(Π̂) = M⁻¹), and reports:
 * the subset the data can identify: parameters are taken greedily in the order of
   :func:`~pincal.model.base_parameters.preference_order` (offsets, lengths, ...; the base first
   when it is identified) and one is kept when, with it, the data still determine every kept
-  parameter to better than :data:`IDENTIFIABLE_STD` (1 mm, 1 mrad) for the noise σ; each one left
+  parameter to better than :data:`IDENTIFIABLE_STD` (3 mm, 3 mrad) for the noise σ; each one left
   out is named with the reason (invisible in these data, inseparable from a kept one, or
   determined only to ±x).
 
@@ -41,7 +41,7 @@ from pincal.model.base_parameters import preference_order
 from pincal.model.jacobian import ZERO_COLUMN
 from pincal.model.parameters import ParameterSet
 
-IDENTIFIABLE_STD = {"m": 1e-3, "rad": 1e-3}
+IDENTIFIABLE_STD = {"m": 3e-3, "rad": 3e-3}
 """A parameter is identifiable on the data when they determine it to better than this standard
 error [m for lengths, rad for angles] (with every other kept parameter estimated too)."""
 

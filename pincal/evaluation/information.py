@@ -139,9 +139,10 @@ def weakest(M: np.ndarray, count: int = 3) -> list[tuple[float, np.ndarray]]:
 def covariance_diagonal(M: np.ndarray) -> np.ndarray | None:
     """diag(M⁻¹) by a Cholesky factor of the Jacobi-scaled M, or None when M is singular by the
     test of :func:`factor` (the standard errors are then σ·sqrt of it)."""
-    d, scaled = jacobi_scaled(M)
-    if d.size == 0 or d.min() <= ZERO_COLUMN * d.max():
+    norms = np.sqrt(np.abs(np.diag(M)))
+    if norms.size == 0 or norms.min() <= ZERO_COLUMN * norms.max():
         return None
+    d, scaled = jacobi_scaled(M)
     L, info = _potrf(scaled, lower=1, clean=1, overwrite_a=0)
     if info != 0 or L.diagonal().min() ** 2 < RCOND * L.diagonal().max() ** 2:
         return None
