@@ -372,7 +372,9 @@ def test_dh_robot_round_trip_on_the_command_line(tmp_path, capsys):
     assert code == 0, err
     result = json.loads(out)
     assert result["status"] == "converged"
-    assert result["residual_rms_before"] > 100 * result["residual_rms_after"]
+    # issue 10: with --base, "before" is the residual after the initial rigid fit (mm), not at
+    # a base at the identity (metres)
+    assert result["residual_rms_before"] > 30 * result["residual_rms_after"]
     assert result["residual_rms_after"] < 2 * math.sqrt(3) * 3e-5
     # The base found is the tracker placement, up to the joint-1 errors it absorbs (~1 mm, 1 mrad).
     np.testing.assert_allclose(result["base"]["xyz"], tracker[:3], atol=5e-3)

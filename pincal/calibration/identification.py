@@ -72,6 +72,10 @@ METHODS = ("trf", "lm")
 ROBUST_SCALE = 2.0
 """``f_scale`` of a robust loss, in standard deviations of the whitened residuals."""
 
+ERROR_SCALE = 1e-3
+"""Typical size of a geometric error [m or rad]: trf's variable scale, so that its first trust
+region (radius 1 in scaled variables) holds a step of the size real errors have."""
+
 POOR_FIT = 1e-3
 """Residual RMS [m] after calibration above which the result's message warns that geometric
 errors do not explain the data (non-geometric errors, a model that is too small)."""
@@ -551,10 +555,10 @@ def _solve(
             method=method,
             loss=loss,
             f_scale=f_scale,
-            x_scale="jac",
+            x_scale="jac" if method == "lm" else ERROR_SCALE,
             xtol=min(tol, 1e-8) if method == "lm" else tol,
-            ftol=1e-15,
-            gtol=1e-15,
+            ftol=1e-12,
+            gtol=1e-12,
             max_nfev=int(max_iterations),
         )
     except (ValueError, ArithmeticError, np.linalg.LinAlgError, PincalError) as exc:
