@@ -52,7 +52,7 @@ from pincal.calibration.sanity import (
     robust_sigma,
     row_scores,
 )
-from pincal.errors import BadMeasurementData, PincalError, SingularPlan
+from pincal.errors import BadArgument, BadMeasurementData, PincalError, SingularPlan
 from pincal.evaluation.data_check import DataCheck, check_information
 from pincal.evaluation.prior import Prior
 from pincal.model.base_parameters import preference_order
@@ -351,17 +351,36 @@ def identify(
     sessions = _sessions(data, robot)
     sigma = None if sigma is None else positive_sigma(sigma)
     if isinstance(max_iterations, bool) or int(max_iterations) != max_iterations or max_iterations < 1:
-        raise PincalError(f"max_iterations must be a positive integer, got {max_iterations!r}")
+        raise BadArgument(
+            f"max_iterations must be a positive integer, got {max_iterations!r}",
+            argument="max_iterations",
+            value=max_iterations,
+        )
     if loss not in LOSSES:
-        raise PincalError(f"unknown loss {loss!r}; valid: {', '.join(LOSSES)}")
+        raise BadArgument(
+            f"unknown loss {loss!r}; valid: {', '.join(LOSSES)}", argument="loss", value=loss, valid=LOSSES
+        )
     if method not in METHODS:
-        raise PincalError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+        raise BadArgument(
+            f"unknown method {method!r}; valid: {', '.join(METHODS)}",
+            argument="method",
+            value=method,
+            valid=METHODS,
+        )
     if method == "lm" and loss != "linear":
-        raise PincalError(f"method 'lm' takes the linear loss only; use method 'trf' with loss {loss!r}")
+        raise BadArgument(
+            f"method 'lm' takes the linear loss only; use method 'trf' with loss {loss!r}", argument="method"
+        )
     if reject is not None and not (np.isfinite(reject) and reject > 0):
-        raise PincalError(f"reject must be a positive number of robust standard deviations, got {reject!r}")
+        raise BadArgument(
+            f"reject must be a positive number of robust standard deviations, got {reject!r}",
+            argument="reject",
+            value=reject,
+        )
     if prior is not None and not isinstance(prior, Prior):
-        raise PincalError(f"prior must be a pincal.Prior (e.g. Prior.parse('1mm,1mrad')), got {prior!r}")
+        raise BadArgument(
+            f"prior must be a pincal.Prior (e.g. Prior.parse('1mm,1mrad')), got {prior!r}", argument="prior"
+        )
     m, rows = sum(d.m for d in sessions), 3 * robot.n_markers
     if m * rows < len(params):
         raise SingularPlan(len(params), rows, m)

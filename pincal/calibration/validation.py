@@ -22,7 +22,7 @@ import numpy as np
 from pincal.arguments import positive_int
 from pincal.calibration.identification import IdentificationResult, identify
 from pincal.calibration.measurements import MeasurementData
-from pincal.errors import PincalError
+from pincal.errors import BadArgument
 from pincal.model.parameters import ParameterSet
 
 
@@ -116,9 +116,9 @@ def validate(result: IdentificationResult, data: MeasurementData, session: int =
     """Errors of ``result`` on other measurements ``data`` (in session ``session``'s instrument
     frame: the first data file's by default)."""
     if not isinstance(data, MeasurementData):
-        raise PincalError(f"validate needs a MeasurementData, got {type(data).__name__}")
+        raise BadArgument(f"validate needs a MeasurementData, got {type(data).__name__}")
     if not 0 <= session < max(len(result.sessions), 1):
-        raise PincalError(f"session must be between 0 and {len(result.sessions) - 1}, got {session}")
+        raise BadArgument(f"session must be between 0 and {len(result.sessions) - 1}, got {session}")
     before, after = _errors(result, data, session)
     source = data.source or "other data"
     return Validation(before, after, tuple(_point_labels(data)), f"file {source}", (result.status,))
@@ -165,7 +165,7 @@ def holdout(
         (the fit on the training rows, its validation on the held-out rows).
     """
     if not (isinstance(fraction, (int, float)) and 0 < fraction < 1):
-        raise PincalError(f"holdout fraction must be between 0 and 1 (exclusive), got {fraction!r}")
+        raise BadArgument(f"holdout fraction must be between 0 and 1 (exclusive), got {fraction!r}")
     rng = np.random.default_rng(seed)
     sessions = _as_sessions(data)
     rows = [np.sort(rng.permutation(d.m)[: max(1, round(fraction * d.m))]) for d in sessions]
@@ -192,7 +192,7 @@ def kfold(
     k = positive_int(k, "k (folds)", low=2)
     sessions = _as_sessions(data)
     if any(d.m < k for d in sessions):
-        raise PincalError(f"k-fold: {k} folds need at least {k} configurations in each data file")
+        raise BadArgument(f"k-fold: {k} folds need at least {k} configurations in each data file")
     rng = np.random.default_rng(seed)
     orders = [rng.permutation(d.m) for d in sessions]
     before, after, labels, statuses = [], [], [], []

@@ -20,8 +20,9 @@ from pincal.cli._common import (
     positive,
     robot_from_args,
 )
-from pincal.errors import IdentificationFailed, OverwriteRefused, PincalError
+from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused
 from pincal.evaluation.prior import Prior
+from pincal.viewing.plots import validation_errors
 
 HELP = "identify the geometric errors from measurements and write the calibrated URDF"
 EXAMPLES = f"""\
@@ -123,9 +124,9 @@ def run(args: argparse.Namespace) -> int:
     positive(args.max_iterations, "--max-iterations")
     prior = Prior.parse(args.prior) if args.prior else None
     if sum(x is not None for x in (args.validate, args.holdout, args.kfold)) > 1:
-        raise PincalError("choose one of --validate, --holdout and --kfold")
+        raise BadArgument("choose one of --validate, --holdout and --kfold")
     if args.plot and not (args.validate or args.holdout or args.kfold):
-        raise PincalError("--plot draws the validation errors: give --validate, --holdout or --kfold")
+        raise BadArgument("--plot draws the validation errors: give --validate, --holdout or --kfold")
     _check_outputs(args, robot)
     sessions = [MeasurementData.from_csv(d, robot, degrees=args.deg, millimetres=args.mm) for d in args.data]
     options = dict(
@@ -145,8 +146,6 @@ def run(args: argparse.Namespace) -> int:
     writable = result.success or (args.force and result.status == "implausible")
     out = export_urdf(result, args.out, force=args.force) if args.out and writable else None
     if args.plot and validation is not None:
-        from pincal.viewing.plots import validation_errors
-
         validation_errors(validation).savefig(args.plot, dpi=120)
     if args.json:
         payload = {"robot": robot.name, "tip": robot.tip, "params_source": source, **result.as_dict()}
