@@ -17,7 +17,7 @@ The steps, each reported:
 
 1. **Data identifiability** (:mod:`pincal.evaluation.data_check`): rank and condition number of
    the column-scaled Jacobian of *these* configurations, the weakest combinations, and the subset
-   the data determine to better than 3 mm / 3 mrad; the others stay at their nominal value, named
+   the data determine to better than 1 cm / 10 mrad; the others stay at their nominal value, named
    with the reason. With a :class:`~pincal.Prior` nothing is dropped: the fit is the MAP estimate.
 2. **Fit**, from zero errors except each session's base, from a rigid fit (Kabsch) of the nominal
    points onto the measured ones when ``base.*`` is identified. The "before" residual is the
@@ -429,6 +429,8 @@ def identify(
     if reject is not None:
         for _ in range(10):
             z_scoring, *_ = fit(used, "soft_l1" if loss == "linear" else loss, z0)
+            if z_scoring is None:
+                break
             distance, score = row_scores(problem.residual(z_scoring), coordinate_sigma, m)
             score[~used] = 0.0
             new = [i for i in np.argsort(-score) if score[i] > reject]
@@ -440,18 +442,9 @@ def identify(
             raise SingularPlan(free.size, rows, int(used.sum()))
     z, iterations, converged, note = fit(used, loss, z0)
     if z is None:
+        failed = f"identification {note}"
         return _result(
-            problem,
-            check,
-            z0,
-            None,
-            before,
-            "failed",
-            f"identification {note}",
-            iterations,
-            sigma,
-            reference,
-            dropped,
+            problem, check, z0, None, before, "failed", failed, iterations, sigma, reference, dropped
         )
     residual = problem.residual(z)
     keep = np.repeat(used, residual.size // m)

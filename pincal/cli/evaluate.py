@@ -47,7 +47,7 @@ examples:
 PLAN.csv: a header row of joint names, one configuration per row, radians (degrees with --deg).
 rho0 is in metres for the given --sigma (noise per coordinate, metres; default 1, so rho0/sigma).
 The report also checks the parameters on the plan's configurations: rank and condition number of the
-column-scaled Jacobian, the weakest combinations, and those the plan cannot determine to 3 mm / 3 mrad
+column-scaled Jacobian, the weakest combinations, and those the plan cannot determine to 1 cm / 10 mrad
 for the noise --sigma (default 3e-5 m for this check).
 """
 EXAMPLES += "\n" + REGION_HELP

@@ -48,7 +48,7 @@ own instrument placement, share the robot's parameters with one base each (base2
 
 The report gives the data's identifiability first: rank and condition number of the column-scaled
 Jacobian of YOUR configurations, the weakest parameter combinations, and the parameters the data
-cannot determine to 3 mm / 3 mrad, left at their nominal value with the reason (or, with --prior,
+cannot determine to 1 cm / 10 mrad, left at their nominal value with the reason (or, with --prior,
 every parameter estimated MAP). Rows over 5 robust sigma are named by file line (mm and sigma);
 --reject K drops rows over K robust sigma and refits. sigma defaults to {DEFAULT_SIGMA:g} m for these
 checks; the standard errors use sigma estimated from the residuals unless --sigma or s columns give it.

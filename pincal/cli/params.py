@@ -32,7 +32,7 @@ examples:
 
 With --data or --plan, the identifiable set is also checked on those configurations (what identify
 does first): rank and condition number of the column-scaled Jacobian, the weakest combinations, and
-the parameters they cannot determine to 3 mm / 3 mrad for the noise --sigma (default 3e-5 m).
+the parameters they cannot determine to 1 cm / 10 mrad for the noise --sigma (default 3e-5 m).
 
 Names: <joint>.tx|ty|tz (origin xyz error, parent link coordinates, m), <joint>.rx|ry|rz (rotation
 about the joint frame's axes, rad), <joint>.offset, <tip>.tx..rz, marker<k>.x|y|z, base.tx..rz.

@@ -13,7 +13,8 @@ cov(Π̂) = M⁻¹), and reports:
 * the subset the data can identify: parameters are taken greedily in the order of
   :func:`~pincal.model.base_parameters.preference_order` (offsets, lengths, ...; the base first
   when it is identified) and one is kept when, with it, the data still determine every kept
-  parameter to better than :data:`IDENTIFIABLE_STD` (3 mm, 3 mrad) for the noise σ; each one left
+  parameter to better than :data:`IDENTIFIABLE_STD` (1 cm, 10 mrad) for the noise σ and the
+  conditioning stays above :data:`MIN_DATA_CONDITIONING`; each one left
   out is named with the reason (invisible in these data, inseparable from a kept one, or
   determined only to ±x).
 
@@ -31,6 +32,7 @@ import numpy as np
 
 from pincal.evaluation.information import (
     condition_number,
+    conditioning,
     covariance_diagonal,
     information_matrix,
     jacobi_scaled,
@@ -41,9 +43,16 @@ from pincal.model.base_parameters import preference_order
 from pincal.model.jacobian import ZERO_COLUMN
 from pincal.model.parameters import ParameterSet
 
-IDENTIFIABLE_STD = {"m": 3e-3, "rad": 3e-3}
+IDENTIFIABLE_STD = {"m": 1e-2, "rad": 1e-2}
 """A parameter is identifiable on the data when they determine it to better than this standard
-error [m for lengths, rad for angles] (with every other kept parameter estimated too)."""
+error [m for lengths, rad for angles] (with every other kept parameter estimated too): beyond,
+its estimate is noise that can reach values no real robot has."""
+
+MIN_DATA_CONDITIONING = 1e-6
+"""...and when the kept set's conditioning (σ_min² of the unit-column Jacobian,
+:func:`~pincal.evaluation.information.conditioning`) stays above this: 100 times below the floor
+a design keeps (1e-4), so every designed plan passes, while a small sampled region (a few degrees
+per joint: 1e-8 and below) does not."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -181,6 +190,13 @@ def check_information(
             partner = f"; it moves the points nearly as {names[k]} does (cosine {abs(scaled[i, k]):.4f})"
         if diag is None:
             dropped[names[i]] = "inseparable in these data from the parameters kept before it" + partner
+            continue
+        floor = conditioning(M[np.ix_(trial, trial)])
+        if floor < MIN_DATA_CONDITIONING:
+            dropped[names[i]] = (
+                f"nearly inseparable in these data from those kept before it (conditioning {floor:.2g} "
+                f"< {MIN_DATA_CONDITIONING:g})" + partner
+            )
             continue
         trial_std = np.sqrt(diag)
         limited = [j for j in range(len(trial)) if trial[j] not in always_set]
