@@ -48,18 +48,22 @@ own instrument placement, share the robot's parameters with one base each (base2
 
 The report gives the data's identifiability first: rank and condition number of the column-scaled
 Jacobian of YOUR configurations, the weakest parameter combinations, and the parameters the data
-cannot determine to 1 cm / 10 mrad, left at their nominal value with the reason (or, with --prior,
-every parameter estimated MAP). Rows over 5 robust sigma are named by file line (mm and sigma);
---reject K drops rows over K robust sigma and refits. sigma defaults to {DEFAULT_SIGMA:g} m for these
-checks; the standard errors use sigma estimated from the residuals unless --sigma or s columns give it.
-A result no real robot has (a link moving by metres, the tool frame by centimetres, residuals 1000x
-sigma) is "implausible", with the likely cause (units: --mm; a forgotten --marker; --base; columns).
+cannot identify (nearly inseparable, or determined only to worse than 1 cm / 10 mrad), left at their
+nominal value with the reason (with --prior, every parameter estimated MAP instead). Rows over 5
+robust sigma are named by file line (mm and sigma); --reject K drops rows over K robust sigma and
+refits. sigma defaults to {DEFAULT_SIGMA:g} m for these checks; the standard errors use sigma
+estimated from the residuals unless --sigma or s columns give it.
+A result no real robot has (a link origin or the tool frame moving by over 5 cm, an angle by over
+0.1 rad, residuals 1000x sigma) is "implausible", with the likely cause (units: --mm; a forgotten
+--marker; --base; columns).
 --out writes the user's URDF with corrected joint origins (joint offsets folded into them) and the
 tip's fixed joint corrected, and a sidecar CAL.calibration.json with the base, markers, sigma and
 condition number: p = base * oMf[tip] * marker predicts the instrument's coordinates.
 Estimates are errors relative to the nominal URDF (m, rad); text output shows mm and mrad.
 Exit code 2 when the data cannot identify the parameters, the fit does not converge, or the result is
-implausible (then no URDF, unless --force).
+implausible (then no URDF, unless --force: the URDF is written, with a warning, and the exit code is 0).
+--validate, --holdout FRACTION --seed S, --kfold K: RMS, 95th percentile and max position error before
+and after calibration on held-out points (text, JSON 'validation', --plot FILE.png).
 """
 
 
