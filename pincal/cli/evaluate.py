@@ -6,6 +6,7 @@ import argparse
 
 import numpy as np
 
+from pincal.calibration.identification import DEFAULT_SIGMA
 from pincal.cli._accuracy import (
     REGION_HELP,
     add_region_arguments,
@@ -14,7 +15,6 @@ from pincal.cli._accuracy import (
     report_accuracy,
     test_region_from_args,
 )
-from pincal.calibration.identification import DEFAULT_SIGMA
 from pincal.cli._common import (
     add_base_argument,
     add_command,
