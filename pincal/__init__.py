@@ -11,6 +11,7 @@ export / visualise.
     27
 """
 
+from pincal.arguments import DEFAULT_SIGMA
 from pincal.calibration.identification import IdentificationResult, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
@@ -58,7 +59,7 @@ from pincal.evaluation.data_check import DataCheck, check_plan
 from pincal.evaluation.information import information_matrix
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import CartesianBox, Neighbourhood, TestPath, TestRegion, around, cartesian_box
-from pincal.evaluation.test_pose import TestPoseCriterion, position_covariance, rho0
+from pincal.evaluation.test_pose import TestPoseCriterion, position_covariance, rho0, rho0_each
 from pincal.model.base_parameters import Identifiability, identifiability
 from pincal.model.catalogue import Parameter
 from pincal.model.dh import DHTable, urdf_from_dh
@@ -92,6 +93,7 @@ __all__ = [
     "CannotWrite",
     "CartesianBox",
     "Criteria",
+    "DEFAULT_SIGMA",
     "DHTable",
     "DataCheck",
     "DegenerateOptimum",
@@ -160,6 +162,7 @@ __all__ = [
     "random_errors",
     "random_plans",
     "rho0",
+    "rho0_each",
     "scene",
     "shipped_robots",
     "show",

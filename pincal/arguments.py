@@ -9,6 +9,16 @@ import numpy as np
 
 from pincal.errors import BadArgument
 
+DEFAULT_SIGMA = 3e-5
+"""The measurement noise σ per coordinate [m] assumed when none is given, everywhere (API and
+CLI): 30 µm, a laser tracker's. Every ρ0 is proportional to σ: give the instrument's own."""
+
+
+def sigma_note(sigma: float, given: bool = True) -> str:
+    """How a report names the σ it used: ``σ = 0.030 mm (default: laser tracker)``."""
+    shown = f"σ = {sigma * 1e3:.3f} mm" if sigma < 1 else f"σ = {sigma:g} m"
+    return shown + ("" if given else " (default: laser tracker)")
+
 
 def positive_int(value: object, name: str, low: int = 1) -> int:
     """``value`` as an int, if it is an integer ≥ ``low`` (bools refused).
@@ -26,7 +36,7 @@ def positive_int(value: object, name: str, low: int = 1) -> int:
     return int(value)
 
 
-def positive_sigma(sigma: object) -> float:
+def positive_sigma(sigma: object = DEFAULT_SIGMA) -> float:
     """σ, the measurement noise per coordinate [m], as a float, if it is finite and positive.
 
     Raises:

@@ -67,8 +67,10 @@ def test_evaluate_planar_closed_form_and_negative_test_pose(capsys, planar_plan)
         )
         q2 = np.array([1.0, -1.0, 2.0])
         m, S = 3, np.cos(q2).sum()
-        assert out["rho0"] ** 2 == pytest.approx(2 * (m - np.cos(1.2) * S) / (m * m - S * S), rel=1e-10)
-        assert out["sigma"] == 1.0
+        sigma = 3e-5  # the default: a laser tracker's
+        closed_form = 2 * (m - np.cos(1.2) * S) / (m * m - S * S)
+        assert out["rho0"] ** 2 == pytest.approx(sigma**2 * closed_form, rel=1e-10)
+        assert out["sigma"] == sigma
 
 
 def test_evaluate_several_test_poses_mean_and_worst(capsys, planar_plan):

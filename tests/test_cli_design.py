@@ -59,8 +59,13 @@ def test_design_json_reaches_the_closed_form(capsys, tmp_path):
         ],
     )
     assert data["rho0"] ** 2 == pytest.approx(3e-5**2 / 2 * (1 + math.sin(q20)), rel=1e-6)
-    assert data["criterion"] == "test-pose" and data["value"] == data["rho0"] and data["starts"] == 4
-    assert data["time_s"] > 0 and len(data["plan"]) == 2 and len(data["plan"][0]) == 2
+    assert data["criterion"] == "test-pose" and data["starts"] == 4
+    # The plan printed is the one whose rho0 is reported: SPEC §6 closed form in its own S = Σ cos q2i.
+    S = sum(math.cos(q[1]) for q in data["plan"])
+    assert data["value"] ** 2 == pytest.approx(3e-5**2 * 2 * (2 - math.cos(q20) * S) / (4 - S * S), rel=1e-9)
+    assert np.shape(data["plan"]) == (2, 2) and S == pytest.approx(
+        2 * (1 - math.sin(q20)) / math.cos(q20), abs=1e-4
+    )
     base = data["baseline"]
     assert set(base["random"]) >= {"min", "mean", "median", "max"}
     assert base["random"]["min"] >= data["rho0"] * (1 - 1e-9)
@@ -154,7 +159,19 @@ def test_design_warns_on_one_line_at_a_singular_limit(capsys):
 
 def test_baseline_json(capsys):
     data = run_json(
-        capsys, ["baseline", *PLANAR, "-m", "2", "--test-pose=0.3,1.0", "--random", "200", "--d-optimal"]
+        capsys,
+        [
+            "baseline",
+            *PLANAR,
+            "-m",
+            "2",
+            "--test-pose=0.3,1.0",
+            "--random",
+            "200",
+            "--d-optimal",
+            "--sigma",
+            "1",
+        ],
     )
     assert data["random"]["n"] == 200 and data["random"]["min"] <= data["random"]["median"]
     assert data["random"]["min"] >= math.sqrt((1 + math.sin(1.0)) / 2) * (1 - 1e-9)

@@ -89,7 +89,7 @@ def test_several_test_poses(kr270_marker):
     params = kr270_marker.parameters("lengths,offsets")
     plan = kr270_marker.random_configurations(10, 4)
     q0 = kr270_marker.random_configurations(3, 5)
-    each = pincal.rho0(params, plan, q0, sigma=SIGMA, aggregate="each")
+    each = pincal.rho0_each(params, plan, q0, sigma=SIGMA)
     singles = [pincal.rho0(params, plan, q, sigma=SIGMA) for q in q0]
     np.testing.assert_allclose(each, singles, rtol=1e-12)
     assert pincal.rho0(params, plan, q0, sigma=SIGMA) == pytest.approx(np.sqrt(np.mean(each**2)), rel=1e-12)
@@ -105,7 +105,7 @@ def test_position_covariance_trace_is_rho0_squared(kr270_marker):
     plan = kr270_marker.random_configurations(12, 6)
     q0 = kr270_marker.random_configurations(2, 7)
     cov = pincal.position_covariance(params, plan, q0, sigma=SIGMA)
-    each = pincal.rho0(params, plan, q0, sigma=SIGMA, aggregate="each")
+    each = pincal.rho0_each(params, plan, q0, sigma=SIGMA)
     np.testing.assert_allclose(np.trace(cov, axis1=1, axis2=2), each**2, rtol=1e-10)
     np.testing.assert_allclose(cov, cov.transpose(0, 2, 1), atol=1e-20)
 

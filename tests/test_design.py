@@ -25,6 +25,7 @@ KR_Q0 = np.radians([0, -90, 90, 0, 45, 0])
 # Plans at the conditioning floor warn (asserted where it matters, with pytest.warns).
 pytestmark = pytest.mark.filterwarnings("ignore::pincal.DegenerateOptimumWarning")
 FAST = dict(workers=1, starts=4)
+UNIT_SIGMA = dict(FAST, sigma=1.0)  # closed forms in units of σ: ρ0/σ
 
 
 @pytest.fixture(scope="module")
@@ -47,6 +48,12 @@ def cos_sum(plan) -> float:
     return float(np.cos(np.asarray(plan)[:, 1]).sum())
 
 
+def rho0_squared_of_plan(plan, q20: float, sigma: float = 1.0) -> float:
+    """SPEC §6: ρ0² of any plan for (Δl1, Δl2) = 2σ²(m − cos q20·S)/(m² − S²), S = Σ cos q2i."""
+    m, S = len(np.asarray(plan)), cos_sum(plan)
+    return 2 * sigma**2 * (m - math.cos(q20) * S) / (m * m - S * S)
+
+
 # ------------------------------------------------------------------- known optima (SPEC §6)
 @pytest.mark.parametrize("method", ["continuous", "exchange"])
 @pytest.mark.parametrize("deg", [5, 30, 60, 90, 120, 150, 175, -40])
@@ -58,15 +65,16 @@ def test_both_methods_reach_the_closed_form_minimum(lengths, deg, method):
     # The optimum's structure: S = Σ cos q2i = m(1 − |sin q20|)/cos q20.
     if abs(deg) != 90:
         assert cos_sum(result.plan) == pytest.approx(2 * (1 - abs(math.sin(q20))) / math.cos(q20), abs=1e-4)
-    assert result.value == result.rho0
-    assert result.rho0 == pytest.approx(pincal.rho0(lengths, result.plan, [0.7, q20], sigma=sigma), rel=1e-12)
+    # The value reported is the plan's own ρ0, by the closed form of its configurations.
+    assert result.value**2 == pytest.approx(rho0_squared_of_plan(result.plan, q20, sigma), rel=1e-9)
+    assert result.rho0 == result.value
 
 
 @pytest.mark.parametrize("method", ["continuous", "exchange"])
 @pytest.mark.parametrize("q20", [0.0, math.pi])
 def test_singular_limit_is_reported_not_returned_silently(lengths, q20, method):
     with pytest.warns(DegenerateOptimumWarning, match="not attained"):
-        result = design(lengths, 2, test_pose=[0.2, q20], method=method, min_conditioning=1e-4, **FAST)
+        result = design(lengths, 2, test_pose=[0.2, q20], method=method, min_conditioning=1e-4, **UNIT_SIGMA)
     # The plan returned is regular (above the floor) but at it, and close to the infimum σ²/m.
     assert 1e-4 < result.conditioning < 2e-4
     assert result.rho0**2 == pytest.approx(0.5, rel=1e-3)
@@ -78,7 +86,7 @@ def test_mean_over_test_poses_reaches_its_closed_form(lengths):
     poses = np.array([[0.1, 0.4], [1.0, 1.3], [-0.5, 2.2]])
     cbar = np.cos(poses[:, 1]).mean()
     for method in ("continuous", "exchange"):
-        result = design(lengths, 3, test_pose=poses, method=method, **FAST)
+        result = design(lengths, 3, test_pose=poses, method=method, **UNIT_SIGMA)
         assert result.rho0**2 == pytest.approx((1 + math.sqrt(1 - cbar**2)) / 3, rel=1e-6)
 
 
@@ -92,8 +100,8 @@ def test_worst_test_pose_reaches_the_numerical_minimax(lengths):
     best = minimize_scalar(
         worst, bounds=(-m + 1e-9, m - 1e-9), method="bounded", options={"xatol": 1e-12}
     ).fun
-    continuous = design(lengths, m, test_pose=poses, criterion="worst", method="continuous", **FAST)
-    exchange = design(lengths, m, test_pose=poses, criterion="test-pose-worst", **FAST)
+    continuous = design(lengths, m, test_pose=poses, criterion="worst", method="continuous", **UNIT_SIGMA)
+    exchange = design(lengths, m, test_pose=poses, criterion="test-pose-worst", **UNIT_SIGMA)
     for result in (continuous, exchange):
         assert result.criterion == "test-pose-worst"
         # The gradient search minimises a power mean (p up to 32768) standing for the maximum.
@@ -115,7 +123,7 @@ def test_classic_criteria_reach_sum_cos_zero(lengths, criterion, method):
     # M = [[m, S], [S, m]]: every classic criterion is best at S = Σ cos q2i = 0.
     m = 3
     kw = dict(polish=True) if method == "exchange" else {}
-    result = design(lengths, m, test_pose=[0.3, 1.0], criterion=criterion, method=method, **FAST, **kw)
+    result = design(lengths, m, test_pose=[0.3, 1.0], criterion=criterion, method=method, **UNIT_SIGMA, **kw)
     assert result.value == pytest.approx(CLASSIC_OPTIMA[criterion](m), rel=1e-6, abs=1e-7)
     assert abs(cos_sum(result.plan)) < (1e-5 if criterion not in ("E", "cond") else 1e-3)
     # The value is the core's own criterion of the plan; ρ0 is reported too (2σ²/m at S = 0).
@@ -129,9 +137,9 @@ def test_classic_criteria_reach_sum_cos_zero(lengths, criterion, method):
 def test_exchange_and_continuous_agree(lengths, kr_params):
     q0 = [0.3, 1.1]
     exact = rho0_min_squared(1.1, 2)
-    continuous = design(lengths, 2, test_pose=q0, method="continuous", **FAST)
-    exchange = design(lengths, 2, test_pose=q0, method="exchange", polish=False, **FAST)
-    polished = design(lengths, 2, test_pose=q0, method="exchange", **FAST)
+    continuous = design(lengths, 2, test_pose=q0, method="continuous", **UNIT_SIGMA)
+    exchange = design(lengths, 2, test_pose=q0, method="exchange", polish=False, **UNIT_SIGMA)
+    polished = design(lengths, 2, test_pose=q0, method="exchange", **UNIT_SIGMA)
     assert continuous.rho0**2 == pytest.approx(exact, rel=1e-6)
     assert exact <= exchange.rho0**2 <= exact * 1.01  # a 2000-candidate pool: close, not exact
     assert polished.rho0**2 == pytest.approx(exact, rel=1e-6)

@@ -7,13 +7,13 @@ from __future__ import annotations
 
 import os
 
+# Test dependencies (pyproject's [test] extra): a broken install fails here, it does not skip.
+import ipykernel  # noqa: F401  (the kernel the notebooks run on)
+import nbclient
+import nbformat
 import pytest
 
 from tests.conftest import ROOT
-
-nbformat = pytest.importorskip("nbformat")
-nbclient = pytest.importorskip("nbclient")
-pytest.importorskip("ipykernel")
 
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 TIMEOUT_S = 300

@@ -5,12 +5,12 @@ from __future__ import annotations
 import sys
 import types
 
+import matplotlib  # the [test] extra: a broken install fails, it does not skip
 import numpy as np
 import pytest
 
 import pincal
 
-matplotlib = pytest.importorskip("matplotlib")
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from PIL import Image  # noqa: E402

@@ -15,7 +15,7 @@ from pincal.cli import main
 
 POOL_Q2 = (0.5, 1.5, 2.5)
 Q0 = (0.3, 1.0)
-PLANAR = ["planar_2r", "--params", "joint2.tx,tip.tx"]
+PLANAR = ["planar_2r", "--params", "joint2.tx,tip.tx", "--sigma", "1"]  # rho0 in units of sigma
 KR = ["kr270", "--marker", "0.1,0.05,0.2", "--test-pose=0,-90,90,0,45,0", "--deg", "--sigma", "3e-5"]
 
 
@@ -48,12 +48,14 @@ def run_json(capsys, argv) -> dict:
 def test_random_plans_from_a_pool_are_its_plans(planar):
     params = planar.parameters("joint2.tx,tip.tx")
     pool = [[0.0, q2] for q2 in POOL_Q2]
-    randoms = pincal.random_plans(params, 2, 300, Q0, pool=pool, seed=3)
+    randoms = pincal.random_plans(params, 2, 300, Q0, sigma=1.0, pool=pool, seed=3)
     assert randoms.n == 300 and randoms.n_singular == 0
     # Three pool configurations make exactly three plans of two: every draw is one of them, all appear.
     found = np.unique(np.round(randoms.values, 12))
     np.testing.assert_allclose(found, PAIRS, rtol=1e-12)
-    again = pincal.random_plans(params, 2, 300, Q0, pool=pincal.Plan.for_robot(planar, pool), seed=3)
+    again = pincal.random_plans(
+        params, 2, 300, Q0, sigma=1.0, pool=pincal.Plan.for_robot(planar, pool), seed=3
+    )
     np.testing.assert_array_equal(randoms.values, again.values)  # a Plan or an array, same draws
 
 

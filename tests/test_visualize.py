@@ -14,15 +14,13 @@ import types
 import urllib.request
 import warnings
 
+import meshcat  # noqa: E402  (a required dependency: a broken install fails, it does not skip)
 import numpy as np
 import pytest
+import umsgpack
 
 import pincal
 from pincal.cli import main
-
-meshcat = pytest.importorskip("meshcat")
-umsgpack = pytest.importorskip("umsgpack")
-
 from pincal.viewing import scene as visualize  # noqa: E402
 from pincal.viewing.static_page import StaticWindow  # noqa: E402
 

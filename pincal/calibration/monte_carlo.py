@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pincal.arguments import Seed, generator
+from pincal.arguments import DEFAULT_SIGMA, Seed, generator
 from pincal.calibration.identification import identify
 from pincal.calibration.synthetic import error_std_pair, random_errors, simulate_measurements
 from pincal.errors import BadArgument, PincalError
@@ -105,7 +105,7 @@ def monte_carlo(
     params: ParameterSet,
     plan: object,
     test_pose: object,
-    sigma: float,
+    sigma: float = DEFAULT_SIGMA,
     trials: int = 200,
     seed: Seed = None,
     error_std: Mapping[str, float] | None = None,

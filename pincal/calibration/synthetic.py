@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.arguments import Seed, generator
+from pincal.arguments import DEFAULT_SIGMA, Seed, generator
 from pincal.calibration.measurements import MeasurementData
 from pincal.errors import BadArgument
 from pincal.model.parameters import ParameterSet
@@ -91,7 +91,7 @@ def random_errors(
 def simulate_measurements(
     true_robot: Robot | RandomErrors,
     plan: object,
-    sigma: float,
+    sigma: float = DEFAULT_SIGMA,
     seed: Seed = None,
 ) -> MeasurementData:
     """What an instrument with i.i.d. Gaussian noise ``sigma`` per coordinate would measure.

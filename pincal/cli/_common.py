@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 
+from pincal.arguments import DEFAULT_SIGMA, sigma_note
 from pincal.errors import BadArgument, BadConfiguration
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot, load_robot
@@ -265,6 +266,22 @@ def positive(value: float, name: str) -> float:
 def emit_json(payload: dict) -> None:
     json.dump(payload, sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
+
+
+SIGMA_HELP = f"measurement noise per coordinate [m] (default {DEFAULT_SIGMA:g}: a laser tracker)"
+
+
+def add_sigma_argument(parser: argparse.ArgumentParser, help: str = SIGMA_HELP) -> None:
+    """``--sigma`` [m], default :data:`pincal.arguments.DEFAULT_SIGMA` everywhere."""
+    parser.add_argument("--sigma", type=float, default=None, help=help)
+
+
+def sigma_from_args(args: argparse.Namespace) -> tuple[float, str]:
+    """(σ [m], how reports name it: ``σ = 0.030 mm (default: laser tracker)``)."""
+    if args.sigma is None:
+        return DEFAULT_SIGMA, sigma_note(DEFAULT_SIGMA, given=False)
+    sigma = positive(args.sigma, "--sigma")
+    return sigma, sigma_note(sigma)
 
 
 def fmt_length(metres: float) -> str:

@@ -12,9 +12,9 @@ from pincal.cli._common import (
     constraints_from_args,
     emit_json,
     params_from_args,
-    positive,
     read_plan,
     robot_from_args,
+    sigma_from_args,
 )
 from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
 from pincal.planning.baselines import random_plans
@@ -61,7 +61,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    sigma = positive(args.sigma, "--sigma")
+    sigma, sigma_text = sigma_from_args(args)
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)
     q0 = test_region_from_args(robot, args)
@@ -113,6 +113,6 @@ def run(args: argparse.Namespace) -> int:
             payload["d_optimal_plan"] = d_opt.plan.q.tolist()
         emit_json(payload)
         return 0
-    print(f"{robot.name}: {len(params)} parameters ({source}), m = {args.m}, sigma = {sigma:g} m")
+    print(f"{robot.name}: {len(params)} parameters ({source}), m = {args.m}, {sigma_text}")
     print_baseline(randoms, d_opt, pool=args.pool)
     return 0

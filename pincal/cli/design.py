@@ -15,6 +15,7 @@ from pincal.cli._accuracy import (
     test_region_from_args,
 )
 from pincal.cli._common import (
+    SIGMA_HELP,
     add_base_argument,
     add_command,
     add_output_arguments,
@@ -24,9 +25,9 @@ from pincal.cli._common import (
     emit_json,
     fmt_length,
     params_from_args,
-    positive,
     read_plan,
     robot_from_args,
+    sigma_from_args,
 )
 from pincal.cli._plot import add_plot_argument, save_design_plot
 from pincal.errors import BadArgument
@@ -64,7 +65,8 @@ below X (default 1e-2, none with --prior); a plan below 1e-3 is warned about wha
 
 {region}
 Units: metres and radians; --deg reads test poses and --pool, and writes --out and prints the plan,
-in degrees. The JSON plan is always in radians; rho0 is in metres for --sigma (default 1).
+in degrees. The JSON plan is always in radians; rho0 is in metres for --sigma
+(default 3e-5 m, a laser tracker; the report says which sigma it used).
 """
 EXAMPLES = EXAMPLES.replace("{region}", REGION_HELP.rstrip())
 
@@ -78,9 +80,7 @@ def add_design_arguments(p: argparse.ArgumentParser) -> None:
     add_test_pose_argument(p, required=False)
     add_region_arguments(p)
     p.add_argument("--constraints", metavar="FILE.yaml", help="workcell constraints (YAML)")
-    p.add_argument(
-        "--sigma", type=float, default=1.0, help="measurement noise per coordinate [m] (default 1)"
-    )
+    p.add_argument("--sigma", type=float, default=None, help=SIGMA_HELP)
     p.add_argument(
         "--deg", action="store_true", help="joint values in degrees (test poses, pool, plan output)"
     )
@@ -143,7 +143,7 @@ def print_warnings(records: list) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    sigma = positive(args.sigma, "--sigma")
+    sigma, sigma_text = sigma_from_args(args)
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)
     criterion = "test-pose-worst" if args.worst else args.criterion
@@ -214,7 +214,7 @@ def run(args: argparse.Namespace) -> int:
         payload["accuracy"] = None if report is None else report.as_dict()
         emit_json(payload)
     else:
-        print_design(robot, params, source, result, args.deg)
+        print_design(robot, params, source, result, args.deg, sigma_text)
         if baseline is not None:
             print_baseline(*baseline, pool=args.pool)
         if report is not None:
@@ -259,12 +259,12 @@ def format_plan(robot, plan: Plan, degrees: bool) -> list[str]:
     return lines
 
 
-def print_design(robot, params, source: str, result: DesignResult, degrees: bool) -> None:
+def print_design(robot, params, source: str, result: DesignResult, degrees: bool, sigma_text: str) -> None:
     print(
         f"{robot.name}: {result.m} configurations designed for {result.criterion} ({result.method}, "
         f"{result.starts} starts, {result.continued} run to convergence, {result.time_s:.3g} s)"
     )
-    print(f"{len(params)} parameters ({source}); sigma = {result.sigma:g} m")
+    print(f"{len(params)} parameters ({source}); {sigma_text}")
     if result.rho0_each is not None and len(result.rho0_each) > 1:
         agg = "worst" if result.criterion == "test-pose-worst" else "root mean square"
         print(

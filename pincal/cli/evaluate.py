@@ -6,7 +6,6 @@ import argparse
 
 import numpy as np
 
-from pincal.calibration.identification import DEFAULT_SIGMA
 from pincal.cli._accuracy import (
     REGION_HELP,
     add_region_arguments,
@@ -16,6 +15,7 @@ from pincal.cli._accuracy import (
     test_region_from_args,
 )
 from pincal.cli._common import (
+    SIGMA_HELP,
     add_base_argument,
     add_command,
     add_output_arguments,
@@ -24,14 +24,14 @@ from pincal.cli._common import (
     emit_json,
     fmt_length,
     params_from_args,
-    positive,
     read_plan,
     robot_from_args,
+    sigma_from_args,
 )
 from pincal.errors import SingularPlan
 from pincal.evaluation.classic import criteria
 from pincal.evaluation.data_check import check_plan
-from pincal.evaluation.test_pose import rho0
+from pincal.evaluation.test_pose import rho0_each
 
 HELP = "criteria of a measurement plan: rho0 at the test pose(s), D, A, E, cond, O1-O4"
 EXAMPLES = """\
@@ -45,10 +45,10 @@ examples:
       --prior 1mm,1mrad --accuracy-plot accuracy.png
 
 PLAN.csv: a header row of joint names, one configuration per row, radians (degrees with --deg).
-rho0 is in metres for the given --sigma (noise per coordinate, metres; default 1, so rho0/sigma).
+rho0 is in metres for --sigma (noise per coordinate, metres; default 3e-5, a laser tracker).
 The report also checks the parameters on the plan's configurations: rank and condition number of the
 column-scaled Jacobian, the weakest combinations, and those the plan cannot determine to 1 cm / 10 mrad
-for the noise --sigma (default 3e-5 m for this check).
+for the noise --sigma.
 """
 EXAMPLES += "\n" + REGION_HELP
 
@@ -63,9 +63,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--worst", action="store_true", help="with several test poses, report the worst, not the mean"
     )
-    p.add_argument(
-        "--sigma", type=float, help="measurement noise per coordinate [m] (default 1: rho0 in units of sigma)"
-    )
+    p.add_argument("--sigma", type=float, default=None, help=SIGMA_HELP)
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
     add_report_arguments(p)
     add_output_arguments(p)
@@ -73,13 +71,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    sigma = 1.0 if args.sigma is None else positive(args.sigma, "--sigma")
+    sigma, sigma_text = sigma_from_args(args)
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)
     plan = read_plan(robot, args.plan, args.deg)
     q0 = test_region_from_args(robot, args)
     prior = prior_from_args(args)
-    each = rho0(params, plan, q0, sigma=sigma, aggregate="each", prior=prior)
+    each = rho0_each(params, plan, q0, sigma=sigma, prior=prior)
     value = float(each.max()) if args.worst else float(np.sqrt(np.mean(each**2)))
     try:
         crit = criteria(params, plan)
@@ -88,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
             raise
         crit = None  # the prior makes ρ0 finite; the classic criteria of M alone are not
     report = report_accuracy(args, params, plan, q0, sigma, prior)
-    check = check_plan(params, plan, DEFAULT_SIGMA if args.sigma is None else sigma)
+    check = check_plan(params, plan, sigma)
     if args.json:
         emit_json(
             {
@@ -110,9 +108,7 @@ def run(args: argparse.Namespace) -> int:
         )
         return 0
     agg = "worst" if args.worst else "root mean square"
-    print(
-        f"{robot.name}: {len(plan)} configurations, {len(params)} parameters ({source}), sigma = {sigma:g} m"
-    )
+    print(f"{robot.name}: {len(plan)} configurations, {len(params)} parameters ({source}), {sigma_text}")
     if len(each) == 1:
         print(f"rho0 at the test pose: {fmt_length(value)}  ({value:.6g} m)")
     else:

@@ -8,9 +8,11 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from pincal.arguments import DEFAULT_SIGMA
 from pincal.calibration.synthetic import random_errors, simulate_measurements
 from pincal.calibration.urdf_export import export_urdf
 from pincal.cli._common import (
+    SIGMA_HELP,
     add_command,
     add_robot_arguments,
     joint_ranges_from_args,
@@ -53,7 +55,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--save-true", metavar="TRUE.urdf", help="with --error-std: write the true robot as a URDF"
     )
-    p.add_argument("--sigma", type=float, required=True, help="measurement noise per coordinate [m]")
+    p.add_argument("--sigma", type=float, default=DEFAULT_SIGMA, help=SIGMA_HELP + "; 0: exact points")
     p.add_argument("--out", required=True, metavar="MEAS.csv", help="the measurement file to write")
     p.add_argument("--base-pose", metavar="X,Y,Z,R,P,Y", help="robot base in the instrument's frame")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")

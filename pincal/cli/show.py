@@ -20,6 +20,7 @@ from pincal.cli._accuracy import (
     test_region_from_args,
 )
 from pincal.cli._common import (
+    SIGMA_HELP,
     add_command,
     add_output_arguments,
     add_robot_arguments,
@@ -32,6 +33,7 @@ from pincal.cli._common import (
     positive,
     read_plan,
     robot_from_args,
+    sigma_from_args,
 )
 from pincal.errors import BadArgument, BadConfiguration, PincalError
 from pincal.evaluation.test_pose import rho0
@@ -75,9 +77,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="draw the measured point at N random configurations, coloured by the predicted error after "
         "calibration (green: smallest, red: largest)",
     )
-    p.add_argument(
-        "--sigma", type=float, default=1.0, help="measurement noise per coordinate [m] (default 1)"
-    )
+    p.add_argument("--sigma", type=float, default=None, help=SIGMA_HELP)
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
     p.add_argument(
         "--instrument",
@@ -123,7 +123,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from pincal.viewing.scene import scene
 
-    sigma = positive(args.sigma, "--sigma")
+    sigma, sigma_text = sigma_from_args(args)
     if args.scale is not None:
         positive(args.scale, "--scale")
     if args.plot and not args.test_pose:
@@ -201,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
         if args.json:
             emit_json(summary)
         else:
-            _print_summary(summary)
+            _print_summary(summary, sigma_text)
             if report is not None:
                 print("\n".join(report.lines(degrees=args.deg)))
         sys.stdout.flush()
@@ -237,8 +237,8 @@ def _plot_baseline(params, plan, q0: np.ndarray, sigma: float, constraints, args
     return randoms.as_dict()
 
 
-def _print_summary(s: dict) -> None:
-    print(f"{s['robot']}: {s['m']} configurations, sigma = {s['sigma']:g} m")
+def _print_summary(s: dict, sigma_text: str) -> None:
+    print(f"{s['robot']}: {s['m']} configurations, {sigma_text}")
     if s["rho0"] is not None:
         for k, (r, radii) in enumerate(zip(s["rho0"], s["ellipsoid_radii"], strict=True)):
             axes = ", ".join(fmt_length(a) for a in np.ravel(radii))

@@ -7,6 +7,7 @@ import argparse
 from pincal.calibration.monte_carlo import monte_carlo
 from pincal.calibration.synthetic import DEFAULT_ERROR_STD
 from pincal.cli._common import (
+    SIGMA_HELP,
     add_command,
     add_output_arguments,
     add_robot_arguments,
@@ -15,9 +16,9 @@ from pincal.cli._common import (
     fmt_length,
     params_from_args,
     parse_floats,
-    positive,
     read_plan,
     robot_from_args,
+    sigma_from_args,
     test_poses_from_args,
 )
 from pincal.cli._plot import add_simulation_plot_arguments, save_simulation_plot
@@ -47,9 +48,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plan", required=True, metavar="PLAN.csv", help="the configurations to simulate")
     add_test_pose_argument(p)
     p.add_argument("--trials", type=int, default=200, help="Monte-Carlo trials (default 200)")
-    p.add_argument(
-        "--sigma", type=float, default=3e-5, help="measurement noise per coordinate [m] (default 3e-5)"
-    )
+    p.add_argument("--sigma", type=float, default=None, help=SIGMA_HELP)
     p.add_argument(
         "--error-std",
         metavar="LEN,ANG",
@@ -74,7 +73,7 @@ def parse_error_std(text: str) -> dict[str, float]:
 
 
 def run(args: argparse.Namespace) -> int:
-    sigma = positive(args.sigma, "--sigma")
+    sigma, sigma_text = sigma_from_args(args)
     if args.trials < 2:
         raise BadArgument(f"--trials must be at least 2, got {args.trials}")
     error_std = parse_error_std(args.error_std)
@@ -101,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(
         f"{robot.name}: {len(plan)} configurations, {len(params)} parameters ({source}), "
-        f"sigma = {sigma:g} m, "
+        f"{sigma_text}, "
         f"errors {error_std['length']:g} m / {error_std['angle']:g} rad, {mc.trials} trials"
     )
     print(f"rho0 predicted: {fmt_length(mc.rho0_predicted)}")

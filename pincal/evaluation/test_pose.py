@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg.lapack import dtrtrs as _trtrs
 
+from pincal.arguments import DEFAULT_SIGMA
 from pincal.errors import BadArgument
 from pincal.evaluation.information import factor, information_matrix
 from pincal.evaluation.prior import Prior
@@ -70,7 +71,7 @@ class TestPoseCriterion:
         self,
         params: ParameterSet,
         test_poses: object,
-        sigma: float = 1.0,
+        sigma: float = DEFAULT_SIGMA,
         aggregate: str = "mean",
         prior: Prior | None = None,
     ) -> None:
@@ -140,10 +141,10 @@ def rho0(
     params: ParameterSet,
     plan: object,
     test_pose: object,
-    sigma: float = 1.0,
+    sigma: float = DEFAULT_SIGMA,
     aggregate: str = "mean",
     prior: Prior | None = None,
-):
+) -> float:
     """Expected position error at the test pose(s) after calibrating with ``plan``.
 
     ρ0 = σ·sqrt(trace(J₀ M⁻¹ J₀ᵀ)) (see module doc): "after calibration, expect ±ρ0 at q₀".
@@ -153,25 +154,46 @@ def rho0(
         plan: (m, nq) configurations [rad or m] or a :class:`~pincal.Plan`.
         test_pose: (nq,) or (k, nq) test configuration(s), or a region or path
             (:func:`pincal.around`, :class:`pincal.TestPath`, :func:`pincal.cartesian_box`).
-        sigma: measurement noise standard deviation per coordinate [m]; ρ0 is proportional.
-        aggregate: ``"mean"``, ``"worst"`` or ``"each"`` over several test poses.
+        sigma: measurement noise standard deviation per coordinate [m] (default 3e-5, a laser
+            tracker); ρ0 is proportional.
+        aggregate: over several test poses, ``"mean"`` (root mean square) or ``"worst"``;
+            :func:`rho0_each` gives one ρ0 per test pose.
         prior: the errors' prior (:class:`pincal.Prior`): ρ0 from the posterior covariance
             σ²(M + σ²Σp⁻¹)⁻¹, finite for every plan (σ must then be the real noise in metres).
 
     Returns:
-        ρ0 [m]: a float, or a (k,) array for ``aggregate="each"``.
+        ρ0 [m], a Python float.
 
     Raises:
         SingularPlan: the plan cannot identify ``params`` (names the minimum m); never with a
             prior on every parameter.
         BadConfiguration: a configuration or test pose of the wrong size or outside the limits.
     """
+    if aggregate == "each":
+        raise BadArgument(
+            "rho0 is one number: pincal.rho0_each gives one per test pose",
+            argument="aggregate",
+            value=aggregate,
+            valid=("mean", "worst"),
+        )
     qs = params.robot.configurations(plan)
-    return TestPoseCriterion(params, test_pose, sigma, aggregate, prior)(qs)
+    return float(TestPoseCriterion(params, test_pose, sigma, aggregate, prior)(qs))
+
+
+def rho0_each(
+    params: ParameterSet,
+    plan: object,
+    test_pose: object,
+    sigma: float = DEFAULT_SIGMA,
+    prior: Prior | None = None,
+) -> np.ndarray:
+    """(k,) ρ0 [m] at each test pose (arguments as :func:`rho0`)."""
+    qs = params.robot.configurations(plan)
+    return np.asarray(TestPoseCriterion(params, test_pose, sigma, "each", prior)(qs), dtype=float)
 
 
 def position_covariance(
-    params: ParameterSet, plan: object, test_pose: object, sigma: float = 1.0
+    params: ParameterSet, plan: object, test_pose: object, sigma: float = DEFAULT_SIGMA
 ) -> np.ndarray:
     """(k, 3K, 3K) predicted covariance σ² J₀ M⁻¹ J₀ᵀ of the measured points at each test pose,
     after calibration, in the instrument frame [m²]. Its trace is ρ0²."""

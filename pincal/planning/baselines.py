@@ -7,7 +7,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from pincal.arguments import Seed, generator, positive_int, positive_sigma
+from pincal.arguments import DEFAULT_SIGMA, Seed, generator, positive_int, positive_sigma
 from pincal.errors import Infeasible
 from pincal.evaluation.prior import Prior
 from pincal.model.jacobian import JacobianEngine
@@ -28,7 +28,7 @@ def random_plans(
     test_pose: object = None,
     *,
     criterion: str = "test-pose",
-    sigma: float = 1.0,
+    sigma: float = DEFAULT_SIGMA,
     prior: Prior | None = None,
     constraints: Iterable[AnyConstraint] = (),
     seed: Seed = 0,

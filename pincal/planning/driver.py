@@ -41,7 +41,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pincal.arguments import Seed, positive_int, positive_sigma, seed_entropy
+from pincal.arguments import DEFAULT_SIGMA, Seed, positive_int, positive_sigma, seed_entropy
 from pincal.errors import (
     BadArgument,
     DegenerateOptimum,
@@ -108,7 +108,7 @@ def design(
     pool: object = None,
     starts: int = 32,
     seed: Seed = 0,
-    sigma: float = 1.0,
+    sigma: float = DEFAULT_SIGMA,
     executor: Executor | None = None,
     workers: int | None = None,
     init: Sequence[object] = (),
@@ -180,7 +180,7 @@ def design(
     Example:
         >>> import math, pincal
         >>> params = pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")
-        >>> result = pincal.design(params, m=2, test_pose=[0.0, 1.0], starts=4, workers=1)
+        >>> result = pincal.design(params, m=2, test_pose=[0.0, 1.0], sigma=1.0, starts=4, workers=1)
         >>> round(result.rho0**2 / ((1 + math.sin(1.0)) / 2), 9)  # SPEC §6 closed form, σ = 1
         1.0
     """

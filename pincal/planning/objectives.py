@@ -34,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg.lapack import dtrtrs as _trtrs
 
+from pincal.arguments import DEFAULT_SIGMA
 from pincal.errors import BadArgument, UnknownName
 from pincal.evaluation.information import RCOND, factor, jacobi_scaled
 from pincal.evaluation.region import resolve_test_poses
@@ -318,7 +319,7 @@ def make_objective(
     n_params: int,
     rows: int,
     J0: np.ndarray | None = None,
-    sigma: float = 1.0,
+    sigma: float = DEFAULT_SIGMA,
     prior: np.ndarray | None = None,
 ) -> Objective:
     """The objective of a criterion.

@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
+from pincal.arguments import DEFAULT_SIGMA
 from pincal.errors import BadConfiguration, SingularPlan
 from pincal.evaluation.accuracy import PredictedError
 from pincal.evaluation.prior import Prior
@@ -165,7 +166,7 @@ def show(
     params_or_robot: ParameterSet | Robot,
     plan: object,
     test_pose: object = None,
-    sigma: float = 1.0,
+    sigma: float = DEFAULT_SIGMA,
     instrument: object = None,
     scale: float | None = None,
     viewer: object = None,
@@ -208,7 +209,7 @@ def scene(
     params_or_robot: ParameterSet | Robot,
     plan: object,
     test_pose: object = None,
-    sigma: float = 1.0,
+    sigma: float = DEFAULT_SIGMA,
     instrument: object = None,
     scale: float | None = None,
     viewer: object = "static",
@@ -376,8 +377,8 @@ def _ellipsoids(cov: np.ndarray, n_markers: int) -> tuple[np.ndarray, np.ndarray
 
 
 def _nice_scale(x: float) -> float:
-    """The largest of 1, 2, 5 × 10^n not above ``x`` (below 1 when ``sigma`` is large, e.g. the
-    default σ = 1 m, which gives ρ0/σ)."""
+    """The largest of 1, 2, 5 × 10^n not above ``x`` (below 1 when ``sigma`` is large, e.g.
+    σ = 1 m, which gives ρ0/σ)."""
     exponent = np.floor(np.log10(x))
     mantissa = x / 10**exponent
     return float(max(m for m in (1.0, 2.0, 5.0) if m <= mantissa * (1 + 1e-12)) * 10**exponent)
