@@ -73,7 +73,7 @@ def test_bad_region_input_is_one_line(capsys, tmp_path, extra, match):
 
 
 def test_scene_colours_sampled_poses_by_predicted_error(capsys, tmp_path, planar_params):
-    from pincal.viewing.scene import error_colors
+    from pincal.viewing.drawing import error_colors
 
     plan = np.array([[0.1, 0.4], [0.3, -1.0], [1.0, 2.0]])
     samples = np.array([[0.0, 0.2], [0.5, 1.0], [-1.0, 3.0]])

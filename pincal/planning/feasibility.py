@@ -18,8 +18,8 @@ from pincal.planning.constraints import (
     Constraint,
     JointLimits,
     Kinematics,
+    LimitsBound,
     MinSpacing,
-    _LimitsBound,
     limit_margin_of,
     spacing_of,
 )
@@ -43,7 +43,7 @@ class Feasibility:
                 raise BadConstraint(f"not a constraint: {c!r} (use the classes of pincal.constraints)")
         self.robot = robot
         self.constraints = constraints
-        self.limits = _LimitsBound(robot, limit_margin_of(constraints))
+        self.limits = LimitsBound(robot, limit_margin_of(constraints))
         self.lower, self.upper = self.limits.lower, self.limits.upper
         self.bound = [
             (c.key, c.bind(robot))

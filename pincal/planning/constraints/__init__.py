@@ -1,0 +1,81 @@
+"""What the workcell imposes on measurement configurations (SPEC §5).
+
+Each constraint is a small frozen value object; a design keeps every configuration it returns
+inside all of them. Lengths are in metres, in the instrument's frame (the robot's base frame unless
+the robot has a base placement); angles in radians. :func:`load_constraints` reads them from YAML
+(degrees allowed there, with ``_deg`` keys).
+
+* :class:`JointLimits` — the URDF limits shrunk by a margin (always applied, margin 0 by default).
+* :class:`WorkspaceBox` — every marker inside an axis-aligned box.
+* :class:`HalfSpace` — every marker on one side of a plane (``normal · p ≥ offset``).
+* :class:`Visibility` — a laser tracker at a known position sees every marker: distance within
+  [min_range, max_range] and, if the marker's normal is given, the angle between that normal and
+  the line of sight at most ``max_angle``.
+* :class:`SelfCollision` — no two links of the chain closer than ``min_distance`` (the URDF's
+  collision geometry through Pinocchio and coal; pairs of adjacent links are not checked).
+* :class:`MinSpacing` — any two configurations of a plan at least ``distance`` apart in joint space
+  (Euclidean norm of the joint differences [rad]).
+
+Inside the continuous search the constraints act as a barrier: a truncated logarithmic barrier
+that is zero farther than :attr:`reach` from the boundary (5 cm, 0.05 rad, 2 cm for collisions)
+and infinite on it, so that every iterate stays feasible; every plan returned is checked exactly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from pincal.model.robot import Robot
+from pincal.planning.constraints.base import TOLERANCE, Bound, Constraint, Kinematics
+from pincal.planning.constraints.half_space import HalfSpace
+from pincal.planning.constraints.joint_limits import JointLimits, LimitsBound
+from pincal.planning.constraints.loading import constraints_from_dict, load_constraints
+from pincal.planning.constraints.min_spacing import MinSpacing
+from pincal.planning.constraints.self_collision import SelfCollision
+from pincal.planning.constraints.visibility import Visibility
+from pincal.planning.constraints.workspace_box import WorkspaceBox
+
+AnyConstraint = Constraint | MinSpacing
+"""Any constraint object: a per-configuration :class:`Constraint` or the plan-wide :class:`MinSpacing`."""
+
+__all__ = [
+    "TOLERANCE",
+    "AnyConstraint",
+    "Bound",
+    "Constraint",
+    "HalfSpace",
+    "JointLimits",
+    "Kinematics",
+    "LimitsBound",
+    "MinSpacing",
+    "SelfCollision",
+    "Visibility",
+    "WorkspaceBox",
+    "constraints_from_dict",
+    "limit_margin_of",
+    "load_constraints",
+    "satisfied",
+    "spacing_of",
+]
+
+
+def satisfied(robot: Robot, plan: object, constraints: Iterable[AnyConstraint] = ()) -> np.ndarray:
+    """(m,) True where a configuration of ``plan`` satisfies every constraint (and the joint
+    limits); a configuration too close to an earlier one (MinSpacing) is marked False."""
+    qs = robot.configurations(plan)
+    ok = np.ones(len(qs), dtype=bool)
+    for c in constraints:
+        ok &= c.satisfied(robot, qs)
+    return ok
+
+
+def spacing_of(constraints: Iterable[AnyConstraint]) -> float:
+    """The largest MinSpacing distance among ``constraints`` (0 if none)."""
+    return max((c.distance for c in constraints if isinstance(c, MinSpacing)), default=0.0)
+
+
+def limit_margin_of(constraints: Iterable[AnyConstraint]) -> float:
+    """The largest JointLimits margin among ``constraints`` (0 if none)."""
+    return max((c.margin for c in constraints if isinstance(c, JointLimits)), default=0.0)

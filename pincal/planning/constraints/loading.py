@@ -1,0 +1,128 @@
+"""Constraints from YAML (:func:`load_constraints`) or a dict (:func:`constraints_from_dict`)."""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from pincal.errors import BadConstraint
+from pincal.files import read_yaml
+from pincal.planning.constraints.base import number
+from pincal.planning.constraints.half_space import HalfSpace
+from pincal.planning.constraints.joint_limits import JointLimits
+from pincal.planning.constraints.min_spacing import MinSpacing
+from pincal.planning.constraints.self_collision import SelfCollision
+from pincal.planning.constraints.visibility import Visibility
+from pincal.planning.constraints.workspace_box import WorkspaceBox
+
+if TYPE_CHECKING:  # the union of the constraint classes, defined where they are all gathered
+    from pincal.planning.constraints import AnyConstraint
+
+
+_KEYS = ("joint_limits", "workspace_box", "half_space", "visibility", "self_collision", "min_spacing")
+
+
+def _angle(entry: dict, key: str, what: str, default: float | None) -> float | None:
+    """An angle given as ``key`` [rad] or ``key_deg`` [deg]."""
+    if key in entry and f"{key}_deg" in entry:
+        raise BadConstraint(f"{what}: give {key} (radians) or {key}_deg (degrees), not both")
+    if f"{key}_deg" in entry:
+        return math.radians(number(entry[f"{key}_deg"], f"{what} {key}_deg"))
+    return entry.get(key, default)
+
+
+def _check_keys(entry: object, what: str, valid: Sequence[str]) -> dict:
+    if entry is True:
+        return {}
+    if not isinstance(entry, dict):
+        raise BadConstraint(f"{what} must be a mapping of {', '.join(valid)}, got {entry!r}")
+    unknown = [k for k in entry if k not in valid]
+    if unknown:
+        raise BadConstraint(f"{what}: unknown key {unknown[0]!r}; valid: {', '.join(valid)}")
+    return entry
+
+
+def _entries(value: object) -> list:
+    return list(value) if isinstance(value, list) else [value]
+
+
+def constraints_from_dict(data: dict) -> tuple[AnyConstraint, ...]:
+    """Constraints from a mapping with the layout of the YAML file (see :func:`load_constraints`)."""
+    if data is None:
+        return ()
+    if not isinstance(data, dict):
+        raise BadConstraint(f"constraints must be a mapping with keys {', '.join(_KEYS)}")
+    unknown = [k for k in data if k not in _KEYS]
+    if unknown:
+        raise BadConstraint(f"unknown constraint {unknown[0]!r}; valid: {', '.join(_KEYS)}")
+    out: list[AnyConstraint] = []
+    if "joint_limits" in data:
+        e = _check_keys(data["joint_limits"], "joint_limits", ("margin", "margin_deg"))
+        out.append(JointLimits(_angle(e, "margin", "joint_limits", 0.0)))
+    if "workspace_box" in data:
+        e = _check_keys(data["workspace_box"], "workspace_box", ("lower", "upper"))
+        if "lower" not in e or "upper" not in e:
+            raise BadConstraint("workspace_box needs lower: [x, y, z] and upper: [x, y, z] (metres)")
+        out.append(WorkspaceBox(e["lower"], e["upper"]))
+    for e in _entries(data.get("half_space", [])):
+        e = _check_keys(e, "half_space", ("normal", "offset"))
+        if "normal" not in e:
+            raise BadConstraint("half_space needs normal: [x, y, z] (and offset, metres)")
+        out.append(HalfSpace(e["normal"], e.get("offset", 0.0)))
+    for e in _entries(data.get("visibility", [])):
+        keys = ("tracker", "max_range", "min_range", "normal", "max_angle", "max_angle_deg")
+        e = _check_keys(e, "visibility", keys)
+        if "tracker" not in e:
+            raise BadConstraint("visibility needs tracker: [x, y, z] (metres)")
+        out.append(
+            Visibility(
+                e["tracker"],
+                e.get("max_range", math.inf),
+                e.get("min_range", 0.0),
+                e.get("normal"),
+                _angle(e, "max_angle", "visibility", None),
+            )
+        )
+    if "self_collision" in data and data["self_collision"] is not False:
+        e = _check_keys(data["self_collision"], "self_collision", ("min_distance", "package_dirs"))
+        out.append(SelfCollision(e.get("min_distance", 0.0), tuple(e.get("package_dirs", ()))))
+    if "min_spacing" in data:
+        e = _check_keys(data["min_spacing"], "min_spacing", ("distance", "distance_deg"))
+        distance = _angle(e, "distance", "min_spacing", None)
+        if distance is None:
+            raise BadConstraint("min_spacing needs distance (radians) or distance_deg (degrees)")
+        out.append(MinSpacing(distance))
+    return tuple(out)
+
+
+def load_constraints(path: str | os.PathLike) -> tuple[AnyConstraint, ...]:
+    """Read constraints from a YAML file.
+
+    Layout (every key optional; lengths in metres in the instrument frame; angles in radians, or
+    in degrees with the ``_deg`` keys)::
+
+        joint_limits: {margin_deg: 5}
+        workspace_box: {lower: [0.5, -1.5, 0.2], upper: [2.8, 1.5, 2.2]}
+        half_space:                      # one mapping or a list; keeps normal·p >= offset
+          - {normal: [0, 0, 1], offset: 0.3}
+        visibility:                      # one mapping or a list
+          tracker: [4.0, 0.0, 1.2]
+          max_range: 6.0
+          min_range: 1.0
+          normal: [0, 0, 1]              # marker normal in the tip frame
+          max_angle_deg: 60
+        self_collision: {min_distance: 0.01}   # or: self_collision: true
+        min_spacing: {distance_deg: 10}
+
+    Raises:
+        BadConstraint: the file is missing, not YAML, or holds an unknown key or a bad value.
+    """
+    path = Path(path)
+    data = read_yaml(path, "constraints", BadConstraint)
+    try:
+        return constraints_from_dict(data)
+    except BadConstraint as exc:
+        raise BadConstraint(f"constraints file {str(path)!r}: {exc}") from None

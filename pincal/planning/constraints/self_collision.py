@@ -1,0 +1,133 @@
+"""No two links of the chain closer than a distance (the URDF's collision geometry, through
+Pinocchio and coal)."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from pincal.errors import BadConstraint
+from pincal.model.robot import Robot
+from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number
+
+
+@dataclass(frozen=True)
+class SelfCollision(Constraint):
+    """No two non-adjacent links of the chain closer than ``min_distance``.
+
+    Uses the URDF's ``<collision>`` geometry (Pinocchio + coal). Pairs of geometries on the same
+    link or on two links joined by one joint are not checked. The exact test (coal collision with
+    a security margin) decides feasibility; the continuous search steers by the distances between
+    the geometries' convex hulls, which never exceed the true distances.
+
+    Attributes:
+        min_distance: clearance kept between links [m] (0: only no contact).
+        package_dirs: directories searched for ``package://`` mesh paths (the URDF's ancestors
+            are searched too).
+    """
+
+    min_distance: float = 0.0
+    package_dirs: tuple[str, ...] = ()
+    key = "self_collision"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self, "min_distance", number(self.min_distance, "self_collision min_distance", 0.0)
+        )
+        object.__setattr__(self, "package_dirs", tuple(str(p) for p in self.package_dirs))
+
+    def bind(self, robot: Robot) -> Bound:
+        return CollisionBound(robot, self)
+
+
+def _package_dirs(urdf: Path, extra: Iterable[str]) -> list[str]:
+    """Directories that resolve the ``package://NAME/...`` paths of ``urdf``."""
+    dirs = [str(p) for p in extra]
+    names = set(re.findall(r"package://([^/\"']+)/", urdf.read_text(errors="replace")))
+    for name in names:
+        for parent in urdf.resolve().parents:
+            if (parent / name).is_dir():
+                dirs.append(str(parent))
+                break
+    return dirs + [str(urdf.parent)]
+
+
+class CollisionBound(Bound):
+    reach = 0.02
+
+    def __init__(self, robot: Robot, spec: SelfCollision) -> None:
+        import coal
+
+        if robot.urdf_path is None:
+            raise BadConstraint(
+                "self_collision needs the robot's URDF (load the robot from a URDF file or name)"
+            )
+        urdf = Path(robot.urdf_path)
+        model = robot.model
+        try:
+            geom = pin.buildGeomFromUrdf(
+                model, str(urdf), pin.COLLISION, package_dirs=_package_dirs(urdf, spec.package_dirs)
+            )
+        except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise BadConstraint(
+                f"self_collision: cannot read the collision geometry of {str(urdf)!r}: {first}"
+            ) from None
+        objects = geom.geometryObjects
+        pairs = []
+        for a in range(len(objects)):
+            for b in range(a + 1, len(objects)):
+                ja, jb = objects[a].parentJoint, objects[b].parentJoint
+                if ja == jb or model.parents[ja] == jb or model.parents[jb] == ja:
+                    continue
+                pairs.append((a, b))
+        if not pairs:
+            raise BadConstraint(
+                f"self_collision: the URDF {urdf.name} has no collision geometry on non-adjacent links"
+            )
+        for a, b in pairs:
+            geom.addCollisionPair(pin.CollisionPair(a, b))
+        self.names = [(objects[a].name, objects[b].name) for a, b in pairs]
+        self.model, self.data = model, model.createData()
+        self.offsets = robot.joint_offsets
+        self.exact, self.exact_data = geom, geom.createData()
+        for request in self.exact_data.collisionRequests:
+            request.security_margin = spec.min_distance
+        # Convex hulls: fast, smooth distances that never exceed the true ones.
+        hulls = pin.GeometryModel()
+        for obj in objects:
+            obj = obj.copy()
+            if isinstance(obj.geometry, coal.BVHModelBase):
+                obj.geometry.buildConvexHull(True, "Qt")  # qhull: the true hull of the mesh
+                obj.geometry = obj.geometry.convex
+            hulls.addGeometryObject(obj)
+        for a, b in pairs:
+            hulls.addCollisionPair(pin.CollisionPair(a, b))
+        self.hulls, self.hull_data = hulls, hulls.createData()
+        self.min_distance = spec.min_distance
+
+    def margins(self, kin: Kinematics) -> np.ndarray:
+        out = np.empty((len(kin.qs), len(self.names)))
+        for i, q in enumerate(kin.qs + self.offsets):
+            pin.updateGeometryPlacements(self.model, self.data, self.hulls, self.hull_data, q)
+            pin.computeDistances(self.hulls, self.hull_data)
+            out[i] = [r.min_distance for r in self.hull_data.distanceResults]
+        return out - self.min_distance
+
+    def satisfied(self, kin: Kinematics) -> np.ndarray:
+        model, data, geom, gdata = self.model, self.data, self.exact, self.exact_data
+        return np.array(
+            [not pin.computeCollisions(model, data, geom, gdata, q, True) for q in kin.qs + self.offsets],
+            dtype=bool,
+        )
+
+    def colliding_pairs(self, q: np.ndarray) -> list[tuple[str, str]]:
+        """Names of the geometry pairs in collision at one configuration."""
+        pin.computeCollisions(self.model, self.data, self.exact, self.exact_data, q + self.offsets, False)
+        results = self.exact_data.collisionResults
+        return [n for n, r in zip(self.names, results, strict=True) if r.isCollision()]
