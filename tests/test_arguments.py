@@ -83,3 +83,25 @@ def test_every_exception_is_a_pincal_error_and_input_errors_are_value_errors():
     for cls in (pincal.UnknownName, pincal.BadConfiguration, pincal.BadConstraint, pincal.BadMeasurementData,
                 pincal.BadPlanFile, pincal.RobotNotFound, pincal.UnsupportedJoint):  # fmt: skip
         assert issubclass(cls, pincal.BadArgument) and issubclass(cls, ValueError), cls
+
+
+@pytest.mark.parametrize("command", ["design", "evaluate", "baseline", "simulate", "show"])
+def test_every_report_in_metres_names_its_sigma(command, tmp_path, capsys):
+    from pincal.cli import main
+
+    plan = tmp_path / "plan.csv"
+    plan.write_text("joint1,joint2\n0,-1.0\n0.5,1.0\n1.0,2.0\n")
+    common = ["planar_2r", "--params", "joint2.tx,tip.tx", "--test-pose=0.3,1.2"]
+    extra = {
+        "design": ["-m", "2", "--starts", "2", "--workers", "1", "--pool-size", "100"],
+        "evaluate": ["--plan", str(plan)],
+        "baseline": ["-m", "2", "--random", "20"],
+        "simulate": ["--plan", str(plan), "--trials", "4"],
+        "show": ["--plan", str(plan), "--html", str(tmp_path / "s.html")],
+    }[command]
+    assert main([command, *common, *extra]) == 0
+    assert "σ = 0.030 mm (default: laser tracker)" in capsys.readouterr().out
+    assert main([command, *common, *extra, "--sigma", "1e-4"]) == 0
+    out = capsys.readouterr().out
+    assert "σ = 0.100 mm" in out and "default" not in out.split("σ = 0.100 mm")[1].splitlines()[0]
+    assert pincal.DEFAULT_SIGMA == 3e-5

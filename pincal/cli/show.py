@@ -138,8 +138,10 @@ def run(args: argparse.Namespace) -> int:
     q0 = test_region_from_args(robot, args, required=False)
     prior = prior_from_args(args)
     if args.error_cloud is not None and args.error_cloud < 1:
-        raise PincalError(
-            f"--error-cloud must be a positive number of configurations, got {args.error_cloud}"
+        raise BadArgument(
+            f"--error-cloud must be a positive number of configurations, got {args.error_cloud}",
+            argument="--error-cloud",
+            value=args.error_cloud,
         )
     # The scene draws the test pose(s); of a region or path, its first configuration (the centre).
     drawn = None if q0 is None else test_poses_of(robot, q0)
