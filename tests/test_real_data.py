@@ -221,3 +221,22 @@ def test_kfold_holds_every_point_out_once(robot, params, truth):
         pincal.kfold(params, data, 1)
     with pytest.raises(pincal.PincalError, match="fraction"):
         pincal.holdout(params, data, 1.5)
+
+
+def test_data_check_matches_the_planar_closed_form():
+    """Planar 2-link, joint2.tx and tip.tx: M = [[m, S], [S, m]]/σ² with S = Σ cos q2, so the
+    standard errors are σ·sqrt(m/(m² − S²)) and the condition number sqrt((1 + |S|/m)/(1 − |S|/m))."""
+    robot = pincal.load_robot("planar_2r")
+    params = robot.parameters("joint2.tx,tip.tx")
+    plan = robot.random_configurations(7, 11)
+    m, S = len(plan), np.cos(plan[:, 1]).sum()
+    check = pincal.check_plan(params, plan, 1e-4)
+    assert check.identifiable and check.rank == 2 and check.kept_names == params.names
+    np.testing.assert_allclose(check.std, 1e-4 * np.sqrt(m / (m**2 - S**2)), rtol=1e-9)
+    r = abs(S) / m
+    assert check.condition_number == pytest.approx(np.sqrt((1 + r) / (1 - r)), rel=1e-9)
+    straight = plan.copy()
+    straight[:, 1] = 0.0  # an outstretched arm: both translations move the tip alike
+    same = pincal.check_plan(params, straight, 1e-4)
+    assert not np.isfinite(same.condition_number) and same.rank == 1
+    assert list(same.dropped) == ["tip.tx"] and "inseparable" in same.dropped["tip.tx"]

@@ -238,13 +238,12 @@ def check_information(
     )
 
 
-def check_plan(params: ParameterSet, plan: object, sigma: float, prefer: Sequence[str] = ()) -> DataCheck:
+def check_plan(params: ParameterSet, plan: object, sigma: float) -> DataCheck:
     """The data check of ``params`` on configurations ``plan`` (a Plan, (m, nq) array, or the
-    ``q`` of measurements) for noise ``sigma`` per coordinate [m]; the base first if in ``prefer``
-    or in ``params``."""
+    ``q`` of measurements) for noise ``sigma`` per coordinate [m]; the base, if in ``params``,
+    first and always kept (as identify does)."""
     qs = params.robot.configurations(plan)
     M = information_matrix(params.jacobian(qs, frame="tip")) / sigma**2
     base = [i for i, p in enumerate(params) if p.kind == "base"]
-    preferred = frozenset(params.select("base").names) if base or "base" in prefer else frozenset()
-    order = preference_order(params, preferred)
+    order = preference_order(params, frozenset(params.names[i] for i in base))
     return check_information(params.names, params.units, M, order, len(qs), sigma, always=base)
