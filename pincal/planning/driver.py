@@ -34,39 +34,32 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from collections.abc import Iterable, Sequence
 from concurrent.futures import Executor
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, Seed, positive_int, positive_sigma, seed_entropy
 from pincal.errors import (
     BadArgument,
-    DegenerateOptimum,
-    DegenerateOptimumWarning,
     FloorUnreachable,
     Infeasible,
     SingularPlan,
 )
-from pincal.evaluation.classic import criteria_from_jacobian
 from pincal.evaluation.prior import Prior
-from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning import multistart as _multistart
+from pincal.planning.choice import SINGULAR_WARNING, choose, design_result
 from pincal.planning.constraints import AnyConstraint
 from pincal.planning.feasibility import Feasibility
 from pincal.planning.objectives import (
-    TEST_POSE_CRITERIA,
     checked_test_poses,
     criterion_name,
-    make_objective,
 )
-from pincal.planning.plan import Plan
-from pincal.planning.results import DesignResult, StartRecord
-from pincal.planning.search import Outcome, Pool, Settings, draw_starts, plan_conditioning, search
+from pincal.planning.results import DesignResult
+from pincal.planning.search import Pool, Settings, draw_starts, search
 
 METHODS = ("continuous", "exchange")
 """Names of the search methods."""
@@ -76,12 +69,6 @@ DEFAULT_POOL = 2000
 
 MAX_WORST_POSES = 2000
 """Test poses a worst-case design may take (each is a weighted trace of its own in the search)."""
-
-SINGULAR_WARNING = 1e-3
-"""A plan whose conditioning is below this is effectively singular: some parameter combinations
-are barely measured, and the error away from the test pose(s) grows large (bench_floor: at 1e-3 the
-error 10° away is 2.6–2.8× that at the test pose, at 1e-4 6.6–7.3×). It is said whatever the floor;
-a floor above it that binds is the floor doing its job (said in the result's message only)."""
 
 MIN_CONDITIONING = 1e-2
 """Default floor of a plan's conditioning: the smallest eigenvalue of its Jacobi-scaled
@@ -93,7 +80,7 @@ The test-pose criterion only needs the parameter combinations that move the test
 often improves towards singular plans; the floor keeps every parameter identifiable, and keeps
 the search out of near-singular basins, where its local optima are poor."""
 
-__all__ = ["DEFAULT_POOL", "METHODS", "MIN_CONDITIONING", "design"]
+__all__ = ["DEFAULT_POOL", "METHODS", "MIN_CONDITIONING", "SINGULAR_WARNING", "design"]
 
 
 # ------------------------------------------------------------------------------ driver
@@ -219,19 +206,10 @@ def design(
                 # reaches (each start's D-optimal exchange may end a little lower: adapt again).
                 settings = replace(settings, floor=error.reached / 2)
         outcomes = search(settings, params, engine, pooled, indices, executor, progress)
-        choice = _choose(settings, engine, outcomes)
-        return _result(settings, params, engine, pooled, outcomes, choice, time.perf_counter() - t_start)
-
-
-@dataclass(frozen=True)
-class _Choice:
-    """The winning start and the history, with the starts that ended below the floor marked."""
-
-    winner: int
-    conditioning: float
-    below_floor: int
-    near_floor: bool
-    history: tuple[StartRecord, ...]
+        choice = choose(settings, engine, outcomes)
+        return design_result(
+            settings, params, engine, pooled, outcomes, choice, time.perf_counter() - t_start
+        )
 
 
 # ------------------------------------------------------------------------- validate
@@ -351,129 +329,3 @@ def _pool(params: ParameterSet, settings: Settings, pool: object, init: Sequence
         ):
             raise Infeasible(f"an init plan must hold {m} configurations strictly inside every constraint")
     return Pool(candidates, rejected, plans)
-
-
-# ---------------------------------------------------------------------------- choose
-def _choose(settings: Settings, engine: JacobianEngine, outcomes: tuple[Outcome, ...]) -> _Choice:
-    """The best usable start above the conditioning floor.
-
-    No plan below the floor is returned (the exchange can end there; the continuous search keeps
-    above it). A winner near the floor means the criterion improves towards singular plans: say so.
-    """
-    floor, criterion = settings.floor, settings.criterion
-    usable = [s for s, o in enumerate(outcomes) if o.usable and np.isfinite(o.F)]
-    if not usable:
-        raise Infeasible(
-            f"none of the {len(outcomes)} starts ended in a feasible, regular plan; "
-            "relax the constraints or add starts"
-        )
-    cond = {s: plan_conditioning(engine, outcomes[s].q) for s in usable}
-    regular = [s for s in usable if cond[s] > floor or floor <= 0]
-    history = tuple(
-        replace(o.record, message=f"below the conditioning floor {floor:g}; " + o.record.message)
-        if s in cond and s not in regular
-        else o.record
-        for s, o in enumerate(outcomes)
-    )
-    if not regular:
-        raise DegenerateOptimum(criterion, settings.m, floor)
-    winner = min(regular, key=lambda s: (outcomes[s].F, s))
-    near_floor = floor > 0 and cond[winner] < 2 * floor  # within twice the floor: the floor binds
-    where = "design for a neighbourhood or a path of where you work (pincal.around, TestPath)"
-    if near_floor and floor < SINGULAR_WARNING:
-        warnings.warn(
-            f"the plan sits at the conditioning floor ({cond[winner]:.3g}; min_conditioning {floor:.3g}): "
-            f"the {criterion} criterion keeps improving towards singular plans, so its infimum is not "
-            f"attained, and the error away from the test pose(s) grows; {where}, add test poses around "
-            f"where you work, or raise min_conditioning",
-            DegenerateOptimumWarning,
-            stacklevel=3,  # the caller of design()
-        )
-    elif cond[winner] < SINGULAR_WARNING:  # whatever the floor (0 with a prior)
-        held = (
-            "the prior holds the parameter combinations the plan barely measures: identify with the same "
-            "prior (MAP), and expect the error away from the test pose(s) to stay near the prior's"
-            if settings.prior is not None
-            else "some parameter combinations are barely measured, and the error away from the test pose(s) "
-            f"is large; {where}, or raise min_conditioning"
-        )
-        warnings.warn(
-            f"the plan is effectively singular (conditioning {cond[winner]:.3g}): {held}",
-            DegenerateOptimumWarning,
-            stacklevel=3,
-        )
-    return _Choice(winner, cond[winner], len(usable) - len(regular), near_floor, history)
-
-
-def _result(
-    settings: Settings,
-    params: ParameterSet,
-    engine: JacobianEngine,
-    pooled: Pool,
-    outcomes: tuple[Outcome, ...],
-    choice: _Choice,
-    elapsed: float,
-) -> DesignResult:
-    """The design result of the winning start, its value and ρ0 computed by the core's functions."""
-    s, q = settings, outcomes[choice.winner].q
-    plan = Plan.for_robot(params.robot, q)
-    value, rho0, rho0_each = _report(
-        params, plan, s.criterion, s.test_poses, s.sigma, engine.jacobian(q, frame="tip"), s.prior
-    )
-    continued = sum(h.continued for h in choice.history)
-    n_starts = len(outcomes)
-    message = (
-        f"{s.method}: best of {n_starts} starts (start {choice.winner}), {continued} run to convergence, "
-        f"{s.criterion} = {value:.6g} in {elapsed:.3g} s; conditioning floor {s.floor:.3g}"
-        + (
-            f"; {choice.below_floor} start(s) ended below the conditioning floor"
-            if choice.below_floor
-            else ""
-        )
-        + (
-            "; the conditioning floor binds (the criterion alone would crowd the plan towards singular)"
-            if choice.near_floor
-            else ""
-        )
-    )
-    return DesignResult(
-        plan=plan,
-        value=value,
-        criterion=s.criterion,
-        rho0=rho0,
-        rho0_each=rho0_each,
-        sigma=s.sigma,
-        method=s.method + ("+polish" if s.polish else ""),
-        starts=n_starts,
-        continued=continued,
-        seed=s.entropy,
-        time_s=elapsed,
-        history=choice.history,
-        pool_size=len(pooled.candidates),
-        pool_rejected=pooled.rejected,
-        conditioning=choice.conditioning,
-        message=message,
-        prior=s.prior,
-    )
-
-
-def _report(
-    params, plan, criterion, test_poses, sigma, J, prior=None
-) -> tuple[float, float | None, np.ndarray | None]:
-    """(value, ρ0, ρ0 per test pose) of the final plan, from the core's own functions."""
-    rho0 = each = None
-    if test_poses is not None:
-        each = TestPoseCriterion(params, test_poses, sigma, aggregate="each", prior=prior)(plan.q)
-        rho0 = float(each.max()) if criterion == "test-pose-worst" else float(np.sqrt(np.mean(each**2)))
-    if criterion in TEST_POSE_CRITERIA:
-        return rho0, rho0, each
-    if prior is not None:  # the Bayesian classic criterion, as the search minimised it
-        P = len(params)
-        objective = make_objective(
-            criterion, P, J.shape[1], sigma=sigma, prior=prior.information(params, sigma)
-        )
-        flat = J.reshape(-1, P)
-        return float(objective.report(objective.value(flat.T @ flat, len(plan)))), rho0, each
-    c = criteria_from_jacobian(J, len(plan))
-    value = {"D": c.log_det, "A": c.trace, "E": c.max_eig, "cond": c.cond}[criterion]
-    return float(value), rho0, each

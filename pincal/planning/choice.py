@@ -1,0 +1,167 @@
+"""The choose stage of a design: the best usable start above the conditioning floor (warning when
+the floor binds), and the :class:`~pincal.planning.results.DesignResult` built from it, its value
+and ρ0 computed by the core's own functions."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from pincal.errors import (
+    DegenerateOptimum,
+    DegenerateOptimumWarning,
+    Infeasible,
+)
+from pincal.evaluation.classic import criteria_from_jacobian
+from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.model.jacobian import JacobianEngine
+from pincal.model.parameters import ParameterSet
+from pincal.planning.objectives import TEST_POSE_CRITERIA, make_objective
+from pincal.planning.plan import Plan
+from pincal.planning.results import DesignResult, StartRecord
+from pincal.planning.search import Outcome, Pool, Settings, plan_conditioning
+
+SINGULAR_WARNING = 1e-3
+"""A plan whose conditioning is below this is effectively singular: some parameter combinations
+are barely measured, and the error away from the test pose(s) grows large (bench_floor: at 1e-3 the
+error 10° away is 2.6–2.8× that at the test pose, at 1e-4 6.6–7.3×). It is said whatever the floor;
+a floor above it that binds is the floor doing its job (said in the result's message only)."""
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The winning start and the history, with the starts that ended below the floor marked."""
+
+    winner: int
+    conditioning: float
+    below_floor: int
+    near_floor: bool
+    history: tuple[StartRecord, ...]
+
+
+# ---------------------------------------------------------------------------- choose
+def choose(settings: Settings, engine: JacobianEngine, outcomes: tuple[Outcome, ...]) -> Choice:
+    """The best usable start above the conditioning floor.
+
+    No plan below the floor is returned (the exchange can end there; the continuous search keeps
+    above it). A winner near the floor means the criterion improves towards singular plans: say so.
+    """
+    floor, criterion = settings.floor, settings.criterion
+    usable = [s for s, o in enumerate(outcomes) if o.usable and np.isfinite(o.F)]
+    if not usable:
+        raise Infeasible(
+            f"none of the {len(outcomes)} starts ended in a feasible, regular plan; "
+            "relax the constraints or add starts"
+        )
+    cond = {s: plan_conditioning(engine, outcomes[s].q) for s in usable}
+    regular = [s for s in usable if cond[s] > floor or floor <= 0]
+    history = tuple(
+        replace(o.record, message=f"below the conditioning floor {floor:g}; " + o.record.message)
+        if s in cond and s not in regular
+        else o.record
+        for s, o in enumerate(outcomes)
+    )
+    if not regular:
+        raise DegenerateOptimum(criterion, settings.m, floor)
+    winner = min(regular, key=lambda s: (outcomes[s].F, s))
+    near_floor = floor > 0 and cond[winner] < 2 * floor  # within twice the floor: the floor binds
+    where = "design for a neighbourhood or a path of where you work (pincal.around, TestPath)"
+    if near_floor and floor < SINGULAR_WARNING:
+        warnings.warn(
+            f"the plan sits at the conditioning floor ({cond[winner]:.3g}; min_conditioning {floor:.3g}): "
+            f"the {criterion} criterion keeps improving towards singular plans, so its infimum is not "
+            f"attained, and the error away from the test pose(s) grows; {where}, add test poses around "
+            f"where you work, or raise min_conditioning",
+            DegenerateOptimumWarning,
+            stacklevel=3,  # the caller of design()
+        )
+    elif cond[winner] < SINGULAR_WARNING:  # whatever the floor (0 with a prior)
+        held = (
+            "the prior holds the parameter combinations the plan barely measures: identify with the same "
+            "prior (MAP), and expect the error away from the test pose(s) to stay near the prior's"
+            if settings.prior is not None
+            else "some parameter combinations are barely measured, and the error away from the test pose(s) "
+            f"is large; {where}, or raise min_conditioning"
+        )
+        warnings.warn(
+            f"the plan is effectively singular (conditioning {cond[winner]:.3g}): {held}",
+            DegenerateOptimumWarning,
+            stacklevel=3,
+        )
+    return Choice(winner, cond[winner], len(usable) - len(regular), near_floor, history)
+
+
+def design_result(
+    settings: Settings,
+    params: ParameterSet,
+    engine: JacobianEngine,
+    pooled: Pool,
+    outcomes: tuple[Outcome, ...],
+    choice: Choice,
+    elapsed: float,
+) -> DesignResult:
+    """The design result of the winning start, its value and ρ0 computed by the core's functions."""
+    s, q = settings, outcomes[choice.winner].q
+    plan = Plan.for_robot(params.robot, q)
+    value, rho0, rho0_each = _report(
+        params, plan, s.criterion, s.test_poses, s.sigma, engine.jacobian(q, frame="tip"), s.prior
+    )
+    continued = sum(h.continued for h in choice.history)
+    n_starts = len(outcomes)
+    message = (
+        f"{s.method}: best of {n_starts} starts (start {choice.winner}), {continued} run to convergence, "
+        f"{s.criterion} = {value:.6g} in {elapsed:.3g} s; conditioning floor {s.floor:.3g}"
+        + (
+            f"; {choice.below_floor} start(s) ended below the conditioning floor"
+            if choice.below_floor
+            else ""
+        )
+        + (
+            "; the conditioning floor binds (the criterion alone would crowd the plan towards singular)"
+            if choice.near_floor
+            else ""
+        )
+    )
+    return DesignResult(
+        plan=plan,
+        value=value,
+        criterion=s.criterion,
+        rho0=rho0,
+        rho0_each=rho0_each,
+        sigma=s.sigma,
+        method=s.method + ("+polish" if s.polish else ""),
+        starts=n_starts,
+        continued=continued,
+        seed=s.entropy,
+        time_s=elapsed,
+        history=choice.history,
+        pool_size=len(pooled.candidates),
+        pool_rejected=pooled.rejected,
+        conditioning=choice.conditioning,
+        message=message,
+        prior=s.prior,
+    )
+
+
+def _report(
+    params, plan, criterion, test_poses, sigma, J, prior=None
+) -> tuple[float, float | None, np.ndarray | None]:
+    """(value, ρ0, ρ0 per test pose) of the final plan, from the core's own functions."""
+    rho0 = each = None
+    if test_poses is not None:
+        each = TestPoseCriterion(params, test_poses, sigma, aggregate="each", prior=prior)(plan.q)
+        rho0 = float(each.max()) if criterion == "test-pose-worst" else float(np.sqrt(np.mean(each**2)))
+    if criterion in TEST_POSE_CRITERIA:
+        return rho0, rho0, each
+    if prior is not None:  # the Bayesian classic criterion, as the search minimised it
+        P = len(params)
+        objective = make_objective(
+            criterion, P, J.shape[1], sigma=sigma, prior=prior.information(params, sigma)
+        )
+        flat = J.reshape(-1, P)
+        return float(objective.report(objective.value(flat.T @ flat, len(plan)))), rho0, each
+    c = criteria_from_jacobian(J, len(plan))
+    value = {"D": c.log_det, "A": c.trace, "E": c.max_eig, "cond": c.cond}[criterion]
+    return float(value), rho0, each
