@@ -20,18 +20,30 @@ def sigma_note(sigma: float, given: bool = True) -> str:
     return shown + ("" if given else " (default: laser tracker)")
 
 
-def positive_int(value: object, name: str, low: int = 1) -> int:
-    """``value`` as an int, if it is an integer ≥ ``low`` (bools refused).
+MAX_COUNT = 10**7
+"""Largest count (configurations, plans, starts, trials, pool size) pincal accepts: beyond any real
+run, and below what would exhaust memory before a first result."""
+
+
+def positive_int(value: object, name: str, low: int = 1, high: int | None = MAX_COUNT) -> int:
+    """``value`` as an int, if it is an integer in [``low``, ``high``] (bools refused; ``high``
+    None: no upper bound).
 
     Raises:
-        PincalError: naming ``name``, the bound and the value given.
+        PincalError: naming ``name``, the bounds and the value given.
     """
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, np.integer))
+        or value < low
+        or (high is not None and value > high)
+    ):
+        bounds = f"≥ {low}" if high is None else f"from {low} to {high:,}"
         raise BadArgument(
-            f"{name} must be an integer ≥ {low}, got {value!r}",
+            f"{name} must be an integer {bounds}, got {value!r}",
             argument=name,
             value=value,
-            valid=f"an integer ≥ {low}",
+            valid=f"an integer {bounds}",
         )
     return int(value)
 

@@ -200,7 +200,9 @@ class IdentificationFailed(PincalError):
 
 
 class CannotWrite(PincalError, OSError):
-    """An output file that cannot be written: its folder is missing, or permission is denied."""
+    """An output file that cannot or will not be written: its folder is missing, permission is
+    denied, the path is a folder or a special file (device, pipe, socket), or a figure's format is
+    unknown."""
 
 
 class OverwriteRefused(PincalError):

@@ -1,17 +1,48 @@
-"""File helpers: CSV tables with row-numbered errors, and atomic writes."""
+"""File helpers: bounded readers (text, CSV tables with row-numbered errors, YAML), and atomic
+writes that never replace an input or a special file.
+
+Readers refuse what is almost surely not the file meant, before it can exhaust memory or the
+stack: files that are not regular files (folders, devices, pipes), files larger than
+:data:`MAX_FILE_BYTES`, NUL bytes, lines longer than :data:`MAX_LINE_CHARS`, CSV cells longer than
+:data:`MAX_CELL_CHARS`, YAML nested deeper than :data:`MAX_YAML_DEPTH` or with more than
+:data:`MAX_YAML_NODES` values, YAML anchors/aliases, and non-finite numbers.
+
+Writers (:func:`atomic_write_text`, :func:`atomic_write_bytes`) go through a temporary file and a
+rename, and refuse (:func:`check_output`) an output that is a folder or special file, in a missing
+or unwritable folder, or the same file as an input. Inside :func:`guard_inputs` (the CLI runs
+every command in it) every file read through this module is an input no write may replace.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import csv
 import io
+import math
 import os
+import stat
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from pincal.errors import BadArgument, BadPlanFile, CannotWrite
+from pincal.errors import BadArgument, BadPlanFile, CannotWrite, OverwriteRefused
+
+MAX_FILE_BYTES = 64 * 2**20
+"""Largest input file read (64 MiB): a plan or measurement file of a million rows fits."""
+MAX_LINE_CHARS = 100_000
+"""Longest line of a CSV file."""
+MAX_CELL_CHARS = 1_000
+"""Longest CSV cell (a number or a column name)."""
+MAX_YAML_DEPTH = 32
+"""Deepest nesting of lists and mappings in a YAML file."""
+MAX_YAML_NODES = 100_000
+"""Most values (scalars, lists, mappings) in a YAML file."""
+
+# Files read so far inside guard_inputs(): {(st_dev, st_ino): path}; None outside.
+_INPUTS: contextvars.ContextVar[dict | None] = contextvars.ContextVar("pincal_inputs", default=None)
 
 
 def _error(error: type[Exception], message: str, path: object, line: int | None = None) -> Exception:
@@ -21,32 +52,85 @@ def _error(error: type[Exception], message: str, path: object, line: int | None 
     return error(message)
 
 
-def read_text(path: str | os.PathLike, what: str, error: type[Exception]) -> str:
-    """The text of a user's file, or ``error`` saying it is missing or unreadable."""
-    path = Path(path)
+@contextlib.contextmanager
+def guard_inputs() -> Iterator[None]:
+    """Within this block, no write through this module may replace a file read through it."""
+    token = _INPUTS.set({})
     try:
-        return path.read_text()
+        yield
+    finally:
+        _INPUTS.reset(token)
+
+
+def note_input(path: str | os.PathLike) -> None:
+    """Record ``path`` as an input of the current :func:`guard_inputs` block (no-op outside)."""
+    inputs = _INPUTS.get()
+    if inputs is None:
+        return
+    with contextlib.suppress(OSError):
+        st = os.stat(path)
+        inputs[(st.st_dev, st.st_ino)] = str(path)
+
+
+def _regular_file(path: Path, what: str, error: type[Exception], max_bytes: int) -> os.stat_result:
+    """The stat of an existing, regular, not too large input file, or ``error`` saying why not."""
+    try:
+        st = path.stat()
     except FileNotFoundError:
         raise _error(error, f"{what} file {str(path)!r} does not exist", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise _error(error, f"cannot read {what} file {str(path)!r}: {exc}", path) from None
-
-
-def read_yaml(path: str | os.PathLike, what: str, error: type[Exception]) -> object:
-    """The content of a user's YAML file, or ``error`` saying it is missing, unreadable or not YAML
-    (with the line of the syntax error)."""
-    import yaml
-
-    text = read_text(path, what, error)
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        where = getattr(exc, "problem_mark", None)
-        line = f", line {where.line + 1}" if where is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        at = where.line + 1 if where is not None else None
+    except OSError as exc:
+        raise _error(error, f"cannot read {what} file {str(path)!r}: {exc.strerror or exc}", path) from None
+    if stat.S_ISDIR(st.st_mode):
+        raise _error(error, f"{what} file {str(path)!r} is a folder, not a file", path)
+    if not stat.S_ISREG(st.st_mode):
         raise _error(
-            error, f"{what} file {str(path)!r}{line}: not valid YAML ({problem})", path, at
+            error, f"{what} file {str(path)!r} is not a regular file (a device, pipe or socket)", path
+        )
+    if st.st_size > max_bytes:
+        raise _error(
+            error,
+            f"{what} file {str(path)!r} is {st.st_size / 2**20:.1f} MiB, more than the "
+            f"{max_bytes / 2**20:g} MiB pincal reads",
+            path,
+        )
+    return st
+
+
+def read_text(
+    path: str | os.PathLike,
+    what: str,
+    error: type[Exception],
+    max_bytes: int = MAX_FILE_BYTES,
+    strict_utf8: bool = True,
+) -> str:
+    """The UTF-8 text of a user's file (a leading byte-order mark dropped), or ``error`` saying
+    it is missing, unreadable, not a regular file, too large, binary (NUL bytes) or, with
+    ``strict_utf8``, not UTF-8 (else undecodable bytes are replaced)."""
+    path = Path(path)
+    _regular_file(path, what, error, max_bytes)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise _error(error, f"cannot read {what} file {str(path)!r}: {exc.strerror or exc}", path) from None
+    note_input(path)
+    if len(data) > max_bytes:  # grew since the stat
+        raise _error(
+            error, f"{what} file {str(path)!r} is more than the {max_bytes / 2**20:g} MiB pincal reads", path
+        )
+    if b"\0" in data:
+        line = data.count(b"\n", 0, data.index(b"\0")) + 1
+        raise _error(
+            error,
+            f"{what} file {str(path)!r}, line {line}: a NUL byte (binary data, not a text file)",
+            path,
+            line,
+        )
+    try:
+        return data.decode("utf-8-sig", "strict" if strict_utf8 else "replace")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise _error(
+            error, f"{what} file {str(path)!r}, line {line}: not UTF-8 text ({exc.reason})", path, line
         ) from None
 
 
@@ -74,10 +158,9 @@ def read_numeric_csv(
         ``error`` naming the file and the line of the first bad row.
     """
     path = Path(path)
-    text = read_text(path, what, error)
     lines = [
         (n, row)
-        for n, row in enumerate(csv.reader(io.StringIO(text)), start=1)
+        for n, row in _csv_rows(path, what, error)
         if row and any(c.strip() for c in row) and not row[0].lstrip().startswith("#")
     ]
     if not lines:
@@ -135,6 +218,109 @@ def read_numeric_csv(
     return header, np.array(rows, dtype=float), np.array(numbers, dtype=int)
 
 
+def _csv_rows(path: Path, what: str, error: type[Exception]) -> Iterator[tuple[int, list[str]]]:
+    """(line number, cells) of each CSV row, within the line and cell limits."""
+    text = read_text(path, what, error)
+    for n, line in enumerate(text.splitlines(), start=1):
+        if len(line) > MAX_LINE_CHARS:
+            raise _error(
+                error,
+                f"{what} file {str(path)!r}, line {n}: {len(line)} characters, more than the "
+                f"{MAX_LINE_CHARS} a line may have",
+                path,
+                n,
+            )
+    reader = csv.reader(io.StringIO(text, newline=""))
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            raise _error(
+                error, f"{what} file {str(path)!r}, line {reader.line_num}: {exc}", path, reader.line_num
+            ) from None
+        for cell in row:
+            if len(cell) > MAX_CELL_CHARS:
+                raise _error(
+                    error,
+                    f"{what} file {str(path)!r}, line {reader.line_num}: a cell of {len(cell)} "
+                    f"characters, more than the {MAX_CELL_CHARS} a cell may have",
+                    path,
+                    reader.line_num,
+                )
+        yield reader.line_num, row
+
+
+def read_yaml(path: str | os.PathLike, what: str, error: type[Exception]) -> object:
+    """The data of a YAML file, within the depth and size limits, every number finite.
+
+    Anchors and aliases are refused (they can expand a small file into a huge tree), and so are
+    numbers that are not finite or beyond float range.
+    """
+    import yaml
+
+    path = Path(path)
+    text = read_text(path, what, error, max_bytes=2**20)
+    where = f"{what} file {str(path)!r}"
+    depth = nodes = 0
+    try:
+        for event in yaml.parse(text, Loader=yaml.SafeLoader):
+            line = event.start_mark.line + 1
+            if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None):
+                raise _error(
+                    error,
+                    f"{where}, line {line}: anchors and aliases (&name, *name) are not supported",
+                    path,
+                    line,
+                )
+            if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+                depth += 1
+                if depth > MAX_YAML_DEPTH:
+                    raise _error(
+                        error,
+                        f"{where}, line {line}: nested more than {MAX_YAML_DEPTH} levels deep",
+                        path,
+                        line,
+                    )
+            elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+                depth -= 1
+            if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent, yaml.ScalarEvent)):
+                nodes += 1
+                if nodes > MAX_YAML_NODES:
+                    raise _error(error, f"{where}: more than {MAX_YAML_NODES} values", path)
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f"line {mark.line + 1}: " if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise _error(
+            error, f"{where}: not valid YAML ({at}{problem})", path, mark.line + 1 if mark else None
+        ) from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise _error(error, f"{where}: {exc}", path) from None
+    _check_finite(data, path, where, error)
+    return data
+
+
+def _check_finite(data: object, path: Path, where: str, error: type[Exception]) -> None:
+    """Every number in a parsed YAML tree is finite and within float range."""
+    stack: list[tuple[object, str]] = [(data, "")]
+    while stack:
+        value, key = stack.pop()
+        if isinstance(value, dict):
+            stack.extend((v, f"{key}.{k}" if key else str(k)) for k, v in value.items())
+        elif isinstance(value, list):
+            stack.extend((v, f"{key}[{i}]") for i, v in enumerate(value))
+        elif isinstance(value, (int, float)) and not isinstance(value, bool):
+            if not (isinstance(value, float) and math.isfinite(value)) and not (
+                isinstance(value, int) and abs(value) <= 1e300
+            ):
+                raise _error(
+                    error, f"{where}: {key or 'the value'} is {value:.6g}, not a finite number", path
+                )
+
+
 def _is_number(text: str) -> bool:
     try:
         float(text)
@@ -154,24 +340,83 @@ def _umask() -> int:
     return 0o022
 
 
-def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file and a rename: never half-written."""
-    path = Path(path)
-    directory = path.parent if str(path.parent) else Path(".")
+def _same_file(a: Path, b: Path) -> bool:
     try:
-        fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
+        return os.path.samefile(a, b)
+    except OSError:
+        return a.resolve() == b.resolve()
+
+
+def check_output(
+    path: str | os.PathLike, what: str = "output", inputs: Iterable[tuple[str, str | os.PathLike]] = ()
+) -> Path:
+    """``path`` as an output pincal may write, or :class:`CannotWrite` / :class:`OverwriteRefused`.
+
+    Refused: an empty path, an existing folder or special file (device, pipe, socket), a path in
+    a missing folder or in one pincal cannot write, and the same file as one of ``inputs``
+    ((description, path) pairs) or as any file read inside :func:`guard_inputs`.
+    """
+    text = os.fspath(path)
+    if not text.strip():
+        raise CannotWrite(f"{what}: empty file name")
+    path = Path(text)
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        st = None
     except OSError as exc:
-        reason = "its folder does not exist" if not directory.is_dir() else exc.strerror or str(exc)
-        raise CannotWrite(f"cannot write {str(path)!r}: {reason}") from None
+        raise CannotWrite(f"{what} {text}: {exc.strerror or exc}") from None
+    if st is not None:
+        if stat.S_ISDIR(st.st_mode):
+            raise CannotWrite(f"{what} {text} is a folder: give a file name")
+        if not stat.S_ISREG(st.st_mode):
+            raise CannotWrite(
+                f"{what} {text} exists and is not a regular file (a device, pipe or socket): "
+                "pincal does not replace it"
+            )
+        read = _INPUTS.get() or {}
+        if (st.st_dev, st.st_ino) in read:
+            raise OverwriteRefused(
+                f"{what} {text} is the input {read[(st.st_dev, st.st_ino)]}: pincal never overwrites an "
+                "input; choose another output path"
+            )
+    for name, other in inputs:
+        if other is not None and _same_file(path, Path(other)):
+            raise OverwriteRefused(
+                f"{what} {text} is {name}: pincal never overwrites an input; choose another output path"
+            )
+    folder = path.resolve().parent
+    if not folder.is_dir():
+        raise CannotWrite(f"{what} {text}: folder {str(folder)!r} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise CannotWrite(f"{what} {text}: cannot write in folder {str(folder)!r} (permission denied)")
+    return path
+
+
+def atomic_write_text(path: str | os.PathLike, text: str, what: str = "output") -> Path:
+    """Write ``text`` to ``path`` through a temporary file and a rename: never half-written,
+    never over an input or a special file (see :func:`check_output`)."""
+    return atomic_write_bytes(path, text.encode(), what)
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes, what: str = "output") -> Path:
+    """Write ``data`` to ``path`` like :func:`atomic_write_text`."""
+    path = check_output(path, what)
+    target = path.resolve()  # through a symbolic link, to the file it names
+    try:
+        fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    except OSError as exc:
+        raise CannotWrite(f"cannot write {what} {str(path)!r}: {exc.strerror or exc}") from None
     try:
         # mkstemp makes owner-only files; give the result the permissions a plain open() would.
         os.fchmod(fd, 0o666 & ~_umask())
-        with os.fdopen(fd, "w", newline="") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException as exc:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+        os.replace(tmp, target)
+    except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
-        if isinstance(exc, OSError):  # e.g. the path is a folder, or the disk is full
-            raise CannotWrite(f"cannot write {str(path)!r}: {exc.strerror or exc}") from None
+        raise CannotWrite(f"cannot write {what} {str(path)!r}: {exc.strerror or exc}") from None
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
         raise
     return path

@@ -36,3 +36,13 @@ def kr270_marker():
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+def pytest_collection_modifyitems(config, items):
+    """The long fuzz profile runs only when asked for (pytest -m fuzz)."""
+    if "fuzz" in (config.getoption("-m") or ""):
+        return
+    skip = pytest.mark.skip(reason="long fuzz profile: run with 'pytest -m fuzz'")
+    for item in items:
+        if item.get_closest_marker("fuzz"):
+            item.add_marker(skip)

@@ -252,17 +252,15 @@ def test_outputs_never_overwrite_inputs(tmp_path, capsys, plan_csv):
         *MARKER,
     )
     assert "is the robot's URDF" in fails(capsys, "identify", urdf, "--data", meas, "--out", urdf, *MARKER)
-    assert "is the measurement file" in fails(
-        capsys, "identify", urdf, "--data", meas, "--out", meas, *MARKER
-    )
+    assert "is the input --data" in fails(capsys, "identify", urdf, "--data", meas, "--out", meas, *MARKER)
     line = fails(
         capsys, "measure-sim", urdf, "--plan", plan_csv, "--true", urdf, "--sigma", "0", "--out", plan_csv
     )
-    assert "is the plan file" in line
+    assert "is the input --plan" in line
     line = fails(
         capsys, "measure-sim", urdf, "--plan", plan_csv, "--true", urdf, "--sigma", "0", "--out", urdf
     )
-    assert "is the ROBOT URDF" in line
+    assert "is the robot's URDF" in line
     assert urdf.read_text() == original
 
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, Seed, generator
+from pincal.arguments import DEFAULT_SIGMA, Seed, generator, positive_int
 from pincal.calibration.identification import identify
 from pincal.calibration.synthetic import error_std_pair, random_errors, simulate_measurements
 from pincal.errors import BadArgument, PincalError
@@ -136,8 +136,7 @@ def monte_carlo(
     """
     if not (np.isfinite(sigma) and sigma > 0):
         raise BadArgument(f"sigma must be a positive number of metres, got {sigma!r}")
-    if int(trials) != trials or trials < 2:
-        raise BadArgument(f"trials must be an integer of at least 2, got {trials!r}")
+    trials = positive_int(trials, "trials", 2)
     length, angle = error_std_pair(error_std)
     robot = params.robot
     qs = robot.configurations(plan)

@@ -7,8 +7,10 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import warnings
+from typing import NoReturn
 
 from pincal.cli import (
     baseline,
@@ -22,8 +24,9 @@ from pincal.cli import (
     show,
     simulate,
 )
-from pincal.cli._common import join_negative_values
+from pincal.cli._common import argument_names, check_outputs, join_negative_values
 from pincal.errors import PincalError
+from pincal.files import guard_inputs
 from pincal.version import __version__
 
 # One module per subcommand, each with add_parser(subparsers); the order is the --help order.
@@ -54,8 +57,15 @@ Units: metres and radians; --deg reads and writes joint values in degrees.
 """
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse with pincal's error format: one line ``pincal: error: ...`` naming the --help."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"pincal: error: {message} (see '{self.prog} --help')\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="pincal",
         description=DESCRIPTION,
         epilog=EPILOG,
@@ -66,6 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for command in COMMANDS:
         command.add_parser(sub)
+    parser.commands = sub.choices  # {name: its parser}
     return parser
 
 
@@ -76,16 +87,23 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI on ``argv`` (default ``sys.argv[1:]``); return the exit code."""
+    """Run the CLI on ``argv`` (default ``sys.argv[1:]``); return the exit code (``--help``,
+    ``--version`` and usage errors raise ``SystemExit`` with it, as argparse does).
+
+    0: done; 2: bad input or a refused output (one line ``pincal: error: ...`` on stderr); 130:
+    interrupted; 1: a bug in pincal (one line ``pincal: internal error: ...``; set PINCAL_DEBUG=1
+    for the traceback). Warnings are printed as ``pincal: warning: ...`` lines.
+    """
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
-    args = parser.parse_args(join_negative_values(argv))  # exits 2 on bad usage
+    # --help, --version and usage errors exit here through SystemExit (0, or 2 after one line).
+    args = parser.parse_args(join_negative_values(argv))
     if not getattr(args, "run", None):
-        parser.print_help()
-        return 2
+        parser.error("give a COMMAND")
     try:
-        with warnings.catch_warnings():
+        with guard_inputs(), warnings.catch_warnings():
             warnings.showwarning = _show_warning
+            check_outputs(args, argument_names(parser.commands[args.command]))
             return args.run(args)
     except PincalError as exc:
         print(f"pincal: error: {exc}", file=sys.stderr)
@@ -95,6 +113,16 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return 0
+    except Exception as exc:
+        if os.environ.get("PINCAL_DEBUG"):
+            raise
+        text = " ".join(str(exc).split())[:300]
+        print(
+            f"pincal: internal error: {type(exc).__name__}: {text} (a bug in pincal: please report "
+            "it with the command line; PINCAL_DEBUG=1 shows the traceback)",
+            file=sys.stderr,
+        )
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -16,7 +16,7 @@ from pincal.evaluation.accuracy import AccuracyReport, accuracy, error_profile
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestPath, around, cartesian_box, resolve_test_poses
 from pincal.planning.driver import design
-from pincal.viewing.plots import error_vs_distance
+from pincal.viewing.plots import error_vs_distance, save_figure
 
 REGION_HELP = """\
 Where the robot works (any of design, evaluate, show, baseline):
@@ -185,4 +185,4 @@ def accuracy_report(params, plan, test_pose, sigma: float, prior, reference, see
 def save_accuracy_plot(path: str, params, plans: dict, test_pose, sigma: float, prior) -> None:
     """The predicted error against the distance from the test pose, for each plan, saved."""
     profiles = error_profile(params, plans, test_pose, sigma, prior)
-    error_vs_distance(profiles).savefig(path, dpi=120)
+    save_figure(error_vs_distance(profiles), path)

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, sigma_note
 from pincal.errors import BadArgument, BadConfiguration
+from pincal.files import check_output
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot, load_robot
 from pincal.planning.constraints import load_constraints
@@ -20,6 +22,49 @@ DEFAULT_PARAMS = "full,offsets"
 # Options whose value may start with "-" (negative numbers): "--test-pose -45,20" is rewritten
 # "--test-pose=-45,20" before argparse sees it.
 VALUE_OPTIONS = ("--test-pose", "--marker", "--base-pose", "--instrument", "--around", "--test-box")
+
+
+# Options naming a file pincal writes ("figure": an image whose format is its suffix). Every other
+# option or argument naming an existing file is an input, which no output may replace.
+OUTPUT_OPTIONS = {
+    "out": "file",
+    "html": "file",
+    "save_true": "file",
+    "plot": "figure",
+    "accuracy_plot": "figure",
+}
+
+
+def check_outputs(args: argparse.Namespace, names: dict[str, str]) -> None:
+    """Refuse, before any work, an output that is an input, another output, a folder or special
+    file, in a missing or unwritable folder, or a figure of an unknown format.
+
+    ``names`` maps each argument's dest to what the user typed ('--plan', 'ROBOT').
+    """
+    values = vars(args)
+    outputs = [(dest, values[dest]) for dest in OUTPUT_OPTIONS if values.get(dest) is not None]
+    inputs = []
+    for dest, value in values.items():
+        if dest in OUTPUT_OPTIONS:
+            continue
+        for v in value if isinstance(value, list) else [value]:
+            if isinstance(v, str) and os.path.isfile(v):
+                inputs.append(("the robot's URDF" if dest == "robot" else f"the input {names[dest]}", v))
+    for i, (dest, path) in enumerate(outputs):
+        earlier = [(f"the output {names[d]}", p) for d, p in outputs[:i]]
+        check_output(path, names[dest], inputs + earlier)
+        if OUTPUT_OPTIONS[dest] == "figure":
+            from pincal.viewing.plots import figure_format
+
+            figure_format(path)
+
+
+def argument_names(parser: argparse.ArgumentParser) -> dict[str, str]:
+    """{dest: '--option' or 'METAVAR'} of a (sub)command's arguments."""
+    return {
+        a.dest: a.option_strings[-1] if a.option_strings else (a.metavar or a.dest.upper())
+        for a in parser._actions
+    }
 
 
 def join_negative_values(argv: list[str]) -> list[str]:

@@ -42,7 +42,7 @@ def save_design_plot(path: str, result, baseline=None) -> None:
             ylabel="ρ0 [mm]" if is_rho0 else result.criterion,
             scale=1e3 if is_rho0 else 1.0,
         )
-    fig.savefig(path, dpi=120)
+    plots.save_figure(fig, path)
 
 
 def add_simulation_plot_arguments(parser: argparse.ArgumentParser) -> None:
@@ -72,4 +72,4 @@ def save_simulation_plot(args: argparse.Namespace, params, q0, sigma: float, err
         results[label] = monte_carlo(
             params, plan, q0, sigma, trials=args.trials, seed=args.seed, error_std=error_std
         )
-    plots.error_comparison(results).savefig(args.plot, dpi=120)
+    plots.save_figure(plots.error_comparison(results), args.plot)

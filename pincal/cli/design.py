@@ -288,6 +288,12 @@ def print_design(robot, params, source: str, result: DesignResult, degrees: bool
 def print_baseline(randoms: RandomPlans, d_opt: DesignResult | None, pool: str | None = None) -> None:
     singular = f", {randoms.n_singular} singular" if randoms.n_singular else ""
     drawn = f" of the configurations of {pool}" if pool else ""
+    if randoms.n_singular == randoms.n:
+        print(
+            f"baseline: all {randoms.n} random feasible plans{drawn} are singular (too few configurations "
+            "to identify the parameters)"
+        )
+        return
     print(
         f"baseline, {randoms.n} random feasible plans{drawn}{singular}: rho0 min {fmt_length(randoms.min)}, "
         f"median {fmt_length(randoms.median)}, mean {fmt_length(randoms.mean)}, max {fmt_length(randoms.max)}"

@@ -22,7 +22,7 @@ from pincal.cli._common import (
 )
 from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused
 from pincal.evaluation.prior import Prior
-from pincal.viewing.plots import validation_errors
+from pincal.viewing.plots import save_figure, validation_errors
 
 HELP = "identify the geometric errors from measurements and write the calibrated URDF"
 EXAMPLES = f"""\
@@ -108,14 +108,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _check_outputs(args: argparse.Namespace, robot) -> None:
-    inputs = [("measurement file", d) for d in args.data] + [("robot's URDF", robot.urdf_path)]
-    if args.validate:
-        inputs.append(("validation file", args.validate))
-    for option, out in (("--out", args.out), ("--plot", args.plot)):
-        for what, path in inputs:
-            if out and path is not None and Path(out).resolve() == Path(path).resolve():
-                raise OverwriteRefused(f"{option} {out} is the {what}: choose another output path")
-    if args.out and sidecar_path(args.out).resolve() in [Path(p).resolve() for _, p in inputs if p]:
+    """The sidecar --out writes must not be an input either (main checks --out and --plot)."""
+    inputs = [*args.data, robot.urdf_path, args.validate]
+    if args.out and sidecar_path(args.out).resolve() in [Path(p).resolve() for p in inputs if p]:
         raise OverwriteRefused(
             f"the sidecar of --out {args.out} would overwrite an input: choose another name"
         )
@@ -150,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
     writable = result.success or (args.force and result.status == "implausible")
     out = export_urdf(result, args.out, force=args.force) if args.out and writable else None
     if args.plot and validation is not None:
-        validation_errors(validation).savefig(args.plot, dpi=120)
+        save_figure(validation_errors(validation), args.plot)
     if args.json:
         payload = {"robot": robot.name, "tip": robot.tip, "params_source": source, **result.as_dict()}
         payload["dropped_for_base"] = dropped

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -22,7 +21,7 @@ from pincal.cli._common import (
     robot_from_args,
 )
 from pincal.cli.simulate import parse_error_std
-from pincal.errors import BadArgument, BadConfiguration, OverwriteRefused, UrdfError
+from pincal.errors import BadArgument, BadConfiguration, UrdfError
 from pincal.model.robot import load_robot
 
 HELP = "simulate the measurements of a plan on a 'true' robot, to rehearse a calibration"
@@ -74,23 +73,12 @@ def _base_pose(text: str | None, degrees: bool) -> pin.SE3:
     return pin.SE3(pin.rpy.rpyToMatrix(*rpy), np.array(values[:3]))
 
 
-def _refuse_inputs(out: str, inputs: dict[str, object]) -> None:
-    target = Path(out).resolve()
-    for what, path in inputs.items():
-        if path is not None and Path(path).resolve() == target:
-            raise OverwriteRefused(f"output {out} is the {what}: choose another output path")
-
-
 def run(args: argparse.Namespace) -> int:
     if not (np.isfinite(args.sigma) and args.sigma >= 0):
         raise BadArgument(f"--sigma must be a non-negative number of metres, got {args.sigma}")
     if args.save_true and not args.error_std:
         raise BadArgument("--save-true needs --error-std (the true robot is then drawn at random)")
     robot = robot_from_args(args)
-    inputs = {"plan file": args.plan, "ROBOT URDF": robot.urdf_path, "true URDF": args.true}
-    _refuse_inputs(args.out, inputs)
-    if args.save_true:
-        _refuse_inputs(args.save_true, {**inputs, "measurement output": args.out})
     plan = read_plan(robot, args.plan, args.deg)
     rng = np.random.default_rng(args.seed)
     if args.true:
@@ -114,11 +102,12 @@ def run(args: argparse.Namespace) -> int:
         true_robot = truth.robot
         description = f"random errors of {len(params)} parameters ({source}), seed {args.seed}"
         if args.save_true:
-            export_urdf(true_robot, args.save_true)
             description += f", saved to {args.save_true}"
-    true_robot = true_robot.replace(base=_base_pose(args.base_pose, args.deg))
-    data = simulate_measurements(true_robot, plan, args.sigma, rng)
+    measured = true_robot.replace(base=_base_pose(args.base_pose, args.deg))
+    data = simulate_measurements(measured, plan, args.sigma, rng)
     data.to_csv(args.out, degrees=args.deg, millimetres=args.mm, robot=robot)
+    if args.save_true:
+        export_urdf(true_robot, args.save_true)
     unit = "mm" if args.mm else "m"
     angles = "degrees" if args.deg and robot.revolute.any() else "radians"
     print(

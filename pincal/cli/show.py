@@ -235,7 +235,7 @@ def _plot_baseline(params, plan, q0: np.ndarray, sigma: float, constraints, args
             f"none of the {randoms.n} random plans of {len(plan)} configurations is identifiable"
         )
     fig = plots.rho0_histogram(randoms.values, {"this plan": float(rho0(params, plan, q0, sigma=sigma))})
-    fig.savefig(args.plot, dpi=120)
+    plots.save_figure(fig, args.plot)
     return randoms.as_dict()
 
 

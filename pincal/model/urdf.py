@@ -29,8 +29,15 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
+from pincal import files
 from pincal.errors import PincalWarning, UnknownName, UrdfError
 
+MAX_URDF_BYTES = 16 * 2**20
+"""Largest URDF read (16 MiB; meshes are separate files, so real URDFs are far smaller)."""
+MAX_URDF_ELEMENTS = 100_000
+"""Most XML elements in a URDF."""
+MAX_URDF_JOINTS = 2_000
+"""Most joints (and links) in a URDF."""
 ONE_TURN = (-np.pi, np.pi)
 """Design range [rad] of a continuous joint when none is given."""
 
@@ -90,13 +97,9 @@ def _expand_xacro(path: Path) -> str:
 
 
 def read_text(path: Path) -> str:
-    """The URDF text of ``path`` (a xacro file expanded), or a one-line UrdfError."""
-    if not path.is_file():
-        raise UrdfError(f"URDF file {str(path)!r} does not exist")
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except OSError as exc:
-        raise UrdfError(f"cannot read URDF {str(path)!r}: {exc.strerror}") from None
+    """The URDF text of ``path`` (a xacro file expanded), or a one-line UrdfError (missing, not a
+    regular file, over :data:`MAX_URDF_BYTES`, binary)."""
+    text = files.read_text(path, "URDF", UrdfError, max_bytes=MAX_URDF_BYTES, strict_utf8=False)
     if path.suffix.lower() == ".xacro":
         return _expand_xacro(path)
     return text
@@ -109,6 +112,15 @@ def _parse(text: str, where: str) -> etree._Element:
         raise UrdfError(f"cannot read URDF {where}: not well-formed XML ({exc})") from None
     if root.tag != "robot":
         raise UrdfError(f"URDF {where}: the root element is <{root.tag}>, not <robot>")
+    counts = {"elements": 0, "joints": 0, "links": 0}
+    for element in root.iter():
+        counts["elements"] += 1
+        if element.tag in ("joint", "link"):
+            counts[element.tag + "s"] += 1
+    limits = {"elements": MAX_URDF_ELEMENTS, "joints": MAX_URDF_JOINTS, "links": MAX_URDF_JOINTS}
+    for what, limit in limits.items():
+        if counts[what] > limit:
+            raise UrdfError(f"URDF {where} has {counts[what]} {what}, more than the {limit} allowed")
     return root
 
 

@@ -2,8 +2,9 @@
 
 Each function takes numbers computed elsewhere (ρ0 of plans, Monte-Carlo errors, search traces),
 draws one figure and returns it: nothing is shown (no ``plt.show()``) and nothing is written;
-save with ``fig.savefig(path)``. Lengths come in metres and are drawn in ``unit`` (``"mm"`` by
-default). matplotlib is imported when a function is called, never when pincal is imported.
+save with :func:`save_figure` (atomic, never over an input) or ``fig.savefig(path)``. Lengths
+come in metres and are drawn in ``unit`` (``"mm"`` by default). matplotlib is imported when a
+function is called, never when pincal is imported.
 
 * :func:`rho0_histogram`: ρ0 of the designed plan(s) against the distribution of random plans.
 * :func:`error_comparison`: Monte-Carlo position errors at the test pose, plans side by side.
@@ -16,12 +17,16 @@ default). matplotlib is imported when a function is called, never when pincal is
 
 from __future__ import annotations
 
+import io
+import os
 from collections.abc import Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pincal.errors import BadArgument
+from pincal.errors import BadArgument, CannotWrite
+from pincal.files import atomic_write_bytes
 from pincal.optional import require
 
 if TYPE_CHECKING:  # matplotlib is optional: imported when a figure is drawn
@@ -49,6 +54,28 @@ def _figure(figsize: tuple[float, float]) -> Figure:
 
     _pyplot()  # a clear error if matplotlib is missing
     return Figure(figsize=figsize, layout="constrained")
+
+
+def figure_format(path: str | os.PathLike) -> str:
+    """The image format of a figure file, from its suffix ('png', 'pdf', 'svg', ...), or an error
+    listing the valid ones."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    valid = FigureCanvasBase.get_supported_filetypes()
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in valid:
+        got = f"suffix .{suffix}" if suffix else "no suffix"
+        raise CannotWrite(f"figure {os.fspath(path)!r} has {got}; valid: {', '.join(sorted(valid))}")
+    return suffix
+
+
+def save_figure(fig: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
+    """Save ``fig`` to ``path`` in the format of its suffix, atomically (never half-written, never
+    over an input: see :func:`pincal.files.atomic_write_bytes`)."""
+    fmt = figure_format(path)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format=fmt, dpi=dpi)
+    return atomic_write_bytes(path, buffer.getvalue(), "figure")
 
 
 def _finite_positive(values: object, what: str) -> np.ndarray:

@@ -19,7 +19,7 @@ TOLERANCE = 1e-9
 def vector(value: object, what: str, size: int = 3) -> tuple[float, ...]:
     try:
         arr = np.array(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise BadConstraint(f"{what} must be {size} numbers, got {value!r}") from None
     if arr.size != size or not np.all(np.isfinite(arr)):
         raise BadConstraint(f"{what} must be {size} finite numbers, got {value!r}")
@@ -29,7 +29,7 @@ def vector(value: object, what: str, size: int = 3) -> tuple[float, ...]:
 def number(value: object, what: str, low: float = -math.inf, strict: bool = False) -> float:
     try:
         v = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise BadConstraint(f"{what} must be a number, got {value!r}") from None
     if not math.isfinite(v) or v < low or (strict and v == low):
         bound = f"{'>' if strict else '≥'} {low:g}"

@@ -88,7 +88,10 @@ def constraints_from_dict(data: dict) -> tuple[AnyConstraint, ...]:
         )
     if "self_collision" in data and data["self_collision"] is not False:
         e = _check_keys(data["self_collision"], "self_collision", ("min_distance", "package_dirs"))
-        out.append(SelfCollision(e.get("min_distance", 0.0), tuple(e.get("package_dirs", ()))))
+        dirs = _entries(e.get("package_dirs", []))
+        if not all(isinstance(d, str) for d in dirs):
+            raise BadConstraint(f"self_collision package_dirs must be folder names, got {dirs!r}")
+        out.append(SelfCollision(e.get("min_distance", 0.0), tuple(dirs)))
     if "min_spacing" in data:
         e = _check_keys(data["min_spacing"], "min_spacing", ("distance", "distance_deg"))
         distance = _angle(e, "distance", "min_spacing", None)

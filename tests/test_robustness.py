@@ -1,0 +1,276 @@
+"""Robustness (issue 12): outputs never replace inputs or special files, bounded readers, one error
+format, and the determinism / concurrency / interruption checks. Each bad-input case is a
+regression example of a crash class the fuzzer (tests/test_fuzz.py) found or the issue reported.
+Budget: about 15 s."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pincal
+from pincal.cli import main
+from pincal.files import MAX_CELL_CHARS, MAX_LINE_CHARS, MAX_YAML_DEPTH, atomic_write_text, guard_inputs
+
+ROOT = Path(__file__).resolve().parents[1]
+PLANAR = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
+PLAN = "joint1,joint2\n0.1,1.0\n0.5,-1.0\n1.0,2.0\n"
+
+
+def fails(capsys, argv: list[str], fragment: str) -> str:
+    """Run the CLI; it must exit 2 with one 'pincal: error:' line containing ``fragment``."""
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.startswith("pincal: error: ") and err.count("\n") == 1, err
+    assert fragment in err, err
+    return err
+
+
+@pytest.fixture
+def cell(tmp_path):
+    """A folder with the planar robot's URDF and a plan, as a user's cell would have them."""
+    shutil.copy(ROOT / "robots" / "planar_2r.urdf", tmp_path / "robot.urdf")
+    (tmp_path / "plan.csv").write_text(PLAN)
+    return tmp_path
+
+
+def snapshot(folder: Path) -> dict:
+    return {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file() and not p.is_symlink()}
+
+
+def show(cell, *extra):
+    return ["show", cell / "robot.urdf", "--plan", cell / "plan.csv", "--test-pose=0.3,1.2", *PLANAR, *extra]
+
+
+# --------------------------------------------------------------- outputs never replace inputs
+@pytest.mark.parametrize(
+    "output, fragment",
+    [
+        ("plan.csv", "is the input --plan"),
+        ("robot.urdf", "is the robot's URDF"),
+        ("hardlink.csv", "is the input --plan"),  # the same file by inode
+        ("symlink.csv", "is the input --plan"),
+        (".", "is a folder"),
+        ("fifo", "not a regular file"),
+        ("missing/scene.html", "does not exist"),
+        ("plan.csv/scene.html", "Not a directory"),
+        ("", "empty file name"),
+    ],
+)
+def test_show_html_never_replaces_an_input_or_special_file(cell, capsys, output, fragment):
+    os.link(cell / "plan.csv", cell / "hardlink.csv")
+    os.symlink(cell / "plan.csv", cell / "symlink.csv")
+    os.mkfifo(cell / "fifo")
+    before = snapshot(cell)
+    target = "" if output == "" else str(cell / output)
+    fails(capsys, show(cell, "--html", target), fragment)
+    assert snapshot(cell) == before and (cell / "fifo").is_fifo()
+
+
+def test_every_writer_refuses_inputs_before_any_work(cell, capsys):
+    data = cell / "meas.csv"
+    argv = ["measure-sim", cell / "robot.urdf", "--tip", "tip", "--plan", cell / "plan.csv"]
+    assert main([str(a) for a in [*argv, "--error-std", "1e-3,1e-3", "--sigma", "1e-5", "--out", data]]) == 0
+    before = snapshot(cell)
+    identify = ["identify", cell / "robot.urdf", "--tip", "tip", "--data", data]
+    fails(capsys, [*identify, "--out", data], "is the input --data")
+    fails(capsys, [*argv, "--error-std", "1e-3,1e-3", "--sigma", "0", "--out", cell / "plan.csv"], "--plan")
+    fails(
+        capsys,
+        [*argv, "--error-std", "1e-3,1e-3", "--sigma", "0", "--out", data, "--save-true", data],
+        "output",
+    )
+    design = ["design", cell / "robot.urdf", "-m", "3", "--test-pose=0.3,1.2", *PLANAR, "--workers", "1"]
+    fails(capsys, [*design, "--pool", cell / "plan.csv", "--out", cell / "plan.csv"], "is the input --pool")
+    fails(capsys, [*design, "--plot", cell / "plot.xyz"], "valid: ")  # the format, before the design
+    shutil.copy(ROOT / "docs" / "dh" / "ur5_dh.yaml", cell / "table.yaml")
+    before["table.yaml"] = (cell / "table.yaml").read_bytes()
+    fails(capsys, ["urdf-from-dh", cell / "table.yaml", "--out", cell / "table.yaml"], "is the input TABLE")
+    assert snapshot(cell) == before
+
+
+def test_writes_refuse_files_read_in_the_same_run(cell):
+    # The CLI guard covers inputs named indirectly (a shipped robot by name, a mesh folder...).
+    with guard_inputs():
+        pincal.Plan.from_csv(cell / "plan.csv", robot=pincal.load_robot(cell / "robot.urdf", tip="tip"))
+        with pytest.raises(pincal.OverwriteRefused, match="never overwrites an input"):
+            atomic_write_text(cell / "robot.urdf", "x")
+    assert atomic_write_text(cell / "robot.urdf", "x").read_text() == "x"  # outside: the API's choice
+
+
+def test_unwritable_place_is_one_line(cell, capsys):
+    if os.geteuid() == 0:
+        pytest.skip("root writes anywhere")
+    locked = cell / "locked"
+    locked.mkdir(mode=0o500)
+    fails(capsys, show(cell, "--html", locked / "s.html"), "cannot write in folder")
+
+
+# ------------------------------------------------------------------------------ bounded readers
+@pytest.mark.parametrize(
+    "content, fragment",
+    [
+        (b"joint1,joint2\n0.1,\x000.2\n", "line 2: a NUL byte"),
+        (b"joint1,joint2\n0.1," + b"1" * (MAX_CELL_CHARS + 1) + b"\n", "more than the 1000 a cell"),
+        (b"joint1,joint2\n" + b"0.1," * (MAX_LINE_CHARS // 4 + 1) + b"\n", "a line may have"),
+        (b"joint1,joint2\n\xff\xfe,1\n", "line 2: not UTF-8"),
+        (b"joint1,joint2\n1e999,0\n", "must be finite"),
+        (b"joint1,joint2\n" + b"9" * 400 + b",0\n", "must be finite"),
+    ],
+)
+def test_plan_csv_limits(cell, capsys, content, fragment):
+    (cell / "plan.csv").write_bytes(content)
+    fails(
+        capsys,
+        ["evaluate", cell / "robot.urdf", "--plan", cell / "plan.csv", "--test-pose=0,1", *PLANAR],
+        fragment,
+    )
+
+
+def test_csv_byte_order_mark_and_crlf_are_read(cell, capsys):
+    (cell / "plan.csv").write_bytes(b"\xef\xbb\xbf" + PLAN.replace("\n", "\r\n").encode())
+    argv = ["evaluate", cell / "robot.urdf", "--plan", cell / "plan.csv", "--test-pose=0.3,1.2", *PLANAR]
+    assert main([str(a) for a in argv]) == 0
+
+
+def test_inputs_that_are_not_files(cell, capsys):
+    os.mkfifo(cell / "fifo.csv")  # reading it would block forever
+    base = ["evaluate", cell / "robot.urdf", "--test-pose=0,1", *PLANAR, "--plan"]
+    fails(capsys, [*base, cell / "fifo.csv"], "not a regular file")
+    fails(capsys, [*base, cell], "is a folder")
+
+
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ("joint_limits: " + "[" * 5000 + "]" * 5000, f"nested more than {MAX_YAML_DEPTH} levels"),
+        ("joint_limits: {margin_deg: 1.0e+999}", "joint_limits.margin_deg is inf, not a finite number"),
+        ("joint_limits: {margin_deg: " + "1" * 5000 + "}", "digits"),
+        ("joint_limits: {margin_deg: .nan}", "not a finite number"),
+        ("a: &x [1]\nb: *x", "anchors and aliases"),
+        ("workspace_box: 3", "workspace_box must be a mapping"),
+        ("workspace_box: {lower: {a: 1}, upper: [1, 1, 1]}", "must be 3 numbers"),
+        ("self_collision: {package_dirs: 5}", "package_dirs must be folder names"),
+        ("!!python/object/apply:os.system ['true']", "not valid YAML"),
+        ("joint_limits: {margin_deg: 1", "not valid YAML (line"),
+    ],
+)
+def test_constraints_yaml_limits(cell, capsys, text, fragment):
+    (cell / "cell.yaml").write_text(text)
+    argv = ["design", cell / "robot.urdf", "-m", "3", "--test-pose=0.3,1.2", *PLANAR, "--workers", "1"]
+    fails(capsys, [*argv, "--constraints", cell / "cell.yaml"], fragment)
+
+
+@pytest.mark.parametrize(
+    "edit, fragment",
+    [
+        (lambda t: t.replace("</robot>", '<link name="x"/>' * 2001 + "</robot>"), "2005 links, more than"),
+        (lambda t: t.replace("</robot>", ""), "not well-formed XML"),
+        (lambda t: t.replace('<parent link="base_link"/>', ""), "missing a parent"),
+        (lambda t: "\x00" + t, "a NUL byte"),
+    ],
+)
+def test_urdf_limits_and_native_messages(cell, capfd, edit, fragment):
+    urdf = cell / "robot.urdf"
+    urdf.write_text(edit(urdf.read_text()))
+    argv = ["params", urdf, "--tip", "tip"]
+    code = main([str(a) for a in argv])
+    out, err = capfd.readouterr()  # file descriptor 2: urdfdom's own "Error:" lines must not show
+    assert code == 2 and err.startswith("pincal: error: ") and err.count("\n") == 1, err
+    assert fragment in err
+
+
+# --------------------------------------------------------------------------- one error format
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["evaluate", "planar_2r"],  # required options missing
+        ["nonsense"],
+        [],
+        ["design", "planar_2r", "-m", "x", "--test-pose=0,1"],
+        ["params", "planar_2r", "--unknown"],
+        ["params", "planar_2r", "--seed", "-1"],  # was a ValueError from NumPy (fuzzer)
+    ],
+)
+def test_usage_errors_are_one_line(capsys, argv):
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and err.startswith("pincal: error: ") and err.count("\n") == 1, err
+    assert "--help')" in err and "usage:" not in err
+
+
+def test_huge_counts_are_refused_not_run(capsys):
+    base = ["baseline", "planar_2r", "-m", "3", "--test-pose=0.3,1.2", "--workers", "1", "--random"]
+    fails(capsys, [*base, str(2**63)], "from 1 to 10,000,000")
+    fails(
+        capsys, ["simulate", "planar_2r", "--plan", "x.csv", "--test-pose=0,1", "--trials", str(10**30)], ""
+    )
+
+
+def test_warnings_are_pincal_lines(cell, capsys):
+    # A plan too small for the parameters: 'show' draws no ellipsoid and says why, as a warning line.
+    (cell / "plan.csv").write_text("joint1,joint2\n0.1,1.0\n")
+    assert (
+        main([str(a) for a in show(cell, "--html", cell / "s.html")[:-2]] + ["--html", str(cell / "s.html")])
+        == 0
+    )
+    err = capsys.readouterr().err
+    assert all(line.startswith("pincal: warning: ") for line in err.splitlines()), err
+
+
+# ------------------------------------------------ determinism, concurrency, interrupted writes
+def _design(seed: int) -> np.ndarray:
+    params = pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")
+    return pincal.design(params, 3, [0.3, 1.2], starts=3, seed=seed, workers=1, pool=200).plan.q
+
+
+def test_same_seed_same_plan_and_concurrent_designs_agree():
+    serial = {seed: _design(seed) for seed in (0, 1)}
+    assert not np.array_equal(serial[0], serial[1])  # the seed matters
+    results: dict = {}
+
+    def run(k: int) -> None:
+        results[k] = _design(k % 2)
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for k in range(8):
+        np.testing.assert_array_equal(results[k], serial[k % 2])
+
+
+def test_cli_same_seed_same_plan_file(cell):
+    outs = []
+    for k in range(2):
+        out = cell / f"plan{k}.csv"
+        argv = ["design", cell / "robot.urdf", "-m", "3", "--test-pose=0.3,1.2", *PLANAR]
+        argv += ["--starts", "2", "--workers", "1", "--no-progress", "--pool-size", "100", "--seed", "7"]
+        assert main([str(a) for a in [*argv, "--out", out]]) == 0
+        outs.append(out.read_bytes())
+    assert outs[0] == outs[1]
+
+
+def test_interrupted_write_leaves_old_output_and_no_temporary_file(cell, monkeypatch):
+    target = cell / "out.csv"
+    target.write_text("previous")
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("os.replace", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write_text(target, "new")
+    assert target.read_text() == "previous"
+    assert sorted(p.name for p in cell.iterdir()) == ["out.csv", "plan.csv", "robot.urdf"]
