@@ -292,10 +292,10 @@ def read_yaml(path: str | os.PathLike, what: str, error: type[Exception]) -> obj
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
-        at = f"line {mark.line + 1}: " if mark is not None else ""
+        at = f", line {mark.line + 1}" if mark is not None else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise _error(
-            error, f"{where}: not valid YAML ({at}{problem})", path, mark.line + 1 if mark else None
+            error, f"{where}{at}: not valid YAML ({problem})", path, mark.line + 1 if mark else None
         ) from None
     except ValueError as exc:  # e.g. an integer of more than 4300 digits
         raise _error(error, f"{where}: {exc}", path) from None
@@ -358,21 +358,21 @@ def check_output(
     """
     text = os.fspath(path)
     if not text.strip():
-        raise CannotWrite(f"{what}: empty file name")
+        raise CannotWrite(f"cannot write {what}: the file name is empty")
     path = Path(text)
     try:
         st = path.stat()
     except FileNotFoundError:
         st = None
     except OSError as exc:
-        raise CannotWrite(f"{what} {text}: {exc.strerror or exc}") from None
+        raise CannotWrite(f"cannot write {what} {text!r}: {exc.strerror or exc}") from None
     if st is not None:
         if stat.S_ISDIR(st.st_mode):
-            raise CannotWrite(f"{what} {text} is a folder: give a file name")
+            raise CannotWrite(f"cannot write {what} {text!r}: it is a folder (give a file name)")
         if not stat.S_ISREG(st.st_mode):
             raise CannotWrite(
-                f"{what} {text} exists and is not a regular file (a device, pipe or socket): "
-                "pincal does not replace it"
+                f"cannot write {what} {text!r}: it exists and is not a regular file (a device, pipe "
+                "or socket), which pincal does not replace"
             )
         read = _INPUTS.get() or {}
         if (st.st_dev, st.st_ino) in read:
@@ -387,9 +387,9 @@ def check_output(
             )
     folder = path.resolve().parent
     if not folder.is_dir():
-        raise CannotWrite(f"{what} {text}: folder {str(folder)!r} does not exist")
+        raise CannotWrite(f"cannot write {what} {text!r}: its folder does not exist ({str(folder)!r})")
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise CannotWrite(f"{what} {text}: cannot write in folder {str(folder)!r} (permission denied)")
+        raise CannotWrite(f"cannot write {what} {text!r}: permission denied in folder {str(folder)!r}")
     return path
 
 

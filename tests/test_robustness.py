@@ -59,11 +59,11 @@ def show(cell, *extra):
         ("robot.urdf", "is the robot's URDF"),
         ("hardlink.csv", "is the input --plan"),  # the same file by inode
         ("symlink.csv", "is the input --plan"),
-        (".", "is a folder"),
+        (".", "it is a folder"),
         ("fifo", "not a regular file"),
-        ("missing/scene.html", "does not exist"),
+        ("missing/scene.html", "its folder"),
         ("plan.csv/scene.html", "Not a directory"),
-        ("", "empty file name"),
+        ("", "the file name is empty"),
     ],
 )
 def test_show_html_never_replaces_an_input_or_special_file(cell, capsys, output, fragment):
@@ -112,7 +112,7 @@ def test_unwritable_place_is_one_line(cell, capsys):
         pytest.skip("root writes anywhere")
     locked = cell / "locked"
     locked.mkdir(mode=0o500)
-    fails(capsys, show(cell, "--html", locked / "s.html"), "cannot write in folder")
+    fails(capsys, show(cell, "--html", locked / "s.html"), "permission denied in folder")
 
 
 # ------------------------------------------------------------------------------ bounded readers
@@ -161,7 +161,7 @@ def test_inputs_that_are_not_files(cell, capsys):
         ("workspace_box: {lower: {a: 1}, upper: [1, 1, 1]}", "must be 3 numbers"),
         ("self_collision: {package_dirs: 5}", "package_dirs must be folder names"),
         ("!!python/object/apply:os.system ['true']", "not valid YAML"),
-        ("joint_limits: {margin_deg: 1", "not valid YAML (line"),
+        ("joint_limits: {margin_deg: 1", ", line 1: not valid YAML"),
     ],
 )
 def test_constraints_yaml_limits(cell, capsys, text, fragment):
@@ -198,7 +198,6 @@ def test_urdf_limits_and_native_messages(cell, capfd, edit, fragment):
         [],
         ["design", "planar_2r", "-m", "x", "--test-pose=0,1"],
         ["params", "planar_2r", "--unknown"],
-        ["params", "planar_2r", "--seed", "-1"],  # was a ValueError from NumPy (fuzzer)
     ],
 )
 def test_usage_errors_are_one_line(capsys, argv):
@@ -209,7 +208,8 @@ def test_usage_errors_are_one_line(capsys, argv):
     assert "--help')" in err and "usage:" not in err
 
 
-def test_huge_counts_are_refused_not_run(capsys):
+def test_extreme_arguments_are_refused_not_run(capsys):
+    fails(capsys, ["params", "planar_2r", "--seed", "-1"], "seed must be")  # was NumPy's ValueError
     base = ["baseline", "planar_2r", "-m", "3", "--test-pose=0.3,1.2", "--workers", "1", "--random"]
     fails(capsys, [*base, str(2**63)], "from 1 to 10,000,000")
     fails(
