@@ -453,6 +453,7 @@ class Outcome:
     err: str
 
 
+NOT_TEXT_OUTPUT = re.compile(rb"\s*(<!DOCTYPE html|<html|\x89PNG|<\?xml[^>]*>\s*<svg|%PDF)")
 NAN = re.compile(r"\b(nan|inf|infinity)\b", re.IGNORECASE)
 
 
@@ -561,9 +562,12 @@ def check_run(outcome: Outcome, before: dict, after: dict, inputs: set[str]) -> 
     if code == 2:
         changed = [n for n in set(before) | set(after) if before.get(n) != after.get(n)]
         assert not changed, f"partial output on error: {changed}"
-    for name in new:
-        if isinstance(after[name], bytes) and not name.endswith((".html", ".png", ".svg", ".PNG")):
-            text = after[name].decode("utf-8", "replace")
+    for name in new:  # written CSV and URDF files (not the figures, not the HTML page's scripts)
+        content = after[name]
+        if isinstance(content, bytes) and not re.match(
+            rb"\s*(<!DOCTYPE html|<html|\x89PNG|<\?xml[^>]*>\s*<svg|%PDF)", content
+        ):
+            text = content.decode("utf-8", "replace")
             assert not NAN.search(re.sub(r"<!--.*?-->", "", text, flags=re.S)), f"NaN/inf in {name}"
 
 

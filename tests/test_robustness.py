@@ -177,6 +177,7 @@ def test_constraints_yaml_limits(cell, capsys, text, fragment):
         (lambda t: t.replace("</robot>", ""), "not well-formed XML"),
         (lambda t: t.replace('<parent link="base_link"/>', ""), "missing a parent"),
         (lambda t: "\x00" + t, "a NUL byte"),
+        (lambda t: t.replace("<!--", "<!--\n<!--", 1), "not well-formed XML"),  # lxml's message had a newline
     ],
 )
 def test_urdf_limits_and_native_messages(cell, capfd, edit, fragment):

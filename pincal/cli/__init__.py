@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import warnings
 from typing import NoReturn
@@ -80,10 +81,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def one_line(text: str) -> str:
+    """``text`` with its line breaks (and the spaces around them) made single spaces."""
+    return re.sub(r"\s*[\r\n]+\s*", " ", text.strip())
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Every warning on one line, without the source line Python would show."""
-    text = " ".join(str(message).split())
-    print(f"pincal: warning: {text}", file=sys.stderr)
+    print(f"pincal: warning: {one_line(str(message))}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -105,8 +110,8 @@ def main(argv: list[str] | None = None) -> int:
             warnings.showwarning = _show_warning
             check_outputs(args, argument_names(parser.commands[args.command]))
             return args.run(args)
-    except PincalError as exc:
-        print(f"pincal: error: {exc}", file=sys.stderr)
+    except PincalError as exc:  # one line, whatever the message quotes (a parser's report)
+        print(f"pincal: error: {one_line(str(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("pincal: interrupted", file=sys.stderr)
@@ -116,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:
         if os.environ.get("PINCAL_DEBUG"):
             raise
-        text = " ".join(str(exc).split())[:300]
+        text = one_line(str(exc))[:300]
         print(
             f"pincal: internal error: {type(exc).__name__}: {text} (a bug in pincal: please report "
             "it with the command line; PINCAL_DEBUG=1 shows the traceback)",

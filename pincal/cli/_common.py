@@ -16,6 +16,7 @@ from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot, load_robot
 from pincal.planning.constraints import load_constraints
 from pincal.planning.plan import Plan
+from pincal.viewing.plots import figure_format
 
 DEFAULT_PARAMS = "full,offsets"
 
@@ -54,8 +55,6 @@ def check_outputs(args: argparse.Namespace, names: dict[str, str]) -> None:
         earlier = [(f"the output {names[d]}", p) for d, p in outputs[:i]]
         check_output(path, names[dest], inputs + earlier)
         if OUTPUT_OPTIONS[dest] == "figure":
-            from pincal.viewing.plots import figure_format
-
             figure_format(path)
 
 

@@ -109,7 +109,8 @@ def _parse(text: str, where: str) -> etree._Element:
     try:
         root = etree.fromstring(text.encode("utf-8"), etree.XMLParser(remove_comments=True))
     except etree.XMLSyntaxError as exc:
-        raise UrdfError(f"cannot read URDF {where}: not well-formed XML ({exc})") from None
+        message = " ".join(str(exc).split())
+        raise UrdfError(f"cannot read URDF {where}: not well-formed XML ({message})") from None
     if root.tag != "robot":
         raise UrdfError(f"URDF {where}: the root element is <{root.tag}>, not <robot>")
     counts = {"elements": 0, "joints": 0, "links": 0}
