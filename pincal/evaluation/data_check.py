@@ -99,7 +99,9 @@ class DataCheck:
 
     def report(self) -> str:
         """Text: rank, condition number, weakest combinations, and what is left out and why."""
-        cond = "inf" if not np.isfinite(self.condition_number) else f"{self.condition_number:.3g}"
+        cond = f"{self.condition_number:.3g}"
+        if not np.isfinite(self.condition_number):
+            cond = "infinite (singular)"
         lines = [
             f"data identifiability ({self.m} configurations, sigma {self.sigma * 1e3:.3g} mm): rank "
             f"{self.rank} of {len(self.names)} parameters, condition number {cond} (column-scaled)"
