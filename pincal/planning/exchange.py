@@ -74,6 +74,35 @@ def _best_regular(values, F, cand, M, J_pool, Ji, floor, tries: int = 32) -> int
     return None
 
 
+def _capacitance(S_cc: np.ndarray, A: np.ndarray, Ji: np.ndarray, Ai: np.ndarray) -> np.ndarray:
+    """(N, 2r, 2r) the Woodbury capacitance matrices of swapping configuration i (rows Ji, Ai =
+    Ji M⁻¹) for each candidate c (S_cc = J_c M⁻¹ J_cᵀ, A = J_c M⁻¹): their determinants are the
+    ratios det M'/det M, and they solve the updates of M⁻¹ and of the weighted traces."""
+    N, r, _ = A.shape
+    H = np.empty((N, 2 * r, 2 * r))
+    H[:, :r, :r] = S_cc + np.eye(r)
+    H[:, :r, r:] = A @ Ji.T
+    H[:, r:, :r] = np.swapaxes(H[:, :r, r:], 1, 2)
+    H[:, r:, r:] = Ai @ Ji.T - np.eye(r)
+    return H
+
+
+def _trace_values(
+    objective: Objective, t: np.ndarray, H: np.ndarray, AJ0: np.ndarray, AiJ0: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(values, traces) of a trace objective after each candidate swap (H, AJ0 = J_c M⁻¹ J0ᵀ of the
+    candidates; AiJ0 = Ji M⁻¹ J0ᵀ of the configuration swapped out); inf where a trace would not
+    stay positive."""
+    n, r = len(H), AiJ0.shape[0]
+    Q = np.concatenate([AJ0, np.broadcast_to(AiJ0, (n, r, AJ0.shape[2]))], axis=1)
+    Y = np.linalg.solve(H, Q)
+    red = np.einsum("nar,nar->nr", Q, Y).reshape(n, objective.k, -1).sum(axis=2)
+    new_t = t - red
+    values = objective.from_traces(new_t)
+    values[~np.all(new_t > 0, axis=1)] = np.inf
+    return values, new_t
+
+
 def fedorov(
     objective: Objective,
     J_pool: np.ndarray,
@@ -126,11 +155,7 @@ def fedorov(
                 stale = False
             Ji = J_pool[index[i]]
             Ai = Ji @ Minv
-            H = np.empty((N, 2 * r, 2 * r))
-            H[:, :r, :r] = S_cc + np.eye(r)
-            H[:, :r, r:] = A @ Ji.T
-            H[:, r:, :r] = np.swapaxes(H[:, :r, r:], 1, 2)
-            H[:, r:, r:] = Ai @ Ji.T - np.eye(r)
+            H = _capacitance(S_cc, A, Ji, Ai)
             allowed = ~used
             if dist is not None:
                 others = np.delete(dist, i, axis=1)
@@ -140,22 +165,13 @@ def fedorov(
             if not ok.any():
                 continue
             cand = np.flatnonzero(ok)
-            new_t = None
             if objective.family == "logdet":
-                values = F - logdet[cand]
+                values, new_t = F - logdet[cand], None
             elif trace:
-                Q = np.concatenate(
-                    [AJ0[cand], np.broadcast_to(Ji @ (Minv @ objective.J0T), (len(cand), r, AJ0.shape[2]))],
-                    axis=1,
-                )
-                Y = np.linalg.solve(H[cand], Q)
-                red = np.einsum("nar,nar->nr", Q, Y).reshape(len(cand), objective.k, -1).sum(axis=2)
-                new_t = t - red
-                values = objective.from_traces(new_t)
-                values[~np.all(new_t > 0, axis=1)] = np.inf
+                values, new_t = _trace_values(objective, t, H[cand], AJ0[cand], Ji @ (Minv @ objective.J0T))
             else:
                 Mc = M + JtJ[cand] - Ji.T @ Ji
-                values = objective.from_eigenvalues(np.linalg.eigvalsh(objective.posterior(Mc)))
+                values, new_t = objective.from_eigenvalues(np.linalg.eigvalsh(objective.posterior(Mc))), None
             best = _best_regular(values, F, cand, M, J_pool, Ji, floor)
             if best is None:
                 continue
