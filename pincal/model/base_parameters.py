@@ -90,7 +90,16 @@ def preference_order(params: ParameterSet, prefer: frozenset[str] = frozenset())
             return 3
         return 4 if p.kind == "marker" else 5
 
-    return sorted(range(len(params)), key=lambda i: (rank(params.parameters[i]), i))
+    def key(i: int) -> tuple:
+        p = params.parameters[i]
+        r = rank(p)
+        if r != 1:
+            return (r, i, 0.0)
+        # Among the lengths of one origin, the longest first: for a link nearly along z between
+        # parallel axes (x = 5 mm, z = 290 mm), x is nearly the previous joints' offsets.
+        return (r, p.index, -abs(origins[p.index].origin.translation[p.component]))
+
+    return sorted(range(len(params)), key=key)
 
 
 def identifiability(
