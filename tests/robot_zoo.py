@@ -39,9 +39,11 @@ def chain_of(name: str) -> Chain:
         warnings.simplefilter("ignore", pincal.PincalWarning)
         try:
             return Chain(pincal.load_robot(name, markers=MARKER))
-        except pincal.AmbiguousTip:
+        except pincal.AmbiguousTip as exc:
             ends = chain_ends(name)
             arms = [c for c in ends.candidates if not c.finger] or list(ends.candidates)
+            if not arms:  # nothing moves: the refusal says so
+                return Chain(None, str(exc))
             tip = max(arms, key=lambda c: c.joints).frame
             try:
                 return Chain(pincal.load_robot(name, tip=tip, markers=MARKER))
