@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import sys
 import warnings
 from typing import NoReturn
@@ -83,7 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def one_line(text: str) -> str:
     """``text`` with its line breaks (and the spaces around them) made single spaces."""
-    return re.sub(r"\s*[\r\n]+\s*", " ", text.strip())
+    return " ".join(part.strip() for part in text.strip().splitlines() if part.strip())
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
