@@ -40,6 +40,27 @@ def test_no_import_inside_a_function_but_optional_ones():
                         assert (name, module) in allowed, f"{name}: {function.name} imports {module}"
 
 
+STAGES = ("model", "evaluation", "planning", "calibration", "viewing", "cli")
+
+
+def test_data_flows_one_way():
+    """Each stage imports only the stages before it (robot → parameters → Jacobians → criteria →
+    design → identify → view → CLI); the foundation modules (errors, files, arguments, ...) none."""
+    for path in sorted((ROOT / "pincal").rglob("*.py")):
+        parts = path.relative_to(ROOT / "pincal").parts
+        stage = parts[0] if len(parts) > 1 else None
+        if stage is None and parts[0] in ("__init__.py", "__main__.py"):
+            continue  # the public surface gathers every stage
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("pincal."):
+                target = node.module.split(".")[1]
+                if target not in STAGES:
+                    continue
+                where = path.relative_to(ROOT).as_posix()
+                assert stage is not None, f"foundation module {where} imports the stage {target}"
+                assert STAGES.index(target) <= STAGES.index(stage), f"{where} imports the later {target}"
+
+
 def test_errors_share_one_root():
     for name in pincal.__all__:
         obj = getattr(pincal, name)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.evaluation.information import independent_columns
+from pincal.model.base_parameters import independent_columns
 from tests.vendor_like import z_axis_urdf
 
 MARKER = [(0.1, 0.05, 0.2)]
