@@ -17,7 +17,7 @@ import numpy as np
 from pincal.arguments import DEFAULT_SIGMA, Seed, generator, positive_int
 from pincal.calibration.identification import identify
 from pincal.calibration.synthetic import error_std_pair, random_errors, simulate_measurements
-from pincal.errors import BadArgument, PincalError
+from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0
 from pincal.model.parameters import ParameterSet
 
@@ -164,9 +164,11 @@ def monte_carlo(
     errors_arr, before_arr = np.array(errors), np.array(before)
     n = len(errors_arr)
     if n < 2:
-        raise PincalError(
+        raise BadArgument(
             f"monte carlo: {failures + local_minima} of {trials} identifications failed or found "
-            f"local minima; the geometric errors (std {length:g} m, {angle:g} rad) are too large"
+            f"local minima; the geometric errors (std {length:g} m, {angle:g} rad) are too large",
+            argument="error_std",
+            value={"length": length, "angle": angle},
         )
     squared = errors_arr**2
     empirical = float(np.sqrt(squared.mean()))

@@ -35,7 +35,7 @@ from pincal.cli._common import (
     robot_from_args,
     sigma_from_args,
 )
-from pincal.errors import BadArgument, BadConfiguration, PincalError
+from pincal.errors import BadArgument, BadConfiguration
 from pincal.evaluation.test_pose import rho0
 from pincal.optional import require
 from pincal.planning.baselines import random_plans
@@ -231,8 +231,10 @@ def _plot_baseline(params, plan, q0: np.ndarray, sigma: float, constraints, args
         params, len(plan), args.baseline, q0, sigma=sigma, constraints=constraints, seed=args.seed, pool=pool
     )
     if randoms.n_singular == randoms.n:
-        raise PincalError(
-            f"none of the {randoms.n} random plans of {len(plan)} configurations is identifiable"
+        raise BadArgument(
+            f"none of the {randoms.n} random plans of {len(plan)} configurations is identifiable",
+            argument="--baseline",
+            value=randoms.n,
         )
     fig = plots.rho0_histogram(randoms.values, {"this plan": float(rho0(params, plan, q0, sigma=sigma))})
     plots.save_figure(fig, args.plot)
