@@ -116,7 +116,7 @@ def test_scipy_errors_do_not_leak(kr270, kr270_params, monkeypatch):
 
 def test_non_convergence_is_a_status_not_an_exception(kr270, kr270_params, tmp_path):
     truth = random_errors(kr270_params, {"length": 1e-2, "angle": 1e-2}, seed=9)
-    result = identify(kr270_params, _data(truth.robot, kr270.random_configurations(30, 1)), max_iterations=1)
+    result = identify(kr270_params, _data(truth.robot, kr270.random_configurations(30, 1)), maxiter=1)
     assert result.status == "not_converged" and not result.success
     assert "no convergence" in result.message
     assert np.all(np.isfinite(result.values))

@@ -304,7 +304,7 @@ def identify(
     params: ParameterSet,
     data: MeasurementData | Sequence[MeasurementData],
     sigma: float | None = None,
-    max_iterations: int = 100,
+    maxiter: int = 100,
     tol: float = 1e-10,
     *,
     prior: Prior | None = None,
@@ -326,7 +326,7 @@ def identify(
         sigma: the instrument's noise per coordinate [m]; default: estimated from the residuals
             for the standard errors, and :data:`DEFAULT_SIGMA` for the checks. Data with
             uncertainty columns use theirs.
-        max_iterations: the solver's function evaluations (``max_nfev``).
+        maxiter: the solver's function evaluations (``max_nfev``).
         tol: the solver's ``xtol`` (relative change of the estimate at convergence).
         prior: a prior on the errors (MAP estimate; every parameter kept); the base is left free
             unless the prior names it.
@@ -350,11 +350,11 @@ def identify(
     robot = params.robot
     sessions = _sessions(data, robot)
     sigma = None if sigma is None else positive_sigma(sigma)
-    if isinstance(max_iterations, bool) or int(max_iterations) != max_iterations or max_iterations < 1:
+    if isinstance(maxiter, bool) or int(maxiter) != maxiter or maxiter < 1:
         raise BadArgument(
-            f"max_iterations must be a positive integer, got {max_iterations!r}",
-            argument="max_iterations",
-            value=max_iterations,
+            f"maxiter must be a positive integer, got {maxiter!r}",
+            argument="maxiter",
+            value=maxiter,
         )
     if loss not in LOSSES:
         raise BadArgument(
@@ -419,7 +419,7 @@ def identify(
             prior_std,
             fit_loss,
             method,
-            max_iterations,
+            maxiter,
             tol,
             per_point or sigma is not None,
         )
@@ -479,7 +479,7 @@ def identify(
         status = "not_converged"
         message = (
             f"no convergence after {iterations} Jacobian evaluation(s) ({note}); the last estimate is "
-            f"not a calibration: allow more iterations (max_iterations, --max-iterations)"
+            f"not a calibration: allow more iterations (maxiter, --maxiter)"
         )
     return _result(
         problem, check, z0, z, before, status, message, iterations, sigma, reference, dropped,
@@ -511,7 +511,7 @@ def _solve(
     prior_std: np.ndarray,
     loss: str,
     method: str,
-    max_iterations: int,
+    maxiter: int,
     tol: float,
     sigma_known: bool,
     robust_scale: float | None = None,
@@ -546,7 +546,7 @@ def _solve(
         z_prev, loss_prev, scale = z0, "linear", None
         for _ in range(5):
             z_prev, *_ = _solve(
-                problem, free, used, z_prev, prior_std, loss_prev, method, max_iterations, tol, True, scale
+                problem, free, used, z_prev, prior_std, loss_prev, method, maxiter, tol, True, scale
             )
             if z_prev is None:
                 break
@@ -571,7 +571,7 @@ def _solve(
             xtol=min(tol, 1e-8) if method == "lm" else tol,
             ftol=1e-12,
             gtol=1e-12,
-            max_nfev=int(max_iterations),
+            max_nfev=int(maxiter),
         )
     except (ValueError, ArithmeticError, np.linalg.LinAlgError, PincalError) as exc:
         text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__

@@ -93,7 +93,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear)")
     p.add_argument("--method", choices=METHODS, default="trf", help="least_squares method (default trf)")
     p.add_argument("--reject", type=float, metavar="K", help="drop rows beyond K robust sigma and refit")
-    p.add_argument("--max-iterations", type=int, default=100, help="solver evaluations (default 100)")
+    p.add_argument(
+        "--maxiter",
+        "--max-iterations",
+        dest="maxiter",
+        type=int,
+        default=100,
+        help="solver evaluations (default 100)",
+    )
     p.add_argument("--validate", metavar="OTHER.csv", help="held-out measurements (same placement as --data)")
     p.add_argument("--holdout", type=float, metavar="FRACTION", help="hold this share of the rows out")
     p.add_argument("--kfold", type=int, metavar="K", help="k-fold cross-validation of the fit")
@@ -120,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     params, source, dropped = parameters_with_base(robot, args)
     sigma = None if args.sigma is None else positive(args.sigma, "--sigma")
-    positive(args.max_iterations, "--max-iterations")
+    positive(args.maxiter, "--maxiter")
     prior = Prior.parse(args.prior) if args.prior else None
     if sum(x is not None for x in (args.validate, args.holdout, args.kfold)) > 1:
         raise BadArgument("choose one of --validate, --holdout and --kfold")
@@ -129,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
     _check_outputs(args, robot)
     sessions = [MeasurementData.from_csv(d, robot, degrees=args.deg, millimetres=args.mm) for d in args.data]
     options = dict(
-        sigma=sigma, max_iterations=args.max_iterations, prior=prior, loss=args.loss, method=args.method,
+        sigma=sigma, maxiter=args.maxiter, prior=prior, loss=args.loss, method=args.method,
         reject=args.reject,
     )  # fmt: skip
     validation = None
