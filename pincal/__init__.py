@@ -63,8 +63,9 @@ from pincal.evaluation.test_pose import TestPoseCriterion, position_covariance, 
 from pincal.model.base_parameters import Identifiability, identifiability
 from pincal.model.catalogue import Parameter
 from pincal.model.dh import DHTable, urdf_from_dh
+from pincal.model.loading import load_robot, shipped_robots
 from pincal.model.parameters import ParameterSet
-from pincal.model.robot import Robot, load_robot, shipped_robots
+from pincal.model.robot import Robot
 from pincal.planning.baselines import random_plans
 from pincal.planning.constraints import (
     HalfSpace,

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import pincal
-from pincal.model.robot import chain_ends, example_robot_data_names
+from pincal.model.loading import chain_ends, example_robot_data_names
 
 SIGMA = 3e-5
 """Instrument noise per coordinate [m] (a laser tracker)."""

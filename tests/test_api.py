@@ -81,8 +81,8 @@ def test_readme_python_blocks_run(tmp_path, monkeypatch):
 def test_docstring_examples_run():
     import doctest
 
-    import pincal.model.robot
+    import pincal.model.loading
 
-    for module in (pincal, pincal.model.robot):
+    for module in (pincal, pincal.model.loading):
         result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
         assert result.attempted > 0 and result.failed == 0, module.__name__

@@ -53,7 +53,8 @@ from pincal.errors import (
     UrdfError,
 )
 from pincal.files import atomic_write_text
-from pincal.model.robot import Robot, load_robot
+from pincal.model.loading import load_robot
+from pincal.model.robot import Robot
 from pincal.model.urdf import model_from_text, prepare
 from pincal.version import __version__
 

@@ -12,8 +12,9 @@ import numpy as np
 from pincal.arguments import DEFAULT_SIGMA, sigma_note
 from pincal.errors import BadArgument, BadConfiguration
 from pincal.files import check_output
+from pincal.model.loading import load_robot
 from pincal.model.parameters import ParameterSet
-from pincal.model.robot import Robot, load_robot
+from pincal.model.robot import Robot
 from pincal.planning.constraints import load_constraints
 from pincal.planning.plan import Plan
 from pincal.viewing.plots import figure_format

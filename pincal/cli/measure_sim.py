@@ -22,7 +22,7 @@ from pincal.cli._common import (
 )
 from pincal.cli.simulate import parse_error_std
 from pincal.errors import BadArgument, BadConfiguration, UrdfError
-from pincal.model.robot import load_robot
+from pincal.model.loading import load_robot
 
 HELP = "simulate the measurements of a plan on a 'true' robot, to rehearse a calibration"
 EXAMPLES = """\

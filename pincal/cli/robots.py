@@ -7,7 +7,7 @@ import warnings
 
 from pincal.cli._common import add_command, add_output_arguments, emit_json, joint_ranges_from_args
 from pincal.errors import PincalError, PincalWarning
-from pincal.model.robot import chain_ends, example_robot_data_names, load_robot, shipped_robots
+from pincal.model.loading import chain_ends, example_robot_data_names, load_robot, shipped_robots
 
 HELP = "list the robots loadable by name (shipped URDFs and example-robot-data) and the chains each offers"
 EXAMPLES = """\
