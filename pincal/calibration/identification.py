@@ -35,16 +35,14 @@ given σ, scaled by σ̂² = Σ residual² / (N − P) (σ estimated from the re
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
-import pinocchio as pin
 
-from pincal.arguments import positive_sigma
+from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.problem import Problem, initial_values
+from pincal.calibration.result import IdentificationResult, _result, _rms, _warnings
 from pincal.calibration.sanity import (
-    OUTLIER_SCORE,
     Outlier,
     find_outliers,
     implausible,
@@ -53,7 +51,7 @@ from pincal.calibration.sanity import (
     row_scores,
 )
 from pincal.errors import BadArgument, BadMeasurementData, PincalError, SingularPlan
-from pincal.evaluation.data_check import DataCheck, check_information
+from pincal.evaluation.data_check import check_information
 from pincal.evaluation.prior import Prior
 from pincal.model.base_parameters import preference_order
 from pincal.model.parameters import ParameterSet
@@ -61,11 +59,6 @@ from pincal.model.robot import Robot
 
 STATUSES = ("converged", "implausible", "rank_deficient", "not_converged", "failed")
 """Values of :attr:`IdentificationResult.status`; only ``"converged"`` gives a calibrated robot."""
-
-DEFAULT_SIGMA = 3e-5
-"""The instrument's σ per coordinate [m] assumed when none is given (a laser tracker): it sets the
-data-identifiability limits and the sanity limits, never the standard errors (those use σ
-estimated from the residuals unless σ is given)."""
 
 LOSSES = ("linear", "huber", "soft_l1", "cauchy")
 METHODS = ("trf", "lm")
@@ -76,187 +69,6 @@ ERROR_SCALE = 1e-3
 """Typical size of a geometric error [m or rad]: trf's variable scale, so that its first trust
 region (radius 1 in scaled variables) holds a step of the size real errors have."""
 
-POOR_FIT = 1e-3
-"""Residual RMS [m] after calibration above which the result's message warns that geometric
-errors do not explain the data (non-geometric errors, a model that is too small)."""
-
-
-@dataclass(frozen=True, eq=False)
-class IdentificationResult:
-    """The outcome of :func:`identify`.
-
-    Attributes:
-        params: the parameters asked for, on the nominal robot.
-        values: (P,) estimated errors relative to the nominal robot [m or rad]: the last
-            estimate if the fit did not converge; 0 for a parameter the data cannot identify
-            (``dropped``); NaN if nothing is identifiable.
-        std: (P,) standard errors [m or rad] (NaN for a dropped parameter).
-        correlation: (P, P) correlations of the estimates.
-        sigma: noise standard deviation per coordinate used for ``std`` [m] (the median
-            per-point σ when the data have them).
-        sigma_estimated: True when ``sigma`` was estimated from the residuals.
-        residuals: (m, K, 3) measured − calibrated model [m] (sessions stacked, rows rejected
-            as outliers included).
-        residuals_before: (m, K, 3) measured − nominal model [m], each session's base from the
-            initial rigid fit when ``base.*`` is identified.
-        iterations: Jacobian evaluations of the solver.
-        status: one of :data:`STATUSES`.
-        message: what happened, in words (why it failed and what to do, if it did).
-        method: the scipy ``least_squares`` method, ``"trf"`` or ``"lm"``.
-        robot: the robot of ``values`` (first session's base), ``params.apply(values)``.
-        data: the measurements, in the robot's joint order (sessions stacked).
-        check: the identifiability of ``params`` on these data (rank, condition number, ...).
-        dropped: ``{name: reason}`` for the parameters the data cannot identify (left nominal).
-        outliers: suspicious rows of the final fit, worst first.
-        rejected: rows dropped by ``reject``, in the order they were dropped.
-        loss: the loss function.
-        prior: the prior of a MAP fit, or None.
-        causes: the likely causes of an ``implausible`` result.
-        sessions: the data of each session (one file each).
-        bases: the instrument base of each session (``base`` of the robot in each instrument
-            frame; the identity when ``base.*`` is not identified).
-        initial_robot: the robot the "before" residuals are of (nominal, rigid-fit base).
-        initial_bases: each session's base of the "before" residuals (the rigid fits).
-    """
-
-    params: ParameterSet
-    values: np.ndarray
-    std: np.ndarray
-    correlation: np.ndarray
-    sigma: float
-    sigma_estimated: bool
-    residuals: np.ndarray
-    residuals_before: np.ndarray
-    iterations: int
-    status: str
-    message: str
-    method: str
-    robot: Robot
-    data: MeasurementData
-    check: DataCheck | None = None
-    dropped: dict[str, str] = field(default_factory=dict)
-    outliers: tuple[Outlier, ...] = ()
-    rejected: tuple[Outlier, ...] = ()
-    loss: str = "linear"
-    prior: Prior | None = None
-    causes: tuple[str, ...] = ()
-    sessions: tuple[MeasurementData, ...] = ()
-    bases: tuple[pin.SE3, ...] = ()
-    initial_robot: Robot | None = None
-    initial_bases: tuple[pin.SE3, ...] = ()
-
-    @property
-    def success(self) -> bool:
-        """True when the estimate converged (the calibrated robot can be used and exported)."""
-        return self.status == "converged"
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """Parameter names, in the order of ``values``."""
-        return self.params.names
-
-    @property
-    def covariance(self) -> np.ndarray:
-        """(P, P) covariance of the estimates [m², m·rad, rad²]."""
-        return self.correlation * np.outer(self.std, self.std)
-
-    @property
-    def condition_number(self) -> float:
-        """Condition number of the column-scaled data Jacobian of the parameters asked for."""
-        return self.check.condition_number if self.check is not None else float("nan")
-
-    @property
-    def residual_rms_before(self) -> float:
-        """RMS distance between measured and nominal points [m] (over configurations and markers)."""
-        return _rms(self.residuals_before[self._used])
-
-    @property
-    def residual_rms_after(self) -> float:
-        """RMS distance between measured and calibrated points [m] (rejected rows excluded)."""
-        return _rms(self.residuals[self._used])
-
-    @property
-    def _used(self) -> np.ndarray:
-        used = np.ones(len(self.residuals), dtype=bool)
-        used[[o.row for o in self.rejected]] = False
-        return used
-
-    def as_dict(self) -> dict:
-        """JSON-ready summary: parameters (value, std, unit), residuals, status, markers, base,
-        data identifiability, outliers."""
-        base = self.robot.base
-        return {
-            "params": {
-                name: {"value": _num(v), "std": _num(s), "unit": unit}
-                for name, v, s, unit in zip(self.names, self.values, self.std, self.params.units, strict=True)
-            },
-            "residual_rms_before": _num(self.residual_rms_before),
-            "residual_rms_after": _num(self.residual_rms_after),
-            "iterations": self.iterations,
-            "status": self.status,
-            "message": self.message,
-            "method": self.method,
-            "loss": self.loss,
-            "sigma": _num(self.sigma),
-            "sigma_estimated": self.sigma_estimated,
-            "m": self.data.m,
-            "markers": self.robot.markers.tolist(),
-            "base": _pose(base),
-            "bases": [_pose(b) for b in self.bases],
-            "condition_number": _num(self.condition_number),
-            "identifiability": self.check.as_dict() if self.check is not None else None,
-            "dropped": dict(self.dropped),
-            "outliers": [o.as_dict() for o in self.outliers],
-            "rejected": [o.as_dict() for o in self.rejected],
-            "causes": list(self.causes),
-            "prior": self.prior.as_dict() if self.prior is not None else None,
-        }
-
-    def report(self) -> str:
-        """A human-readable report: status, residuals, data identifiability, estimates ± standard
-        errors (mm, mrad), outliers."""
-        lines = [f"{self.status}: {self.message}"]
-        lines += [f"  likely cause: {c}" for c in self.causes]
-        lines += [
-            f"residual RMS: {self.residual_rms_before * 1e3:.4g} mm before, "
-            f"{self.residual_rms_after * 1e3:.4g} mm after ({self.data.m} configurations, "
-            f"{self.data.n_markers} marker(s), {len(self.params)} parameters, {self.iterations} "
-            f"iterations, {self.method}, loss {self.loss})",
-            f"sigma: {self.sigma * 1e3:.4g} mm per coordinate"
-            + (" (estimated from the residuals)" if self.sigma_estimated else " (given)"),
-        ]
-        if self.prior is not None:
-            lines.append(f"prior: {self.prior} (MAP estimate)")
-        if self.check is not None:
-            lines.append(self.check.report())
-        width = max(len(n) for n in self.names)
-        for name, v, s, unit in zip(self.names, self.values, self.std, self.params.units, strict=True):
-            shown = "mm" if unit == "m" else "mrad"
-            if name in self.dropped:
-                lines.append(f"  {name:{width}s} not identified (nominal)")
-            else:
-                lines.append(f"  {name:{width}s} {v * 1e3:+11.5f} ± {s * 1e3:.5f} {shown}")
-        if self.rejected:
-            lines.append(f"rejected {len(self.rejected)} row(s) and refitted:")
-            lines += [f"  {o}" for o in self.rejected]
-        if self.outliers:
-            lines.append(f"suspicious rows (over {OUTLIER_SCORE:g} robust sigma):")
-            lines += [f"  {o}" for o in self.outliers]
-        return "\n".join(lines)
-
-
-def _pose(placement: pin.SE3) -> dict:
-    return {"xyz": placement.translation.tolist(), "rpy": pin.rpy.matrixToRpy(placement.rotation).tolist()}
-
-
-def _rms(residuals: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.sum(residuals**2, axis=-1))))
-
-
-def _num(v: float) -> float | None:
-    """A float for JSON (None for NaN or infinity)."""
-    return float(v) if np.isfinite(v) else None
-
 
 def _sessions(data: object, robot: Robot) -> list[MeasurementData]:
     items = [data] if isinstance(data, MeasurementData) else data
@@ -265,23 +77,6 @@ def _sessions(data: object, robot: Robot) -> list[MeasurementData]:
             f"identify needs a MeasurementData or a list of them (one per session), got {type(data).__name__}"
         )
     return [d.for_robot(robot) for d in items]
-
-
-def _stacked(sessions: list[MeasurementData]) -> MeasurementData:
-    if len(sessions) == 1:
-        return sessions[0]
-    sigma = None
-    if any(d.sigma is not None for d in sessions):
-        sigma = np.concatenate(
-            [d.sigma if d.sigma is not None else np.full(d.points.shape, np.nan) for d in sessions]
-        )
-    return MeasurementData(
-        np.concatenate([d.q for d in sessions]),
-        np.concatenate([d.points for d in sessions]),
-        sessions[0].joint_names,
-        sigma=None if sigma is None or np.isnan(sigma).any() else sigma,
-        source=" + ".join(str(d.source) for d in sessions),
-    )
 
 
 def _labels(sessions: list[MeasurementData]) -> list[str]:
@@ -580,133 +375,3 @@ def _solve(
     if not np.all(np.isfinite(solution.x)):
         return None, njev, False, "failed: least_squares diverged"
     return unknowns(solution.x), njev, solution.status > 0, solution.message
-
-
-def _result(
-    problem: Problem,
-    check: DataCheck,
-    z0: np.ndarray,
-    z: np.ndarray | None,
-    before: np.ndarray,
-    status: str,
-    message: str,
-    iterations: int,
-    sigma: float | None,
-    reference: float,
-    dropped: dict[str, str] | None = None,
-    *,
-    free: np.ndarray | None = None,
-    used: np.ndarray | None = None,
-    outliers: tuple[Outlier, ...] = (),
-    rejected: tuple[Outlier, ...] = (),
-    loss: str = "linear",
-    prior: Prior | None = None,
-    prior_std: np.ndarray | None = None,
-    causes: tuple[str, ...] = (),
-    method: str = "trf",
-    per_point: bool = False,
-) -> IdentificationResult:
-    params, sessions = problem.params, list(problem.sessions)
-    n, m = len(params), sum(d.m for d in sessions)
-    estimated = sigma is None and not per_point
-    shape = (m, params.robot.n_markers, 3)
-    if z is None:
-        values, std, correlation = np.full(n, np.nan), np.full(n, np.nan), np.full((n, n), np.nan)
-        robot, residuals = problem.robot(z0), before.reshape(shape)
-        sigma_out = np.nan if estimated else reference
-        z_final = z0
-    else:
-        values, robot = z[:n].copy(), problem.robot(z)
-        residuals = problem.residual(z).reshape(shape)
-        used = np.ones(m, dtype=bool) if used is None else used
-        keep = np.repeat(used, 3 * params.robot.n_markers)
-        dof = int(keep.sum()) - len(free)
-        per_coordinate = float(np.sqrt(np.sum(residuals.reshape(-1)[keep] ** 2) / dof)) if dof > 0 else np.nan
-        sigma_out = per_coordinate if estimated else reference
-        std, correlation = _covariance(
-            problem, z, free, keep, prior_std, per_coordinate if estimated and prior is None else None
-        )
-        z_final = z
-    bases = tuple(problem.robot(z_final, s).base for s in range(len(sessions))) if problem.base else ()
-    initial_bases = tuple(problem.robot(z0, s).base for s in range(len(sessions))) if problem.base else ()
-    for array in (values, std, correlation, residuals):
-        array.flags.writeable = False
-    before = before.reshape(shape)
-    before.flags.writeable = False
-    return IdentificationResult(
-        params=params,
-        values=values,
-        std=std,
-        correlation=correlation,
-        sigma=float(sigma_out),
-        sigma_estimated=estimated,
-        residuals=residuals,
-        residuals_before=before,
-        iterations=iterations,
-        status=status,
-        message=message,
-        method=method,
-        robot=robot,
-        data=_stacked(sessions),
-        check=check,
-        dropped=dict(dropped or {}),
-        outliers=outliers,
-        rejected=rejected,
-        loss=loss,
-        prior=prior,
-        causes=causes,
-        sessions=tuple(sessions),
-        bases=bases,
-        initial_robot=problem.robot(z0),
-        initial_bases=initial_bases,
-    )
-
-
-def _covariance(
-    problem: Problem,
-    z: np.ndarray,
-    free: np.ndarray,
-    keep: np.ndarray,
-    prior_std: np.ndarray,
-    scale_to: float | None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(std, correlation) of the parameters: (JᵀWJ + Σp⁻¹)⁻¹ over the free unknowns, scaled to
-    σ̂² when σ is estimated; NaN for the parameters left out."""
-    n = len(problem.params)
-    J = problem.jacobian(z)[np.ix_(keep, free)] / problem.sigma[keep, None]
-    M = J.T @ J + np.diag(np.where(np.isfinite(prior_std[free]), 1.0 / prior_std[free] ** 2, 0.0))
-    d = np.sqrt(np.diag(M))
-    d[d == 0] = 1.0
-    std, correlation = np.full(n, np.nan), np.full((n, n), np.nan)
-    try:
-        cov = np.linalg.inv(M / np.outer(d, d)) / np.outer(d, d)
-    except np.linalg.LinAlgError:
-        return std, correlation
-    if scale_to is not None:
-        cov = cov * (scale_to / np.median(problem.sigma)) ** 2
-    inside = free < n
-    idx = free[inside]
-    sub = cov[np.ix_(inside, inside)]
-    std[idx] = np.sqrt(np.clip(np.diag(sub), 0.0, None))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        correlation[np.ix_(idx, idx)] = sub / np.outer(std[idx], std[idx])
-    return std, correlation
-
-
-def _warnings(rms: float, r: np.ndarray, sigma: np.ndarray, known: bool, n_free: int) -> str:
-    """What a converged fit's residuals say about the data, as a message suffix."""
-    dof = r.size - n_free
-    if dof <= 0:
-        return "; as many parameters as measured coordinates: no residual degrees of freedom"
-    chi = float(np.sqrt(np.sum((r / sigma) ** 2) / dof))
-    if rms > POOR_FIT:
-        return (
-            f"; but the residuals stay at {rms * 1e3:.3g} mm RMS, more than geometric errors explain: "
-            f"non-geometric errors (compliance, gear errors) or parameters missing from the set"
-        )
-    if known and chi > 3:
-        return (
-            f"; the residuals are {chi:.3g} times the instrument's sigma per coordinate: the data "
-            f"hold errors the model does not"
-        )
-    return ""

@@ -6,7 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from pincal.calibration.identification import DEFAULT_SIGMA, LOSSES, METHODS, identify
+from pincal.arguments import DEFAULT_SIGMA
+from pincal.calibration.identification import LOSSES, METHODS, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.urdf_export import export_urdf, sidecar_path
 from pincal.calibration.validation import holdout, kfold, validate

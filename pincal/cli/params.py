@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from pincal.calibration.identification import DEFAULT_SIGMA
+from pincal.arguments import DEFAULT_SIGMA
 from pincal.calibration.measurements import MeasurementData
 from pincal.cli._common import (
     DEFAULT_PARAMS,
