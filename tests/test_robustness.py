@@ -178,6 +178,8 @@ def test_constraints_yaml_limits(cell, capsys, text, fragment):
         (lambda t: t.replace('<parent link="base_link"/>', ""), "missing a parent"),
         (lambda t: "\x00" + t, "a NUL byte"),
         (lambda t: t.replace("<!--", "<!--\n<!--", 1), "not well-formed XML"),  # lxml's message had a newline
+        # the long fuzz run: a zero axis gave NaN directions and a NumPy warning in 'show'
+        (lambda t: t.replace('<axis xyz="0 0 1"/>', '<axis xyz="0 0 0"/>', 1), "'joint1' does not move"),
     ],
 )
 def test_urdf_limits_and_native_messages(cell, capfd, edit, fragment):
@@ -207,6 +209,13 @@ def test_usage_errors_are_one_line(capsys, argv):
     err = capsys.readouterr().err
     assert exit_.value.code == 2 and err.startswith("pincal: error: ") and err.count("\n") == 1, err
     assert "--help')" in err and "usage:" not in err
+
+
+def test_identify_one_point_in_millimetres_is_a_verdict_not_a_crash(cell, capsys):
+    # The long fuzz run: one measured point has no spread, so the units cause divided by zero.
+    (cell / "one.csv").write_text("joint1,joint2,x,y,z\n0,0,1.8,0,0\n")
+    argv = ["identify", cell / "robot.urdf", "--data", cell / "one.csv", *PLANAR, "--mm"]
+    fails(capsys, argv, "no real robot has this")
 
 
 def test_extreme_arguments_are_refused_not_run(capsys):

@@ -130,7 +130,9 @@ def likely_causes(problem: Problem, z: np.ndarray, problems: list[str]) -> list[
     nominal = params.robot.points(data.q, check=False).reshape(-1, 3)
     measured = data.points.reshape(-1, 3)
     causes = []
-    ratio = _spread(measured) / max(_spread(nominal), 1e-300)
+    spread_measured, spread_nominal = _spread(measured), _spread(nominal)
+    # one point (or all at one place) has no spread: units cannot be told from it
+    ratio = spread_measured / spread_nominal if spread_measured > 0 and spread_nominal > 0 else 1.0
     if ratio > 30:
         causes.append(
             f"units: the measured points spread {ratio:.3g} times wider than the robot's: millimetres "

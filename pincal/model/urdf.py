@@ -225,6 +225,24 @@ def read_urdf(
             raise
         text = _expand_xacro(path)  # a xacro source saved as .urdf: expanded, or the command
         model = model_from_text(prepare(text, ranges or {}, where), where)
+    _check_axes(model, where)
     if meshes:
         check_meshes(text, path, package_dirs)
     return model
+
+
+def _check_axes(model: pin.Model, where: str) -> None:
+    """Every one-dof joint moves: an ``<axis xyz="0 0 0"/>`` (or a non-finite one) is refused."""
+    data = model.createData()
+    for j in range(1, model.njoints):
+        if model.nqs[j] != 1:
+            continue
+        q = pin.neutral(model)
+        q[model.idx_qs[j]] += 1e-3
+        pin.forwardKinematics(model, data, q)
+        motion = pin.log6(model.jointPlacements[j].inverse() * data.liMi[j]).vector / 1e-3
+        if not np.all(np.isfinite(motion)) or np.linalg.norm(motion) < 1e-6:
+            raise UrdfError(
+                f"URDF {where}: joint {model.names[j]!r} does not move (its <axis> is zero or not a "
+                f'number); give it a unit axis, e.g. <axis xyz="0 0 1"/>'
+            )
