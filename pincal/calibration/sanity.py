@@ -70,7 +70,9 @@ def row_scores(residual: np.ndarray, sigma: np.ndarray, m: int) -> tuple[np.ndar
     """(distances [m], scores [robust σ]) of each of the m rows of a stacked (N,) residual."""
     r = residual.reshape(m, -1, 3)
     e = (residual / sigma).reshape(m, -1, 3)
-    scale = max(robust_sigma(e), 1e-300)
+    # An exact fit (e.g. as many unknowns as coordinates) has no spread to score against: a floor of
+    # 1e-6 σ keeps the scores finite (an exactly fitted row scores 0, not inf or NaN).
+    scale = max(robust_sigma(e), 1e-6)
     return np.linalg.norm(r, axis=-1).max(axis=1), np.linalg.norm(e, axis=-1).max(axis=1) / scale
 
 
