@@ -290,3 +290,13 @@ def test_interrupted_write_leaves_old_output_and_no_temporary_file(cell, monkeyp
         atomic_write_text(target, "new")
     assert target.read_text() == "previous"
     assert sorted(p.name for p in cell.iterdir()) == ["out.csv", "plan.csv", "robot.urdf"]
+
+
+def test_reports_of_unidentifiable_data_print_no_inf_or_nan(cell, capsys):
+    # The long fuzz run: one configuration for two lengths printed 'condition number inf'.
+    (cell / "one.csv").write_text("joint1,joint2\n0,1\n")
+    argv = ["evaluate", cell / "robot.urdf", "--plan", cell / "one.csv", "--test-pose=0.3,1.2", *PLANAR]
+    assert main([str(a) for a in argv]) == 0
+    out = capsys.readouterr().out
+    assert "kept none" in out
+    assert not any(word in out.lower().split() for word in ("inf", "nan", "±nan")), out

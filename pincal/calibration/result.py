@@ -174,8 +174,10 @@ class IdentificationResult:
             shown = "mm" if unit == "m" else "mrad"
             if name in self.dropped:
                 lines.append(f"  {name:{width}s} not identified (nominal)")
-            else:
+            elif np.isfinite(s):
                 lines.append(f"  {name:{width}s} {v * 1e3:+11.5f} ± {s * 1e3:.5f} {shown}")
+            else:  # no degrees of freedom left to estimate σ from (e.g. after --reject)
+                lines.append(f"  {name:{width}s} {v * 1e3:+11.5f} (standard error undetermined) {shown}")
         if self.rejected:
             lines.append(f"rejected {len(self.rejected)} row(s) and refitted:")
             lines += [f"  {o}" for o in self.rejected]

@@ -99,19 +99,21 @@ class DataCheck:
 
     def report(self) -> str:
         """Text: rank, condition number, weakest combinations, and what is left out and why."""
-        cond = f"{self.condition_number:.3g}"
-        if not np.isfinite(self.condition_number):
-            cond = "infinite (singular)"
+        cond = _condition_text(self.condition_number)
         lines = [
             f"data identifiability ({self.m} configurations, sigma {self.sigma * 1e3:.3g} mm): rank "
             f"{self.rank} of {len(self.names)} parameters, condition number {cond} (column-scaled)"
         ]
         lines += [f"  weakest: {w}" for w in self.weakest]
         if self.dropped:
-            kept_cond = f"{self.condition_number_kept:.3g}"
+            kept = (
+                f"kept {len(self.kept)} (condition number {_condition_text(self.condition_number_kept)})"
+                if self.kept
+                else "kept none"
+            )
             lines.append(
-                f"  the data cannot identify {len(self.dropped)} of them; kept {len(self.kept)} "
-                f"(condition number {kept_cond}); left at their nominal values:"
+                f"  the data cannot identify {len(self.dropped)} of them; {kept}; "
+                "left at their nominal values:"
             )
             lines += [f"    {name}: {why}" for name, why in self.dropped.items()]
         return "\n".join(lines)
@@ -249,3 +251,7 @@ def check_plan(params: ParameterSet, plan: object, sigma: float) -> DataCheck:
     base = [i for i, p in enumerate(params) if p.kind == "base"]
     order = preference_order(params, frozenset(params.names[i] for i in base))
     return check_information(params.names, params.units, M, order, len(qs), sigma, always=base)
+
+
+def _condition_text(value: float) -> str:
+    return f"{value:.3g}" if np.isfinite(value) else "infinite (singular)"
