@@ -295,7 +295,16 @@ def test_interrupted_write_leaves_old_output_and_no_temporary_file(cell, monkeyp
 def test_reports_of_unidentifiable_data_print_no_inf_or_nan(cell, capsys):
     # The long fuzz run: one configuration for two lengths printed 'condition number inf'.
     (cell / "one.csv").write_text("joint1,joint2\n0,1\n")
-    argv = ["evaluate", cell / "robot.urdf", "--plan", cell / "one.csv", "--test-pose=0.3,1.2", *PLANAR]
+    argv = [
+        "evaluate",
+        cell / "robot.urdf",
+        "--plan",
+        cell / "one.csv",
+        "--test-pose=0.3,1.2",
+        *PLANAR,
+        "--sigma",
+        "1",
+    ]
     assert main([str(a) for a in argv]) == 0
     out = capsys.readouterr().out
     assert "kept none" in out
