@@ -5,13 +5,21 @@ from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from pincal.errors import AmbiguousTip, BadConfiguration, PincalWarning, RobotNotFound, UnknownName
+from pincal.errors import (
+    AmbiguousTip,
+    BadArgument,
+    BadConfiguration,
+    PincalWarning,
+    RobotNotFound,
+    UnknownName,
+)
 from pincal.model.chain import Candidate, candidates, chain_model, default_root, default_tip, frame_id
 from pincal.model.robot import Robot
 from pincal.model.urdf import parse_joint_ranges, read_urdf
@@ -194,7 +202,10 @@ def load_robot(
         joint_ranges: ``{joint: (lower, upper)}`` [rad or m]: the range a joint moves in during
             the experiment, replacing its URDF limits; continuous joints default to one turn,
             (-π, π).
-        package_dirs: ``{package name: folder}`` resolving ``package://`` mesh paths.
+        package_dirs: ``{package name: folder of that package}`` resolving ``package://NAME/``
+            mesh paths, for the missing-mesh check, the 3-D view and the self-collision
+            constraint (kept as ``Robot.package_dirs``); each folder must exist. The folders
+            above the URDF are searched after them.
 
     Returns:
         the Robot: the chain from ``root`` to ``tip`` (every other joint locked).
@@ -208,6 +219,7 @@ def load_robot(
         ('joint_a1', 'joint_a2', 'joint_a3', 'joint_a4', 'joint_a5', 'joint_a6')
     """
     ranges = parse_joint_ranges(joint_ranges)
+    package_dirs = _package_dirs(package_dirs)
     model, urdf, name, floats = _resolve_source(source, ranges, package_dirs)
     root_id = frame_id(model, root, "root frame") if root is not None else default_root(model)
     note = ""
@@ -221,4 +233,41 @@ def load_robot(
     if note:
         warnings.warn(f"{name}: {note.rstrip('; ')}", PincalWarning, stacklevel=2)
     chain, _ = chain_model(model, model.frames[root_id].name if root is None else root, tip, name)
-    return Robot(chain, tip, _parse_markers(markers), name=name, urdf_path=urdf, root=root if root else None)
+    return Robot(
+        chain,
+        tip,
+        _parse_markers(markers),
+        name=name,
+        urdf_path=urdf,
+        root=root if root else None,
+        package_dirs=package_dirs,
+    )
+
+
+def _package_dirs(package_dirs: object) -> dict[str, str]:
+    """``{package name: folder}`` checked: names and existing folders (the folder of package NAME,
+    holding what ``package://NAME/...`` names)."""
+    if package_dirs is None:
+        return {}
+    if not isinstance(package_dirs, Mapping):
+        raise BadArgument(
+            f"package_dirs: expected {{package name: folder}}, got {type(package_dirs).__name__}",
+            argument="package_dirs",
+            value=package_dirs,
+        )
+    out = {}
+    for name, folder in package_dirs.items():
+        if not isinstance(name, str) or not name or "/" in name or not isinstance(folder, (str, os.PathLike)):
+            raise BadArgument(
+                f"package_dirs: expected a package name and a folder, got {name!r}: {folder!r}",
+                argument="package_dirs",
+                value=package_dirs,
+            )
+        if not Path(folder).is_dir():
+            raise BadArgument(
+                f"package folder {os.fspath(folder)!r} (--package-dir {name}=PATH) is not a folder",
+                argument="package_dirs",
+                value=os.fspath(folder),
+            )
+        out[name] = str(Path(folder).resolve())
+    return out

@@ -92,6 +92,10 @@ class Robot:
         urdf_path: the URDF this robot came from, if any (used by URDF export).
         joint_offsets: (nq,) joint zero errors [rad or m] added to every configuration.
         base: placement of the robot base in the measuring instrument's frame.
+        root: the frame the chain starts from, when one was asked for (else None).
+        package_dirs: ``((package name, folder), ...)`` resolving the URDF's ``package://NAME/``
+            mesh paths (``load_robot``'s ``package_dirs``; a mapping is accepted): the 3-D view
+            and the self-collision constraint load the meshes from there.
     """
 
     model: pin.Model
@@ -102,8 +106,11 @@ class Robot:
     joint_offsets: np.ndarray = field(default=None)  # type: ignore[assignment]
     base: pin.SE3 = field(default_factory=pin.SE3.Identity)
     root: str | None = None
+    package_dirs: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self) -> None:
+        dirs = tuple((str(name), str(folder)) for name, folder in dict(self.package_dirs).items())
+        object.__setattr__(self, "package_dirs", dirs)
         markers = np.array(self.markers, dtype=float, copy=True).reshape(-1, 3)
         markers.flags.writeable = False
         object.__setattr__(self, "markers", markers)
@@ -366,6 +373,7 @@ class Robot:
             "joint_offsets": self.joint_offsets,
             "base": self.base,
             "root": self.root,
+            "package_dirs": self.package_dirs,
         }
         fields.update(changes)
         return Robot(**fields)  # type: ignore[arg-type]

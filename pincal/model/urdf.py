@@ -22,7 +22,7 @@ import os
 import shlex
 import tempfile
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -56,13 +56,25 @@ def parse_joint_ranges(ranges: Mapping[str, object] | None) -> dict[str, tuple[f
     return out
 
 
-def resolve_mesh(filename: str, urdf: Path, extra: Mapping[str, str] | None = None) -> Path | None:
-    """The file a URDF ``<mesh filename=...>`` names, or None when it cannot be found."""
+def resolve_mesh(
+    filename: str, urdf: Path, extra: Mapping[str, str] | None = None, search: Iterable[str] = ()
+) -> Path | None:
+    """The file a URDF ``<mesh filename=...>`` names, or None when it cannot be found.
+
+    Args:
+        filename: the ``filename`` attribute: ``package://NAME/...``, ``file://...``, a path
+            absolute or relative to the URDF's folder.
+        urdf: the URDF file.
+        extra: ``{NAME: folder of package NAME}`` (``--package-dir NAME=PATH``), searched first.
+        search: folders holding package folders (Pinocchio's ``package_dirs``: ``DIR/NAME/...``),
+            searched after ``extra`` and before the folders above the URDF.
+    """
     if filename.startswith("file://"):
         filename = filename[len("file://") :]
     if filename.startswith("package://"):
         package, _, rest = filename[len("package://") :].partition("/")
         roots = [Path(p) for name, p in (extra or {}).items() if name == package]
+        roots += [Path(d) / package for d in search]
         roots += [parent / package for parent in urdf.resolve().parents]
         roots += [parent for parent in urdf.resolve().parents if parent.name == package]
         return next((root / rest for root in roots if (root / rest).is_file()), None)
@@ -103,6 +115,16 @@ def read_text(path: Path) -> str:
     if path.suffix.lower() == ".xacro":
         return _expand_xacro(path)
     return text
+
+
+def read_tree(path: Path) -> etree._Element:
+    """The XML tree of the URDF (or xacro) file ``path``, as :func:`read_urdf` reads it: a xacro
+    source expanded when it can be; a one-line UrdfError when the file cannot be read."""
+    text = read_text(path)
+    if "<xacro:" in text and path.suffix.lower() != ".xacro":
+        with contextlib.suppress(UrdfError):  # no xacro package: read_urdf accepted the text as is
+            text = _expand_xacro(path)
+    return _parse(text, repr(str(path)))
 
 
 def _parse(text: str, where: str) -> etree._Element:
@@ -194,14 +216,19 @@ def model_from_text(text: str, where: str) -> pin.Model:
     raise UrdfError(f"cannot read URDF {where}: {first}")
 
 
+def few(names: Sequence[str], limit: int = 3) -> str:
+    """The first ``limit`` names, and how many more (for one-line messages)."""
+    more = f" and {len(names) - limit} more" if len(names) > limit else ""
+    return ", ".join(names[:limit]) + more
+
+
 def check_meshes(text: str, urdf: Path, package_dirs: Mapping[str, str] | None = None) -> list[str]:
     """Mesh file names of the URDF that cannot be found (one warning names them)."""
     names = sorted({m.get("filename") for m in _parse(text, str(urdf)).iter("mesh") if m.get("filename")})
     missing = [n for n in names if resolve_mesh(n, urdf, package_dirs) is None]
     if missing:
-        shown = ", ".join(missing[:3]) + (f" and {len(missing) - 3} more" if len(missing) > 3 else "")
         warnings.warn(
-            f"{urdf.name}: {len(missing)} mesh file(s) not found ({shown}); calibration does not "
+            f"{urdf.name}: {len(missing)} mesh file(s) not found ({few(missing)}); calibration does not "
             f"need them (the 3-D view draws sticks); give --package-dir NAME=PATH to find them",
             PincalWarning,
             stacklevel=3,

@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from pincal.errors import PincalWarning, UrdfError
+from pincal.model.geometry import urdf_geometry
 from pincal.model.robot import Robot
 
 ROOT = "pincal"
@@ -50,24 +52,20 @@ def geometry_models(robot: Robot, reach: float) -> tuple[pin.GeometryModel, pin.
 
 
 def _urdf_geometry(robot: Robot, kind: pin.GeometryType) -> pin.GeometryModel | None:
-    """The URDF's geometry model of ``kind`` on the robot's chain, or None if it has none.
+    """The URDF's geometry model of ``kind`` on the robot's chain, or None if it has none, or if
+    some of its meshes cannot be found (:func:`~pincal.load_robot` has named them in its warning
+    then, which says the view draws sticks).
 
-    ``package://`` URIs are looked up in every folder above the URDF (the example-robot-data
-    layout, and a ROS workspace's).
+    Meshes are found as the loader finds them: ``Robot.package_dirs`` (``--package-dir``), then
+    the folders above the URDF (the example-robot-data layout, and a ROS workspace's).
     """
-    if robot.urdf_path is None:
-        return None
-    path = Path(robot.urdf_path)
-    dirs = [str(p) for p in path.resolve().parents]
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            geom = pin.buildGeomFromUrdf(robot.model, str(path), kind, package_dirs=dirs)
-    except Exception as exc:  # missing mesh files, unreadable meshes
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        warnings.warn(f"{path.name}: cannot load its {kind.name.lower()} meshes ({first})", stacklevel=3)
+        loaded = urdf_geometry(robot, kind)
+    except UrdfError as exc:  # unreadable mesh files
+        warnings.warn(f"{exc}; the 3-D view draws sticks", PincalWarning, stacklevel=4)
         return None
-    if geom.ngeoms == 0:
+    geom = loaded.model
+    if loaded.missing or geom.ngeoms == 0:
         return None
     try:
         import coal

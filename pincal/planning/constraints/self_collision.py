@@ -3,16 +3,16 @@ Pinocchio and coal)."""
 
 from __future__ import annotations
 
-import re
-from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from pincal.errors import BadConstraint
+from pincal.errors import BadConstraint, UrdfError
+from pincal.model.geometry import urdf_geometry
 from pincal.model.robot import Robot
+from pincal.model.urdf import few
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number
 
 
@@ -27,8 +27,9 @@ class SelfCollision(Constraint):
 
     Attributes:
         min_distance: clearance kept between links [m] (0: only no contact).
-        package_dirs: directories searched for ``package://`` mesh paths (the URDF's ancestors
-            are searched too).
+        package_dirs: more folders holding package folders, searched for ``package://NAME/``
+            mesh paths as ``DIR/NAME/...`` (the robot's own ``package_dirs`` and the folders
+            above the URDF are searched too, as :func:`~pincal.load_robot` searches them).
     """
 
     min_distance: float = 0.0
@@ -45,18 +46,6 @@ class SelfCollision(Constraint):
         return CollisionBound(robot, self)
 
 
-def _package_dirs(urdf: Path, extra: Iterable[str]) -> list[str]:
-    """Directories that resolve the ``package://NAME/...`` paths of ``urdf``."""
-    dirs = [str(p) for p in extra]
-    names = set(re.findall(r"package://([^/\"']+)/", urdf.read_text(errors="replace")))
-    for name in names:
-        for parent in urdf.resolve().parents:
-            if (parent / name).is_dir():
-                dirs.append(str(parent))
-                break
-    return dirs + [str(urdf.parent)]
-
-
 class CollisionBound(Bound):
     reach = 0.02
 
@@ -70,14 +59,16 @@ class CollisionBound(Bound):
         urdf = Path(robot.urdf_path)
         model = robot.model
         try:
-            geom = pin.buildGeomFromUrdf(
-                model, str(urdf), pin.COLLISION, package_dirs=_package_dirs(urdf, spec.package_dirs)
-            )
-        except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            loaded = urdf_geometry(robot, pin.COLLISION, spec.package_dirs)
+        except UrdfError as exc:
+            raise BadConstraint(f"self_collision: {exc}") from None
+        if loaded.missing:
             raise BadConstraint(
-                f"self_collision: cannot read the collision geometry of {str(urdf)!r}: {first}"
-            ) from None
+                f"self_collision: {len(loaded.missing)} collision mesh file(s) of {urdf.name} not found "
+                f"({few(loaded.missing)}); give "
+                f"--package-dir NAME=PATH (load_robot's package_dirs) to find them"
+            )
+        geom = loaded.model
         objects = geom.geometryObjects
         pairs = []
         for a in range(len(objects)):

@@ -1,0 +1,78 @@
+"""The URDF's geometry on a robot's chain (its visual or collision shapes and meshes), as a
+Pinocchio ``GeometryModel``, with the mesh files found where :func:`~pincal.load_robot` finds
+them: the robot's ``package_dirs`` (``--package-dir NAME=PATH``), then the folders above the URDF.
+
+The 3-D view and the self-collision constraint both load geometry here, so a mesh the loader
+found is the mesh they draw and check. Each ``<mesh filename=...>`` is replaced by the absolute
+path of the file found before Pinocchio reads the URDF text; a ``<visual>`` or ``<collision>``
+whose mesh cannot be found is left out and named in :attr:`UrdfGeometry.missing`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pinocchio as pin
+from lxml import etree
+
+from pincal.errors import UrdfError
+from pincal.model.robot import Robot
+from pincal.model.urdf import read_tree, resolve_mesh
+
+
+@dataclass(frozen=True, eq=False)
+class UrdfGeometry:
+    """The geometry of one kind that a robot's URDF gives its chain.
+
+    Attributes:
+        model: Pinocchio's geometry model (the shapes, and the meshes found), attached to the
+            robot's model; empty when the robot has no URDF.
+        missing: the ``filename`` of each mesh that cannot be found (sorted; its ``<visual>`` or
+            ``<collision>`` is not in ``model``).
+    """
+
+    model: pin.GeometryModel
+    missing: tuple[str, ...]
+
+
+def urdf_geometry(robot: Robot, kind: pin.GeometryType, search: Iterable[str] = ()) -> UrdfGeometry:
+    """The robot's URDF geometry of ``kind`` (``pin.GeometryType.VISUAL`` or ``COLLISION``).
+
+    Args:
+        robot: a robot loaded from a URDF (its ``urdf_path`` and ``package_dirs`` are used).
+        kind: which geometry.
+        search: more folders holding package folders (``DIR/NAME/...`` for ``package://NAME/``).
+
+    Raises:
+        UrdfError: the URDF cannot be read again, or a mesh file found cannot be read (one line).
+    """
+    if robot.urdf_path is None:
+        return UrdfGeometry(pin.GeometryModel(), ())
+    path = Path(robot.urdf_path)
+    dirs = [str(d) for d in search]
+    root = read_tree(path)
+    tag = "visual" if kind == pin.GeometryType.VISUAL else "collision"
+    named = dict(robot.package_dirs)
+    missing: set[str] = set()
+    for element in [e for e in root.iter(tag) if e.getparent() is not None and e.getparent().tag == "link"]:
+        for mesh in element.iter("mesh"):
+            name = mesh.get("filename") or ""
+            found = resolve_mesh(name, path, named, dirs) if name else None
+            if found is None:
+                missing.add(name)
+                element.getparent().remove(element)
+                break
+            mesh.set("filename", str(found.resolve()))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # Pinocchio's notes on the meshes it reads
+            geometry = pin.buildGeomFromUrdfString(
+                robot.model, etree.tostring(root, encoding="unicode"), kind, package_dirs=dirs
+            )
+    except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UrdfError(f"cannot read the {tag} geometry of {str(path)!r}: {first}") from None
+    return UrdfGeometry(geometry, tuple(sorted(missing)))
