@@ -309,3 +309,47 @@ def test_reports_of_unidentifiable_data_print_no_inf_or_nan(cell, capsys):
     out = capsys.readouterr().out
     assert "kept none" in out
     assert not any(word in out.lower().split() for word in ("inf", "nan", "±nan")), out
+
+
+# ------------------------------------------------- NumPy floating-point warnings become checks
+def _overflowing_identifiable(self, *args, **kwargs):
+    return np.float64(1e308) * 10  # NumPy: "overflow encountered in scalar multiply"
+
+
+def _intended_inf(self, *args, **kwargs):
+    with np.errstate(divide="ignore"):  # inf on purpose, as the objectives' singular plans are
+        assert np.isinf(np.float64(1.0) / 0.0)
+    return _real_identifiable(self, *args, **kwargs)
+
+
+_real_identifiable = pincal.ParameterSet.identifiable
+
+
+def test_numpy_overflow_is_one_internal_error_line_not_a_warning(cell, capfd, monkeypatch):
+    monkeypatch.setattr(pincal.ParameterSet, "identifiable", _overflowing_identifiable)
+    code = main(["params", str(cell / "robot.urdf"), *PLANAR])
+    out, err = capfd.readouterr()
+    assert code == 1 and err.count("\n") == 1, err
+    assert err.startswith("pincal: internal error: NumPy floating-point error: overflow encountered in"), err
+    assert "in pincal/cli/params.py:" in err, err  # the innermost pincal frame: where to look
+    assert "Warning:" not in err and "Traceback" not in err
+
+
+def test_numpy_overflow_inside_design_is_not_recorded_as_a_warning(cell, capfd, monkeypatch):
+    # design and baseline record warnings to print them after the report; an overflow still stops
+    monkeypatch.setattr("pincal.cli.design.design", _overflow_then_design)
+    argv = ["design", cell / "robot.urdf", "-m", "3", "--test-pose=0.3,1.2", *PLANAR, "--workers", "1"]
+    code = main([str(a) for a in argv])
+    out, err = capfd.readouterr()
+    assert code == 1 and err.startswith("pincal: internal error: NumPy floating-point error: overflow"), err
+
+
+def _overflow_then_design(*args, **kwargs):
+    np.exp(np.float64(1000))
+    raise AssertionError("the overflow did not raise")
+
+
+def test_inf_computed_on_purpose_still_runs(cell, capfd, monkeypatch):
+    monkeypatch.setattr(pincal.ParameterSet, "identifiable", _intended_inf)
+    assert main(["params", str(cell / "robot.urdf"), *PLANAR]) == 0
+    assert capfd.readouterr().err == ""

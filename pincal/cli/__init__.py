@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import traceback
 import warnings
 from typing import NoReturn
 
@@ -24,7 +25,12 @@ from pincal.cli import (
     show,
     simulate,
 )
-from pincal.cli._common import argument_names, check_outputs, join_negative_values
+from pincal.cli._common import (
+    argument_names,
+    check_outputs,
+    join_negative_values,
+    trap_floating_point_warnings,
+)
 from pincal.errors import PincalError
 from pincal.files import guard_inputs
 from pincal.version import __version__
@@ -83,6 +89,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# What a NumPy floating-point warning raises in the CLI (trap_floating_point_warnings), or
+# np.errstate(all="raise") in a caller.
+NUMERIC_ERRORS = (RuntimeWarning, FloatingPointError)
+
+
 def one_line(text: str) -> str:
     """``text`` with its line breaks (and the spaces around them) made single spaces."""
     return " ".join(part.strip() for part in text.strip().splitlines() if part.strip())
@@ -98,8 +109,10 @@ def main(argv: list[str] | None = None) -> int:
     ``--version`` and usage errors raise ``SystemExit`` with it, as argparse does).
 
     0: done; 2: bad input or a refused output (one line ``pincal: error: ...`` on stderr); 130:
-    interrupted; 1: a bug in pincal (one line ``pincal: internal error: ...``; set PINCAL_DEBUG=1
-    for the traceback). Warnings are printed as ``pincal: warning: ...`` lines.
+    interrupted; 1: a bug in pincal (one line ``pincal: internal error: ...`` naming where; set
+    PINCAL_DEBUG=1 for the traceback), NumPy's floating-point warnings (overflow, invalid value,
+    divide by zero) included: they raise rather than let inf or NaN through. Other warnings are
+    printed as ``pincal: warning: ...`` lines.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
@@ -110,6 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with guard_inputs(), warnings.catch_warnings():
             warnings.showwarning = _show_warning
+            trap_floating_point_warnings()  # an overflow is an internal error, not a warning and inf
             check_outputs(args, argument_names(parser.commands[args.command]))
             return args.run(args)
     except PincalError as exc:  # one line, whatever the message quotes (a parser's report)
@@ -124,12 +138,24 @@ def main(argv: list[str] | None = None) -> int:
         if os.environ.get("PINCAL_DEBUG"):
             raise
         text = one_line(str(exc))[:300]
+        kind = "NumPy floating-point error" if isinstance(exc, NUMERIC_ERRORS) else type(exc).__name__
         print(
-            f"pincal: internal error: {type(exc).__name__}: {text} (a bug in pincal: please report "
-            "it with the command line; PINCAL_DEBUG=1 shows the traceback)",
+            f"pincal: internal error: {kind}: {text}{_where(exc)} (a bug in pincal: "
+            "please report it with the command line; PINCAL_DEBUG=1 shows the traceback)",
             file=sys.stderr,
         )
         return 1
+
+
+def _where(exc: BaseException) -> str:
+    """' in pincal/module.py:line (function)' for the innermost pincal frame of ``exc``, or ''."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    where = ""
+    for frame in traceback.extract_tb(exc.__traceback__):
+        if os.path.abspath(frame.filename).startswith(root + os.sep):
+            path = os.path.relpath(frame.filename, os.path.dirname(root))
+            where = f" in {path}:{frame.lineno} ({frame.name})"
+    return where
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -10,7 +10,7 @@ import warnings
 
 import numpy as np
 
-from pincal.cli._common import parse_configuration, parse_floats, read_plan
+from pincal.cli._common import parse_configuration, parse_floats, read_plan, trap_floating_point_warnings
 from pincal.errors import BadArgument, PincalError, SingularPlan
 from pincal.evaluation.accuracy import AccuracyReport, accuracy, error_profile
 from pincal.evaluation.prior import Prior
@@ -159,7 +159,8 @@ def d_optimal_plan(params, m: int, constraints=(), pool=None, seed: int = 0):
     """A D-optimal plan of m configurations (exchange, 4 starts, no polish; the reports' reference),
     or None when there is none (too few configurations)."""
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+        warnings.simplefilter("ignore")  # the reference's own warnings are not the user's design's
+        trap_floating_point_warnings()
         try:
             return design(
                 params,

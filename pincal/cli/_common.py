@@ -6,6 +6,8 @@ import argparse
 import json
 import os
 import sys
+import warnings
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -20,6 +22,30 @@ from pincal.planning.plan import Plan
 from pincal.viewing.plots import figure_format
 
 DEFAULT_PARAMS = "full,offsets"
+
+# NumPy's floating-point warnings, and the NaN of its reductions over nothing. In the CLI they
+# raise: a computation that overflows stops with one line instead of printing a warning and going
+# on with inf or NaN. Code that computes with inf on purpose says so with np.errstate.
+FLOATING_POINT_WARNINGS = (
+    r"(overflow|underflow|invalid value|divide by zero) encountered in"
+    r"|Mean of empty slice|Degrees of freedom <= 0"
+)
+
+
+def trap_floating_point_warnings() -> None:
+    """In the current warnings context, NumPy's floating-point RuntimeWarnings raise."""
+    warnings.filterwarnings("error", message=FLOATING_POINT_WARNINGS, category=RuntimeWarning)
+
+
+@contextmanager
+def recorded_warnings():
+    """``warnings.catch_warnings(record=True)`` (every warning recorded, to print later) in which
+    NumPy's floating-point warnings still raise."""
+    with warnings.catch_warnings(record=True) as records:
+        warnings.simplefilter("always")
+        trap_floating_point_warnings()
+        yield records
+
 
 # Options whose value may start with "-" (negative numbers): "--test-pose -45,20" is rewritten
 # "--test-pose=-45,20" before argparse sees it.

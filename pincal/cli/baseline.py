@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import warnings
 
 from pincal.cli._accuracy import prior_from_args, test_region_from_args
 from pincal.cli._common import (
@@ -13,6 +12,7 @@ from pincal.cli._common import (
     emit_json,
     params_from_args,
     read_plan,
+    recorded_warnings,
     robot_from_args,
     sigma_from_args,
 )
@@ -69,8 +69,7 @@ def run(args: argparse.Namespace) -> int:
     constraints = constraints_from_args(args)
     criterion = "test-pose-worst" if args.worst else "test-pose"
     pool = read_plan(robot, args.pool, args.deg) if args.pool else None
-    with warnings.catch_warnings(record=True) as records:
-        warnings.simplefilter("always")
+    with recorded_warnings() as records:
         randoms = random_plans(
             params,
             args.m,

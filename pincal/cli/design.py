@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import warnings
 
 from pincal.cli._accuracy import (
     REGION_HELP,
@@ -26,6 +25,7 @@ from pincal.cli._common import (
     fmt_length,
     params_from_args,
     read_plan,
+    recorded_warnings,
     robot_from_args,
     sigma_from_args,
 )
@@ -160,8 +160,7 @@ def run(args: argparse.Namespace) -> int:
     common = dict(
         constraints=constraints, sigma=sigma, seed=args.seed, workers=args.workers, progress=progress
     )
-    with warnings.catch_warnings(record=True) as records:
-        warnings.simplefilter("always")
+    with recorded_warnings() as records:
         result = design(
             params,
             args.m,
