@@ -8,11 +8,18 @@ Errors about what the caller gave (an argument, a name, joint values, a file's c
 from :class:`BadArgument`, which is also a ``ValueError``: ordinary Python code catches them, and
 they carry what they name as attributes (``argument``, ``value``, ``valid``, ``file``, ``line``;
 ``joint`` for joint values; ``kind``, ``name`` for unknown names).
+
+Warnings (:class:`PincalWarning`, :class:`DegenerateOptimumWarning`) are issued through
+:func:`warn`, which names the caller's file and line (the first frame outside pincal), never a
+pincal source line.
 """
 
 from __future__ import annotations
 
 import difflib
+import os
+import sys
+import warnings
 from collections.abc import Iterable
 
 
@@ -261,3 +268,43 @@ class PincalWarning(PincalError, UserWarning):
 
 class MissingDependency(PincalError, ImportError):
     """An optional package that a feature needs is not installed (the message says how to get it)."""
+
+
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+
+
+def _in_pincal(filename: str) -> bool:
+    return os.path.abspath(filename).startswith(_PACKAGE_DIR)
+
+
+def _import_machinery(filename: str) -> bool:
+    """A frame that ``warnings.warn`` does not count in ``stacklevel`` (importlib's bootstrap)."""
+    return "importlib" in filename and "_bootstrap" in filename
+
+
+def _outside_stacklevel() -> int:
+    """The ``stacklevel`` that makes ``warnings.warn``, called by the function calling this one,
+    name the first frame outside the pincal package (counted as ``warnings.warn`` counts: 1 is
+    that function, importlib's frames are skipped); the outermost frame when every frame is
+    pincal's (the CLI)."""
+    frame = sys._getframe(1)
+    level = last = 1
+    while frame is not None:
+        name = frame.f_code.co_filename
+        if not _import_machinery(name):
+            if not _in_pincal(name):
+                return level
+            last, level = level, level + 1
+        frame = frame.f_back
+    return last
+
+
+def warn(message: str, category: type[Warning] = PincalWarning) -> None:
+    """Issue a warning attributed to the code that called pincal: its file and line are those of
+    the first frame outside the pincal package, however deep inside pincal the warning is raised
+    (``load_robot`` calling ``read_urdf`` calling the mesh check all point at the user's line).
+
+    Every warning pincal issues goes through here. (Python 3.12's ``skip_file_prefixes`` does the
+    same; this walk also runs on 3.10 and 3.11.)
+    """
+    warnings.warn(message, category, stacklevel=_outside_stacklevel())

@@ -6,6 +6,7 @@ and figures without running them; refresh the outputs after editing a notebook w
 from __future__ import annotations
 
 import os
+import re
 
 # Test dependencies (pyproject's [test] extra): a broken install fails here, it does not skip.
 import ipykernel  # noqa: F401  (the kernel the notebooks run on)
@@ -16,6 +17,9 @@ import pytest
 from tests.conftest import ROOT
 
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
+MACHINE_PATH = re.compile(r"/work/|/home/|/Users/|/tmp/|site-packages|ipykernel_|pincal/[\w/]+\.py:\d+")
+"""What a stored output must not show: a path of the machine that ran it, or a pincal source line
+(warnings name the notebook's own code, see tests/test_warnings.py)."""
 TIMEOUT_S = 300
 """Longest a cell may run [s] (each notebook takes seconds to well under a minute)."""
 
@@ -32,6 +36,21 @@ def _tree(root) -> set[str]:
 
 def test_the_three_notebooks_are_there():
     assert [p.name for p in NOTEBOOKS] == ["01_planar_2link.ipynb", "02_kr270.ipynb", "03_your_robot.ipynb"]
+
+
+def _text(output) -> str:
+    """The text an output shows (streams and plain-text results)."""
+    return "".join(output.get("text", "")) + "".join(output.get("data", {}).get("text/plain", ""))
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+def test_stored_outputs_show_no_machine_paths(path):
+    notebook = nbformat.read(path, as_version=4)
+    for cell in notebook.cells:
+        for output in cell.get("outputs", []):
+            text = _text(output)
+            found = MACHINE_PATH.search(text)
+            assert not found, f"{path.name} shows {found.group()!r} in: {text[:200]!r}"
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
@@ -62,5 +81,7 @@ def test_notebook_runs(path, tmp_path):
         if output.output_type == "error"
     ]
     assert not errors
+    shown = [MACHINE_PATH.search(_text(o)) for c in notebook.cells for o in c.get("outputs", [])]
+    assert not any(shown), f"{path.name} shows {next(m.group() for m in shown if m)!r}"
     assert _tree(ROOT) == before, "the notebook wrote files into the repository"
     assert path.read_bytes() == original, "the notebook file itself is left as it was"

@@ -19,6 +19,7 @@ from pincal.errors import (
     PincalWarning,
     RobotNotFound,
     UnknownName,
+    warn,
 )
 from pincal.model.chain import Candidate, candidates, chain_model, default_root, default_tip, frame_id
 from pincal.model.robot import Robot
@@ -231,7 +232,7 @@ def load_robot(
     if tip is None:
         tip = default_tip(model, model.frames[root_id].parentJoint, name, note)
     if note:
-        warnings.warn(f"{name}: {note.rstrip('; ')}", PincalWarning, stacklevel=2)
+        warn(f"{name}: {note.rstrip('; ')}")
     chain, _ = chain_model(model, model.frames[root_id].name if root is None else root, tip, name)
     return Robot(
         chain,

@@ -21,7 +21,6 @@ import contextlib
 import os
 import shlex
 import tempfile
-import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
@@ -30,7 +29,7 @@ import pinocchio as pin
 from lxml import etree
 
 from pincal import files
-from pincal.errors import PincalWarning, UnknownName, UrdfError
+from pincal.errors import UnknownName, UrdfError, warn
 
 MAX_URDF_BYTES = 16 * 2**20
 """Largest URDF read (16 MiB; meshes are separate files, so real URDFs are far smaller)."""
@@ -227,11 +226,9 @@ def check_meshes(text: str, urdf: Path, package_dirs: Mapping[str, str] | None =
     names = sorted({m.get("filename") for m in _parse(text, str(urdf)).iter("mesh") if m.get("filename")})
     missing = [n for n in names if resolve_mesh(n, urdf, package_dirs) is None]
     if missing:
-        warnings.warn(
+        warn(
             f"{urdf.name}: {len(missing)} mesh file(s) not found ({few(missing)}); calibration does not "
-            f"need them (the 3-D view draws sticks); give --package-dir NAME=PATH to find them",
-            PincalWarning,
-            stacklevel=3,
+            f"need them (the 3-D view draws sticks); give --package-dir NAME=PATH to find them"
         )
     return missing
 

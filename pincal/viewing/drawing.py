@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from pincal.errors import PincalWarning, UrdfError
+from pincal.errors import UrdfError, warn
 from pincal.model.geometry import urdf_geometry
 from pincal.model.robot import Robot
 
@@ -62,7 +62,7 @@ def _urdf_geometry(robot: Robot, kind: pin.GeometryType) -> pin.GeometryModel | 
     try:
         loaded = urdf_geometry(robot, kind)
     except UrdfError as exc:  # unreadable mesh files
-        warnings.warn(f"{exc}; the 3-D view draws sticks", PincalWarning, stacklevel=4)
+        warn(f"{exc}; the 3-D view draws sticks")
         return None
     geom = loaded.model
     if loaded.missing or geom.ngeoms == 0:

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import colorsys
 import os
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -37,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA
-from pincal.errors import BadConfiguration, SingularPlan
+from pincal.errors import BadConfiguration, SingularPlan, warn
 from pincal.evaluation.accuracy import PredictedError
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import position_covariance
@@ -243,7 +242,7 @@ def scene(
             cov = position_covariance(params, qs, q0, sigma)
         except SingularPlan as exc:
             note = f"no error ellipsoid: {exc}"
-            warnings.warn(note, stacklevel=2)
+            warn(note, UserWarning)
     radii = axes = rho = None
     drawn_scale = 1.0 if scale is None else float(scale)
     if cov is not None:
