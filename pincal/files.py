@@ -313,9 +313,12 @@ def _check_finite(data: object, path: Path, where: str, error: type[Exception]) 
         elif isinstance(value, list):
             stack.extend((v, f"{key}[{i}]") for i, v in enumerate(value))
         elif isinstance(value, (int, float)) and not isinstance(value, bool):
-            if not (isinstance(value, float) and math.isfinite(value)) and not (
-                isinstance(value, int) and abs(value) <= 1e300
-            ):
+            if isinstance(value, int) and abs(value) > 1e300:  # no float: '{:g}' would overflow
+                digits = len(str(abs(value)))
+                raise _error(
+                    error, f"{where}: {key or 'the value'} is an integer of {digits} digits, over 1e300", path
+                )
+            if isinstance(value, float) and not math.isfinite(value):
                 raise _error(
                     error, f"{where}: {key or 'the value'} is {value:.6g}, not a finite number", path
                 )

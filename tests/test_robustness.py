@@ -155,6 +155,7 @@ def test_inputs_that_are_not_files(cell, capsys):
         ("joint_limits: " + "[" * 5000 + "]" * 5000, f"nested more than {MAX_YAML_DEPTH} levels"),
         ("joint_limits: {margin_deg: 1.0e+999}", "joint_limits.margin_deg is inf, not a finite number"),
         ("joint_limits: {margin_deg: " + "1" * 5000 + "}", "digits"),
+        ("joint_limits: {margin_deg: " + "9" * 400 + "}", "an integer of 400 digits, over 1e300"),
         ("joint_limits: {margin_deg: .nan}", "not a finite number"),
         ("a: &x [1]\nb: *x", "anchors and aliases"),
         ("workspace_box: 3", "workspace_box must be a mapping"),
@@ -190,6 +191,13 @@ def test_urdf_limits_and_native_messages(cell, capfd, edit, fragment):
     out, err = capfd.readouterr()  # file descriptor 2: urdfdom's own "Error:" lines must not show
     assert code == 2 and err.startswith("pincal: error: ") and err.count("\n") == 1, err
     assert fragment in err
+
+
+def test_dh_table_with_a_400_digit_integer_is_refused(cell, capsys):
+    # The long fuzz run: the YAML reader's finite check formatted the integer as a float (OverflowError)
+    table = (ROOT / "docs" / "dh" / "ur5_dh.yaml").read_text().replace("a: -0.425,", "a: " + "9" * 400 + ",")
+    (cell / "table.yaml").write_text(table)
+    fails(capsys, ["urdf-from-dh", cell / "table.yaml"], "joints[1].a is an integer of 400 digits")
 
 
 # --------------------------------------------------------------------------- one error format
