@@ -1,5 +1,5 @@
-"""Every robot 'pincal robots' lists, and vendor-like URDFs, through one calibration rehearsal
-(issue 11, item 7). Run by hand:
+"""Every robot 'pincal robots' lists, vendor URDFs and vendor-like ones, through one calibration
+rehearsal (issue 11, item 7). Run by hand:
 
     python benchmarks/bench_robots.py            # print the table (markdown)
     python benchmarks/bench_robots.py --write    # and replace the "## bench_robots" section of RESULTS.md
@@ -21,6 +21,7 @@ import platform
 import re
 import sys
 import tempfile
+import warnings
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -29,6 +30,18 @@ sys.path.insert(0, str(ROOT))
 import pincal  # noqa: E402
 from tests.robot_zoo import MARKER, chain_of, listed_robots, rehearse  # noqa: E402
 from tests.vendor_like import z_axis_urdf  # noqa: E402
+
+VENDOR = [
+    (
+        "Kinova Gen3 7-DoF, ros_kortex as published (rpy 1.5708, 3.1416)",
+        "GEN3-7DOF-NOVISION_FOR_URDF_ARM_V12.urdf",
+    ),
+]
+"""Real vendor URDFs copied into tests/data/vendor/ (with their licences), meshes missing."""
+
+
+def vendor() -> list[tuple[str, Path]]:
+    return [(label, ROOT / "tests" / "data" / "vendor" / name) for label, name in VENDOR]
 
 
 def vendor_like(folder: Path) -> list[tuple[str, Path]]:
@@ -79,8 +92,9 @@ def main() -> None:
         chain = chain_of(name)
         lines.append(row(name, chain.robot, chain.refused))
         print(lines[-1], flush=True)
-    with tempfile.TemporaryDirectory() as folder:
-        for label, path in vendor_like(Path(folder)):
+    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+        warnings.simplefilter("ignore", pincal.PincalWarning)  # the vendor files' missing meshes
+        for label, path in vendor() + vendor_like(Path(folder)):
             lines.append(row(label, pincal.load_robot(path, markers=MARKER), ""))
             print(lines[-1], flush=True)
     if args.write:
