@@ -13,6 +13,7 @@ import pytest
 import pincal
 from pincal.cli import main
 from pincal.errors import AmbiguousTip, FrameNotFound, PincalWarning, UnsupportedJoint, UrdfError
+from pincal.model.loading import chain_ends
 
 
 def _joint(name, kind, parent, child, xyz="0 0 0", rpy="0 0 0", axis="0 0 1", limits=(-2.0, 2.0)):
@@ -85,6 +86,53 @@ def test_default_tip_is_the_hand_not_a_finger(tree):
     robot = pincal.load_robot(tree())
     assert robot.tip == "tcp"
     assert robot.joint_names == ("a1", "a2", "a3", "a4")  # the fingers are locked
+
+
+def hand_urdf() -> str:
+    """A spine joint named like a finger ('middle_lumbar') under a 2-joint arm that ends in an
+    anthropomorphic hand: a finger joint whose own link has a finger hanging on it (romeo's
+    LHand -> LFinger11Link -> LFinger12) and fingers named as TIAGo's (hand_index_joint,
+    hand_mrl_joint)."""
+    links = [
+        "pelvis",
+        "middle_abdomen",
+        "l1",
+        "palm",
+        "LFinger11Link",
+        "LFinger12Link",
+        "hand_index_link",
+        "hand_index_flex_2_link",
+        "hand_mrl_link",
+    ]
+    joints = [
+        _joint("middle_lumbar_Z", "revolute", "pelvis", "middle_abdomen", "0 0 0.2"),
+        _joint("a1", "revolute", "middle_abdomen", "l1", "0 0 0.3", axis="0 1 0"),
+        _joint("wrist", "revolute", "l1", "palm", "0.4 0 0", axis="1 0 0"),
+        _joint("LHand", "revolute", "palm", "LFinger11Link", "0.05 0 0", limits=(0, 1)),
+        _joint("LFinger12", "revolute", "LFinger11Link", "LFinger12Link", "0.02 0 0", limits=(0, 1)),
+        _joint("hand_index_joint", "revolute", "palm", "hand_index_link", "0.05 0.02 0", limits=(0, 1)),
+        _joint(
+            "hand_index_flex_2_joint",
+            "revolute",
+            "hand_index_link",
+            "hand_index_flex_2_link",
+            "0.02 0 0",
+            limits=(0, 1),
+        ),
+        _joint("hand_mrl_joint", "revolute", "palm", "hand_mrl_link", "0.05 -0.02 0", limits=(0, 1)),
+    ]
+    body = "".join(f'<link name="{name}"/>' for name in links)
+    return f'<?xml version="1.0"?><robot name="hand">{body}{"".join(joints)}</robot>'
+
+
+def test_an_anthropomorphic_hand_is_one_end_its_fingers_locked(tmp_path):
+    path = tmp_path / "hand.urdf"
+    path.write_text(hand_urdf())
+    robot = pincal.load_robot(path)
+    assert robot.tip == "palm"  # neither a finger tip nor the spine's end
+    assert robot.joint_names == ("middle_lumbar_Z", "a1", "wrist")
+    (palm,) = [c for c in chain_ends(path).candidates if not c.finger]
+    assert set(palm.hand) == {"LHand", "hand_index_joint", "hand_mrl_joint"}
 
 
 def test_ambiguous_tip_lists_the_chain_ends_fingers_marked(tree):

@@ -9,7 +9,7 @@ body, or below it.
 
 Without a tip, the chain ends are found: the leaf frames of the tree's last moving joints, with a
 ``tool0``/``tcp``/``flange``/``end_effector`` frame preferred on each end, and gripper fingers
-(joints or frames named like ``finger``, ``gripper``, ``jaw``, ``claw``, ...) set aside: a hand
+(joints or frames named like ``finger``, ``thumb``, ``index``, ``gripper``, ``jaw``, ``claw``, ...) set aside: a hand
 that carries fingers is an end, its fingers are locked. One end is taken; several give an error
 that lists them (fingers marked as such).
 """
@@ -25,8 +25,18 @@ import pinocchio as pin
 
 from pincal.errors import AmbiguousTip, FrameNotFound, PincalWarning, UnsupportedJoint
 
-FINGER = re.compile(r"finger|gripper|jaw|claw|knuckle|thumb|pinch", re.IGNORECASE)
-"""Names of gripper fingers (joints or links): never a chain end chosen by default."""
+DIGIT = re.compile(
+    r"finger|thumb|knuckle|phalan|pinky|hand_?((left|right|l|r)_)?(index|middle|ring|little|mrl)",
+    re.IGNORECASE,
+)
+"""Names of the fingers of a hand (``LFinger11Link``, ``left_hand_index_1_link``,
+``hand_mrl_joint``): a joint that moves such a link is a finger joint, whatever hangs below it.
+``index``, ``middle``, ... count only after ``hand`` (``middle_lumbar_Z`` is a spine joint)."""
+
+FINGER = re.compile(DIGIT.pattern + r"|gripper|jaw|claw|pinch", re.IGNORECASE)
+"""Names of gripper fingers (joints, or links at a chain end): never a chain end chosen by
+default. A ``gripper_link`` with more joints below it is often the wrist (Interbotix arms), so
+these names mark a link as a finger only at an end."""
 
 PREFERRED_TIP = re.compile(r"tool0|tcp|flange|end_effector|ee_link|eef|tool", re.IGNORECASE)
 """Names preferred among the leaf frames of one chain end."""
@@ -95,7 +105,10 @@ def candidates(model: pin.Model, root_joint: int = 0) -> list[Candidate]:
     }
     finger: set[int] = set()
     for j in below:  # parents come before children
-        named = FINGER.search(model.names[j]) or (not children[j] and FINGER.search(link.get(j, "")))
+        child = link.get(j, "")
+        named = (
+            FINGER.search(model.names[j]) or DIGIT.search(child) or (not children[j] and FINGER.search(child))
+        )
         if model.parents[j] in finger or named:
             finger.add(j)
     arm = [j for j in below if j not in finger]
