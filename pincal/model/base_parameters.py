@@ -8,9 +8,10 @@ column is not in the span of those kept before (QR, i.e. Gram–Schmidt, in that
 number kept is the numerical rank. Each
 dropped parameter is reported as *invisible* (its column is zero: nothing it does moves the
 measured points), as *redundant* (an exact combination of kept ones, with the coefficients), or
-as *nearly redundant*: within ``tol`` (default 1e-3, scale-free: the sine of the angle between
+as *nearly redundant*: within ``tol`` (default 1e-2, scale-free: the sine of the angle between
 its unit column and the span of the kept ones) of such a combination. Near dependences come from
-vendor URDFs whose angles are rounded (1.5708 for π/2: the axes are then parallel to ~4e-6) and
+vendor URDFs whose angles are rounded (1.5708 for π/2: the axes are then parallel to ~4e-6; 3.14
+for π: to 1.6e-3) and
 from nearly parallel axes; identifying such a parameter would cost 1/distance times its own
 precision, so it is left to the kept ones, which absorb it.
 """
@@ -36,12 +37,19 @@ REDUNDANT = 1e-8
 is left is the Jacobian's rounding noise (1e-12..1e-10 on the shipped and example-robot-data
 arms)."""
 
-NEARLY_REDUNDANT = 1e-3
-"""A unit column closer than this to the span of others is *nearly* redundant: e.g. a URDF's
-angles rounded to 4 digits (1.5708 for π/2) or nearly parallel axes turn an exact dependence
-into one of ~1e-6..1e-4, whose parameter would cost 1/distance times its own precision; the
-smallest distance of a really independent parameter of the shipped and example-robot-data arms
-is above 3e-2."""
+NEARLY_REDUNDANT = 1e-2
+"""A unit column closer than this to the span of others is *nearly* redundant: identifying its
+parameter would cost 1/distance (over 100) times its own precision. Measured on the default (or
+longest) chain of every listed robot, 200 random configurations (benchmarks/RESULTS.md): the
+nearest independent parameter sits at 2.1e-2 (alexander) and above; below come rounded angles
+(a URDF rounded to 4 digits, 1.5708 for π/2, leaves ~1e-6..1e-4) and nearly parallel axes. A
+smaller tolerance also lets the greedy order pick an ill-conditioned base: tiago_pro writes 3.14
+for π, so arm_left_7_joint.tz is 0.9999·arm_left_6_joint.ty + 0.0016·arm_left_6_joint.tx; at
+1e-3 it was kept (1.4e-3 from the span before it) and arm_left_6_joint.tx was left out as
+"-627·(...)", a base no plan conditions above 5e-7; at 1e-2, arm_left_7_joint.tz is the one left
+out, as exactly redundant. The square, 1e-4, is 100 times the conditioning the identification
+asks of the data (:data:`pincal.evaluation.data_check.MIN_DATA_CONDITIONING`): a parameter kept
+here can be separated by a designed plan."""
 
 
 def independent_columns(A: np.ndarray, order: list[int], tol: float = NEARLY_REDUNDANT):

@@ -31,7 +31,7 @@ import pinocchio as pin
 
 from pincal.arguments import Seed
 from pincal.errors import BadArgument, UnknownParameter
-from pincal.model.base_parameters import identifiability
+from pincal.model.base_parameters import NEARLY_REDUNDANT, identifiability
 from pincal.model.catalogue import GROUPS, Parameter, catalogue, group, split_spec
 from pincal.model.jacobian import analytic_jacobian, finite_difference_jacobian
 
@@ -199,7 +199,11 @@ class ParameterSet:
         raise BadArgument(f"unknown Jacobian method {method!r}; valid: analytic, fd")
 
     def identifiable(
-        self, n_configurations: int = 200, seed: Seed = 0, tol: float = 1e-3, prefer: str | Iterable[str] = ()
+        self,
+        n_configurations: int = 200,
+        seed: Seed = 0,
+        tol: float = NEARLY_REDUNDANT,
+        prefer: str | Iterable[str] = (),
     ):
         """Which of these parameters position measurements can identify.
 
