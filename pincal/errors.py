@@ -228,8 +228,15 @@ class FloorUnreachable(Infeasible):
     """No plan of m configurations reaches the conditioning floor: even the D-optimal plan found
     stays below it (``reached``)."""
 
-    def __init__(self, m: int, floor: float, reached: float):
+    def __init__(self, m: int, floor: float, reached: float, for_data: bool = False):
         self.m, self.floor, self.reached = m, floor, reached
+        if for_data:  # the default floor's lower bound: what identification asks of the data
+            super().__init__(
+                f"no plan of {m} configurations reaches the conditioning floor {floor:g} that identification "
+                f"needs to separate every parameter (the D-optimal plan found reaches {reached:.3g}); add "
+                "configurations or markers, or leave the weakest parameters out"
+            )
+            return
         super().__init__(
             f"no plan of {m} configurations reaches the conditioning floor {floor:g} (the D-optimal plan "
             f"found reaches {reached:.3g}); add configurations or lower min_conditioning"
@@ -268,6 +275,11 @@ class PincalWarning(PincalError, UserWarning):
 
 class MissingDependency(PincalError, ImportError):
     """An optional package that a feature needs is not installed (the message says how to get it)."""
+
+
+class DataCheckWarning(PincalWarning):
+    """The designed plan would not let the identification estimate every parameter: its data
+    check (:mod:`pincal.evaluation.data_check`) would leave some at their nominal values."""
 
 
 _PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep

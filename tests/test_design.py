@@ -336,3 +336,24 @@ def test_docstring_examples_run():
         attempted += result.attempted
     attempted += doctest.testmod(pincal).attempted
     assert attempted > 0
+
+
+def test_design_and_identification_agree_on_what_a_plan_separates():
+    """tiago_pro writes 3.14 for π: with a tolerance of 1e-3 the base keeps arm_left_7_joint.tz
+    1.4e-3 from the span of the others, and no plan conditions the set above 5e-7. The default
+    floor then refuses, naming the identification's need, instead of adapting under it; a floor
+    asked for below it gives a plan with a warning naming exactly what identify leaves nominal."""
+    robot = pincal.load_robot("tiago_pro", tip="gripper_left_base_link", markers=[(0.05, 0.02, 0.03)])
+    params = robot.parameters("full,offsets").identifiable(tol=1e-3).identifiable
+    assert "arm_left_7_joint.tz" in params.names
+    q0 = robot.random_configurations(1, 0)
+    with pytest.raises(pincal.FloorUnreachable, match="identification needs to separate every parameter"):
+        design(params, 13, test_pose=q0, seed=0, **FAST)
+    with pytest.warns(pincal.DataCheckWarning) as record:
+        plan = design(params, 13, test_pose=q0, seed=0, min_conditioning=1e-8, **FAST).plan
+    (warning,) = [w for w in record if w.category is pincal.DataCheckWarning]
+    truth = pincal.random_errors(params, seed=1)
+    fit = pincal.identify(params, pincal.simulate_measurements(truth, plan, sigma=3e-5, seed=2), sigma=3e-5)
+    assert fit.success and fit.dropped
+    assert all(name in str(warning.message) for name in fit.dropped), (str(warning.message), fit.dropped)
+    assert f"leave {len(fit.dropped)} parameter(s)" in str(warning.message)

@@ -50,9 +50,9 @@ its estimate is noise that can reach values no real robot has."""
 
 MIN_DATA_CONDITIONING = 1e-6
 """...and when the kept set's conditioning (σ_min² of the unit-column Jacobian,
-:func:`~pincal.evaluation.information.conditioning`) stays above this: 100 times below the floor
-a design keeps (1e-4), so every designed plan passes, while a small sampled region (a few degrees
-per joint: 1e-8 and below) does not."""
+:func:`~pincal.evaluation.information.conditioning`) stays above this: a small sampled region (a
+few degrees per joint: 1e-8 and below) does not. A design's default floor (1e-2) never adapts
+below it, so a designed plan passes (the kept set's conditioning is at least the whole set's)."""
 
 
 @dataclass(frozen=True, eq=False)

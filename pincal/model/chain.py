@@ -9,21 +9,20 @@ body, or below it.
 
 Without a tip, the chain ends are found: the leaf frames of the tree's last moving joints, with a
 ``tool0``/``tcp``/``flange``/``end_effector`` frame preferred on each end, and gripper fingers
-(joints or frames named like ``finger``, ``thumb``, ``index``, ``gripper``, ``jaw``, ``claw``, ...) set aside: a hand
-that carries fingers is an end, its fingers are locked. One end is taken; several give an error
+(joints or frames named like ``finger``, ``thumb``, ``hand_index``, ``gripper``, ``jaw``, ...) set aside: a
+hand that carries fingers is an end, its fingers are locked. One end is taken; several give an error
 that lists them (fingers marked as such).
 """
 
 from __future__ import annotations
 
 import re
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
-from pincal.errors import AmbiguousTip, FrameNotFound, PincalWarning, UnsupportedJoint
+from pincal.errors import AmbiguousTip, FrameNotFound, UnsupportedJoint, warn
 
 DIGIT = re.compile(
     r"finger|thumb|knuckle|phalan|pinky|hand_?((left|right|l|r)_)?(index|middle|ring|little|mrl)",
@@ -222,11 +221,9 @@ def chain_model(model: pin.Model, root: str | None, tip: str, robot: str) -> tup
             f"ranges with --joint-range NAME=LO,HI (joint_ranges=) or the limits in the URDF"
         )
     if zero:
-        warnings.warn(
+        warn(
             f"{robot}: joint(s) {', '.join(model.names[j] for j in zero)} have a zero range in the URDF "
-            f"and are locked, not calibrated; give --joint-range NAME=LO,HI (joint_ranges=) to move them",
-            PincalWarning,
-            stacklevel=3,
+            f"and are locked, not calibrated; give --joint-range NAME=LO,HI (joint_ranges=) to move them"
         )
     keep = set(chain) - set(zero)
     locked = [j for j in range(1, model.njoints) if j not in keep]

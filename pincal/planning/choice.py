@@ -4,18 +4,21 @@ and ρ0 computed by the core's own functions."""
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from pincal.errors import (
+    DataCheckWarning,
     DegenerateOptimum,
     DegenerateOptimumWarning,
     Infeasible,
+    warn,
 )
 from pincal.evaluation.classic import criteria_from_jacobian
+from pincal.evaluation.data_check import MIN_DATA_CONDITIONING, DataCheck, check_information
 from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.model.base_parameters import preference_order
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning.objectives import TEST_POSE_CRITERIA, make_objective
@@ -42,11 +45,16 @@ class Choice:
 
 
 # ---------------------------------------------------------------------------- choose
-def choose(settings: Settings, engine: JacobianEngine, outcomes: tuple[Outcome, ...]) -> Choice:
+def choose(
+    settings: Settings, params: ParameterSet, engine: JacobianEngine, outcomes: tuple[Outcome, ...]
+) -> Choice:
     """The best usable start above the conditioning floor.
 
     No plan below the floor is returned (the exchange can end there; the continuous search keeps
     above it). A winner near the floor means the criterion improves towards singular plans: say so.
+    A winner below the identification's :data:`MIN_DATA_CONDITIONING` (a floor asked for can be
+    lower) comes with a :class:`DataCheckWarning` naming the parameters identification from it would
+    leave nominal.
     """
     floor, criterion = settings.floor, settings.criterion
     usable = [s for s, o in enumerate(outcomes) if o.usable and np.isfinite(o.F)]
@@ -66,16 +74,26 @@ def choose(settings: Settings, engine: JacobianEngine, outcomes: tuple[Outcome, 
     if not regular:
         raise DegenerateOptimum(criterion, settings.m, floor)
     winner = min(regular, key=lambda s: (outcomes[s].F, s))
+    if settings.prior is None and cond[winner] < MIN_DATA_CONDITIONING:  # only below a floor asked for
+        check = identification_check(params, engine, outcomes[winner].q, settings.sigma)
+        if check.dropped:
+            dropped = "; ".join(f"{name}: {why}" for name, why in check.dropped.items())
+            warn(
+                f"identification from this plan (sigma {settings.sigma * 1e3:.3g} mm) would leave "
+                f"{len(check.dropped)} parameter(s) at their "
+                f"nominal values ({dropped}); raise min_conditioning to {MIN_DATA_CONDITIONING:g} or more, "
+                "add configurations or markers, or leave those parameters out",
+                DataCheckWarning,
+            )
     near_floor = floor > 0 and cond[winner] < 2 * floor  # within twice the floor: the floor binds
     where = "design for a neighbourhood or a path of where you work (pincal.around, TestPath)"
     if near_floor and floor < SINGULAR_WARNING:
-        warnings.warn(
+        warn(
             f"the plan sits at the conditioning floor ({cond[winner]:.3g}; min_conditioning {floor:.3g}): "
             f"the {criterion} criterion keeps improving towards singular plans, so its infimum is not "
             f"attained, and the error away from the test pose(s) grows; {where}, add test poses around "
             f"where you work, or raise min_conditioning",
             DegenerateOptimumWarning,
-            stacklevel=3,  # the caller of design()
         )
     elif cond[winner] < SINGULAR_WARNING:  # whatever the floor (0 with a prior)
         held = (
@@ -85,10 +103,9 @@ def choose(settings: Settings, engine: JacobianEngine, outcomes: tuple[Outcome, 
             else "some parameter combinations are barely measured, and the error away from the test pose(s) "
             f"is large; {where}, or raise min_conditioning"
         )
-        warnings.warn(
+        warn(
             f"the plan is effectively singular (conditioning {cond[winner]:.3g}): {held}",
             DegenerateOptimumWarning,
-            stacklevel=3,
         )
     return Choice(winner, cond[winner], len(usable) - len(regular), near_floor, history)
 
@@ -165,3 +182,13 @@ def _report(
     c = criteria_from_jacobian(J, len(plan))
     value = {"D": c.log_det, "A": c.trace, "E": c.max_eig, "cond": c.cond}[criterion]
     return float(value), rho0, each
+
+
+def identification_check(
+    params: ParameterSet, engine: JacobianEngine, q: np.ndarray, sigma: float
+) -> DataCheck:
+    """The data check :func:`pincal.identify` makes of data measured at the plan q with noise σ:
+    which parameters it would identify (see :mod:`pincal.evaluation.data_check`)."""
+    J = engine.jacobian(q, frame="tip").reshape(-1, engine.n_params) / sigma
+    order = preference_order(params)
+    return check_information(params.names, params.units, J.T @ J, order, len(q), sigma)

@@ -47,6 +47,7 @@ from pincal.errors import (
     Infeasible,
     SingularPlan,
 )
+from pincal.evaluation.data_check import MIN_DATA_CONDITIONING
 from pincal.evaluation.prior import Prior
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
@@ -144,9 +145,12 @@ def design(
             the criterion would keep improving towards singular plans (ρ0 at a test pose at a
             singular limit does); near a higher floor, the result's message says the floor binds.
             Default :data:`MIN_CONDITIONING` (or half what a D-optimal plan of m configurations
-            reaches, when that is less); with a prior, 0 (no floor: the prior keeps every plan's
-            posterior regular). A floor given is honoured, or refused (FloorUnreachable). A plan
-            whose conditioning is below :data:`SINGULAR_WARNING` is warned about whatever the floor.
+            reaches, when that is less, but never below the
+            :data:`~pincal.evaluation.data_check.MIN_DATA_CONDITIONING` the identification asks
+            of the data: below it, FloorUnreachable says to add configurations); with a prior, 0
+            (no floor: the prior keeps every plan's posterior regular). A floor given is
+            honoured, or refused (FloorUnreachable). A plan whose conditioning is below
+            :data:`SINGULAR_WARNING` is warned about whatever the floor.
         prior: the errors before calibration (:class:`pincal.Prior`, e.g. ``Prior(1e-3, 1e-3)``):
             every criterion is taken of the posterior information M + σ²Σp⁻¹ (the Bayesian
             criterion tr(J₀(M/σ² + Σp⁻¹)⁻¹J₀ᵀ) for the test pose), finite for every plan, so m may
@@ -203,10 +207,14 @@ def design(
                 if min_conditioning is not None:  # a floor asked for is honoured, or refused
                     raise
                 # The default floor adapts: half what the D-optimal plan of m configurations
-                # reaches (each start's D-optimal exchange may end a little lower: adapt again).
-                settings = replace(settings, floor=error.reached / 2)
+                # reaches (each start's D-optimal exchange may end a little lower: adapt again),
+                # never below what the identification asks of the data: a plan it would not
+                # separate every parameter with is refused here, saying to add configurations.
+                if settings.floor <= MIN_DATA_CONDITIONING or error.reached <= MIN_DATA_CONDITIONING:
+                    raise FloorUnreachable(m, MIN_DATA_CONDITIONING, error.reached, for_data=True) from None
+                settings = replace(settings, floor=max(error.reached / 2, MIN_DATA_CONDITIONING))
         outcomes = search(settings, params, engine, pooled, indices, executor, progress)
-        choice = choose(settings, engine, outcomes)
+        choice = choose(settings, params, engine, outcomes)
         return design_result(
             settings, params, engine, pooled, outcomes, choice, time.perf_counter() - t_start
         )
