@@ -304,3 +304,30 @@ def test_robots_lists_the_chains_each_robot_offers(capsys):
     assert main(["robots", "talos", "--root", "torso_2_link"]) == 0
     out = capsys.readouterr().out
     assert "chains from torso_2_link" in out and "--tip gripper_left_base_link (7 joints" in out
+
+
+def test_a_tool_frame_with_a_camera_hung_on_it_is_the_tip(tmp_path):
+    """The Kinova Gen3 with vision: camera frames hang below end_effector_link on the last joint;
+    the tool frame is the tip, not one of three camera frames."""
+    links = [
+        "base",
+        "l1",
+        "l2",
+        "end_effector_link",
+        "camera_link",
+        "camera_color_frame",
+        "camera_depth_frame",
+    ]
+    joints = [
+        _joint("j1", "revolute", "base", "l1", "0 0 0.2"),
+        _joint("j2", "revolute", "l1", "l2", "0.3 0 0", axis="0 1 0"),
+        _joint("ee", "fixed", "l2", "end_effector_link", "0.1 0 0"),
+        _joint("camera_module", "fixed", "end_effector_link", "camera_link", "0 0.05 0"),
+        _joint("color", "fixed", "camera_link", "camera_color_frame", "0 0.01 0"),
+        _joint("depth", "fixed", "camera_link", "camera_depth_frame", "0 -0.01 0"),
+    ]
+    body = "".join(f'<link name="{name}"/>' for name in links)
+    path = tmp_path / "gen3_like.urdf"
+    path.write_text(f'<?xml version="1.0"?><robot name="gen3_like">{body}{"".join(joints)}</robot>')
+    assert pincal.load_robot(path).tip == "end_effector_link"
+    assert pincal.load_robot(path, tip="camera_color_frame").tip == "camera_color_frame"

@@ -8,7 +8,8 @@ joint, or a robot known to float) is never a calibrated joint: the chain starts 
 body, or below it.
 
 Without a tip, the chain ends are found: the leaf frames of the tree's last moving joints, with a
-``tool0``/``tcp``/``flange``/``end_effector`` frame preferred on each end, and gripper fingers
+``tool0``/``tcp``/``flange``/``end_effector`` frame preferred on each end (even with camera frames
+hung below it), and gripper fingers
 (joints or frames named like ``finger``, ``thumb``, ``hand_index``, ``gripper``, ``jaw``, ...) set aside: a
 hand that carries fingers is an end, its fingers are locked. One end is taken; several give an error
 that lists them (fingers marked as such).
@@ -123,12 +124,32 @@ def candidates(model: pin.Model, root_joint: int = 0) -> list[Candidate]:
             others = [f for f in leaves if f not in fingers]
             leaves = others or (len(fingers) > 1 and _hand(model, fingers)) or leaves
             preferred = [f for f in leaves if PREFERRED_TIP.search(f)]
+            if not preferred and not fingers:  # sensors hung on the flange (a hand is the end)
+                preferred = _inner_preferred(model, end)
             leaves = preferred or leaves
             if any(f.name == "tool0" and f.parentJoint == end for f in model.frames):
                 leaves = ["tool0"]  # the ROS-Industrial flange frame, even with frames hung on it
         hand = tuple(model.names[c] for c in children[end] if c in finger)
         out += [Candidate(f, depth[end], is_finger, () if is_finger else hand) for f in leaves]
     return out
+
+
+def _inner_preferred(model: pin.Model, joint: int) -> list[str]:
+    """Tool-named frames fixed to ``joint`` with only other frames hung below them (a camera on
+    the Kinova Gen3's ``end_effector_link``): the last ones of them along each branch."""
+    frames = model.frames
+    on = [i for i, f in enumerate(frames) if f.parentJoint == joint and f.type in (pin.BODY, pin.OP_FRAME)]
+    named = {i for i in on if PREFERRED_TIP.search(frames[i].name)}
+
+    def above(i: int) -> set[int]:
+        out = set()
+        while frames[i].parentJoint == joint and frames[i].parentFrame != i:
+            i = frames[i].parentFrame
+            out.add(i)
+        return out
+
+    inner = set().union(*(above(i) for i in named)) if named else set()
+    return list(dict.fromkeys(frames[i].name for i in on if i in named and i not in inner))
 
 
 def _leaf_frames(model: pin.Model, joint: int) -> list[str]:
