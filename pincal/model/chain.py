@@ -9,10 +9,9 @@ body, or below it.
 
 Without a tip, the chain ends are found: the leaf frames of the tree's last moving joints, with a
 ``tool0``/``tcp``/``flange``/``end_effector`` frame preferred on each end (even with camera frames
-hung below it), and gripper fingers
-(joints or frames named like ``finger``, ``thumb``, ``hand_index``, ``gripper``, ``jaw``, ...) set aside: a
-hand that carries fingers is an end, its fingers are locked. One end is taken; several give an error
-that lists them (fingers marked as such).
+hung below it), and gripper fingers (joints or frames named like ``finger``, ``thumb``,
+``hand_index``, ``gripper``, ``jaw``, ...) set aside: a hand that carries fingers is an end, its
+fingers are locked. One end is taken; several give an error that lists them (fingers marked as such).
 """
 
 from __future__ import annotations
