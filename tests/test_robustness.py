@@ -361,3 +361,22 @@ def test_inf_computed_on_purpose_still_runs(cell, capfd, monkeypatch):
     monkeypatch.setattr(pincal.ParameterSet, "identifiable", _intended_inf)
     assert main(["params", str(cell / "robot.urdf"), *PLANAR]) == 0
     assert capfd.readouterr().err == ""
+
+
+def test_identify_without_residual_degrees_of_freedom_prints_no_nan_sigma(cell, capsys):
+    # The long fuzz run: one point, three marker coordinates: the estimated σ printed 'sigma: nan mm'
+    (cell / "one.csv").write_text("joint1,joint2,x,y,z\n0,0,1.8,0,0\n")
+    argv = [
+        "identify",
+        cell / "robot.urdf",
+        "--tip",
+        "tip",
+        "--data",
+        cell / "one.csv",
+        "--params",
+        "markers",
+    ]
+    assert main([str(a) for a in argv]) == 0
+    out = capsys.readouterr().out
+    assert "sigma: undetermined (no residual degrees of freedom" in out, out
+    assert "nan" not in out.lower().split(), out

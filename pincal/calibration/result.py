@@ -33,7 +33,8 @@ class IdentificationResult:
         std: (P,) standard errors [m or rad] (NaN for a dropped parameter).
         correlation: (P, P) correlations of the estimates.
         sigma: noise standard deviation per coordinate used for ``std`` [m] (the median
-            per-point σ when the data have them).
+            per-point σ when the data have them); NaN when it was to be estimated and the data
+            leave no residual degrees of freedom.
         sigma_estimated: True when ``sigma`` was estimated from the residuals.
         residuals: (m, K, 3) measured − calibrated model [m] (sessions stacked, rows rejected
             as outliers included).
@@ -152,6 +153,12 @@ class IdentificationResult:
             "prior": self.prior.as_dict() if self.prior is not None else None,
         }
 
+    def _sigma_line(self) -> str:
+        if not np.isfinite(self.sigma):  # estimated from no residual degrees of freedom
+            return "sigma: undetermined (no residual degrees of freedom to estimate it from)"
+        how = " (estimated from the residuals)" if self.sigma_estimated else " (given)"
+        return f"sigma: {self.sigma * 1e3:.4g} mm per coordinate{how}"
+
     def report(self) -> str:
         """A human-readable report: status, residuals, data identifiability, estimates ± standard
         errors (mm, mrad), outliers."""
@@ -162,8 +169,7 @@ class IdentificationResult:
             f"{self.residual_rms_after * 1e3:.4g} mm after ({self.data.m} configurations, "
             f"{self.data.n_markers} marker(s), {len(self.params)} parameters, {self.iterations} "
             f"iterations, {self.method}, loss {self.loss})",
-            f"sigma: {self.sigma * 1e3:.4g} mm per coordinate"
-            + (" (estimated from the residuals)" if self.sigma_estimated else " (given)"),
+            self._sigma_line(),
         ]
         if self.prior is not None:
             lines.append(f"prior: {self.prior} (MAP estimate)")
