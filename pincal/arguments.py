@@ -20,6 +20,25 @@ def sigma_note(sigma: float, given: bool = True) -> str:
     return shown + ("" if given else " (default: laser tracker)")
 
 
+MAX_LENGTH = 1e6
+"""Longest length pincal accepts [m]: a link, a marker offset, a measured coordinate (1000 km).
+Beyond any robot or instrument, and far enough from overflow that the products and squares of
+Jacobians and residuals stay finite."""
+SIGMA_RANGE = (1e-12, 1e3)
+"""The σ pincal accepts [m]: 1 pm (below any instrument; 1/σ² stays far from overflow) to 1 km."""
+
+
+def check_lengths(values: object, what: str, error: type[Exception] = BadArgument) -> None:
+    """Raise ``error`` if any of ``values`` [m] is over :data:`MAX_LENGTH` in size: ``what`` begins
+    the message (``"marker coordinate"``: 'marker coordinate 1e+09 m, over the ...')."""
+    arr = np.abs(np.asarray(values, dtype=float))
+    if arr.size and not np.all(arr <= MAX_LENGTH):
+        worst = float(arr.flat[int(np.argmax(np.where(np.isfinite(arr), arr, np.inf)))])
+        raise error(
+            f"{what} {worst:.3g} m, over the {MAX_LENGTH:.0e} m pincal accepts (a unit or number error?)"
+        )
+
+
 MAX_COUNT = 10**7
 """Largest count (configurations, plans, starts, trials, pool size) pincal accepts: beyond any real
 run, and below what would exhaust memory before a first result."""
@@ -48,11 +67,12 @@ def positive_int(value: object, name: str, low: int = 1, high: int | None = MAX_
     return int(value)
 
 
-def positive_sigma(sigma: object = DEFAULT_SIGMA) -> float:
-    """σ, the measurement noise per coordinate [m], as a float, if it is finite and positive.
+def positive_sigma(sigma: object = DEFAULT_SIGMA, name: str = "sigma") -> float:
+    """σ, the measurement noise per coordinate [m], as a float, if it is finite and positive,
+    within :data:`SIGMA_RANGE`.
 
     Raises:
-        PincalError: the value given.
+        PincalError: naming ``name`` and the value given.
     """
     try:
         s = float(sigma)  # type: ignore[arg-type]
@@ -60,10 +80,18 @@ def positive_sigma(sigma: object = DEFAULT_SIGMA) -> float:
         s = math.nan
     if not (math.isfinite(s) and s > 0):
         raise BadArgument(
-            f"sigma must be a positive number of metres, got {sigma!r}",
-            argument="sigma",
+            f"{name} must be a positive number of metres, got {sigma!r}",
+            argument=name,
             value=sigma,
             valid="> 0 [m]",
+        )
+    low, high = SIGMA_RANGE
+    if not low <= s <= high:
+        raise BadArgument(
+            f"{name} must be from {low:g} to {high:g} m, got {sigma!r}",
+            argument=name,
+            value=sigma,
+            valid=f"{low:g} to {high:g} [m]",
         )
     return s
 

@@ -181,6 +181,11 @@ def test_constraints_yaml_limits(cell, capsys, text, fragment):
         (lambda t: t.replace("<!--", "<!--\n<!--", 1), "not well-formed XML"),  # lxml's message had a newline
         # the long fuzz run: a zero axis gave NaN directions and a NumPy warning in 'show'
         (lambda t: t.replace('<axis xyz="0 0 1"/>', '<axis xyz="0 0 0"/>', 1), "'joint1' does not move"),
+        # the fuzzer: a link 1e300 m long overflowed in the Jacobians (a NumPy warning, now an error)
+        (
+            lambda t: t.replace('xyz="1.0 0 0"', 'xyz="1e300 0 0"'),
+            "joint 'joint2' is placed at 1e+300 m, over",
+        ),
     ],
 )
 def test_urdf_limits_and_native_messages(cell, capfd, edit, fragment):
@@ -380,3 +385,29 @@ def test_identify_without_residual_degrees_of_freedom_prints_no_nan_sigma(cell, 
     out = capsys.readouterr().out
     assert "sigma: undetermined (no residual degrees of freedom" in out, out
     assert "nan" not in out.lower().split(), out
+
+
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [  # the fuzzer: each overflowed in the least squares or the Jacobians (a NumPy floating-point error)
+        (["--data", "{far}"], "line 3: measured coordinate 1e+300 m, over the 1e+06 m"),
+        (["--data", "{data}", "--sigma", "1e-300"], "--sigma must be from 1e-12 to 1000 m"),
+        (["--data", "{data}", "--marker", "1e300,0,0"], "marker coordinate 1e+300 m, over"),
+    ],
+)
+def test_absurd_lengths_and_sigmas_are_refused_at_the_boundary(cell, capsys, argv, fragment):
+    (cell / "data.csv").write_text("joint1,joint2,x,y,z\n0,0,1.8,0,0\n0,1,1.43,0.67,0\n1,1,0.21,1.57,0\n")
+    (cell / "far.csv").write_text("joint1,joint2,x,y,z\n0,0,1.8,0,0\n0,1,1.43,1e300,0\n")
+    argv = [a.format(data=cell / "data.csv", far=cell / "far.csv") for a in argv]
+    fails(
+        capsys,
+        ["identify", cell / "robot.urdf", "--tip", "tip", "--params", "joint2.tx,tip.tx", *argv],
+        fragment,
+    )
+
+
+def test_dh_table_with_an_absurd_length_is_refused_by_name(cell, capsys):
+    # It was refused, but as 'the URDF written differs from its DH product by 2.2e+284'
+    table = (ROOT / "docs" / "dh" / "ur5_dh.yaml").read_text().replace("a: -0.425,", "a: 1.0e+300,")
+    (cell / "table.yaml").write_text(table)
+    fails(capsys, ["urdf-from-dh", cell / "table.yaml"], "row 2 (shoulder_lift_joint): a is 1e+300 m, over")

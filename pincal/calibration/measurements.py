@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pincal.arguments import MAX_LENGTH, SIGMA_RANGE, check_lengths
 from pincal.errors import BadArgument, BadMeasurementData
 from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
 from pincal.model.robot import Robot
@@ -89,6 +90,10 @@ class MeasurementData:
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(points))):
             raise BadMeasurementData("measurements: joint values and points must be finite")
         lines = None if self.lines is None else tuple(int(n) for n in self.lines)
+        far = np.abs(points) > MAX_LENGTH
+        if far.any():
+            i = int(np.argwhere(far)[0][0])
+            check_lengths(points[i], f"{self.labels_of(lines)[i]}: measured coordinate", BadMeasurementData)
         if lines is not None and len(lines) != len(q):
             raise BadMeasurementData(f"measurements: {len(lines)} line numbers for {len(q)} rows")
         sigma = None
@@ -100,9 +105,12 @@ class MeasurementData:
                     f"measurements: sigma must be one value or one per point coordinate {points.shape}, "
                     f"got shape {np.shape(self.sigma)}"
                 ) from None
-            if not np.all(np.isfinite(sigma) & (sigma > 0)):
-                i = int(np.argwhere(~(np.isfinite(sigma) & (sigma > 0)))[0][0])
-                raise BadMeasurementData(f"{self.labels_of(lines)[i]}: sigma must be positive and finite")
+            low, high = SIGMA_RANGE
+            if not np.all((sigma >= low) & (sigma <= high)):
+                i = int(np.argwhere(~((sigma >= low) & (sigma <= high)))[0][0])
+                raise BadMeasurementData(
+                    f"{self.labels_of(lines)[i]}: sigma must be from {low:g} to {high:g} m"
+                )
             sigma.flags.writeable = False
         object.__setattr__(self, "sigma", sigma)
         q.flags.writeable = False

@@ -11,7 +11,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, sigma_note
+from pincal.arguments import DEFAULT_SIGMA, positive_sigma, sigma_note
 from pincal.errors import BadArgument, BadConfiguration
 from pincal.files import check_output
 from pincal.model.loading import load_robot
@@ -351,7 +351,7 @@ def sigma_from_args(args: argparse.Namespace) -> tuple[float, str]:
     """(σ [m], how reports name it: ``σ = 0.030 mm (default: laser tracker)``)."""
     if args.sigma is None:
         return DEFAULT_SIGMA, sigma_note(DEFAULT_SIGMA, given=False)
-    sigma = positive(args.sigma, "--sigma")
+    sigma = positive_sigma(args.sigma, "--sigma")
     return sigma, sigma_note(sigma)
 
 

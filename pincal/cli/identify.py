@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from pincal.arguments import DEFAULT_SIGMA
+from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.calibration.identification import LOSSES, METHODS, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.urdf_export import export_urdf, sidecar_path
@@ -127,7 +127,7 @@ def _check_outputs(args: argparse.Namespace, robot) -> None:
 def run(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     params, source, dropped = parameters_with_base(robot, args)
-    sigma = None if args.sigma is None else positive(args.sigma, "--sigma")
+    sigma = None if args.sigma is None else positive_sigma(args.sigma, "--sigma")
     positive(args.maxiter, "--maxiter")
     prior = Prior.parse(args.prior) if args.prior else None
     if sum(x is not None for x in (args.validate, args.holdout, args.kfold)) > 1:

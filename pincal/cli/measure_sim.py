@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import DEFAULT_SIGMA
+from pincal.arguments import DEFAULT_SIGMA, check_lengths
 from pincal.calibration.synthetic import random_errors, simulate_measurements
 from pincal.calibration.urdf_export import export_urdf
 from pincal.cli._common import (
@@ -69,6 +69,7 @@ def _base_pose(text: str | None, degrees: bool) -> pin.SE3:
     values = parse_floats(text, "--base-pose")
     if len(values) != 6:
         raise BadConfiguration(f"--base-pose {text!r}: expected X,Y,Z,ROLL,PITCH,YAW (six numbers)")
+    check_lengths(values[:3], f"--base-pose {text!r}: translation", BadConfiguration)
     rpy = np.radians(values[3:]) if degrees else np.array(values[3:])
     return pin.SE3(pin.rpy.rpyToMatrix(*rpy), np.array(values[:3]))
 

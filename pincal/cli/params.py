@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from pincal.arguments import DEFAULT_SIGMA
+from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.calibration.measurements import MeasurementData
 from pincal.cli._common import (
     DEFAULT_PARAMS,
@@ -14,7 +14,6 @@ from pincal.cli._common import (
     add_robot_arguments,
     emit_json,
     mentions_base,
-    positive,
     read_plan,
     robot_from_args,
 )
@@ -71,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     ident = params.identifiable(seed=args.seed, prefer="base" if mentions_base(spec) else ())
     check = None
     if args.data or args.plan:
-        sigma = DEFAULT_SIGMA if args.sigma is None else positive(args.sigma, "--sigma")
+        sigma = DEFAULT_SIGMA if args.sigma is None else positive_sigma(args.sigma, "--sigma")
         if args.data:
             qs = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm).q
         else:

@@ -28,6 +28,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 import pinocchio as pin
 
+from pincal.arguments import check_lengths
 from pincal.errors import BadDHTable, OverwriteRefused
 from pincal.files import atomic_write_text, read_yaml
 
@@ -147,6 +148,7 @@ class DHTable:
         points = np.array(
             [_vector(p, 3, f"{where}, markers[{k}]") for k, p in enumerate(markers)], dtype=float
         ).reshape(-1, 3)
+        check_lengths(points * length, f"{where}, markers: a coordinate of", BadDHTable)
         table = cls(
             name=_name(content.get("name", default_name), f"{where}: name"),
             convention=convention,
@@ -353,11 +355,15 @@ def _joint(row: object, i: int, length: float, angle: float, where: str) -> DHJo
     if missing:
         raise BadDHTable(f"{label}: missing {', '.join(missing)} (each row needs a, alpha, d, theta)")
     values = {k: _number(row[k], f"{label}: {k}") for k in ("a", "alpha", "d", "theta")}
+    for k in ("a", "d"):
+        check_lengths(values[k] * length, f"{label}: {k} is", BadDHTable)
     unit = angle if kind == "revolute" else length
     if "limits" in row:
         lower, upper = (v * unit for v in _vector(row["limits"], 2, f"{label}: limits"))
         if not lower < upper:
             raise BadDHTable(f"{label}: limits {row['limits']} must be [lower, upper] with lower < upper")
+        if kind == "prismatic":
+            check_lengths([lower, upper], f"{label}: a limit at", BadDHTable)
     elif kind == "revolute":
         lower, upper = -math.pi, math.pi
     else:
@@ -383,6 +389,7 @@ def _placement(content: Mapping, length: float, angle: float, where: str) -> np.
     """(4, 4) placement from {xyz, rpy} (URDF order: fixed-axis roll, pitch, yaw)."""
     T = np.eye(4)
     T[:3, 3] = np.array(_vector(content.get("xyz", [0, 0, 0]), 3, f"{where}: xyz")) * length
+    check_lengths(T[:3, 3], f"{where}: xyz has", BadDHTable)
     rpy = np.array(_vector(content.get("rpy", [0, 0, 0]), 3, f"{where}: rpy")) * angle
     T[:3, :3] = pin.rpy.rpyToMatrix(*rpy)
     return T

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from pincal.arguments import check_lengths
 from pincal.errors import (
     AmbiguousTip,
     BadArgument,
@@ -123,6 +124,7 @@ def _parse_markers(markers: object) -> np.ndarray:
         raise BadConfiguration(f"markers must be (x, y, z) triples in metres, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise BadConfiguration("markers must be finite numbers")
+    check_lengths(arr, "marker coordinate", BadConfiguration)
     return arr
 
 

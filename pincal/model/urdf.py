@@ -29,6 +29,7 @@ import pinocchio as pin
 from lxml import etree
 
 from pincal import files
+from pincal.arguments import check_lengths
 from pincal.errors import UnknownName, UrdfError, warn
 
 MAX_URDF_BYTES = 16 * 2**20
@@ -250,9 +251,26 @@ def read_urdf(
         text = _expand_xacro(path)  # a xacro source saved as .urdf: expanded, or the command
         model = model_from_text(prepare(text, ranges or {}, where), where)
     _check_axes(model, where)
+    _check_lengths(model, where)
     if meshes:
         check_meshes(text, path, package_dirs)
     return model
+
+
+def _check_lengths(model: pin.Model, where: str) -> None:
+    """Every joint and frame is placed within :data:`~pincal.arguments.MAX_LENGTH` of its parent,
+    and every prismatic range too (a URDF in mm read as metres, a corrupted number)."""
+    placements = [(f"joint {model.names[j]!r}", model.jointPlacements[j]) for j in range(1, model.njoints)]
+    placements += [(f"frame {f.name!r}", f.placement) for f in model.frames]
+    for what, placement in placements:
+        check_lengths(placement.translation, f"URDF {where}: {what} is placed at", UrdfError)
+    for j in range(1, model.njoints):
+        if model.nqs[j] == 1 and model.joints[j].shortname().startswith("JointModelP"):
+            i = model.idx_qs[j]
+            limits = [model.lowerPositionLimit[i], model.upperPositionLimit[i]]
+            check_lengths(
+                limits, f"URDF {where}: prismatic joint {model.names[j]!r} has a limit at", UrdfError
+            )
 
 
 def _check_axes(model: pin.Model, where: str) -> None:
