@@ -4,6 +4,8 @@ xacro files, missing meshes (issue 11)."""
 from __future__ import annotations
 
 import json
+import math
+import sys
 import warnings
 
 import numpy as np
@@ -237,7 +239,44 @@ def test_frames_sharing_a_name_load():
     assert "gripper" not in robot.joint_names and robot.nq == 5
 
 
-def test_xacro_gives_the_command(tmp_path, capsys):
+XACRO_ARM = """<?xml version="1.0"?>
+<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="xarm">
+  <xacro:property name="l" value="0.4"/>
+  <xacro:macro name="revolute" params="name parent child xyz axis">
+    <joint name="${name}" type="revolute"><parent link="${parent}"/><child link="${child}"/>
+      <origin xyz="${xyz}"/><axis xyz="${axis}"/>
+      <limit lower="${-pi/2}" upper="${pi/2}" effort="1" velocity="1"/></joint>
+  </xacro:macro>
+  <link name="base"/><link name="l1"/><link name="l2"/><link name="tool0"/>
+  <xacro:revolute name="j1" parent="base" child="l1" xyz="0 0 ${l}" axis="0 0 1"/>
+  <xacro:revolute name="j2" parent="l1" child="l2" xyz="${l} 0 0" axis="0 1 0"/>
+  <joint name="t" type="fixed"><parent link="l2"/><child link="tool0"/><origin xyz="${l/2} 0 0"/></joint>
+</robot>
+"""
+
+
+def test_xacro_is_expanded_by_the_xacro_package(tmp_path):
+    """The expanded robot is the one the macro describes: points against a hand-written URDF."""
+    path = tmp_path / "arm.urdf.xacro"
+    path.write_text(XACRO_ARM)
+    robot = pincal.load_robot(path)
+    plain = tmp_path / "plain.urdf"
+    plain.write_text(
+        '<robot name="plain"><link name="base"/><link name="l1"/><link name="l2"/><link name="tool0"/>'
+        + _joint("j1", "revolute", "base", "l1", "0 0 0.4", limits=(-math.pi / 2, math.pi / 2))
+        + _joint("j2", "revolute", "l1", "l2", "0.4 0 0", axis="0 1 0", limits=(-math.pi / 2, math.pi / 2))
+        + _joint("t", "fixed", "l2", "tool0", "0.2 0 0")
+        + "</robot>"
+    )
+    reference = pincal.load_robot(plain)
+    qs = reference.random_configurations(10, 0)
+    assert robot.joint_names == ("j1", "j2") and robot.tip == "tool0"
+    np.testing.assert_allclose(robot.points(qs), reference.points(qs), atol=1e-12)
+    np.testing.assert_allclose(robot.upper, np.full(2, math.pi / 2))
+
+
+def test_xacro_gives_the_command(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "xacro", None)  # the xacro package is not installed
     path = tmp_path / "arm.urdf.xacro"
     path.write_text(
         '<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="a"><xacro:macro name="m"/></robot>'
