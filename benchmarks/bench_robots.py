@@ -115,8 +115,14 @@ def main() -> None:
         )
         path = ROOT / "benchmarks" / "RESULTS.md"
         text = path.read_text()
-        pattern = re.compile(r"## bench_robots\n.*?(?=\n## |\Z)", re.S)
-        text = pattern.sub(section, text) if pattern.search(text) else text.rstrip() + "\n\n" + section
+        # The header and the table are replaced; the notes written under the table are kept.
+        pattern = re.compile(r"## bench_robots\n.*?\n\| .*?\|\n(?!\|)", re.S)
+        found = pattern.search(text)
+        text = (
+            text[: found.start()] + section + text[found.end() :]
+            if found
+            else text.rstrip() + "\n\n" + section
+        )
         path.write_text(text)
 
 
