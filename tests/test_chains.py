@@ -275,6 +275,21 @@ def test_xacro_is_expanded_by_the_xacro_package(tmp_path):
     np.testing.assert_allclose(robot.upper, np.full(2, math.pi / 2))
 
 
+def test_xacros_own_warnings_are_one_pincal_warning_line(tmp_path, capsys):
+    """xacro prints its warnings on stderr itself (in colour, with a 'when processing' line)."""
+    path = tmp_path / "arm.urdf.xacro"
+    path.write_text(
+        XACRO_ARM.replace(
+            '<xacro:property name="l" value="0.4"/>', '<xacro:property name="l" value="0.4" foo="1"/>'
+        )
+    )
+    assert main(["params", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert (
+        err == "pincal: warning: xacro, expanding arm.urdf.xacro: xacro:property: unknown attribute(s): foo\n"
+    )
+
+
 def test_xacro_gives_the_command(tmp_path, capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "xacro", None)  # the xacro package is not installed
     path = tmp_path / "arm.urdf.xacro"

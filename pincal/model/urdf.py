@@ -18,7 +18,9 @@ URDF parser's own first message), never the parser's multi-line report.
 from __future__ import annotations
 
 import contextlib
+import io
 import os
+import re
 import shlex
 import tempfile
 from collections.abc import Iterable, Mapping, Sequence
@@ -40,6 +42,7 @@ MAX_URDF_JOINTS = 2_000
 """Most joints (and links) in a URDF."""
 ONE_TURN = (-np.pi, np.pi)
 """Design range [rad] of a continuous joint when none is given."""
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
 
 
 def parse_joint_ranges(ranges: Mapping[str, object] | None) -> dict[str, tuple[float, float]]:
@@ -101,11 +104,19 @@ def _expand_xacro(path: Path) -> str:
             f"'{xacro_command(path)}' (xacro comes with ROS, or 'pip install xacro'), then give the "
             f".urdf"
         ) from None
+    said = io.StringIO()  # xacro prints its warnings (and error context) on stderr itself
     try:
-        return xacro.process_file(str(path)).toxml()
+        with contextlib.redirect_stderr(said):
+            text = xacro.process_file(str(path)).toxml()
     except Exception as exc:  # xacro raises its own types with long texts
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise UrdfError(f"xacro cannot expand {str(path)!r}: {first}") from None
+    lines = (line.strip() for line in _ANSI.sub("", said.getvalue()).splitlines())
+    notes = [line for line in lines if line.startswith("warning")]  # not 'when processing file: ...'
+
+    if notes:
+        warn(f"xacro, expanding {path.name}: " + "; ".join(n.removeprefix("warning: ") for n in notes))
+    return text
 
 
 def read_text(path: Path) -> str:
