@@ -30,9 +30,10 @@ Where the robot works (any of design, evaluate, show, baseline):
                                         kinematics from it: 256 targets, unreachable ones dropped)
   --prior 1mm,1mrad                     errors before calibration: the Bayesian criterion (design),
                                         rho0 split into measurements and prior; needs the real --sigma
-Every report gives the predicted error at the test pose(s), over ±10° and ±20° around them and
-over the workspace (median, 95th percentile), for the plan and a D-optimal plan of the same size
-(--no-accuracy: skip it); --accuracy-plot FILE.png plots it against the distance from the test pose.
+Every report gives the predicted error at the test pose(s), over ±10° and ±20° around them (for
+a region: around its samples, up to 10°/20° beyond its edge) and over the workspace (median, 95th
+percentile), for the plan and a D-optimal plan of the same size (--no-accuracy: skip it);
+--accuracy-plot FILE.png plots it against the distance from the test pose.
 """
 
 _ANGLE = re.compile(r"^\s*([0-9.eE+-]+)\s*(deg|rad|mrad)?\s*$")

@@ -156,7 +156,8 @@ class ErrorSummary:
     """Predicted errors over a set of configurations [m].
 
     Attributes:
-        where: what the set is (``"test pose"``, ``"±10°"``, ``"workspace"``, ...).
+        where: what the set is (``"test pose"``, ``"±10°"``, ``"region ±10°"`` (within 10° of the
+            region's samples: up to 10° beyond its edge), ``"workspace"``, ...).
         n: configurations.
         rms: root mean square (the square root of the mean criterion).
         median, p95, max: of ρ over the set.
@@ -325,7 +326,9 @@ def accuracy(
     first = "test region" if region is not None else "test pose" if len(poses) == 1 else "test poses"
     sets = [(first, poses)]
     for delta in neighbourhoods:
-        sets.append((f"±{math.degrees(delta):.3g}°", _neighbourhood(robot, poses, delta, samples, rng)))
+        width = f"±{math.degrees(delta):.3g}°"  # around each test pose: beyond a region's edge
+        label = f"region {width}" if region is not None else width
+        sets.append((label, _neighbourhood(robot, poses, delta, samples, rng)))
     sets.append(("workspace", robot.random_configurations(workspace, rng)))
     plans = [("plan", plan)] + list((compare or {}).items())
     at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior)
