@@ -385,3 +385,26 @@ def test_a_tool_frame_with_a_camera_hung_on_it_is_the_tip(tmp_path):
     path.write_text(f'<?xml version="1.0"?><robot name="gen3_like">{body}{"".join(joints)}</robot>')
     assert pincal.load_robot(path).tip == "end_effector_link"
     assert pincal.load_robot(path, tip="camera_color_frame").tip == "camera_color_frame"
+
+
+def test_chain_ends_are_listed_longest_first(tmp_path):
+    """A humanoid's error lists its arms before its many short sensor chains (the list is cut)."""
+    links = ["torso", "head", "camera", "a1", "a2", "a3", "hand", "leg", "sole"]
+    joints = [
+        _joint("neck", "revolute", "torso", "head", "0 0 0.5"),
+        _joint("camera_joint", "fixed", "head", "camera", "0.1 0 0"),
+        _joint("hip", "revolute", "torso", "leg", "0 0 -0.2"),
+        _joint("ankle_fixed", "fixed", "leg", "sole", "0 0 -0.4"),
+        _joint("s1", "revolute", "torso", "a1", "0 0.2 0.4"),
+        _joint("s2", "revolute", "a1", "a2", "0 0.1 0", axis="0 1 0"),
+        _joint("e1", "revolute", "a2", "a3", "0.3 0 0", axis="0 1 0"),
+        _joint("w1", "fixed", "a3", "hand", "0.3 0 0"),
+    ]
+    body = "".join(f'<link name="{name}"/>' for name in links)
+    path = tmp_path / "humanoid.urdf"
+    path.write_text(f'<?xml version="1.0"?><robot name="humanoid">{body}{"".join(joints)}</robot>')
+    ends = chain_ends(path).candidates
+    assert [(c.frame, c.joints) for c in ends][0] == ("hand", 3)  # declared last
+    assert sorted(c.frame for c in ends[1:]) == ["camera", "sole"]
+    with pytest.raises(AmbiguousTip, match=r"--tip FRAME \(tip=\): hand \(3 joints\), "):
+        pincal.load_robot(path)

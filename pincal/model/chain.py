@@ -94,7 +94,9 @@ def _descendants(model: pin.Model, joint: int) -> list[int]:
 
 
 def candidates(model: pin.Model, root_joint: int = 0) -> list[Candidate]:
-    """The chain ends below ``root_joint`` (see module doc), in the model's order."""
+    """The chain ends below ``root_joint`` (see module doc): the longest chains first, gripper
+    fingers last, otherwise in the model's order (an arm is listed before a humanoid's ten
+    foot-sensor frames, whose list is cut short in messages)."""
     below = [j for j in _descendants(model, root_joint) if not is_floating(model, j)]
     children = {j: [c for c in below if model.parents[c] == j] for j in [root_joint, *below]}
     link = {  # the child link of each joint
@@ -130,7 +132,7 @@ def candidates(model: pin.Model, root_joint: int = 0) -> list[Candidate]:
                 leaves = ["tool0"]  # the ROS-Industrial flange frame, even with frames hung on it
         hand = tuple(model.names[c] for c in children[end] if c in finger)
         out += [Candidate(f, depth[end], is_finger, () if is_finger else hand) for f in leaves]
-    return out
+    return sorted(out, key=lambda c: (c.finger, -c.joints))
 
 
 def _inner_preferred(model: pin.Model, joint: int) -> list[str]:
