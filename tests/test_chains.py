@@ -275,6 +275,42 @@ def test_xacro_is_expanded_by_the_xacro_package(tmp_path):
     np.testing.assert_allclose(robot.upper, np.full(2, math.pi / 2))
 
 
+def test_xacro_find_resolves_packages_without_ros(tmp_path, capsys):
+    """$(find NAME) (a ROS package lookup) resolves to a folder NAME above the xacro file, or to
+    --package-dir NAME=PATH: vendor descriptions expand as checked out, without ROS."""
+    package = tmp_path / "src" / "my_arm_description"
+    (package / "urdf").mkdir(parents=True)
+    (package / "package.xml").write_text("<package><name>my_arm_description</name></package>")
+    (package / "urdf" / "arm_macro.xacro").write_text(
+        XACRO_ARM.replace('name="xarm"', 'name="macro"')
+        .replace("<link", "<xacro:macro name='arm'><link", 1)
+        .replace("</robot>", "</xacro:macro></robot>")
+    )
+    top = package / "urdf" / "arm.urdf.xacro"
+    top.write_text(
+        '<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="xarm">'
+        '<xacro:include filename="$(find my_arm_description)/urdf/arm_macro.xacro"/><xacro:arm/></robot>'
+    )
+    robot = pincal.load_robot(top)
+    assert robot.joint_names == ("j1", "j2") and robot.tip == "tool0"
+    moved = tmp_path / "elsewhere"
+    (package.parent).rename(moved)
+    top = moved / "my_arm_description" / "urdf" / "arm.urdf.xacro"
+    assert pincal.load_robot(top).joint_names == ("j1", "j2")  # still above it
+    renamed = moved / "checkout"
+    (moved / "my_arm_description").rename(renamed)
+    top = renamed / "urdf" / "arm.urdf.xacro"
+    assert main(["params", str(top)]) == 2
+    err = capsys.readouterr().err
+    assert err == (
+        f"pincal: error: xacro cannot expand {str(top)!r}: $(find my_arm_description): package "
+        "'my_arm_description' not found above arm.urdf.xacro; give --package-dir "
+        "my_arm_description=PATH (package_dirs=)\n"
+    )
+    assert main(["params", str(top), "--package-dir", f"my_arm_description={renamed}"]) == 0
+    assert "ament_index_python" not in sys.modules  # the stand-in index is gone after each expansion
+
+
 def test_xacros_own_warnings_are_one_pincal_warning_line(tmp_path, capsys):
     """xacro prints its warnings on stderr itself (in colour, with a 'when processing' line)."""
     path = tmp_path / "arm.urdf.xacro"

@@ -164,7 +164,8 @@ def add_robot_arguments(parser: argparse.ArgumentParser, params: bool = True) ->
         "--package-dir",
         action="append",
         metavar="NAME=PATH",
-        help="folder of ROS package NAME, for package://NAME/ mesh paths (default: searched above the URDF)",
+        help="folder of ROS package NAME, for package://NAME/ mesh paths and a xacro's $(find NAME) "
+        "(default: searched above the URDF); repeatable",
     )
     parser.add_argument(
         "--marker",

@@ -53,7 +53,7 @@ def urdf_geometry(robot: Robot, kind: pin.GeometryType, search: Iterable[str] = 
         return UrdfGeometry(pin.GeometryModel(), ())
     path = Path(robot.urdf_path)
     dirs = [str(d) for d in search]
-    root = read_tree(path)
+    root = read_tree(path, dict(robot.package_dirs))
     tag = "visual" if kind == pin.GeometryType.VISUAL else "collision"
     named = dict(robot.package_dirs)
     missing: set[str] = set()

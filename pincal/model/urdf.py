@@ -22,8 +22,11 @@ import io
 import os
 import re
 import shlex
+import sys
 import tempfile
-from collections.abc import Iterable, Mapping, Sequence
+import types
+import unittest.mock
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -76,13 +79,60 @@ def resolve_mesh(
         filename = filename[len("file://") :]
     if filename.startswith("package://"):
         package, _, rest = filename[len("package://") :].partition("/")
-        roots = [Path(p) for name, p in (extra or {}).items() if name == package]
-        roots += [Path(d) / package for d in search]
-        roots += [parent / package for parent in urdf.resolve().parents]
-        roots += [parent for parent in urdf.resolve().parents if parent.name == package]
+        roots = package_roots(package, urdf, extra, search)
         return next((root / rest for root in roots if (root / rest).is_file()), None)
     path = Path(filename) if os.path.isabs(filename) else urdf.resolve().parent / filename
     return path if path.is_file() else None
+
+
+def package_roots(
+    package: str, urdf: Path, extra: Mapping[str, str] | None = None, search: Iterable[str] = ()
+) -> list[Path]:
+    """The folders package ``package`` may be, most trusted first: the one given for it
+    (``--package-dir NAME=PATH``), ``DIR/NAME`` for each ``search`` folder, then ``NAME`` next to
+    each folder above the URDF and each folder above it named ``NAME`` (a checkout of the
+    description package)."""
+    roots = [Path(p) for name, p in (extra or {}).items() if name == package]
+    roots += [Path(d) / package for d in search]
+    roots += [parent / package for parent in urdf.resolve().parents]
+    roots += [parent for parent in urdf.resolve().parents if parent.name == package]
+    return roots
+
+
+@contextlib.contextmanager
+def _ros_packages(path: Path, package_dirs: Mapping[str, str] | None) -> Iterator[list[str]]:
+    """xacro's ``$(find NAME)`` without ROS: xacro asks ``ament_index_python`` for the package's
+    folder; here it gets the first of :func:`package_roots` that is a folder (then the real
+    index's answer, when ROS 2 is installed), or an error naming ``--package-dir``."""
+    try:
+        from ament_index_python import packages as ament  # type: ignore[import-not-found]
+    except ImportError:
+        ament = None
+
+    def share(name: str) -> str:
+        found = next((root for root in package_roots(name, path, package_dirs) if root.is_dir()), None)
+        if found is not None:
+            return str(found)
+        if ament is not None:
+            with contextlib.suppress(Exception):
+                return ament.get_package_share_directory(name)
+        failures.append(
+            f"$(find {name}): package {name!r} not found above {path.name}; give --package-dir "
+            f"{name}=PATH (package_dirs=)"
+        )
+        raise LookupError(failures[-1])
+
+    failures: list[str] = []
+
+    index = types.ModuleType("ament_index_python")
+    packages = types.ModuleType("ament_index_python.packages")
+    packages.get_package_share_directory = share  # type: ignore[attr-defined]
+    packages.PackageNotFoundError = LookupError  # type: ignore[attr-defined]
+    index.packages = packages  # type: ignore[attr-defined]
+    with unittest.mock.patch.dict(
+        sys.modules, {"ament_index_python": index, "ament_index_python.packages": packages}
+    ):
+        yield failures
 
 
 def xacro_command(path: Path) -> str:
@@ -95,7 +145,7 @@ def xacro_command(path: Path) -> str:
     return f"xacro {shlex.quote(str(path))} -o {shlex.quote(str(out))}"
 
 
-def _expand_xacro(path: Path) -> str:
+def _expand_xacro(path: Path, package_dirs: Mapping[str, str] | None = None) -> str:
     try:
         import xacro  # type: ignore[import-not-found]
     except ImportError:
@@ -105,12 +155,13 @@ def _expand_xacro(path: Path) -> str:
             f".urdf"
         ) from None
     said = io.StringIO()  # xacro prints its warnings (and error context) on stderr itself
+    failures: list[str] = []
     try:
-        with contextlib.redirect_stderr(said):
+        with contextlib.redirect_stderr(said), _ros_packages(path, package_dirs) as failures:
             text = xacro.process_file(str(path)).toxml()
     except Exception as exc:  # xacro raises its own types with long texts
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise UrdfError(f"xacro cannot expand {str(path)!r}: {first}") from None
+        raise UrdfError(f"xacro cannot expand {str(path)!r}: {failures[-1] if failures else first}") from None
     lines = (line.strip() for line in _ANSI.sub("", said.getvalue()).splitlines())
     notes = [line for line in lines if line.startswith("warning")]  # not 'when processing file: ...'
 
@@ -119,22 +170,23 @@ def _expand_xacro(path: Path) -> str:
     return text
 
 
-def read_text(path: Path) -> str:
-    """The URDF text of ``path`` (a xacro file expanded), or a one-line UrdfError (missing, not a
-    regular file, over :data:`MAX_URDF_BYTES`, binary)."""
+def read_text(path: Path, package_dirs: Mapping[str, str] | None = None) -> str:
+    """The URDF text of ``path`` (a xacro file expanded, ``$(find NAME)`` from ``package_dirs``
+    or the folders above it), or a one-line UrdfError (missing, not a regular file, over
+    :data:`MAX_URDF_BYTES`, binary)."""
     text = files.read_text(path, "URDF", UrdfError, max_bytes=MAX_URDF_BYTES, strict_utf8=False)
     if path.suffix.lower() == ".xacro":
-        return _expand_xacro(path)
+        return _expand_xacro(path, package_dirs)
     return text
 
 
-def read_tree(path: Path) -> etree._Element:
+def read_tree(path: Path, package_dirs: Mapping[str, str] | None = None) -> etree._Element:
     """The XML tree of the URDF (or xacro) file ``path``, as :func:`read_urdf` reads it: a xacro
     source expanded when it can be; a one-line UrdfError when the file cannot be read."""
-    text = read_text(path)
+    text = read_text(path, package_dirs)
     if "<xacro:" in text and path.suffix.lower() != ".xacro":
         with contextlib.suppress(UrdfError):  # no xacro package: read_urdf accepted the text as is
-            text = _expand_xacro(path)
+            text = _expand_xacro(path, package_dirs)
     return _parse(text, repr(str(path)))
 
 
@@ -253,13 +305,13 @@ def read_urdf(
 ) -> pin.Model:
     """The Pinocchio model of the URDF (or xacro) file ``path`` (see module doc)."""
     where = repr(str(path))
-    text = read_text(path)
+    text = read_text(path, package_dirs)
     try:
         model = model_from_text(prepare(text, ranges or {}, where), where)
     except UrdfError:
         if "<xacro:" not in text:
             raise
-        text = _expand_xacro(path)  # a xacro source saved as .urdf: expanded, or the command
+        text = _expand_xacro(path, package_dirs)  # a xacro source saved as .urdf: expanded, or the command
         model = model_from_text(prepare(text, ranges or {}, where), where)
     _check_axes(model, where)
     _check_lengths(model, where)
