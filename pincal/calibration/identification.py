@@ -34,7 +34,7 @@ given σ, scaled by σ̂² = Σ residual² / (N − P) (σ estimated from the re
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -51,7 +51,7 @@ from pincal.calibration.sanity import (
     row_scores,
 )
 from pincal.errors import BadArgument, BadMeasurementData, PincalError, SingularPlan
-from pincal.evaluation.data_check import check_information
+from pincal.evaluation.data_check import DataCheck, check_information
 from pincal.evaluation.prior import Prior
 from pincal.model.base_parameters import preference_order
 from pincal.model.parameters import ParameterSet
@@ -144,6 +144,60 @@ def identify(
     """
     robot = params.robot
     sessions = _sessions(data, robot)
+    sigma = _checked_arguments(sigma, maxiter, loss, method, reject, prior)
+    m, rows = sum(d.m for d in sessions), 3 * robot.n_markers
+    if m * rows < len(params):
+        raise SingularPlan(len(params), rows, m)
+
+    coordinate_sigma, reference, per_point = _coordinate_sigma(sessions, sigma)
+    sigma_known = per_point or sigma is not None
+    problem = Problem(params, sessions, coordinate_sigma)
+    z0 = initial_values(problem)
+    before = problem.residual(z0)
+    check = _data_check(problem, z0, m, reference)
+    prior_std = _prior_std(prior, params, len(problem))
+    free = np.arange(len(problem)) if prior is not None else np.array(check.kept, dtype=int)
+    dropped = {} if prior is not None else dict(check.dropped)
+    labels = _labels(sessions)
+    why = _rank_deficiency(problem, check, free, m)
+    if why is not None:
+        return _result(problem, check, z0, None, before, "rank_deficient", why, 0, sigma, reference)
+
+    def fit(used: np.ndarray, fit_loss: str, z_start: np.ndarray) -> tuple[np.ndarray, int, bool, str]:
+        return _solve(problem, free, used, z_start, prior_std, fit_loss, method, maxiter, tol, sigma_known)
+
+    used, rejected = _reject_outliers(problem, fit, z0, labels, free, loss, reject)
+    z, iterations, converged, note = fit(used, loss, z0)
+    if z is None:
+        failed = f"identification {note}"
+        return _result(
+            problem, check, z0, None, before, "failed", failed, iterations, sigma, reference, dropped
+        )
+    residual = problem.residual(z)
+    keep = np.repeat(used, residual.size // m)
+    outliers = tuple(
+        o for o in find_outliers(np.where(keep, residual, 0.0), coordinate_sigma, labels) if used[o.row]
+    )
+    before_rms = _rms(before.reshape(m, -1, 3)[used])
+    after_rms = _rms(residual.reshape(m, -1, 3)[used])
+    problems = implausible(params, z[: len(params)], before_rms, after_rms, reference) if sanity else []
+    if not converged:  # an unfinished estimate is judged by its data only
+        problems = [p for p in problems if "before calibration" in p]
+    status, message, causes = _verdict(
+        problem, z, problems, converged, iterations, note, method, loss, dropped,
+        quality=lambda: _warnings(after_rms, residual[keep], coordinate_sigma[keep], sigma_known, len(free)),
+    )  # fmt: skip
+    return _result(
+        problem, check, z0, z, before, status, message, iterations, sigma, reference, dropped,
+        free=free, used=used, outliers=outliers, rejected=tuple(rejected), loss=loss, prior=prior,
+        prior_std=prior_std, causes=causes, method=method, per_point=per_point,
+    )  # fmt: skip
+
+
+def _checked_arguments(
+    sigma: float | None, maxiter: int, loss: str, method: str, reject: float | None, prior: Prior | None
+) -> float | None:
+    """``sigma`` checked (None stays None), after refusing any bad solver argument (named)."""
     sigma = None if sigma is None else positive_sigma(sigma)
     if isinstance(maxiter, bool) or int(maxiter) != maxiter or maxiter < 1:
         raise BadArgument(
@@ -176,111 +230,102 @@ def identify(
         raise BadArgument(
             f"prior must be a pincal.Prior (e.g. Prior.parse('1mm,1mrad')), got {prior!r}", argument="prior"
         )
-    m, rows = sum(d.m for d in sessions), 3 * robot.n_markers
-    if m * rows < len(params):
-        raise SingularPlan(len(params), rows, m)
+    return sigma
 
-    coordinate_sigma, reference, per_point = _coordinate_sigma(sessions, sigma)
-    problem = Problem(params, sessions, coordinate_sigma)
-    z0 = initial_values(problem)
-    before = problem.residual(z0)
-    J0 = problem.jacobian(z0) / coordinate_sigma[:, None]
+
+def _data_check(problem: Problem, z0: np.ndarray, m: int, reference: float) -> DataCheck:
+    """Step 1: what the data determine, at the start of the fit (bases and session unknowns always
+    kept, the rest in the parameters' order of preference)."""
+    params = problem.params
+    J0 = problem.jacobian(z0) / problem.sigma[:, None]
     always = list(problem.base) + list(range(len(params), len(problem)))
     order = (
         preference_order(params, frozenset(params.names[i] for i in problem.base))
         + always[len(problem.base) :]
     )
-    check = check_information(problem.names, problem.units, J0.T @ J0, order, m, reference, always=always)
-    prior_std = _prior_std(prior, params, len(problem))
-    free = np.arange(len(problem)) if prior is not None else np.array(check.kept, dtype=int)
-    dropped = {} if prior is not None else dict(check.dropped)
-    labels = _labels(sessions)
+    return check_information(problem.names, problem.units, J0.T @ J0, order, m, reference, always=always)
+
+
+def _rank_deficiency(problem: Problem, check: DataCheck, free: np.ndarray, m: int) -> str | None:
+    """Why the data cannot identify the parameters at all (None when they can)."""
+    params, sessions = problem.params, problem.sessions
+    rows = 3 * params.robot.n_markers
     distinct = len(np.unique(np.concatenate([d.q for d in sessions]), axis=0))
     minimum = SingularPlan(len(params), rows, m).min_configurations
     if free.size == 0 or (check.dropped and distinct < minimum):
-        why = (
+        return (
             f"the data cannot identify the parameters: {distinct} distinct configuration(s) for "
             f"{len(params)} parameters (rank {check.rank}); measure more varied configurations (at "
             f"least {minimum} are needed)"
         )
-        return _result(problem, check, z0, None, before, "rank_deficient", why, 0, sigma, reference)
+    return None
 
-    def fit(used: np.ndarray, fit_loss: str, z_start: np.ndarray) -> tuple[np.ndarray, int, bool, str]:
-        return _solve(
-            problem,
-            free,
-            used,
-            z_start,
-            prior_std,
-            fit_loss,
-            method,
-            maxiter,
-            tol,
-            per_point or sigma is not None,
-        )
 
+def _reject_outliers(
+    problem: Problem,
+    fit: Callable[[np.ndarray, str, np.ndarray], tuple[np.ndarray | None, int, bool, str]],
+    z0: np.ndarray,
+    labels: list[str],
+    free: np.ndarray,
+    loss: str,
+    reject: float | None,
+) -> tuple[np.ndarray, list[Outlier]]:
+    """Step 3: (rows used, rows rejected in order): with ``reject``, the rows beyond ``reject``
+    robust σ of a robust fit are dropped and the fit repeated (at most 10 times) until none is left."""
+    m, rows = len(labels), 3 * problem.params.robot.n_markers
     used = np.ones(m, dtype=bool)
     rejected: list[Outlier] = []
-    if reject is not None:
-        for _ in range(10):
-            z_scoring, *_ = fit(used, "soft_l1" if loss == "linear" else loss, z0)
-            if z_scoring is None:
-                break
-            distance, score = row_scores(problem.residual(z_scoring), coordinate_sigma, m)
-            score[~used] = 0.0
-            new = [i for i in np.argsort(-score) if score[i] > reject]
-            if not new:
-                break
-            rejected += [Outlier(int(i), labels[i], float(distance[i]), float(score[i])) for i in new]
-            used[new] = False
-        if used.sum() * rows < free.size:
-            raise SingularPlan(free.size, rows, int(used.sum()))
-    z, iterations, converged, note = fit(used, loss, z0)
-    if z is None:
-        failed = f"identification {note}"
-        return _result(
-            problem, check, z0, None, before, "failed", failed, iterations, sigma, reference, dropped
-        )
-    residual = problem.residual(z)
-    keep = np.repeat(used, residual.size // m)
-    outliers = tuple(
-        o for o in find_outliers(np.where(keep, residual, 0.0), coordinate_sigma, labels) if used[o.row]
-    )
-    before_rms = _rms(before.reshape(m, -1, 3)[used])
-    after_rms = _rms(residual.reshape(m, -1, 3)[used])
-    problems = implausible(params, z[: len(params)], before_rms, after_rms, reference) if sanity else []
-    if not converged:  # an unfinished estimate is judged by its data only
-        problems = [p for p in problems if "before calibration" in p]
-    causes: tuple[str, ...] = ()
+    if reject is None:
+        return used, rejected
+    for _ in range(10):
+        z_scoring, *_ = fit(used, "soft_l1" if loss == "linear" else loss, z0)
+        if z_scoring is None:
+            break
+        distance, score = row_scores(problem.residual(z_scoring), problem.sigma, m)
+        score[~used] = 0.0
+        new = [i for i in np.argsort(-score) if score[i] > reject]
+        if not new:
+            break
+        rejected += [Outlier(int(i), labels[i], float(distance[i]), float(score[i])) for i in new]
+        used[new] = False
+    if used.sum() * rows < free.size:
+        raise SingularPlan(free.size, rows, int(used.sum()))
+    return used, rejected
+
+
+def _verdict(
+    problem: Problem,
+    z: np.ndarray,
+    problems: list[str],
+    converged: bool,
+    iterations: int,
+    note: str,
+    method: str,
+    loss: str,
+    dropped: dict[str, str],
+    quality: Callable[[], str],
+) -> tuple[str, str, tuple[str, ...]]:
+    """Step 4: (status, message, likely causes) of a finished fit; ``problems`` (what no real robot
+    has) make it implausible, converged or not; ``quality`` is what a converged fit's residuals say."""
     if problems:
-        status = "implausible"
-        causes = tuple(likely_causes(problem, z, problems))
         message = (
             "no real robot has this: "
             + "; ".join(problems)
             + " (not a calibration; --force writes it anyway)"
         )
-    elif converged:
-        status = "converged"
+        return "implausible", message, tuple(likely_causes(problem, z, problems))
+    if converged:
         message = f"{iterations} Jacobian evaluation(s) of scipy least_squares ({method}, loss {loss})"
         if dropped:
             message += (
                 f"; {len(dropped)} parameter(s) the data cannot identify left nominal: {', '.join(dropped)}"
             )
-        message += _warnings(
-            after_rms, residual[keep], coordinate_sigma[keep], per_point or sigma is not None, len(free)
-        )
-    else:
-        status = "not_converged"
-        message = (
-            f"no convergence after {iterations} Jacobian evaluation(s) ({note}); the last estimate is "
-            f"not a calibration: allow more iterations (maxiter, --maxiter)"
-        )
-    return _result(
-        problem, check, z0, z, before, status, message, iterations, sigma, reference, dropped,
-        free=free, used=used, outliers=outliers, rejected=tuple(rejected), loss=loss, prior=prior,
-        prior_std=prior_std, causes=causes, method=method, per_point=per_point,
-    )  # fmt: skip
+        return "converged", message + quality(), ()
+    message = (
+        f"no convergence after {iterations} Jacobian evaluation(s) ({note}); the last estimate is "
+        f"not a calibration: allow more iterations (maxiter, --maxiter)"
+    )
+    return "not_converged", message, ()
 
 
 def _prior_std(prior: Prior | None, params: ParameterSet, n: int) -> np.ndarray:
