@@ -170,61 +170,10 @@ def check_information(
             nominal identity).
     """
     names, units = tuple(names), tuple(units)
-    bound = np.array([IDENTIFIABLE_STD[u] for u in units])
-    _, scaled = jacobi_scaled(M, ZERO_COLUMN)
-    zero = scaled.diagonal() == 0.0
-    always_set = set(always)
-    kept: list[int] = []
-    dropped: dict[str, str] = {}
-    std = np.zeros(0)
-    for i in sorted(order, key=lambda i: i not in always_set):
-        if zero[i] and i not in always_set:
-            dropped[names[i]] = (
-                "invisible in these data: it does not move the measured points at these configurations"
-            )
-            continue
-        trial = kept + [i]
-        diag = covariance_diagonal(M[np.ix_(trial, trial)])
-        if i in always_set:
-            kept, std = trial, np.sqrt(diag) if diag is not None else np.full(len(trial), np.inf)
-            continue
-        partner = ""
-        if kept:
-            k = max(kept, key=lambda k: abs(scaled[i, k]))
-            partner = f"; it moves the points nearly as {names[k]} does (cosine {abs(scaled[i, k]):.4f})"
-        if diag is None:
-            dropped[names[i]] = "inseparable in these data from the parameters kept before it" + partner
-            continue
-        floor = conditioning(M[np.ix_(trial, trial)])
-        if floor < MIN_DATA_CONDITIONING:
-            dropped[names[i]] = (
-                f"nearly inseparable in these data from those kept before it (conditioning {floor:.2g} "
-                f"< {MIN_DATA_CONDITIONING:g})" + partner
-            )
-            continue
-        trial_std = np.sqrt(diag)
-        limited = [j for j in range(len(trial)) if trial[j] not in always_set]
-        worse = [j for j in limited if trial_std[j] > bound[trial[j]]]
-        if worse:
-            j = len(trial) - 1 if worse[-1] == len(trial) - 1 else worse[0]
-            shown = (
-                f"±{_shown(trial_std[j], units[trial[j]])} (limit {_shown(bound[trial[j]], units[trial[j]])})"
-            )
-            if j == len(trial) - 1:
-                why = f"these data determine it only to {shown}"
-            else:
-                why = f"with it, these data would determine {names[trial[j]]} only to {shown}"
-            dropped[names[i]] = why + partner
-            continue
-        kept, std = trial, trial_std
+    kept, std, dropped = _identifiable_subset(names, units, M, order, set(always))
     position = {i: n for n, i in enumerate(kept)}
     kept_sorted = sorted(kept)
     std = np.array([std[position[i]] for i in kept_sorted])
-    words = []
-    for s, v in weakest(M, min(3, len(names))):
-        if s >= 0.05 and words:
-            break
-        words.append(f"{_combination(names, v)} (relative singular value {s:.2g})")
     return DataCheck(
         names=names,
         units=units,
@@ -235,11 +184,90 @@ def check_information(
         condition_number_kept=condition_number(M[np.ix_(kept_sorted, kept_sorted)])
         if kept_sorted
         else np.inf,
-        weakest=tuple(words),
+        weakest=_weakest_words(names, M),
         std=std,
         sigma=float(sigma),
         m=int(m),
     )
+
+
+def _identifiable_subset(
+    names: tuple[str, ...], units: tuple[str, ...], M: np.ndarray, order: Sequence[int], always: set[int]
+) -> tuple[list[int], np.ndarray, dict[str, str]]:
+    """(kept columns in the order taken, their standard errors, {name: reason} of those left out):
+    the ``always`` columns first, then each column of ``order`` unless :func:`_refusal` says why not."""
+    bound = np.array([IDENTIFIABLE_STD[u] for u in units])
+    _, scaled = jacobi_scaled(M, ZERO_COLUMN)
+    zero = scaled.diagonal() == 0.0
+    kept: list[int] = []
+    dropped: dict[str, str] = {}
+    std = np.zeros(0)
+    for i in sorted(order, key=lambda i: i not in always):
+        if zero[i] and i not in always:
+            dropped[names[i]] = (
+                "invisible in these data: it does not move the measured points at these configurations"
+            )
+            continue
+        trial = kept + [i]
+        diag = covariance_diagonal(M[np.ix_(trial, trial)])
+        if i in always:
+            kept, std = trial, np.sqrt(diag) if diag is not None else np.full(len(trial), np.inf)
+            continue
+        why = _refusal(names, units, M, scaled, bound, trial, diag, always)
+        if why is not None:
+            dropped[names[i]] = why
+            continue
+        kept, std = trial, np.sqrt(diag)
+    return kept, std, dropped
+
+
+def _refusal(
+    names: tuple[str, ...],
+    units: tuple[str, ...],
+    M: np.ndarray,
+    scaled: np.ndarray,
+    bound: np.ndarray,
+    trial: list[int],
+    diag: np.ndarray | None,
+    always: set[int],
+) -> str | None:
+    """Why the last column of ``trial`` cannot join the ones kept before it (``diag``: the
+    covariance diagonal of ``trial``, None if singular): inseparable from them, nearly so, or it
+    leaves one too poorly determined; None when it can."""
+    i, kept = trial[-1], trial[:-1]
+    partner = ""
+    if kept:
+        k = max(kept, key=lambda k: abs(scaled[i, k]))
+        partner = f"; it moves the points nearly as {names[k]} does (cosine {abs(scaled[i, k]):.4f})"
+    if diag is None:
+        return "inseparable in these data from the parameters kept before it" + partner
+    floor = conditioning(M[np.ix_(trial, trial)])
+    if floor < MIN_DATA_CONDITIONING:
+        return (
+            f"nearly inseparable in these data from those kept before it (conditioning {floor:.2g} "
+            f"< {MIN_DATA_CONDITIONING:g})" + partner
+        )
+    trial_std = np.sqrt(diag)
+    limited = [j for j in range(len(trial)) if trial[j] not in always]
+    worse = [j for j in limited if trial_std[j] > bound[trial[j]]]
+    if not worse:
+        return None
+    j = len(trial) - 1 if worse[-1] == len(trial) - 1 else worse[0]
+    shown = f"±{_shown(trial_std[j], units[trial[j]])} (limit {_shown(bound[trial[j]], units[trial[j]])})"
+    if j == len(trial) - 1:
+        return f"these data determine it only to {shown}" + partner
+    return f"with it, these data would determine {names[trial[j]]} only to {shown}" + partner
+
+
+def _weakest_words(names: tuple[str, ...], M: np.ndarray) -> tuple[str, ...]:
+    """The least determined combinations of M's columns, in words: the weakest, and up to two more
+    while their relative singular value is below 0.05."""
+    words = []
+    for s, v in weakest(M, min(3, len(names))):
+        if s >= 0.05 and words:
+            break
+        words.append(f"{_combination(names, v)} (relative singular value {s:.2g})")
+    return tuple(words)
 
 
 def check_plan(params: ParameterSet, plan: object, sigma: float) -> DataCheck:
