@@ -142,26 +142,9 @@ def monte_carlo(
     qs = robot.configurations(plan)
     q0 = robot.configurations(test_pose, what="test pose")
     predicted = float(rho0(params, qs, q0, sigma=sigma))
-    rng = generator(seed)
-    nominal0 = robot.points(q0)
-    errors, before, at_truth = [], [], []
-    failures = local_minima = 0
-    for _ in range(int(trials)):
-        truth = random_errors(params, {"length": length, "angle": angle}, rng)
-        data = simulate_measurements(truth.robot, qs, sigma, rng)
-        result = identify(params, data, sigma=sigma, sanity=False)
-        if not result.success:
-            failures += 1
-            continue
-        dof = max(result.residuals.size - len(params), 1)
-        if np.sqrt(np.sum(result.residuals**2) / dof) > LOCAL_MINIMUM * sigma:
-            local_minima += 1
-            continue
-        true0 = truth.robot.points(q0)
-        errors.append(_rms_over_poses(result.robot.points(q0) - true0))
-        before.append(_rms_over_poses(nominal0 - true0))
-        at_truth.append(float(rho0(params.on(truth.robot), qs, q0, sigma=sigma)))
-    errors_arr, before_arr = np.array(errors), np.array(before)
+    errors_arr, before_arr, at_truth, failures, local_minima = _run_trials(
+        params, qs, q0, sigma, length, angle, int(trials), generator(seed)
+    )
     n = len(errors_arr)
     if n < 2:
         raise BadArgument(
@@ -193,6 +176,39 @@ def monte_carlo(
         nonlinear=nonlinear,
         note=note,
     )
+
+
+def _run_trials(
+    params: ParameterSet,
+    qs: np.ndarray,
+    q0: np.ndarray,
+    sigma: float,
+    length: float,
+    angle: float,
+    trials: int,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray, list[float], int, int]:
+    """(errors after, errors before, ρ0 at each true robot) of the trials that found the truth,
+    then the number of failed identifications and of local minima (see :func:`monte_carlo`)."""
+    nominal0 = params.robot.points(q0)
+    errors, before, at_truth = [], [], []
+    failures = local_minima = 0
+    for _ in range(trials):
+        truth = random_errors(params, {"length": length, "angle": angle}, rng)
+        data = simulate_measurements(truth.robot, qs, sigma, rng)
+        result = identify(params, data, sigma=sigma, sanity=False)
+        if not result.success:
+            failures += 1
+            continue
+        dof = max(result.residuals.size - len(params), 1)
+        if np.sqrt(np.sum(result.residuals**2) / dof) > LOCAL_MINIMUM * sigma:
+            local_minima += 1
+            continue
+        true0 = truth.robot.points(q0)
+        errors.append(_rms_over_poses(result.robot.points(q0) - true0))
+        before.append(_rms_over_poses(nominal0 - true0))
+        at_truth.append(float(rho0(params.on(truth.robot), qs, q0, sigma=sigma)))
+    return np.array(errors), np.array(before), at_truth, failures, local_minima
 
 
 def _rms_over_poses(difference: np.ndarray) -> float:
