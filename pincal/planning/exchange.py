@@ -103,6 +103,61 @@ def _trace_values(
     return values, new_t
 
 
+def _pool_products(
+    objective: Objective, J_pool: np.ndarray, Minv: np.ndarray, trace: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(A, S_cc, AJ0) of every pool candidate c for the current M⁻¹: A = J_c M⁻¹, S_cc = J_c M⁻¹ J_cᵀ
+    and, for a trace objective, AJ0 = J_c M⁻¹ J0ᵀ (else None)."""
+    N, r, P = J_pool.shape
+    flat = J_pool.reshape(N * r, P)
+    A = (flat @ Minv).reshape(N, r, P)  # J_c M⁻¹
+    S_cc = np.einsum("nrp,nsp->nrs", A, J_pool)
+    AJ0 = (flat @ (Minv @ objective.J0T)).reshape(N, r, -1) if trace else None
+    return A, S_cc, AJ0
+
+
+def _allowed(used: np.ndarray, dist: np.ndarray | None, i: int, spacing: float) -> np.ndarray:
+    """(N,) the candidates that may replace configuration i: not in the plan and, with a minimum
+    spacing (``dist``: (N, m) distances to the plan), at least ``spacing`` from the others."""
+    allowed = ~used
+    if dist is not None:
+        others = np.delete(dist, i, axis=1)
+        allowed &= np.all(others >= spacing, axis=1)
+    return allowed
+
+
+def _candidate_values(
+    objective: Objective,
+    cand: np.ndarray,
+    F: float,
+    t: np.ndarray | None,
+    M: np.ndarray,
+    Minv: np.ndarray,
+    Ji: np.ndarray,
+    H: np.ndarray,
+    logdet: np.ndarray,
+    AJ0: np.ndarray | None,
+    JtJ: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """(values, traces or None) of the objective after swapping configuration Ji (rows) for each
+    candidate ``cand``, each family its own way: the determinant ratio (logdet), the Woodbury
+    update of the traces (trace), the eigenvalues of M' itself (spectral)."""
+    if objective.family == "logdet":
+        return F - logdet[cand], None
+    if isinstance(objective, TraceObjective):
+        return _trace_values(objective, t, H[cand], AJ0[cand], Ji @ (Minv @ objective.J0T))
+    Mc = M + JtJ[cand] - Ji.T @ Ji
+    return objective.from_eigenvalues(np.linalg.eigvalsh(objective.posterior(Mc))), None
+
+
+def _swapped_inverse(Minv: np.ndarray, A_c: np.ndarray, Ai: np.ndarray, H_c: np.ndarray) -> np.ndarray:
+    """M⁻¹ after the swap of configuration i (Ai = Ji M⁻¹) for candidate c (A_c = J_c M⁻¹, H_c its
+    capacitance), by Woodbury: M'⁻¹ = M⁻¹ − M⁻¹ U H⁻¹ Uᵀ M⁻¹, symmetrised."""
+    UtMinv = np.concatenate([A_c, Ai])  # Uᵀ M⁻¹, (2r, P)
+    Minv = Minv - UtMinv.T @ np.linalg.solve(H_c, UtMinv)
+    return 0.5 * (Minv + Minv.T)
+
+
 def fedorov(
     objective: Objective,
     J_pool: np.ndarray,
@@ -127,7 +182,6 @@ def fedorov(
     N, r, P = J_pool.shape
     index = np.array(index)
     m = len(index)
-    flat = J_pool.reshape(N * r, P)
     JtJ = np.einsum("nrp,nrs->nps", J_pool, J_pool) if objective.family == "spectral" else None
     trace = isinstance(objective, TraceObjective)
 
@@ -149,36 +203,22 @@ def fedorov(
         improved = False
         for i in range(m):
             if stale:
-                A = (flat @ Minv).reshape(N, r, P)  # J_c M⁻¹
-                S_cc = np.einsum("nrp,nsp->nrs", A, J_pool)
-                AJ0 = (flat @ (Minv @ objective.J0T)).reshape(N, r, -1) if trace else None
+                A, S_cc, AJ0 = _pool_products(objective, J_pool, Minv, trace)
                 stale = False
             Ji = J_pool[index[i]]
             Ai = Ji @ Minv
             H = _capacitance(S_cc, A, Ji, Ai)
-            allowed = ~used
-            if dist is not None:
-                others = np.delete(dist, i, axis=1)
-                allowed &= np.all(others >= spacing, axis=1)
             sign, logdet = np.linalg.slogdet(H)
-            ok = allowed & (sign * sign_c > 0) & (logdet > LOG_MIN_RATIO)
+            ok = _allowed(used, dist, i, spacing) & (sign * sign_c > 0) & (logdet > LOG_MIN_RATIO)
             if not ok.any():
                 continue
             cand = np.flatnonzero(ok)
-            if objective.family == "logdet":
-                values, new_t = F - logdet[cand], None
-            elif trace:
-                values, new_t = _trace_values(objective, t, H[cand], AJ0[cand], Ji @ (Minv @ objective.J0T))
-            else:
-                Mc = M + JtJ[cand] - Ji.T @ Ji
-                values, new_t = objective.from_eigenvalues(np.linalg.eigvalsh(objective.posterior(Mc))), None
+            values, new_t = _candidate_values(objective, cand, F, t, M, Minv, Ji, H, logdet, AJ0, JtJ)
             best = _best_regular(values, F, cand, M, J_pool, Ji, floor)
             if best is None:
                 continue
             c = int(cand[best])
-            UtMinv = np.concatenate([A[c], Ai])  # Uᵀ M⁻¹, (2r, P)
-            Minv = Minv - UtMinv.T @ np.linalg.solve(H[c], UtMinv)
-            Minv = 0.5 * (Minv + Minv.T)
+            Minv = _swapped_inverse(Minv, A[c], Ai, H[c])
             M = M + J_pool[c].T @ J_pool[c] - Ji.T @ Ji
             used[index[i]] = False
             used[c] = True
