@@ -393,6 +393,7 @@ def test_identify_without_residual_degrees_of_freedom_prints_no_nan_sigma(cell, 
         (["--data", "{far}"], "line 3: measured coordinate 1e+300 m, over the 1e+06 m"),
         (["--data", "{data}", "--sigma", "1e-300"], "--sigma must be from 1e-12 to 1000 m"),
         (["--data", "{data}", "--marker", "1e300,0,0"], "marker coordinate 1e+300 m, over"),
+        (["--data", "{data}", "--prior", "1e300,1e300"], "prior standard deviation of lengths must be from"),
     ],
 )
 def test_absurd_lengths_and_sigmas_are_refused_at_the_boundary(cell, capsys, argv, fragment):

@@ -37,6 +37,11 @@ ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "µrad": 1e-6, "deg": mat
 _TOKEN = re.compile(r"^\s*([-+0-9.eE]+|inf)\s*([a-zµ]*)\s*$")
 
 
+PRIOR_RANGE = (1e-12, 1e6)
+"""Finite prior standard deviations pincal accepts [m or rad] (inf: no prior): 1/std² stays far
+from overflow and underflow."""
+
+
 def _positive(value: object, what: str) -> float:
     try:
         v = float(value)
@@ -44,6 +49,12 @@ def _positive(value: object, what: str) -> float:
         v = math.nan
     if not (v > 0):  # NaN fails too; inf is allowed: no prior
         raise BadArgument(f"prior standard deviation of {what} must be a positive number, got {value!r}")
+    low, high = PRIOR_RANGE
+    if math.isfinite(v) and not low <= v <= high:
+        raise BadArgument(
+            f"prior standard deviation of {what} must be from {low:g} to {high:g} (or inf: no prior), "
+            f"got {value!r}"
+        )
     return v
 
 
