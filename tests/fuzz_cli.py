@@ -80,6 +80,18 @@ def plan_csv(draw, rows=(1, 8)) -> str:
 
 
 @st.composite
+def test_path_csv(draw) -> str:
+    """A test path as users give one (design/evaluate --test-path): a straight joint-space segment
+    sampled at 1-60 points, in either column order."""
+    order = draw(st.permutations(JOINTS))
+    n = draw(st.integers(1, 60))
+    start = [draw(st.floats(-3.1, 3.1)) for _ in order]
+    end = [draw(st.floats(-3.1, 3.1)) for _ in order]
+    rows = [[f"{a + (b - a) * k / max(1, n - 1):.6g}" for a, b in zip(start, end)] for k in range(n)]
+    return _csv(list(order), rows)
+
+
+@st.composite
 def measurement_csv(draw) -> str:
     """Joint values and the planar tip point (exact, or with a little noise)."""
     m = draw(st.integers(1, 10))
@@ -118,12 +130,102 @@ def constraints_yaml(draw) -> str:
 
 
 @st.composite
+def dh_table(draw) -> str:
+    """A DH table for urdf-from-dh: 1-7 rows (some prismatic), either convention, m or mm, rad or
+    deg, optional names, limits, velocity/effort, base, tool and markers; or the shipped UR5's."""
+    if DH_TABLE is not None and draw(st.integers(0, 4)) == 0:
+        return DH_TABLE
+    mm, deg = draw(st.booleans()), draw(st.booleans())
+    length, angle = (1000.0 if mm else 1.0), (180 / math.pi if deg else 1.0)
+    lengths = st.floats(-1.5, 1.5).map(lambda v: round(v * length, 6))
+    angles = st.one_of(st.sampled_from([0.0, 0.5 * math.pi, -0.5 * math.pi, math.pi]), st.floats(-3.1, 3.1))
+    angles = angles.map(lambda v: round(v * angle, 6))
+    rows = []
+    for i in range(draw(st.integers(1, 7))):
+        row: dict = {"a": draw(lengths), "alpha": draw(angles), "d": draw(lengths), "theta": draw(angles)}
+        if draw(st.integers(0, 4)) == 0:
+            row.update(type="prismatic", limits=[0.0, round(draw(st.floats(0.01, 1)) * length, 6)])
+        elif draw(st.booleans()):
+            lo = draw(st.floats(-3.1, 0))
+            row["limits"] = [round(lo * angle, 6), round(draw(st.floats(lo + 0.01, 3.2)) * angle, 6)]
+        if draw(st.booleans()):
+            row["name"] = f"j{i + 1}"
+        if draw(st.integers(0, 3)) == 0:
+            row.update(velocity=draw(st.floats(0, 3)), effort=draw(st.floats(0, 100)))
+        rows.append(row)
+    table: dict = {"name": "fuzz_arm", "convention": draw(st.sampled_from(["standard", "modified"]))}
+    table["units"] = {"length": "mm" if mm else "m", "angle": "deg" if deg else "rad"}
+    table["joints"] = rows
+    if draw(st.booleans()):
+        table["base"] = {"xyz": [draw(lengths) for _ in range(3)], "rpy": [draw(angles) for _ in range(3)]}
+    if draw(st.booleans()):
+        table["tool"] = {"name": "tool0", "xyz": [draw(lengths) for _ in range(3)], "rpy": [0, 0, 0]}
+    if draw(st.booleans()):
+        table["markers"] = [[draw(lengths) for _ in range(3)] for _ in range(draw(st.integers(1, 3)))]
+    return yaml.safe_dump(table, default_flow_style=draw(st.booleans()), sort_keys=False)
+
+
+XACRO_NS = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'
+
+
+@st.composite
+def xacro_text(draw) -> str:
+    """planar_2r as a xacro source (the same geometry): link lengths as properties, optionally the
+    limits as ${pi} expressions and the links made by a macro."""
+    text = PLANAR_URDF.replace(
+        '<robot name="planar_2r">',
+        f'<robot name="planar_2r" {XACRO_NS}>\n  <xacro:property name="l1" value="1.0"/>\n'
+        '  <xacro:property name="l2" value="${l1 * 0.8}"/>',
+    )
+    text = text.replace('xyz="1.0 0 0"', 'xyz="${l1} 0 0"').replace('xyz="0.8 0 0"', 'xyz="${l2} 0 0"')
+    if draw(st.booleans()):
+        text = text.replace('lower="-3.141592653589793"', 'lower="${-pi}"')
+        text = text.replace('upper="3.141592653589793"', 'upper="${pi}"')
+    if draw(st.booleans()):
+        macro = '<xacro:macro name="bare_link" params="name"><link name="${name}"/></xacro:macro>'
+        text = text.replace(
+            '  <link name="base_link"/>', "  " + macro + '\n  <xacro:bare_link name="base_link"/>'
+        )
+        text = text.replace('<link name="link1"/>', '<xacro:bare_link name="link1"/>')
+    return text
+
+
+@st.composite
 def urdf_text(draw) -> str:
     text = PLANAR_URDF
     if draw(st.booleans()):  # a vendor-like variant: joint2 continuous
         old = 'type="revolute">\n    <parent link="link1"/>'
         text = text.replace(old, old.replace("revolute", "continuous"))
     return text
+
+
+# Prior values (--prior LEN,ANG): a length and an angle with units, in either order, or malformed.
+prior_valid = st.builds(
+    lambda length, lu, ang, au, swap: ",".join(
+        reversed((f"{length:g}{lu}", f"{ang:g}{au}")) if swap else (f"{length:g}{lu}", f"{ang:g}{au}")
+    ),
+    st.floats(1e-3, 10),
+    st.sampled_from(["mm", "um", "µm", "cm", "m"]),
+    st.floats(1e-3, 10),
+    st.sampled_from(["mrad", "urad", "µrad", "deg", "rad"]),
+    st.booleans(),
+) | st.sampled_from(["1mm,1mrad", "1e-3,1e-3", "0.5deg,2mm", " 1 mm , 1 mrad "])
+PRIOR_MALFORMED = (
+    "", ",", "1mm", "1mm,1mm", "1mrad,1mrad", "1mm,1mrad,1mm", "mm,mrad", "1km,1mrad", "1mm;1mrad",
+    "-1mm,1mrad", "0mm,1mrad", "1mm,0", "nanmm,1mrad", "infmm,1mrad", "inf,inf", "1e999mm,1mrad",
+    "1e-300mm,1mrad", "1e300,1e300", "5e-324,1", "1mm,1e999deg", "1MM,1MRAD", "1 m m,1mrad", "1e,1",
+    "..1mm,1mrad", "+-1mm,1mrad", "1mm,1mrad,", "١mm,1mrad", "1mm\n,1mrad", "1_0mm,1mrad",
+)  # fmt: skip
+prior_malformed = st.one_of(
+    st.sampled_from(PRIOR_MALFORMED),
+    st.tuples(number_text, st.sampled_from(["mm", "m", "deg", "x", ""]))
+    .map("".join)
+    .map(lambda t: t + ",1mrad"),
+    comma_list(2),
+    st.text(max_size=12),
+)
+# Argument values drawn for a {placeholder} in BASE_ARGV: (valid values, malformed values).
+VALUE_KINDS = {"prior": (prior_valid, prior_malformed)}
 
 
 # ------------------------------------------------------------------------------- mutations
@@ -233,6 +335,34 @@ def _urdf_structure(draw, text: str) -> str:
     return text.replace("</robot>", "")
 
 
+def _xacro_structure(draw, text: str) -> str:
+    """A URDF mutation, or one of xacro's own: an undefined property, a failing expression, an
+    include of a missing file or of another input, a macro that calls itself, a property that
+    expands to some 20 MB, xacro tags in a plain namespace. Not generated: an expression that runs for
+    minutes (``${10**10**10}``) or allocates gigabytes: xacro runs in pincal's process, unbounded
+    (left open in benchmarks/RESULTS.md)."""
+    kind = draw(st.sampled_from(["urdf", "undefined", "expression", "include", "recursion", "growth", "ns"]))
+    if kind == "urdf":
+        return _urdf_structure(draw, text)
+    if kind == "undefined":
+        return text.replace("${l1}", "${nope}", 1)
+    if kind == "expression":
+        expr = draw(st.sampled_from(["1/0", "l1 +", "float('nan')", "__import__('os').getcwd()"]))
+        return text.replace("${l1}", "${" + expr + "}", 1)
+    if kind == "include":
+        target = draw(st.sampled_from(["missing.xacro", "input_plan.csv", "/dev/null", ""]))
+        return text.replace("</robot>", f'<xacro:include filename="{target}"/></robot>')
+    if kind == "recursion":
+        loop = '<xacro:macro name="loop"><xacro:loop/></xacro:macro><xacro:loop/>'
+        return text.replace("</robot>", loop + "</robot>")
+    if kind == "growth":
+        chain = '<xacro:property name="g0" value="xx"/>' + "".join(
+            f'<xacro:property name="g{i}" value="${{g{i - 1} * 10}}"/>' for i in range(1, 8)
+        )
+        return text.replace("</robot>", chain + '<link name="${g7}"/></robot>')
+    return text.replace(XACRO_NS, 'xmlns:xacro="urn:not-xacro"')
+
+
 GENERIC_MUTATIONS = (
     lambda draw, t: _replace_number(draw, t),
     lambda draw, t: _insert(draw, t),
@@ -243,13 +373,13 @@ GENERIC_MUTATIONS = (
     lambda draw, t: t.replace("\n", "\r\n"),
     lambda draw, t: "",
 )
-STRUCTURAL = {"csv": _csv_column, "yaml": _yaml_structure, "urdf": _urdf_structure}
+STRUCTURAL = {"csv": _csv_column, "yaml": _yaml_structure, "urdf": _urdf_structure, "xacro": _xacro_structure}
 
 
 @dataclass(frozen=True)
 class FileKind:
     valid: st.SearchStrategy[str]
-    syntax: str  # csv, yaml or urdf: which structural mutations apply
+    syntax: str  # csv, yaml, urdf or xacro: which structural mutations apply
     suffix: str
 
 
@@ -259,7 +389,10 @@ FILE_KINDS = {
     "data": FileKind(measurement_csv(), "csv", ".csv"),
     "constraints": FileKind(constraints_yaml(), "yaml", ".yaml"),
     "urdf": FileKind(urdf_text(), "urdf", ".urdf"),
-    "dh": FileKind(st.just(DH_TABLE), "yaml", ".yaml"),
+    "dh": FileKind(dh_table(), "yaml", ".yaml"),
+    "path": FileKind(test_path_csv(), "csv", ".csv"),
+    "validate": FileKind(measurement_csv(), "csv", ".csv"),
+    "xacro": FileKind(xacro_text(), "xacro", ".urdf.xacro"),
 }
 # Which file kind an option's metavar reads.
 METAVAR_KINDS = {
@@ -270,6 +403,8 @@ METAVAR_KINDS = {
     "TRUE.urdf": "urdf",
     "ROBOT": "urdf",
     "TABLE.yaml": "dh",
+    "PATH.csv": "path",
+    "OTHER.csv": "validate",
 }
 
 
@@ -314,6 +449,11 @@ BASE_ARGV = {
     "show-plot": "show {urdf} --tip tip --plan {plan} --test-pose=0.3,1.2 --params joint2.tx,tip.tx "
     "--plot {out.png} --baseline 10",
     "urdf-from-dh": "urdf-from-dh {dh} --out {out.urdf}",
+    "design-path": "design {urdf} --tip tip -m 3 --test-path {path} --prior {prior} "
+    "--params joint2.tx,tip.tx --starts 2 --workers 1 --no-progress --pool-size 40 --out {out.csv}",
+    "identify-validate": "identify {urdf} --tip tip --data {data} --validate {validate} --prior {prior} "
+    "--params joint2.tx,tip.tx --out {out.urdf}",
+    "params-xacro": "params {xacro} --tip tip --seed 1",
 }
 PINNED = {
     "--workers": st.sampled_from(["1", "0", "-1", "x", str(2**63)]),
@@ -337,6 +477,7 @@ GOOD_VALUES = {
     "-m": ["1", "2", "3", "4", "6"],
 }
 OUTPUT_SUFFIX = {"FILE.png": ".png", "FILE.html": ".html", "PLAN.csv": ".csv", "MEAS.csv": ".csv"}
+OUTPUT_FLAGS = ("--out", "--html", "--plot", "--save-true", "--accuracy-plot")
 
 
 @dataclass
@@ -362,10 +503,13 @@ def option_value(draw, option: str, action) -> list[str]:
     if option in PINNED and PINNED[option] is not None:
         return [draw(PINNED[option])]
     metavar = action.metavar or ""
+    if option in OUTPUT_FLAGS:  # --save-true's metavar is TRUE.urdf, like the input --true
+        return ["{out" + OUTPUT_SUFFIX.get(metavar, ".urdf") + "}"]
     if metavar in METAVAR_KINDS:
         return ["{" + METAVAR_KINDS[metavar] + "}"]
-    if metavar in OUTPUT_SUFFIX or metavar.endswith(".urdf"):
-        return ["{out" + OUTPUT_SUFFIX.get(metavar, ".urdf") + "}"]
+    if option[2:] in VALUE_KINDS:
+        valid, malformed = VALUE_KINDS[option[2:]]
+        return [draw(st.one_of(valid, malformed))]
     strategies = [st.text(max_size=12)]
     if option in GOOD_VALUES:
         strategies += [st.sampled_from(GOOD_VALUES[option])] * 3
@@ -412,7 +556,8 @@ def argv_mutation(draw, command: str, argv: list[str]) -> tuple[str, list[str]]:
             i = draw(st.sampled_from(outs))
             return "output", argv[:i] + [draw(SPECIAL_OUTPUTS)] + argv[i + 1 :]
     if op == "positional":
-        robot = draw(st.sampled_from(["{urdf}", "kr270", "planar_2r", "nope", "", "-x", "{plan}", "{dir}"]))
+        robots = ["{urdf}", "{xacro}", "kr270", "planar_2r", "nope", "", "-x", "{plan}", "{dir}"]
+        robot = draw(st.sampled_from(robots))
         return "args", argv[:1] + [robot] + argv[2:]
     name = draw(st.sampled_from(sorted(n for n in actions if n not in ("--html", "--plot") or n in argv)))
     return "args", argv + [name, *draw(option_value(name, actions[name]))]
@@ -422,7 +567,8 @@ def argv_mutation(draw, command: str, argv: list[str]) -> tuple[str, list[str]]:
 # missing folder, a file used as a folder, links to an input, odd names.
 SPECIAL_OUTPUTS = st.sampled_from(
     [
-        "{plan}", "{urdf}", "{data}", "{constraints}", "{pool}", "{dh}", "{dir}", "{fifo}",
+        "{plan}", "{urdf}", "{data}", "{constraints}", "{pool}", "{dh}", "{path}", "{validate}",
+        "{xacro}", "{dir}", "{fifo}",
         "{dir}/missing/out.csv", "{plan}/out.csv", "{link_to_input}", "{hardlink_to_input}",
         "{dir}/a b,c;'\".csv", "{dir}/" + "n" * 300 + ".csv", "", "{dir}/out.xyz", "{dir}/noext",
         "{dir}/out.PNG", "{dir}/out.svg",
@@ -442,6 +588,13 @@ def cases(draw, command: str) -> Case:
         files[kind], bad = draw(file_content(kind))
         if bad:
             mutated.add(kind)
+    for i, token in enumerate(argv):  # value placeholders: valid half of the time
+        kind = token[1:-1] if token.startswith("{") and token.endswith("}") else None
+        if kind in VALUE_KINDS:
+            bad = draw(st.booleans())
+            argv[i] = draw(VALUE_KINDS[kind][bad])
+            if bad:
+                mutated.add(kind)
     return Case(command, argv, files, mutated)
 
 
@@ -454,7 +607,9 @@ class Outcome:
 
 
 NOT_TEXT_OUTPUT = re.compile(rb"\s*(<!DOCTYPE html|<html|\x89PNG|<\?xml[^>]*>\s*<svg|%PDF)")
-NAN = re.compile(r"\b(nan|inf|infinity)\b", re.IGNORECASE)
+# A printed non-finite number: nan, inf or infinity (signed or not) standing alone, not a part of a
+# name: 'tool-inf', 'x.nan' or 'nan_joint' are names a mutation may make, and are not numbers.
+NAN = re.compile(r"(?<![\w.-])[-+]?(nan|inf|infinity)(?![\w.-]*\w)", re.IGNORECASE)
 
 
 def _snapshot(folder: Path) -> dict[str, bytes | str]:
@@ -467,9 +622,6 @@ def _snapshot(folder: Path) -> dict[str, bytes | str]:
         else:
             snap[key] = "dir" if stat.S_ISDIR(mode) else "fifo" if stat.S_ISFIFO(mode) else "link"
     return snap
-
-
-OUTPUT_FLAGS = ("--out", "--html", "--plot", "--save-true")
 
 
 def materialise(case: Case, folder: Path) -> tuple[list[str], set[str]]:

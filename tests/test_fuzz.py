@@ -14,7 +14,7 @@ import time
 import pytest
 from hypothesis import HealthCheck, given, settings
 
-from tests.fuzz_cli import BASE_ARGV, cases, fuzz_once
+from tests.fuzz_cli import BASE_ARGV, NAN, cases, fuzz_once
 
 FAST_EXAMPLES = 25
 LONG_EXAMPLES = 1000
@@ -58,3 +58,25 @@ def test_cli_fuzz_long(command):
         f"\n{command}: {sum(codes.values())} cases, exit codes {dict(codes)}, "
         f"{time.perf_counter() - start:.0f} s; running tally {dict(TALLY)}"
     )
+
+
+@pytest.mark.parametrize(
+    "text, printed",
+    [
+        ("sigma: nan mm", True),
+        ("± nan", True),
+        ("±nan", True),
+        ('xyz="-inf 0 0"', True),
+        ('"sigma": NaN,', True),
+        ("[1.0, -Infinity]", True),
+        ("condition number inf.", True),
+        ('<link name="tool-inf"/>', False),  # names a mutation made: not numbers
+        ("joint-nan.tx", False),
+        ("x.inf", False),
+        ("nan_joint", False),
+        ("condition number infinite (singular)", False),
+    ],
+)
+def test_nan_oracle_reads_numbers_not_names(text, printed):
+    # The long run flagged urdf-from-dh's stdout and identify's outputs for names such as 'tool-inf'.
+    assert bool(NAN.search(text)) is printed
