@@ -124,37 +124,13 @@ def run(args: argparse.Namespace) -> int:
     from pincal.viewing.scene import scene
 
     sigma, sigma_text = sigma_from_args(args)
-    if args.scale is not None:
-        positive(args.scale, "--scale")
-    if args.plot and not args.test_pose:
-        raise BadArgument("--plot compares rho0 at the test pose: give --test-pose")
-    if args.pool and not args.plot:
-        raise BadArgument("--pool is where --plot draws its random plans: give --plot too")
-    if args.baseline < 1:
-        raise BadArgument(f"--baseline must be a positive number of random plans, got {args.baseline}")
+    _check_options(args)
     robot = robot_from_args(args)
     params, _ = params_from_args(robot, args)
     plan = read_plan(robot, args.plan, args.deg)
     q0 = test_region_from_args(robot, args, required=False)
     prior = prior_from_args(args)
-    if args.error_cloud is not None and args.error_cloud < 1:
-        raise BadArgument(
-            f"--error-cloud must be a positive number of configurations, got {args.error_cloud}",
-            argument="--error-cloud",
-            value=args.error_cloud,
-        )
-    # The scene draws the test pose(s); of a region or path, its first configuration (the centre).
-    drawn = None if q0 is None else test_poses_of(robot, q0)
-    drawn = drawn if drawn is None or isinstance(q0, np.ndarray) else drawn[:1]
-    constraints = constraints_from_args(args)
-    visible = [c for c in constraints if isinstance(c, Visibility)]
-    instrument = visible[0] if visible else None
-    if args.instrument:
-        instrument = parse_floats(args.instrument, "--instrument")
-        if len(instrument) != 3:
-            raise BadConfiguration(
-                f"--instrument {args.instrument!r}: expected X,Y,Z (three numbers, metres)"
-            )
+    drawn, constraints, instrument = _scene_inputs(args, robot, q0)
 
     serve = not (args.html or args.plot)
     viewer = _start_server() if serve else "static"
@@ -170,26 +146,7 @@ def run(args: argparse.Namespace) -> int:
         prior=prior,
     )
     report = report_accuracy(args, params, plan, q0, sigma, prior)
-    summary: dict = {
-        "robot": robot.name,
-        "m": len(plan),
-        "sigma": sigma,
-        "rho0": None if built.rho0 is None else built.rho0.tolist(),
-        "ellipsoid_radii": None if built.ellipsoid_radii is None else built.ellipsoid_radii.tolist(),
-        "ellipsoid_scale": built.ellipsoid_scale,
-        "html": None,
-        "plot": None,
-        "url": None,
-        "note": built.note,
-        "accuracy": None if report is None else report.as_dict(),
-        "error_cloud": None
-        if built.error_values is None
-        else {
-            "n": len(built.error_values),
-            "min": float(built.error_values.min()),
-            "max": float(built.error_values.max()),
-        },
-    }
+    summary = _summary(robot.name, len(plan), sigma, built, report)
     if args.html:
         built.save_html(args.html)
         summary["html"] = args.html
@@ -212,6 +169,66 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print("stopped", flush=True)
     return 0
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """Refuse options that cannot go together or are out of range (before the robot is loaded)."""
+    if args.scale is not None:
+        positive(args.scale, "--scale")
+    if args.plot and not args.test_pose:
+        raise BadArgument("--plot compares rho0 at the test pose: give --test-pose")
+    if args.pool and not args.plot:
+        raise BadArgument("--pool is where --plot draws its random plans: give --plot too")
+    if args.baseline < 1:
+        raise BadArgument(f"--baseline must be a positive number of random plans, got {args.baseline}")
+
+
+def _scene_inputs(args: argparse.Namespace, robot, q0) -> tuple:
+    """(test poses drawn, constraints, instrument) of the scene: of a region or path, its first
+    configuration (the centre); the instrument from --instrument, else the tracker of the
+    constraints' visibility, else None."""
+    if args.error_cloud is not None and args.error_cloud < 1:
+        raise BadArgument(
+            f"--error-cloud must be a positive number of configurations, got {args.error_cloud}",
+            argument="--error-cloud",
+            value=args.error_cloud,
+        )
+    drawn = None if q0 is None else test_poses_of(robot, q0)
+    drawn = drawn if drawn is None or isinstance(q0, np.ndarray) else drawn[:1]
+    constraints = constraints_from_args(args)
+    visible = [c for c in constraints if isinstance(c, Visibility)]
+    instrument = visible[0] if visible else None
+    if args.instrument:
+        instrument = parse_floats(args.instrument, "--instrument")
+        if len(instrument) != 3:
+            raise BadConfiguration(
+                f"--instrument {args.instrument!r}: expected X,Y,Z (three numbers, metres)"
+            )
+    return drawn, constraints, instrument
+
+
+def _summary(robot_name: str, m: int, sigma: float, built, report) -> dict:
+    """The JSON summary of the scene and the accuracy report (html, plot, url filled in later)."""
+    return {
+        "robot": robot_name,
+        "m": m,
+        "sigma": sigma,
+        "rho0": None if built.rho0 is None else built.rho0.tolist(),
+        "ellipsoid_radii": None if built.ellipsoid_radii is None else built.ellipsoid_radii.tolist(),
+        "ellipsoid_scale": built.ellipsoid_scale,
+        "html": None,
+        "plot": None,
+        "url": None,
+        "note": built.note,
+        "accuracy": None if report is None else report.as_dict(),
+        "error_cloud": None
+        if built.error_values is None
+        else {
+            "n": len(built.error_values),
+            "min": float(built.error_values.min()),
+            "max": float(built.error_values.max()),
+        },
+    }
 
 
 def _start_server():
