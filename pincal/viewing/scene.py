@@ -213,18 +213,7 @@ def scene(
         prior: the errors' prior for that prediction (and the ellipsoids are still σ²J₀M⁻¹J₀ᵀ).
     """
     meshcat = require("meshcat", "pincal.visualize", "meshcat")
-    if isinstance(params_or_robot, ParameterSet):
-        params = params_or_robot
-    elif isinstance(params_or_robot, Robot):
-        params = params_or_robot.parameters("full,offsets").identifiable().identifiable
-    else:
-        raise BadConfiguration(
-            f"expected a pincal ParameterSet or Robot, got {type(params_or_robot).__name__}"
-        )
-    if not (np.isfinite(sigma) and sigma > 0):
-        raise BadConfiguration(f"sigma must be a positive number of metres, got {sigma!r}")
-    if scale is not None and not (np.isfinite(scale) and scale > 0):
-        raise BadConfiguration(f"scale must be a positive number, got {scale!r}")
+    params = _checked_params(params_or_robot, sigma, scale)
     robot = params.robot
     qs = robot.configurations(plan)
     q0 = np.empty((0, robot.nq)) if test_pose is None else robot.configurations(test_pose, what="test pose")
@@ -236,33 +225,13 @@ def scene(
     colors = pose_colors(len(qs))
     visual, ghost = geometry_models(robot, reach)
     points = _draw_ghosts(vis, robot, ghost, qs, colors, reach)
-    cov, note = None, ""
-    if len(q0):
-        try:
-            cov = position_covariance(params, qs, q0, sigma)
-        except SingularPlan as exc:
-            note = f"no error ellipsoid: {exc}"
-            warn(note, UserWarning)
-    radii = axes = rho = None
-    drawn_scale = 1.0 if scale is None else float(scale)
-    if cov is not None:
-        radii, axes = _ellipsoids(cov, robot.n_markers)
-        rho = np.sqrt(np.trace(cov, axis1=1, axis2=2))
-        if scale is None:
-            drawn_scale = _nice_scale(ELLIPSOID_SIZE * reach / max(radii.max(), 1e-300))
+    cov, note, radii, axes, rho, drawn_scale = _error_ellipsoids(params, qs, q0, sigma, scale, reach)
     _draw_test_poses(vis, robot, visual, q0, radii, axes, drawn_scale, reach)
     samples = values = None
     if error_samples is not None:
-        if isinstance(error_samples, (int, np.integer)) and not isinstance(error_samples, bool):
-            samples = robot.random_configurations(int(error_samples), 0)
-        else:
-            samples = robot.configurations(error_samples, what="error sample")
-        try:
-            values = PredictedError(params, qs, sigma, prior)(samples)
-            add_error_cloud(vis, robot.points(samples)[:, 0], values, reach)
-        except SingularPlan as exc:
-            note = (note + "; " if note else "") + f"no error cloud: {exc}"
-            samples = None
+        samples, values, cloud_note = _draw_error_cloud(vis, params, qs, sigma, prior, error_samples, reach)
+        if cloud_note:
+            note = (note + "; " if note else "") + cloud_note
     if where is not None:
         add_instrument(vis, where, points, colors, reach)
     set_view(vis, robot, np.vstack([qs, q0]), reach)
@@ -281,6 +250,71 @@ def scene(
         error_samples=samples,
         error_values=values,
     )
+
+
+def _checked_params(params_or_robot: ParameterSet | Robot, sigma: float, scale: float | None) -> ParameterSet:
+    """The parameters of the prediction (a robot's full identifiable set), after checking σ and
+    the ellipsoid scale."""
+    if isinstance(params_or_robot, ParameterSet):
+        params = params_or_robot
+    elif isinstance(params_or_robot, Robot):
+        params = params_or_robot.parameters("full,offsets").identifiable().identifiable
+    else:
+        raise BadConfiguration(
+            f"expected a pincal ParameterSet or Robot, got {type(params_or_robot).__name__}"
+        )
+    if not (np.isfinite(sigma) and sigma > 0):
+        raise BadConfiguration(f"sigma must be a positive number of metres, got {sigma!r}")
+    if scale is not None and not (np.isfinite(scale) and scale > 0):
+        raise BadConfiguration(f"scale must be a positive number, got {scale!r}")
+    return params
+
+
+def _error_ellipsoids(
+    params: ParameterSet, qs: np.ndarray, q0: np.ndarray, sigma: float, scale: float | None, reach: float
+) -> tuple[np.ndarray | None, str, np.ndarray | None, np.ndarray | None, np.ndarray | None, float]:
+    """(covariance, note, radii, axes, ρ0, drawn scale) of the predicted error at the test poses;
+    a singular plan gives no ellipsoid (None) and a note, also warned."""
+    cov, note = None, ""
+    if len(q0):
+        try:
+            cov = position_covariance(params, qs, q0, sigma)
+        except SingularPlan as exc:
+            note = f"no error ellipsoid: {exc}"
+            warn(note, UserWarning)
+    radii = axes = rho = None
+    drawn_scale = 1.0 if scale is None else float(scale)
+    if cov is not None:
+        radii, axes = _ellipsoids(cov, params.robot.n_markers)
+        rho = np.sqrt(np.trace(cov, axis1=1, axis2=2))
+        if scale is None:
+            drawn_scale = _nice_scale(ELLIPSOID_SIZE * reach / max(radii.max(), 1e-300))
+    return cov, note, radii, axes, rho, drawn_scale
+
+
+def _draw_error_cloud(
+    vis,
+    params: ParameterSet,
+    qs: np.ndarray,
+    sigma: float,
+    prior: Prior | None,
+    error_samples: object,
+    reach: float,
+) -> tuple[np.ndarray | None, np.ndarray | None, str]:
+    """(sample configurations, predicted errors there, note) of the error cloud, drawn: a number of
+    samples draws them within the joint limits (seed 0); a singular plan draws none and says why."""
+    robot = params.robot
+    values = None
+    if isinstance(error_samples, (int, np.integer)) and not isinstance(error_samples, bool):
+        samples = robot.random_configurations(int(error_samples), 0)
+    else:
+        samples = robot.configurations(error_samples, what="error sample")
+    try:
+        values = PredictedError(params, qs, sigma, prior)(samples)
+        add_error_cloud(vis, robot.points(samples)[:, 0], values, reach)
+    except SingularPlan as exc:
+        return None, values, f"no error cloud: {exc}"
+    return samples, values, ""
 
 
 def _viewer(meshcat, viewer: object):
