@@ -157,53 +157,53 @@ def run(args: argparse.Namespace) -> int:
     taught = read_plan(robot, args.pool, args.deg) if args.pool else None
     pool = taught if taught is not None else args.pool_size
     progress = not args.no_progress and sys.stderr.isatty()
-    common = dict(
-        constraints=constraints, sigma=sigma, seed=args.seed, workers=args.workers, progress=progress
+    options = dict(
+        method=args.method,
+        pool=pool,
+        starts=args.starts,
+        polish=args.polish,
+        min_conditioning=args.min_conditioning,
+        prior=prior,
+        constraints=constraints,
+        sigma=sigma,
+        seed=args.seed,
+        workers=args.workers,
+        progress=progress,
     )
     with recorded_warnings() as records:
-        result = design(
-            params,
-            args.m,
-            q0,
-            criterion,
-            method=args.method,
-            pool=pool,
-            starts=args.starts,
-            polish=args.polish,
-            min_conditioning=args.min_conditioning,
-            prior=prior,
-            **common,
-        )
+        result = design(params, args.m, q0, criterion, **options)
         baseline = None
         if args.baseline is not None:
-            randoms = random_plans(
-                params,
-                args.m,
-                args.baseline,
-                q0,
-                criterion=_rho0_criterion(criterion),
-                sigma=sigma,
-                prior=prior,
-                constraints=constraints,
-                seed=args.seed,
-                pool=taught,
-            )
-            d_opt = design(
-                params,
-                args.m,
-                q0,
-                "D",
-                method=args.method,
-                pool=pool,
-                starts=args.starts,
-                polish=args.polish,
-                min_conditioning=args.min_conditioning,
-                prior=prior,
-                **common,
-            )
-            baseline = (randoms, d_opt)
+            baseline = _baseline(params, args, q0, criterion, taught, options)
         reference = None if baseline is None else baseline[1].plan
         report = report_accuracy(args, params, result.plan, q0, sigma, prior, reference, constraints, pool)
+    _write_and_print(args, robot, params, source, result, baseline, report, sigma_text)
+    print_warnings(records)  # last, where they are seen
+    return 0
+
+
+def _baseline(params, args: argparse.Namespace, q0, criterion: str, taught, options: dict) -> tuple:
+    """(random feasible plans, the D-optimal plan) of --baseline: the random plans drawn from the
+    taught pool if any, the D-optimal plan designed with the same options as the plan."""
+    randoms = random_plans(
+        params,
+        args.m,
+        args.baseline,
+        q0,
+        criterion=_rho0_criterion(criterion),
+        sigma=options["sigma"],
+        prior=options["prior"],
+        constraints=options["constraints"],
+        seed=args.seed,
+        pool=taught,
+    )
+    return randoms, design(params, args.m, q0, "D", **options)
+
+
+def _write_and_print(
+    args: argparse.Namespace, robot, params, source, result: DesignResult, baseline, report, sigma_text: str
+) -> None:
+    """--out, --plot, then the JSON object or the text report."""
     if args.out:
         result.plan.to_csv(args.out, degrees=args.deg)
     if args.plot:
@@ -221,8 +221,6 @@ def run(args: argparse.Namespace) -> int:
         if args.out:
             print(f"wrote {args.out} ({'degrees' if args.deg else 'radians'})")
     sys.stdout.flush()
-    print_warnings(records)  # last, where they are seen
-    return 0
 
 
 def _rho0_criterion(criterion: str) -> str:
