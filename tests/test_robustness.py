@@ -246,6 +246,13 @@ def test_extreme_arguments_are_refused_not_run(capsys):
     )
 
 
+def test_error_cloud_size_is_a_bounded_count(cell, capsys):
+    # the long fuzz run: show --error-cloud 2**63 was NumPy's 'Maximum allowed dimension exceeded'
+    fails(capsys, show(cell, "--plot", cell / "x.png", "--error-cloud", str(2**63)), "from 1 to 10,000,000")
+    with pytest.raises(pincal.PincalError, match="number of configurations must be an integer"):
+        pincal.load_robot("planar_2r").random_configurations(2**63)
+
+
 def test_warnings_are_pincal_lines(cell, capsys):
     # A plan too small for the parameters: 'show' draws no ellipsoid and says why, as a warning line.
     (cell / "plan.csv").write_text("joint1,joint2\n0.1,1.0\n")

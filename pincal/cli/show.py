@@ -10,6 +10,7 @@ import time
 
 import numpy as np
 
+from pincal.arguments import positive_int
 from pincal.cli._accuracy import (
     REGION_HELP,
     add_region_arguments,
@@ -187,12 +188,8 @@ def _scene_inputs(args: argparse.Namespace, robot, q0) -> tuple:
     """(test poses drawn, constraints, instrument) of the scene: of a region or path, its first
     configuration (the centre); the instrument from --instrument, else the tracker of the
     constraints' visibility, else None."""
-    if args.error_cloud is not None and args.error_cloud < 1:
-        raise BadArgument(
-            f"--error-cloud must be a positive number of configurations, got {args.error_cloud}",
-            argument="--error-cloud",
-            value=args.error_cloud,
-        )
+    if args.error_cloud is not None:
+        positive_int(args.error_cloud, "--error-cloud")
     drawn = None if q0 is None else test_poses_of(robot, q0)
     drawn = drawn if drawn is None or isinstance(q0, np.ndarray) else drawn[:1]
     constraints = constraints_from_args(args)

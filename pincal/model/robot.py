@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import Seed, generator
+from pincal.arguments import Seed, generator, positive_int
 from pincal.errors import BadConfiguration
 from pincal.model.chain import frame_id
 from pincal.model.parameters import ParameterSet
@@ -294,6 +294,7 @@ class Robot:
             rng: a numpy Generator or a seed (an int; None draws fresh entropy).
             margin: distance kept from each limit [rad or m].
         """
+        n = positive_int(n, "the number of configurations", low=0)
         rng = generator(rng)
         lo = np.maximum(self.model.lowerPositionLimit, -np.pi) + margin
         hi = np.minimum(self.model.upperPositionLimit, np.pi) - margin
