@@ -246,6 +246,14 @@ def test_extreme_arguments_are_refused_not_run(capsys):
     )
 
 
+def test_measure_sim_refuses_a_negative_seed(cell, capsys):
+    # the long fuzz run: measure-sim --seed -1 was NumPy's ValueError (its generator was not checked)
+    argv = ["measure-sim", cell / "robot.urdf", "--tip", "tip", "--plan", cell / "plan.csv"]
+    argv += ["--error-std", "1e-3,1e-3", "--out", cell / "m.csv", "--seed", "-1"]
+    fails(capsys, argv, "seed must be an integer ≥ 0")
+    assert not (cell / "m.csv").exists()
+
+
 def test_error_cloud_size_is_a_bounded_count(cell, capsys):
     # the long fuzz run: show --error-cloud 2**63 was NumPy's 'Maximum allowed dimension exceeded'
     fails(capsys, show(cell, "--plot", cell / "x.png", "--error-cloud", str(2**63)), "from 1 to 10,000,000")

@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import DEFAULT_SIGMA, check_lengths
+from pincal.arguments import DEFAULT_SIGMA, check_lengths, generator
 from pincal.calibration.synthetic import random_errors, simulate_measurements
 from pincal.calibration.urdf_export import export_urdf
 from pincal.cli._common import (
@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         raise BadArgument("--save-true needs --error-std (the true robot is then drawn at random)")
     robot = robot_from_args(args)
     plan = read_plan(robot, args.plan, args.deg)
-    rng = np.random.default_rng(args.seed)
+    rng = generator(args.seed)
     if args.true:
         true_robot = load_robot(
             args.true,

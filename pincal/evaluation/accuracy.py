@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg.lapack import dtrtrs as _trtrs
 
+from pincal.arguments import generator
 from pincal.evaluation.information import factor
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import ResolvedRegion, resolve_test_poses
@@ -322,7 +323,7 @@ def accuracy(
     """
     robot = params.robot
     poses, region = resolve_test_poses(robot, test_pose)
-    rng = np.random.default_rng(seed)
+    rng = generator(seed)
     first = "test region" if region is not None else "test pose" if len(poses) == 1 else "test poses"
     sets = [(first, poses)]
     for delta in neighbourhoods:
@@ -387,7 +388,7 @@ def error_profile(
     plan; a test pose drawn per sample; clipped to the joint limits)."""
     robot = params.robot
     poses, _ = resolve_test_poses(robot, test_pose)
-    rng = np.random.default_rng(seed)
+    rng = generator(seed)
     distance = np.linspace(0.0, max_distance, steps)
     shells = []
     for d in distance:

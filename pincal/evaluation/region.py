@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
+from pincal.arguments import generator
 from pincal.errors import BadArgument, Infeasible
 from pincal.model.robot import Robot
 
@@ -82,7 +83,7 @@ class TestRegion:
 
 def _latin_hypercube(dimension: int, n: int, seed: int) -> np.ndarray:
     """n points of [0, 1]^dimension, one in each of n equal slices of every axis (seeded)."""
-    rng = np.random.default_rng(seed)
+    rng = generator(seed)
     slices = np.argsort(rng.random((dimension, n)), axis=1).T
     return (slices + rng.random((n, dimension))) / max(n, 1)
 

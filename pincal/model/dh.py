@@ -28,7 +28,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import check_lengths
+from pincal.arguments import check_lengths, generator
 from pincal.errors import BadDHTable, OverwriteRefused
 from pincal.files import atomic_write_text, read_yaml
 
@@ -280,7 +280,7 @@ def self_check(table: DHTable, urdf: str, n: int = 50, seed: int = 0) -> float:
     model = pin.buildModelFromXML(urdf)
     data = model.createData()
     frame = model.getFrameId(table.tool_name)
-    rng = np.random.default_rng(seed)
+    rng = generator(seed)
     lower = np.array([j.lower for j in table.joints])
     upper = np.array([j.upper for j in table.joints])
     worst = 0.0
