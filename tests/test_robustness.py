@@ -246,6 +246,18 @@ def test_extreme_arguments_are_refused_not_run(capsys):
     )
 
 
+def test_identify_iteration_limit_is_a_bounded_count(cell, capsys):
+    # the long fuzz run: --max-iterations -1e30 was NumPy's TypeError (isfinite of a huge int)
+    (cell / "one.csv").write_text("joint1,joint2,x,y,z\n0,0,1.8,0,0\n")
+    argv = ["identify", cell / "robot.urdf", "--tip", "tip", "--data", cell / "one.csv", *PLANAR[2:]]
+    fails(capsys, [*argv, "--max-iterations", "-" + "9" * 30], "--maxiter must be an integer from 1 to")
+    params = pincal.load_robot(cell / "robot.urdf", tip="tip").parameters("joint2.tx,tip.tx")
+    data = pincal.MeasurementData.from_csv(cell / "one.csv", params.robot)
+    for bad in (float("inf"), "abc"):  # the API: int(inf) was an OverflowError, int('abc') a ValueError
+        with pytest.raises(pincal.PincalError, match="maxiter must be an integer"):
+            pincal.identify(params, data, maxiter=bad)
+
+
 def test_measure_sim_refuses_a_negative_seed(cell, capsys):
     # the long fuzz run: measure-sim --seed -1 was NumPy's ValueError (its generator was not checked)
     argv = ["measure-sim", cell / "robot.urdf", "--tip", "tip", "--plan", cell / "plan.csv"]

@@ -38,7 +38,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, positive_sigma
+from pincal.arguments import DEFAULT_SIGMA, positive_int, positive_sigma
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.problem import Problem, initial_values
 from pincal.calibration.result import IdentificationResult, _result, _rms, _warnings
@@ -199,12 +199,7 @@ def _checked_arguments(
 ) -> float | None:
     """``sigma`` checked (None stays None), after refusing any bad solver argument (named)."""
     sigma = None if sigma is None else positive_sigma(sigma)
-    if isinstance(maxiter, bool) or int(maxiter) != maxiter or maxiter < 1:
-        raise BadArgument(
-            f"maxiter must be a positive integer, got {maxiter!r}",
-            argument="maxiter",
-            value=maxiter,
-        )
+    positive_int(maxiter, "maxiter")
     if loss not in LOSSES:
         raise BadArgument(
             f"unknown loss {loss!r}; valid: {', '.join(LOSSES)}", argument="loss", value=loss, valid=LOSSES

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from pincal.arguments import DEFAULT_SIGMA, positive_sigma
+from pincal.arguments import DEFAULT_SIGMA, positive_int, positive_sigma
 from pincal.calibration.identification import LOSSES, METHODS, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.urdf_export import export_urdf, sidecar_path
@@ -18,7 +18,6 @@ from pincal.cli._common import (
     add_robot_arguments,
     emit_json,
     parameters_with_base,
-    positive,
     robot_from_args,
 )
 from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused
@@ -128,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     params, source, dropped = parameters_with_base(robot, args)
     sigma = None if args.sigma is None else positive_sigma(args.sigma, "--sigma")
-    positive(args.maxiter, "--maxiter")
+    positive_int(args.maxiter, "--maxiter")
     prior = Prior.parse(args.prior) if args.prior else None
     if sum(x is not None for x in (args.validate, args.holdout, args.kfold)) > 1:
         raise BadArgument("choose one of --validate, --holdout and --kfold")
