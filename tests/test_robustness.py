@@ -258,6 +258,16 @@ def test_identify_iteration_limit_is_a_bounded_count(cell, capsys):
             pincal.identify(params, data, maxiter=bad)
 
 
+def test_reject_that_leaves_no_row_is_one_line(cell, capsys):
+    # the collecting fuzz driver: --reject 1e-9 rejected every row, and the next robust fit took the
+    # median of nothing ('Mean of empty slice', an internal error since NumPy warnings are errors)
+    (cell / "meas.csv").write_text(
+        "joint1,joint2,x,y,z\n0,0,1.8,0,0\n0,1,1.43,0.67,0\n1,1,0.21,1.57,0\n0.5,-1,1.66,-0.38,0.001\n"
+    )
+    argv = ["identify", cell / "robot.urdf", "--tip", "tip", "--data", cell / "meas.csv", *PLANAR[2:]]
+    fails(capsys, [*argv, "--reject", "1e-9"], "singular plan: 0 configuration(s)")
+
+
 def test_measure_sim_refuses_a_negative_seed(cell, capsys):
     # the long fuzz run: measure-sim --seed -1 was NumPy's ValueError (its generator was not checked)
     argv = ["measure-sim", cell / "robot.urdf", "--tip", "tip", "--plan", cell / "plan.csv"]

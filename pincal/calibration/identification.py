@@ -283,6 +283,8 @@ def _reject_outliers(
             break
         rejected += [Outlier(int(i), labels[i], float(distance[i]), float(score[i])) for i in new]
         used[new] = False
+        if used.sum() * rows < free.size:  # too few rows left to fit (or none: nothing to score)
+            break
     if used.sum() * rows < free.size:
         raise SingularPlan(free.size, rows, int(used.sum()))
     return used, rejected
