@@ -14,9 +14,11 @@ import time
 import pytest
 from hypothesis import HealthCheck, given, settings
 
+from pincal.model import xacro_expansion
 from tests.fuzz_cli import BASE_ARGV, NAN, cases, fuzz_once
 
 FAST_EXAMPLES = 25
+XACRO_SECONDS = 5.0  # a runaway xacro expression is stopped after this (not 60 s); real ones take < 1 s
 LONG_EXAMPLES = 1000
 SETTINGS = dict(
     deadline=None,
@@ -29,7 +31,9 @@ TALLY: collections.Counter = collections.Counter()
 
 
 @pytest.mark.parametrize("command", sorted(BASE_ARGV))
-def test_cli_fuzz_fast(command):
+def test_cli_fuzz_fast(command, monkeypatch):
+    monkeypatch.setattr(xacro_expansion, "XACRO_SECONDS", XACRO_SECONDS)
+
     @settings(max_examples=FAST_EXAMPLES, **SETTINGS)
     @given(cases(command))
     def run(case):
@@ -40,7 +44,8 @@ def test_cli_fuzz_fast(command):
 
 @pytest.mark.fuzz
 @pytest.mark.parametrize("command", sorted(BASE_ARGV))
-def test_cli_fuzz_long(command):
+def test_cli_fuzz_long(command, monkeypatch):
+    monkeypatch.setattr(xacro_expansion, "XACRO_SECONDS", XACRO_SECONDS)
     start = time.perf_counter()
     codes: collections.Counter = collections.Counter()
 

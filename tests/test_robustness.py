@@ -16,6 +16,7 @@ import pytest
 import pincal
 from pincal.cli import main
 from pincal.files import MAX_CELL_CHARS, MAX_LINE_CHARS, MAX_YAML_DEPTH, atomic_write_text, guard_inputs
+from pincal.model import xacro_expansion
 
 ROOT = Path(__file__).resolve().parents[1]
 PLANAR = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
@@ -449,3 +450,30 @@ def test_dh_table_with_an_absurd_length_is_refused_by_name(cell, capsys):
     table = (ROOT / "docs" / "dh" / "ur5_dh.yaml").read_text().replace("a: -0.425,", "a: 1.0e+300,")
     (cell / "table.yaml").write_text(table)
     fails(capsys, ["urdf-from-dh", cell / "table.yaml"], "row 2 (shoulder_lift_joint): a is 1e+300 m, over")
+
+
+XACRO_ROBOT = (
+    '<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="a"><link name="base"/>'
+    '<link name="{name}"/><joint name="j" type="revolute"><parent link="base"/><child link="tip"/>'
+    '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>'
+)
+
+
+@pytest.mark.parametrize(
+    "expression, fragment",
+    [
+        ("${10**10**10}", "took over 2 s and was stopped"),  # hours of big-integer arithmetic
+        ("${'x' * 10**10}", "out of memory: the limit is 2 GiB"),  # 10 GB
+        ("${'x' * 20000000}", "expands to over 16 MiB of URDF"),
+    ],
+)
+def test_a_runaway_xacro_is_stopped_in_one_line(tmp_path, capsys, monkeypatch, expression, fragment):
+    """xacro sources are programs: they run in a child process, bounded in time, memory and
+    output (pincal.model.xacro_expansion); each runaway ends in one line, and pincal goes on."""
+    path = tmp_path / "runaway.urdf.xacro"
+    path.write_text(XACRO_ROBOT.format(name=expression))
+    with monkeypatch.context() as patched:
+        patched.setattr(xacro_expansion, "XACRO_SECONDS", 2.0)
+        fails(capsys, ["params", path], fragment)
+    path.write_text(XACRO_ROBOT.format(name="tip"))  # the same file, sane: it loads
+    assert main(["params", str(path)]) == 0

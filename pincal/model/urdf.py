@@ -18,15 +18,10 @@ URDF parser's own first message), never the parser's multi-line report.
 from __future__ import annotations
 
 import contextlib
-import io
 import os
-import re
 import shlex
-import sys
 import tempfile
-import types
-import unittest.mock
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +31,8 @@ from lxml import etree
 from pincal import files
 from pincal.arguments import check_lengths
 from pincal.errors import UnknownName, UrdfError, warn
+from pincal.model import xacro_expansion
+from pincal.model.xacro_expansion import package_roots
 
 MAX_URDF_BYTES = 16 * 2**20
 """Largest URDF read (16 MiB; meshes are separate files, so real URDFs are far smaller)."""
@@ -45,7 +42,6 @@ MAX_URDF_JOINTS = 2_000
 """Most joints (and links) in a URDF."""
 ONE_TURN = (-np.pi, np.pi)
 """Design range [rad] of a continuous joint when none is given."""
-_ANSI = re.compile(r"\x1b\[[0-9;]*m")
 
 
 def parse_joint_ranges(ranges: Mapping[str, object] | None) -> dict[str, tuple[float, float]]:
@@ -85,56 +81,6 @@ def resolve_mesh(
     return path if path.is_file() else None
 
 
-def package_roots(
-    package: str, urdf: Path, extra: Mapping[str, str] | None = None, search: Iterable[str] = ()
-) -> list[Path]:
-    """The folders package ``package`` may be, most trusted first: the one given for it
-    (``--package-dir NAME=PATH``), ``DIR/NAME`` for each ``search`` folder, then ``NAME`` next to
-    each folder above the URDF and each folder above it named ``NAME`` (a checkout of the
-    description package)."""
-    roots = [Path(p) for name, p in (extra or {}).items() if name == package]
-    roots += [Path(d) / package for d in search]
-    roots += [parent / package for parent in urdf.resolve().parents]
-    roots += [parent for parent in urdf.resolve().parents if parent.name == package]
-    return roots
-
-
-@contextlib.contextmanager
-def _ros_packages(path: Path, package_dirs: Mapping[str, str] | None) -> Iterator[list[str]]:
-    """xacro's ``$(find NAME)`` without ROS: xacro asks ``ament_index_python`` for the package's
-    folder; here it gets the first of :func:`package_roots` that is a folder (then the real
-    index's answer, when ROS 2 is installed), or an error naming ``--package-dir``."""
-    try:
-        from ament_index_python import packages as ament  # type: ignore[import-not-found]
-    except ImportError:
-        ament = None
-
-    def share(name: str) -> str:
-        found = next((root for root in package_roots(name, path, package_dirs) if root.is_dir()), None)
-        if found is not None:
-            return str(found)
-        if ament is not None:
-            with contextlib.suppress(Exception):
-                return ament.get_package_share_directory(name)
-        failures.append(
-            f"$(find {name}): package {name!r} not found above {path.name}; give --package-dir "
-            f"{name}=PATH (package_dirs=)"
-        )
-        raise LookupError(failures[-1])
-
-    failures: list[str] = []
-
-    index = types.ModuleType("ament_index_python")
-    packages = types.ModuleType("ament_index_python.packages")
-    packages.get_package_share_directory = share  # type: ignore[attr-defined]
-    packages.PackageNotFoundError = LookupError  # type: ignore[attr-defined]
-    index.packages = packages  # type: ignore[attr-defined]
-    with unittest.mock.patch.dict(
-        sys.modules, {"ament_index_python": index, "ament_index_python.packages": packages}
-    ):
-        yield failures
-
-
 def xacro_command(path: Path) -> str:
     """The shell command that expands a xacro file next to it."""
     if path.name.endswith(".xacro"):
@@ -146,28 +92,20 @@ def xacro_command(path: Path) -> str:
 
 
 def _expand_xacro(path: Path, package_dirs: Mapping[str, str] | None = None) -> str:
-    try:
-        import xacro  # type: ignore[import-not-found]
-    except ImportError:
+    """The URDF text of the xacro file ``path``, expanded in a bounded child process
+    (:mod:`pincal.model.xacro_expansion`), xacro's own warnings as one pincal warning."""
+    done = xacro_expansion.expand(path, package_dirs, MAX_URDF_BYTES)
+    if done.error == "no xacro":
         raise UrdfError(
             f"{str(path)!r} is a xacro file, not a URDF: expand it first with "
             f"'{xacro_command(path)}' (xacro comes with ROS, or 'pip install xacro'), then give the "
             f".urdf"
-        ) from None
-    said = io.StringIO()  # xacro prints its warnings (and error context) on stderr itself
-    failures: list[str] = []
-    try:
-        with contextlib.redirect_stderr(said), _ros_packages(path, package_dirs) as failures:
-            text = xacro.process_file(str(path)).toxml()
-    except Exception as exc:  # xacro raises its own types with long texts
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise UrdfError(f"xacro cannot expand {str(path)!r}: {failures[-1] if failures else first}") from None
-    lines = (line.strip() for line in _ANSI.sub("", said.getvalue()).splitlines())
-    notes = [line for line in lines if line.startswith("warning")]  # not 'when processing file: ...'
-
-    if notes:
-        warn(f"xacro, expanding {path.name}: " + "; ".join(n.removeprefix("warning: ") for n in notes))
-    return text
+        )
+    if done.error is not None or done.text is None:
+        raise UrdfError(f"xacro cannot expand {str(path)!r}: {done.error}")
+    if done.warnings:
+        warn(f"xacro, expanding {path.name}: " + "; ".join(done.warnings))
+    return done.text
 
 
 def read_text(path: Path, package_dirs: Mapping[str, str] | None = None) -> str:
