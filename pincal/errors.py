@@ -170,7 +170,9 @@ class SingularPlan(PincalError):
         rank: numerical rank of the information matrix.
     """
 
-    def __init__(self, n_params: int, rows_per_configuration: int, m: int, rank: int | None = None):
+    def __init__(
+        self, n_params: int, rows_per_configuration: int, m: int, rank: int | None = None, why: str = ""
+    ):
         self.n_params = n_params
         self.rows_per_configuration = rows_per_configuration
         self.min_configurations = -(-n_params // rows_per_configuration)
@@ -188,7 +190,7 @@ class SingularPlan(PincalError):
                 f"{rank} < {n_params} parameters); choose more varied configurations (at least "
                 f"{self.min_configurations} are needed) or fewer parameters"
             )
-        super().__init__(msg)
+        super().__init__(why or msg)  # ``why``: the caller's own words for how the plan came to be
 
 
 class BadMeasurementData(BadArgument):

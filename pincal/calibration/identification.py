@@ -286,7 +286,14 @@ def _reject_outliers(
         if used.sum() * rows < free.size:  # too few rows left to fit (or none: nothing to score)
             break
     if used.sum() * rows < free.size:
-        raise SingularPlan(free.size, rows, int(used.sum()))
+        left, needed = int(used.sum()), -(-free.size // rows)
+        why = (
+            f"reject {reject:g} dropped {len(rejected)} of the {m} configurations as outliers (beyond "
+            f"{reject:g} robust sigma): the {left} left give {left * rows} measured coordinates for "
+            f"{free.size} parameters (at least {needed} configurations are needed); give a larger "
+            "reject (3 to 5 is usual), or check the data"
+        )
+        raise SingularPlan(free.size, rows, left, why=why)
     return used, rejected
 
 
