@@ -11,9 +11,8 @@ measured points), as *redundant* (an exact combination of kept ones, with the co
 as *nearly redundant*: within ``tol`` (default 1e-2, scale-free: the sine of the angle between
 its unit column and the span of the kept ones) of such a combination. Near dependences come from
 vendor URDFs whose angles are rounded (1.5708 for π/2: the axes are then parallel to ~4e-6; 3.14
-for π: to 1.6e-3) and
-from nearly parallel axes; identifying such a parameter would cost 1/distance times its own
-precision, so it is left to the kept ones, which absorb it.
+for π: to 1.6e-3) and from nearly parallel axes; identifying such a parameter would cost
+1/distance times its own precision, so it is left to the kept ones, which absorb it.
 """
 
 from __future__ import annotations

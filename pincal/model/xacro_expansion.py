@@ -133,7 +133,7 @@ def expand_here(
     try:
         with contextlib.redirect_stderr(said), _ros_packages(path, package_dirs) as failures:
             text = xacro.process_file(str(path)).toxml()
-    except Exception as exc:  # xacro raises its own types with long texts, wrapping others in .exc
+    except Exception as exc:  # xacro's own types with long texts, wrapping others (MemoryError) in .exc
         inner = exc
         while getattr(inner, "exc", None) is not None:
             inner = inner.exc
@@ -141,8 +141,6 @@ def expand_here(
         if isinstance(inner, MemoryError):
             first += f" (out of memory: the limit is {memory / 2**30:g} GiB; a runaway expression?)"
         return Expansion(None, failures[-1] if failures else first)
-    except MemoryError:
-        return Expansion(None, "the expansion ran out of memory (a runaway expression?)")
     if len(text.encode("utf-8")) > max_bytes:
         return Expansion(None, f"it expands to over {max_bytes / 2**20:g} MiB of URDF")
     lines = (line.strip() for line in _ANSI.sub("", said.getvalue()).splitlines())
