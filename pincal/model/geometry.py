@@ -10,6 +10,7 @@ whose mesh cannot be found is left out and named in :attr:`UrdfGeometry.missing`
 
 from __future__ import annotations
 
+import copy
 import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -38,13 +39,21 @@ class UrdfGeometry:
     missing: tuple[str, ...]
 
 
-def urdf_geometry(robot: Robot, kind: pin.GeometryType, search: Iterable[str] = ()) -> UrdfGeometry:
+def robot_tree(robot: Robot) -> etree._Element | None:
+    """The XML tree of the robot's URDF (a xacro source expanded again), or None without one."""
+    return None if robot.urdf_path is None else read_tree(Path(robot.urdf_path), dict(robot.package_dirs))
+
+
+def urdf_geometry(
+    robot: Robot, kind: pin.GeometryType, search: Iterable[str] = (), tree: etree._Element | None = None
+) -> UrdfGeometry:
     """The robot's URDF geometry of ``kind`` (``pin.GeometryType.VISUAL`` or ``COLLISION``).
 
     Args:
         robot: a robot loaded from a URDF (its ``urdf_path`` and ``package_dirs`` are used).
         kind: which geometry.
         search: more folders holding package folders (``DIR/NAME/...`` for ``package://NAME/``).
+        tree: :func:`robot_tree` of ``robot``, when the caller has read it already (not modified).
 
     Raises:
         UrdfError: the URDF cannot be read again, or a mesh file found cannot be read (one line).
@@ -53,7 +62,7 @@ def urdf_geometry(robot: Robot, kind: pin.GeometryType, search: Iterable[str] = 
         return UrdfGeometry(pin.GeometryModel(), ())
     path = Path(robot.urdf_path)
     dirs = [str(d) for d in search]
-    root = read_tree(path, dict(robot.package_dirs))
+    root = copy.deepcopy(tree) if tree is not None else robot_tree(robot)
     tag = "visual" if kind == pin.GeometryType.VISUAL else "collision"
     named = dict(robot.package_dirs)
     missing: set[str] = set()

@@ -10,9 +10,10 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from lxml import etree
 
 from pincal.errors import UrdfError, warn
-from pincal.model.geometry import urdf_geometry
+from pincal.model.geometry import robot_tree, urdf_geometry
 from pincal.model.robot import Robot
 
 ROOT = "pincal"
@@ -43,15 +44,20 @@ def _hex_int(color: str) -> int:
 # ---------------------------------------------------------------------------- geometry
 def geometry_models(robot: Robot, reach: float) -> tuple[pin.GeometryModel, pin.GeometryModel]:
     """(test-pose model, ghost model): the URDF's visual and collision meshes, or sticks."""
-    visual = _urdf_geometry(robot, pin.GeometryType.VISUAL)
+    try:
+        tree = robot_tree(robot)  # read once for both kinds (a xacro source is expanded again)
+    except UrdfError as exc:
+        warn(f"{exc}; the 3-D view draws sticks")
+        tree = None
+    visual = None if tree is None else _urdf_geometry(robot, pin.GeometryType.VISUAL, tree)
     if visual is None:
         sticks = _stick_geometry(robot, reach)
         return sticks, sticks
-    collision = _urdf_geometry(robot, pin.GeometryType.COLLISION)
+    collision = _urdf_geometry(robot, pin.GeometryType.COLLISION, tree)
     return visual, collision if collision is not None else visual
 
 
-def _urdf_geometry(robot: Robot, kind: pin.GeometryType) -> pin.GeometryModel | None:
+def _urdf_geometry(robot: Robot, kind: pin.GeometryType, tree: etree._Element) -> pin.GeometryModel | None:
     """The URDF's geometry model of ``kind`` on the robot's chain, or None if it has none, or if
     some of its meshes cannot be found (:func:`~pincal.load_robot` has named them in its warning
     then, which says the view draws sticks).
@@ -60,7 +66,7 @@ def _urdf_geometry(robot: Robot, kind: pin.GeometryType) -> pin.GeometryModel | 
     the folders above the URDF (the example-robot-data layout, and a ROS workspace's).
     """
     try:
-        loaded = urdf_geometry(robot, kind)
+        loaded = urdf_geometry(robot, kind, tree=tree)
     except UrdfError as exc:  # unreadable mesh files
         warn(f"{exc}; the 3-D view draws sticks")
         return None
