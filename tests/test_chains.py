@@ -30,6 +30,12 @@ def _joint(name, kind, parent, child, xyz="0 0 0", rpy="0 0 0", axis="0 0 1", li
     )
 
 
+def urdf(name: str, links: list[str], joints: list[str]) -> str:
+    """A URDF of bare links and the joints given (made with :func:`_joint`)."""
+    body = "".join(f'<link name="{link}"/>' for link in links)
+    return f'<?xml version="1.0"?><robot name="{name}">{body}{"".join(joints)}</robot>'
+
+
 def tree_urdf(arm2: bool = False, continuous: bool = True, zero: bool = False, mesh: str = "") -> str:
     """A trunk with a 4-joint arm (joint a2 continuous), a hand with two fingers and a tcp, a
     camera on the trunk, and optionally a second arm."""
@@ -123,8 +129,7 @@ def hand_urdf() -> str:
         ),
         _joint("hand_mrl_joint", "revolute", "palm", "hand_mrl_link", "0.05 -0.02 0", limits=(0, 1)),
     ]
-    body = "".join(f'<link name="{name}"/>' for name in links)
-    return f'<?xml version="1.0"?><robot name="hand">{body}{"".join(joints)}</robot>'
+    return urdf("hand", links, joints)
 
 
 def test_an_anthropomorphic_hand_is_one_end_its_fingers_locked(tmp_path):
@@ -416,9 +421,8 @@ def test_a_tool_frame_with_a_camera_hung_on_it_is_the_tip(tmp_path):
         _joint("color", "fixed", "camera_link", "camera_color_frame", "0 0.01 0"),
         _joint("depth", "fixed", "camera_link", "camera_depth_frame", "0 -0.01 0"),
     ]
-    body = "".join(f'<link name="{name}"/>' for name in links)
     path = tmp_path / "gen3_like.urdf"
-    path.write_text(f'<?xml version="1.0"?><robot name="gen3_like">{body}{"".join(joints)}</robot>')
+    path.write_text(urdf("gen3_like", links, joints))
     assert pincal.load_robot(path).tip == "end_effector_link"
     assert pincal.load_robot(path, tip="camera_color_frame").tip == "camera_color_frame"
 
@@ -436,9 +440,8 @@ def test_chain_ends_are_listed_longest_first(tmp_path):
         _joint("e1", "revolute", "a2", "a3", "0.3 0 0", axis="0 1 0"),
         _joint("w1", "fixed", "a3", "hand", "0.3 0 0"),
     ]
-    body = "".join(f'<link name="{name}"/>' for name in links)
     path = tmp_path / "humanoid.urdf"
-    path.write_text(f'<?xml version="1.0"?><robot name="humanoid">{body}{"".join(joints)}</robot>')
+    path.write_text(urdf("humanoid", links, joints))
     ends = chain_ends(path).candidates
     assert [(c.frame, c.joints) for c in ends][0] == ("hand", 3)  # declared last
     assert sorted(c.frame for c in ends[1:]) == ["camera", "sole"]
