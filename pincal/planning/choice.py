@@ -187,8 +187,10 @@ def _report(
 def identification_check(
     params: ParameterSet, engine: JacobianEngine, q: np.ndarray, sigma: float
 ) -> DataCheck:
-    """The data check :func:`pincal.identify` makes of data measured at the plan q with noise σ:
-    which parameters it would identify (see :mod:`pincal.evaluation.data_check`)."""
+    """The data check :func:`pincal.identify` makes of one session's data measured at the plan q
+    with noise σ: which parameters it would identify, the base (if identified) kept first and
+    always (see :mod:`pincal.evaluation.data_check`)."""
     J = engine.jacobian(q, frame="tip").reshape(-1, engine.n_params) / sigma
-    order = preference_order(params)
-    return check_information(params.names, params.units, J.T @ J, order, len(q), sigma)
+    base = [i for i, p in enumerate(params) if p.kind == "base"]
+    order = preference_order(params, frozenset(params.names[i] for i in base))
+    return check_information(params.names, params.units, J.T @ J, order, len(q), sigma, always=base)
