@@ -60,7 +60,8 @@ def test_design_json_reaches_the_closed_form(capsys, tmp_path):
     )
     assert data["rho0"] ** 2 == pytest.approx(3e-5**2 / 2 * (1 + math.sin(q20)), rel=1e-6)
     assert data["criterion"] == "test-pose" and data["starts"] == 4
-    # The plan printed is the one whose rho0 is reported: SPEC §6 closed form in its own S = Σ cos q2i.
+    # The plan printed is the one whose rho0 is reported: the closed form (docs/method.md §9.3) in
+    # its own S = Σ cos q2i.
     S = sum(math.cos(q[1]) for q in data["plan"])
     assert data["value"] ** 2 == pytest.approx(3e-5**2 * 2 * (2 - math.cos(q20) * S) / (4 - S * S), rel=1e-9)
     assert np.shape(data["plan"]) == (2, 2) and S == pytest.approx(

@@ -31,7 +31,7 @@ def test_design_for_a_path_reports_its_mean_and_the_d_optimal_plan(capsys, tmp_p
     assert plans[0]["rows"][0]["rms"] == pytest.approx(expected, rel=1e-12)
     rows = ["test region", "region ±10°", "region ±20°", "workspace"]
     assert [r["where"] for r in plans[0]["rows"]] == rows
-    # The D-optimal plan of the planar arm has Σ cos q2 = 0: ρ0² = 2σ²/m everywhere (SPEC §6).
+    # The D-optimal plan of the planar arm has Σ cos q2 = 0: ρ0² = 2σ²/m everywhere (docs/method.md §9.3).
     assert plans[1]["rows"][3]["median"] == pytest.approx(np.sqrt(2 * SIGMA**2 / 3), rel=1e-6)
 
 

@@ -26,7 +26,7 @@ from pincal.planning.feasibility import Feasibility
 
 
 def tip_point(q1: float, q2: float) -> np.ndarray:
-    """The planar 2R arm's measured point (SPEC §6: l1 = 1, l2 = 0.8)."""
+    """The planar 2R arm's measured point (docs/method.md §9.1: l1 = 1, l2 = 0.8)."""
     return np.array([math.cos(q1) + 0.8 * math.cos(q1 + q2), math.sin(q1) + 0.8 * math.sin(q1 + q2), 0.0])
 
 

@@ -1,4 +1,4 @@
-"""Criteria against the planar 2-link closed form (SPEC §6) and other exact oracles."""
+"""Criteria against the planar 2-link closed form (docs/method.md §9) and other exact oracles."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The design engine: known optima (SPEC §6), every criterion with both methods, gradients,
+"""The design engine: known optima (docs/method.md §9), every criterion with both methods, gradients,
 exchange updates, constraints, determinism across executors, baselines."""
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ UNIT_SIGMA = dict(FAST, sigma=1.0)  # closed forms in units of σ: ρ0/σ
 
 @pytest.fixture(scope="module")
 def lengths(planar):
-    """(Δl1, Δl2) of the planar 2R arm: the SPEC §6 closed form holds."""
+    """(Δl1, Δl2) of the planar 2R arm: the closed form of docs/method.md §9 holds."""
     return planar.parameters("joint2.tx,tip.tx")
 
 
@@ -40,7 +40,7 @@ def kr_params(kr270_marker):
 
 
 def rho0_min_squared(q20: float, m: int, sigma: float = 1.0) -> float:
-    """SPEC §6: (σ²/m)·cos²q20/(1 − |sin q20|) = (σ²/m)(1 + |sin q20|)."""
+    """docs/method.md §9.3: (σ²/m)·cos²q20/(1 − |sin q20|) = (σ²/m)(1 + |sin q20|)."""
     return sigma**2 / m * (1.0 + abs(math.sin(q20)))
 
 
@@ -49,12 +49,12 @@ def cos_sum(plan) -> float:
 
 
 def rho0_squared_of_plan(plan, q20: float, sigma: float = 1.0) -> float:
-    """SPEC §6: ρ0² of any plan for (Δl1, Δl2) = 2σ²(m − cos q20·S)/(m² − S²), S = Σ cos q2i."""
+    """docs/method.md §9.3: ρ0² of any plan for (Δl1, Δl2) = 2σ²(m − cos q20·S)/(m² − S²), S = Σ cos q2i."""
     m, S = len(np.asarray(plan)), cos_sum(plan)
     return 2 * sigma**2 * (m - math.cos(q20) * S) / (m * m - S * S)
 
 
-# ------------------------------------------------------------------- known optima (SPEC §6)
+# ---------------------------------------------------- known optima (docs/method.md §9)
 @pytest.mark.parametrize("method", ["continuous", "exchange"])
 @pytest.mark.parametrize("deg", [5, 30, 60, 90, 120, 150, 175, -40])
 def test_both_methods_reach_the_closed_form_minimum(lengths, deg, method):

@@ -1,4 +1,4 @@
-"""End to end on the KR 270 with an off-axis marker (SPEC §7): a "real" robot with ~1 mm / ~1 mrad
+"""End to end on the KR 270 with an off-axis marker (docs/method.md §10): a "real" robot with ~1 mm / ~1 mrad
 errors, measured by a laser tracker (σ = 0.03 mm) at a plan, identified, exported as a URDF; the
 robot loaded from that URDF is as accurate as ρ0 predicts, at the test pose and elsewhere."""
 

@@ -1,4 +1,4 @@
-"""Identifiability: ranks, base sets and the reasons for what is dropped (SPEC §2)."""
+"""Identifiability: ranks, base sets and the reasons for what is dropped (docs/method.md §4)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """Identification (pincal.identify) and measurement data (pincal.measurements).
 
 Oracles: known parameters recovered from noise-free simulated data, the planar 2-link closed-form
-covariance (SPEC §6), finite differences of the residuals.
+covariance (docs/method.md §9.2), finite differences of the residuals.
 """
 
 from __future__ import annotations
@@ -141,7 +141,7 @@ def test_jacobian_in_total_coordinates_matches_finite_differences(kr270):
 
 # ------------------------------------------------------------------ standard errors
 def test_standard_errors_match_the_planar_closed_form():
-    """SPEC §6: cov(Δl1, Δl2) = σ²/(m² − S²)·[[m, −S], [−S, m]], S = Σ cos q2."""
+    """docs/method.md §9.2: cov(Δl1, Δl2) = σ²/(m² − S²)·[[m, −S], [−S, m]], S = Σ cos q2."""
     robot = pincal.load_robot("planar_2r")
     params = robot.parameters("joint2.tx,tip.tx")
     plan = robot.random_configurations(7, 11)

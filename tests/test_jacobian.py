@@ -1,4 +1,4 @@
-"""Analytic parameter Jacobians against central finite differences (SPEC §2)."""
+"""Analytic parameter Jacobians against central finite differences (docs/method.md §3)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Parameter names, groups, and applying errors to a robot copy (SPEC §2 conventions)."""
+"""Parameter names, groups, and applying errors to a robot copy (docs/method.md §2 conventions)."""
 
 from __future__ import annotations
 

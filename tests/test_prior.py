@@ -1,4 +1,4 @@
-"""The prior in physical units (SPEC §5.1): parsing, per-kind standard deviations, overrides."""
+"""The prior in physical units (docs/method.md §8.4): parsing, per-kind standard deviations, overrides."""
 
 from __future__ import annotations
 

@@ -51,7 +51,8 @@ def test_mean_over_path_equals_brute_force_mean(kr, n):
 
 
 def test_mean_over_test_poses_planar_closed_form(planar):
-    # SPEC §6: ρ0² is affine in cos q20, so the mean over test poses is the closed form at the mean cosine.
+    # docs/method.md §9.3: ρ0² is affine in cos q20, so the mean over test poses is the closed form
+    # at the mean cosine.
     params = planar.parameters("joint2.tx,tip.tx")
     rng = np.random.default_rng(4)
     for _ in range(20):
@@ -256,7 +257,8 @@ def test_design_with_a_prior_below_the_parameter_count(kr):
 
 
 def test_planar_closed_form_with_an_uninformative_prior(planar):
-    # SPEC §6: ρ0,min² = (σ²/m) cos² q20 / (1 − |sin q20|); a prior of infinite std changes nothing.
+    # docs/method.md §9.3: ρ0,min² = (σ²/m) cos² q20 / (1 − |sin q20|); a prior of infinite std
+    # changes nothing.
     params = planar.parameters("joint2.tx,tip.tx")
     q20, m = 1.0, 3
     result = pincal.design(

@@ -12,7 +12,7 @@ from tests.conftest import ROOT
 
 
 def test_planar_geometry_matches_spec(planar):
-    # SPEC §6: x = l1 cos q1 + l2 cos(q1+q2), l1 = 1, l2 = 0.8.
+    # docs/method.md §9.1: x = l1 cos q1 + l2 cos(q1+q2), l1 = 1, l2 = 0.8.
     q = np.array([[0.3, -1.1], [2.0, 0.4], [0.0, 0.0]])
     p = planar.points(q)[:, 0]
     x = np.cos(q[:, 0]) + 0.8 * np.cos(q.sum(1))
@@ -22,7 +22,7 @@ def test_planar_geometry_matches_spec(planar):
 
 
 def test_kr270_geometry_matches_spec(kr270):
-    # SPEC §7: zeros = arm stretched along +x; flange at 0.35 + 1.15 + 1.2 + 0.24 in x,
+    # docs/method.md §10: zeros = arm stretched along +x; flange at 0.35 + 1.15 + 1.2 + 0.24 in x,
     # 0.675 - 0.041 in z.
     # (all zeros is outside A2's limits, so the unchecked points is used for the geometry)
     p = kr270.points(np.zeros((1, 6)), check=False)[0, 0]

@@ -1,5 +1,5 @@
 """Simulation and Monte Carlo (pincal.simulate): the empirical error after calibration must match
-the predicted ρ0 (SPEC §4) within its statistical error, and large errors must be flagged."""
+the predicted ρ0 (docs/method.md §6.8) within its statistical error, and large errors must be flagged."""
 
 from __future__ import annotations
 
@@ -69,7 +69,7 @@ def test_simulated_noise_has_the_requested_sigma(kr270):
 
 
 def test_monte_carlo_matches_the_planar_closed_form():
-    """ρ0² = 2σ²(m − cos q20·S)/(m² − S²) (SPEC §6); the empirical RMS agrees within 3 s.e."""
+    """ρ0² = 2σ²(m − cos q20·S)/(m² − S²) (docs/method.md §9.3); the empirical RMS agrees within 3 s.e."""
     robot = pincal.load_robot("planar_2r")
     params = robot.parameters("joint2.tx,tip.tx")
     plan = robot.random_configurations(6, 3)

@@ -1,7 +1,7 @@
-"""Identification: the geometric errors that best explain measurements (SPEC §3).
+"""Identification: the geometric errors that best explain measurements (docs/method.md §5).
 
 The unknowns x are the values of a :class:`~pincal.ParameterSet`: the *total* errors of the real
-robot relative to the set's (nominal) robot, in the parameter conventions (SPEC §2), so the
+robot relative to the set's (nominal) robot, in the parameter conventions (docs/method.md §2), so the
 calibrated robot is ``params.apply(x)``. Weighted least squares over all configurations, markers
 and sessions,
 

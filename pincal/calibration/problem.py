@@ -1,7 +1,7 @@
 """The least-squares problem of identification: residuals and their analytic Jacobian.
 
 Unknowns z = (x, b₂, ..., b_S): x the values of a :class:`~pincal.ParameterSet` (total errors
-relative to the nominal robot, SPEC §2) shared by every session, and, when the set holds
+relative to the nominal robot, docs/method.md §2) shared by every session, and, when the set holds
 ``base.*``, one more base for each extra session (data file measured from another instrument
 placement): session s uses x with its base components replaced by b_s. The points of session s are
 ``params.apply(x_s).points(q_s)``.

@@ -4,7 +4,7 @@
 * :func:`simulate_measurements` measures a robot at a plan, with Gaussian noise per coordinate.
 * :func:`monte_carlo` repeats {random true robot → noisy measurements → identification} and
   compares the position error at the test pose(s) after compensation with the predicted ρ0
-  (SPEC §4). For small errors the two agree within the Monte-Carlo statistical error; for large
+  (docs/method.md §6.8). For small errors the two agree within the Monte-Carlo statistical error; for large
   errors the linear prediction (made at the nominal geometry) stops holding, and the result says
   by how much (:attr:`MonteCarloResult.ratio`, :attr:`MonteCarloResult.note`).
 """

@@ -3,7 +3,7 @@
 What :func:`export_urdf` writes, precisely:
 
 * For each joint of the measured chain, its ``<origin xyz rpy>`` becomes the calibrated origin
-  L' = (R·exp3(δω), t + δt) (SPEC §2) with the joint offset Δq folded in,
+  L' = (R·exp3(δω), t + δt) (docs/method.md §2.1, §5.8) with the joint offset Δq folded in,
   L'' = L'·exp(S·Δq), S the joint's motion axis in its own frame: a rotation by Δq about the
   joint's axis (revolute), a translation by Δq along it (prismatic). A joint value q on the
   calibrated URDF then places the child link where q + Δq placed it on the identified model, so a

@@ -1,4 +1,4 @@
-r"""Accuracy away from the test pose: the predicted error after calibration anywhere (SPEC §5.1).
+r"""Accuracy away from the test pose: the predicted error after calibration anywhere (docs/method.md §8.3).
 
 After calibrating with a plan, the predicted position error at any configuration q is
 ρ(q) = σ·sqrt(tr(J(q) C J(q)ᵀ)), C = (M + Λ)⁻¹ (Λ = σ²Σp⁻¹ with a prior, else 0): the test-pose

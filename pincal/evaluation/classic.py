@@ -1,4 +1,4 @@
-r"""The classic criteria of a plan, for comparison with ρ0 (SPEC §4).
+r"""The classic criteria of a plan, for comparison with ρ0 (docs/method.md §6.4, §6.5).
 
 * D: log det(M⁻¹) = −log det M;  A: trace(M⁻¹);  E: λ_max(M⁻¹) = 1/σ_min(J)².
 * cond: σ_max(J)/σ_min(J), the condition number of the stacked Jacobian.

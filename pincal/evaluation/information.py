@@ -1,4 +1,4 @@
-r"""The information matrix of a plan and its one numerical kernel (SPEC §4).
+r"""The information matrix of a plan and its one numerical kernel (docs/method.md §6.1, §6.6).
 
 With i.i.d. measurement noise of standard deviation σ per coordinate, least squares gives
 cov(Π̂) = σ² M⁻¹ with M = Σᵢ JᵢᵀJᵢ = JᵀJ, the *information matrix* of the plan {q₁..q_m}

@@ -1,4 +1,4 @@
-r"""A prior on the geometric errors, in physical units (SPEC §5.1).
+r"""A prior on the geometric errors, in physical units (docs/method.md §8.4).
 
 Before calibration the user knows roughly how large the errors are: "lengths within about 1 mm,
 angles within about 1 mrad". :class:`Prior` holds those standard deviations by kind (lengths in

@@ -1,4 +1,4 @@
-r"""Where the robot works: test regions and paths (SPEC §5.1).
+r"""Where the robot works: test regions and paths (docs/method.md §8.2).
 
 A robot works in a region or along a path, not at one point. Each of these describes the test
 configurations a criterion averages over (the mean of ρ0², the V/I-optimal design) or takes the

@@ -1,4 +1,4 @@
-r"""The test-pose criterion ρ0 (SPEC §4, §5.1).
+r"""The test-pose criterion ρ0 (docs/method.md §6.2, §6.3, §8.4).
 
 ρ0² = E‖g(q₀, Π̂) − g(q₀, Π)‖² = σ² trace(J₀ M⁻¹ J₀ᵀ), J₀ = J(q₀) [m²]: the expected squared position
 error at the test pose q₀ after compensation. With several test poses, a path or a region (see

@@ -1,4 +1,4 @@
-"""Identifiability: which parameters position measurements can determine (SPEC §2).
+"""Identifiability: which parameters position measurements can determine (docs/method.md §4).
 
 The parameter Jacobian is stacked over many random configurations within the joint limits and its
 columns normalised. The base set

@@ -1,4 +1,4 @@
-"""Parameter Jacobians J = ∂p/∂Π of the measured points (SPEC §2).
+"""Parameter Jacobians J = ∂p/∂Π of the measured points (docs/method.md §3).
 
 Analytic: a perturbation of origin j moves the tip like a virtual 6-dof joint at F_j = oM_parent(j)·M_j
 (before joint j's motion). Pinocchio's kinematic regressor gives, in one call per configuration

@@ -1,6 +1,6 @@
 """Geometric parameters: the errors a calibration identifies, with stable readable names.
 
-Conventions (SPEC §2, chosen to match URDF):
+Conventions (docs/method.md §2, chosen to match URDF):
 
 * ``<joint>.tx|ty|tz``: error of the joint's URDF ``<origin>`` xyz, in the parent link's
   coordinates (t ← t + δt) [m].
@@ -213,7 +213,7 @@ class ParameterSet:
 
 
 def _perturb(placement: pin.SE3, twist: np.ndarray) -> pin.SE3:
-    """(R·exp3(δω), t + δt) for twist = (δt, δω): the SPEC §2 convention."""
+    """(R·exp3(δω), t + δt) for twist = (δt, δω): the convention of docs/method.md §2.1."""
     return pin.SE3(
         placement.rotation @ pin.exp3(np.asarray(twist[3:], dtype=float)),
         placement.translation + np.asarray(twist[:3], dtype=float),

@@ -1,4 +1,4 @@
-"""Designing measurement plans: the m configurations that minimise a criterion (SPEC §5).
+"""Designing measurement plans: the m configurations that minimise a criterion (docs/method.md §7).
 
 :func:`design` is the one driver; the search method is chosen by name:
 
@@ -172,7 +172,7 @@ def design(
         >>> import math, pincal
         >>> params = pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")
         >>> result = pincal.design(params, m=2, test_pose=[0.0, 1.0], sigma=1.0, starts=4, workers=1)
-        >>> round(result.rho0**2 / ((1 + math.sin(1.0)) / 2), 9)  # SPEC §6 closed form, σ = 1
+        >>> round(result.rho0**2 / ((1 + math.sin(1.0)) / 2), 9)  # docs/method.md §9.3, σ = 1
         1.0
     """
     with _multistart.single_threaded_blas():  # small matrices: BLAS threads only contend

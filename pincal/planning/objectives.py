@@ -1,4 +1,4 @@
-r"""The criteria a design minimises, as functions of the information matrix M (SPEC §4).
+r"""The criteria a design minimises, as functions of the information matrix M (docs/method.md §7.1).
 
 One interface serves both search methods: an objective gives its value F(M) and the gradient
 G = ∂F/∂M (symmetric P×P), and, for the exchange method, the value after a low-rank change of M

@@ -1,4 +1,4 @@
-"""What the workcell imposes on measurement configurations (SPEC §5).
+"""What the workcell imposes on measurement configurations (docs/method.md §7.4).
 
 Each constraint is a small frozen value object; a design keeps every configuration it returns
 inside all of them. Lengths are in metres, in the instrument's frame (the robot's base frame unless
