@@ -245,22 +245,23 @@ class FloorUnreachable(Infeasible):
         )
 
 
-def _degenerate_text(criterion: str, m: int, floor: float) -> str:
-    return (
-        f"the {criterion} criterion would improve further as the {m} configurations approach a singular "
-        f"plan, so its infimum is not attained by a regular plan (with few configurations for many "
-        f"parameters, or a test pose at a singular limit such as a stretched arm)"
-    )
-
-
 class DegenerateOptimum(PincalError):
-    """No start ended on a regular plan: the criterion improves all the way to singular plans."""
+    """No start ended on a regular plan: the criterion improves all the way to singular plans.
+
+    Attributes:
+        criterion: the criterion's name.
+        m: the number of configurations.
+        floor: the conditioning floor every start ended below.
+    """
 
     def __init__(self, criterion: str, m: int, floor: float) -> None:
+        self.criterion, self.m, self.floor = criterion, m, floor
         super().__init__(
-            _degenerate_text(criterion, m, floor)
-            + f"; every start ended below the conditioning floor {floor:g}: add configurations, move "
-            f"the test pose, or lower min_conditioning"
+            f"the {criterion} criterion would improve further as the {m} configurations approach a "
+            "singular plan, so its infimum is not attained by a regular plan (with few configurations "
+            "for many parameters, or a test pose at a singular limit such as a stretched arm); every "
+            f"start ended below the conditioning floor {floor:g}: add configurations, move the test "
+            "pose, or lower min_conditioning"
         )
 
 

@@ -343,11 +343,6 @@ def emit_json(payload: dict) -> None:
 SIGMA_HELP = f"measurement noise per coordinate [m] (default {DEFAULT_SIGMA:g}: a laser tracker)"
 
 
-def add_sigma_argument(parser: argparse.ArgumentParser, help: str = SIGMA_HELP) -> None:
-    """``--sigma`` [m], default :data:`pincal.arguments.DEFAULT_SIGMA` everywhere."""
-    parser.add_argument("--sigma", type=float, default=None, help=help)
-
-
 def sigma_from_args(args: argparse.Namespace) -> tuple[float, str]:
     """(σ [m], how reports name it: ``σ = 0.030 mm (default: laser tracker)``)."""
     if args.sigma is None:

@@ -15,9 +15,6 @@ GROUPS = ("offsets", "lengths", "full", "base", "markers")
 LENGTH_TOLERANCE = 1e-9
 """An origin component counts as a length when |xyz component| exceeds this [m]."""
 
-# Parameter kinds, as small integers for vectorised code.
-PLACEMENT, OFFSET, MARKER, BASE = 0, 1, 2, 3
-
 
 @dataclass(frozen=True)
 class Parameter:
