@@ -14,6 +14,7 @@ from scipy.optimize import minimize_scalar
 
 import pincal
 from pincal.errors import DegenerateOptimum, DegenerateOptimumWarning
+from pincal.evaluation.information import conditioning
 from pincal.planning import exchange as _exchange
 from pincal.planning import multistart as _multistart
 from pincal.planning.baselines import random_plans
@@ -316,9 +317,31 @@ def test_bad_input_is_named(lengths, kr_params):
         design(lengths, 2, test_pose=[0, 1], constraints=[WorkspaceBox((5, 5, 5), (6, 6, 6))], **FAST)
     with pytest.raises(pincal.BadConfiguration):
         design(lengths, 2, test_pose=[0, 7], **FAST)
-    # D-optimality of a plan whose infimum is singular cannot happen; DegenerateOptimum exists for
-    # the exchange, when every pool plan is below the floor.
-    assert issubclass(DegenerateOptimum, pincal.PincalError)
+
+
+def test_every_start_below_the_floor_is_a_degenerate_optimum(lengths):
+    """No plan below the conditioning floor is returned (docs/method.md §7.5), even when it is the
+    best found. Built on purpose: at the stretched test pose q20 = 0, ρ0² = 2σ²/(m + S) improves all
+    the way to the singular S = m (docs/method.md §9.3). An init plan at q2 = ±0.01 rad has
+    conditioning 1 − cos 0.01 = 5e-5 and ρ0² = 0.500025σ²; it cannot move (its barrier is infinite,
+    its gradient zero), and any plan above the default floor 1e-2 has ρ0² ≥ 2σ²/3.98 = 0.5025σ², so
+    the screening keeps the init start and drops the drawn one, whatever path the search takes."""
+    near_singular = np.array([[0.0, 0.01], [0.5, -0.01]])
+    assert conditioning(pincal.information_matrix(lengths.jacobian(near_singular))) < 1e-4
+    with pytest.raises(DegenerateOptimum) as raised:
+        design(
+            lengths, 2, test_pose=[0.0, 0.0], method="continuous", init=[near_singular], starts=1, keep=0.5,
+            sigma=1.0, seed=0, workers=1,
+        )  # fmt: skip
+    error = raised.value
+    assert isinstance(error, pincal.PincalError)
+    assert (error.criterion, error.m, error.floor) == ("test-pose", 2, 0.01)
+    assert str(error) == (
+        "the test-pose criterion would improve further as the 2 configurations approach a singular plan, so "
+        "its infimum is not attained by a regular plan (with few configurations for many parameters, or a "
+        "test pose at a singular limit such as a stretched arm); every start ended below the conditioning "
+        "floor 0.01: add configurations, move the test pose, or lower min_conditioning"
+    )
 
 
 def test_docstring_examples_run():
