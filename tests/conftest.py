@@ -7,7 +7,9 @@ import os
 # Small dense matrices everywhere: BLAS threads only contend (4x slower on a loaded 2-core box).
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+import json  # noqa: E402
 from pathlib import Path  # noqa: E402
+from typing import NamedTuple  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
@@ -36,6 +38,59 @@ def kr270_marker():
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+class CliRun(NamedTuple):
+    """What one command printed: ``code, out, err = cli.run(...)``."""
+
+    code: int
+    out: str
+    err: str
+
+
+class Cli:
+    """The ``pincal`` command line, run in this process (``pincal.cli.main``), output captured."""
+
+    def __init__(self, capsys: pytest.CaptureFixture[str]) -> None:
+        self._capsys = capsys
+
+    def run(self, *argv: object) -> CliRun:
+        """Run ``pincal ARGV...`` (each argument through ``str``, so paths and numbers do).
+
+        Usage errors, ``--help`` and ``--version`` leave argparse through ``SystemExit``: its code is
+        the exit code.
+        """
+        from pincal.cli import main
+
+        try:
+            code = main([str(a) for a in argv])
+        except SystemExit as exc:
+            code = exc.code
+        out, err = self._capsys.readouterr()
+        return CliRun(code, out, err)
+
+    def json(self, *argv: object) -> dict:
+        """Run ``pincal ARGV... --json``; it must succeed; its JSON output, parsed."""
+        code, out, err = self.run(*argv, "--json")
+        assert code == 0, (code, err)
+        return json.loads(out)
+
+    def fails(self, *argv: object, match: str = "") -> str:
+        """Run a command that must be refused: exit code 2 and exactly one line on stderr,
+        ``pincal: error: ...`` containing ``match``, no traceback. Returns that line."""
+        code, out, err = self.run(*argv)
+        assert code == 2, (code, out, err)
+        assert err.startswith("pincal: error: ") and err.count("\n") == 1 and err.endswith("\n"), err
+        assert "Traceback" not in err, err
+        assert match in err, err
+        return err[:-1]
+
+
+@pytest.fixture
+def cli(capsys):
+    """The command line, with ``.run(*argv) -> (code, out, err)``, ``.json(*argv)`` and
+    ``.fails(*argv, match=...)``."""
+    return Cli(capsys)
 
 
 def pytest_collection_modifyitems(config, items):
