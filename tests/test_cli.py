@@ -27,28 +27,11 @@ def planar_plan(tmp_path):
     return path
 
 
-def run_json(capsys, argv):
-    assert main(argv + ["--json"]) == 0
-    return json.loads(capsys.readouterr().out)
-
-
-def test_evaluate_json_matches_library(capsys, kr_plan, kr270_marker):
-    out = run_json(
-        capsys,
-        [
-            "evaluate",
-            "kr270",
-            "--plan",
-            str(kr_plan),
-            "--deg",
-            "--test-pose",
-            KR_Q0,
-            "--marker",
-            "0.1,0.05,0.2",
-            "--sigma",
-            "3e-5",
-        ],
-    )
+def test_evaluate_json_matches_library(cli, kr_plan, kr270_marker):
+    out = cli.json(
+        "evaluate", "kr270", "--plan", kr_plan, "--deg", "--test-pose", KR_Q0, "--marker", "0.1,0.05,0.2",
+        "--sigma", "3e-5",
+    )  # fmt: skip
     params = kr270_marker.parameters("full,offsets").identifiable().identifiable
     plan = pincal.Plan.from_csv(kr_plan, robot=kr270_marker, degrees=True)
     q0 = np.radians([0, -90, 90, 0, 45, 0])
@@ -58,13 +41,10 @@ def test_evaluate_json_matches_library(capsys, kr_plan, kr270_marker):
     assert out["criteria"]["cond"] == pytest.approx(pincal.criteria(params, plan).cond, rel=1e-12)
 
 
-def test_evaluate_planar_closed_form_and_negative_test_pose(capsys, planar_plan):
+def test_evaluate_planar_closed_form_and_negative_test_pose(cli, planar_plan):
     # --test-pose=-0.3,1.2 (and the space-separated form) must parse negative values.
     for form in (["--test-pose=-0.3,1.2"], ["--test-pose", "-0.3,1.2"]):
-        out = run_json(
-            capsys,
-            ["evaluate", "planar_2r", "--plan", str(planar_plan), "--params", "joint2.tx,tip.tx"] + form,
-        )
+        out = cli.json("evaluate", "planar_2r", "--plan", planar_plan, "--params", "joint2.tx,tip.tx", *form)
         q2 = np.array([1.0, -1.0, 2.0])
         m, S = 3, np.cos(q2).sum()
         sigma = 3e-5  # the default: a laser tracker's
@@ -73,7 +53,7 @@ def test_evaluate_planar_closed_form_and_negative_test_pose(capsys, planar_plan)
         assert out["sigma"] == sigma
 
 
-def test_evaluate_several_test_poses_mean_and_worst(capsys, planar_plan):
+def test_evaluate_several_test_poses_mean_and_worst(cli, planar_plan):
     argv = [
         "evaluate",
         "planar_2r",
@@ -84,47 +64,33 @@ def test_evaluate_several_test_poses_mean_and_worst(capsys, planar_plan):
         "--test-pose=0,0.5",
         "--test-pose=0,2.5",
     ]
-    mean = run_json(capsys, argv)
-    worst = run_json(capsys, argv + ["--worst"])
+    mean = cli.json(*argv)
+    worst = cli.json(*argv, "--worst")
     each = np.array(mean["rho0_per_test_pose"])
     assert mean["rho0"] == pytest.approx(np.sqrt(np.mean(each**2)))
     assert worst["rho0"] == pytest.approx(each.max())
 
 
-def test_evaluate_text_output(capsys, kr_plan):
-    assert (
-        main(
-            [
-                "evaluate",
-                "kr270",
-                "--plan",
-                str(kr_plan),
-                "--deg",
-                "--test-pose",
-                KR_Q0,
-                "--marker",
-                "0.1,0.05,0.2",
-                "--sigma",
-                "3e-5",
-            ]
-        )
-        == 0
-    )
-    out = capsys.readouterr().out
+def test_evaluate_text_output(cli, kr_plan):
+    code, out, _ = cli.run(
+        "evaluate", "kr270", "--plan", kr_plan, "--deg", "--test-pose", KR_Q0, "--marker", "0.1,0.05,0.2",
+        "--sigma", "3e-5",
+    )  # fmt: skip
+    assert code == 0
     assert "rho0 at the test pose" in out and "mm" in out and "O4" in out
 
 
-def test_params_json(capsys):
-    out = run_json(capsys, ["params", "kr270"])
+def test_params_json(cli):
+    out = cli.json("params", "kr270")
     assert len(out["identifiable"]) == 25
     assert out["dropped"]["joint_a6.offset"].startswith("invisible")
-    out = run_json(capsys, ["params", "kr270", "--marker", "0.1,0.05,0.2", "--params", "full"])
+    out = cli.json("params", "kr270", "--marker", "0.1,0.05,0.2", "--params", "full")
     assert len(out["identifiable"]) == 27
     assert len(out["params"]) == 42
 
 
-def test_robots_lists_shipped_and_erd(capsys):
-    out = run_json(capsys, ["robots"])
+def test_robots_lists_shipped_and_erd(cli):
+    out = cli.json("robots")
     assert "kr270" in out["shipped"] and "ur10" in out["example_robot_data"]
 
 
@@ -261,14 +227,9 @@ BAD = [
 
 
 @pytest.mark.parametrize("case", range(len(BAD)))
-def test_bad_input_one_line_exit_2(tmp_path, capsys, case):
+def test_bad_input_one_line_exit_2(tmp_path, cli, case):
     build, fragment = BAD[case]
-    code = main(build(tmp_path))
-    err = capsys.readouterr().err
-    assert code == 2
-    assert err.startswith("pincal: error: ") and err.count("\n") == 1, err
-    assert fragment in err
-    assert "Traceback" not in err
+    cli.fails(*build(tmp_path), match=fragment)  # exit 2, one 'pincal: error:' line, no traceback
 
 
 def test_usage_errors_exit_2(capsys):
