@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -25,39 +24,13 @@ KR = [
 ]
 
 
-def run_json(capsys, argv):
-    assert main(argv + ["--json"]) == 0
-    return json.loads(capsys.readouterr().out)
-
-
-def fails(capsys, argv, match):
-    assert main(argv) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.startswith("pincal: error: ") and "\n" not in err and "Traceback" not in err
-    assert match in err, err
-    return err
-
-
-def test_design_json_reaches_the_closed_form(capsys, tmp_path):
+def test_design_json_reaches_the_closed_form(cli, tmp_path):
     out_csv = tmp_path / "plan.csv"
     q20 = 1.2
-    data = run_json(
-        capsys,
-        [
-            "design",
-            *PLANAR,
-            "-m",
-            "2",
-            "--test-pose",
-            f"0.3,{q20}",
-            "--sigma",
-            "3e-5",
-            "--baseline",
-            "100",
-            "--out",
-            str(out_csv),
-        ],
-    )
+    data = cli.json(
+        "design", *PLANAR, "-m", "2", "--test-pose", f"0.3,{q20}", "--sigma", "3e-5", "--baseline", "100",
+        "--out", out_csv,
+    )  # fmt: skip
     assert data["rho0"] ** 2 == pytest.approx(3e-5**2 / 2 * (1 + math.sin(q20)), rel=1e-6)
     assert data["criterion"] == "test-pose" and data["starts"] == 4
     # The plan printed is the one whose rho0 is reported: the closed form (docs/method.md §9.3) in
@@ -75,50 +48,34 @@ def test_design_json_reaches_the_closed_form(capsys, tmp_path):
     np.testing.assert_allclose(plan.q, data["plan"], rtol=0, atol=0)  # radians, exactly
 
 
-def test_design_text_in_degrees_and_out_file(capsys, tmp_path):
+def test_design_text_in_degrees_and_out_file(cli, tmp_path):
     out_csv = tmp_path / "plan.csv"
-    assert (
-        main(
-            [
-                "design",
-                *PLANAR,
-                "-m",
-                "3",
-                "--test-pose=10,70",
-                "--deg",
-                "--criterion",
-                "D",
-                "--out",
-                str(out_csv),
-            ]
-        )
-        == 0
+    code, text, _ = cli.run(
+        "design", *PLANAR, "-m", "3", "--test-pose=10,70", "--deg", "--criterion", "D", "--out", out_csv
     )
-    text = capsys.readouterr().out
+    assert code == 0
     assert "plan (degrees)" in text and "D = " in text and f"wrote {out_csv} (degrees)" in text
     robot = pincal.load_robot("planar_2r")
     plan = pincal.Plan.from_csv(out_csv, robot=robot, degrees=True)
     assert abs(np.cos(plan.q[:, 1]).sum()) < 1e-4  # D-optimal: Σ cos q2 = 0
 
 
-def test_design_exchange_over_a_user_pool(capsys, tmp_path, kr270_marker):
+def test_design_exchange_over_a_user_pool(cli, tmp_path, kr270_marker):
     pool = kr270_marker.random_configurations(25, np.random.default_rng(4))
     path = tmp_path / "taught.csv"
     pincal.Plan.for_robot(kr270_marker, pool).to_csv(path, degrees=True)
-    data = run_json(
-        capsys, ["design", *KR, "-m", "4", "--method", "exchange", "--pool", str(path), "--starts", "3"]
-    )
+    data = cli.json("design", *KR, "-m", "4", "--method", "exchange", "--pool", path, "--starts", "3")
     rows = {tuple(np.round(q, 9)) for q in pool}
     assert all(tuple(np.round(q, 9)) in rows for q in data["plan"])
     assert data["method"] == "exchange" and data["pool_size"] == 25
 
 
-def test_design_with_constraints_file(capsys, tmp_path, kr270_marker):
+def test_design_with_constraints_file(cli, tmp_path, kr270_marker):
     cell = tmp_path / "cell.yaml"
     cell.write_text(
         "workspace_box: {lower: [0.8, -2, 0.4], upper: [3, 2, 2.6]}\nmin_spacing: {distance_deg: 15}\n"
     )
-    data = run_json(capsys, ["design", *KR, "-m", "4", "--starts", "3", "--constraints", str(cell)])
+    data = cli.json("design", *KR, "-m", "4", "--starts", "3", "--constraints", cell)
     cons = pincal.load_constraints(cell)
     assert pincal.planning.constraints.satisfied(kr270_marker, data["plan"], cons).all()
 
@@ -132,53 +89,51 @@ def test_design_with_constraints_file(capsys, tmp_path, kr270_marker):
         (["-m", "4", "--pool", "nope.csv", "--method", "exchange"], "does not exist"),
     ],
 )
-def test_design_bad_input_one_line(capsys, argv, match):
-    fails(capsys, ["design", *KR, *argv], match)
+def test_design_bad_input_one_line(cli, argv, match):
+    cli.fails("design", *KR, *argv, match=match)
 
 
-def test_design_bad_constraints_one_line(capsys, tmp_path):
+def test_design_bad_constraints_one_line(cli, tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("workspace_box: {lower: [0, 0\n")
-    fails(capsys, ["design", *KR, "-m", "4", "--constraints", str(bad)], "not valid YAML")
+    cli.fails("design", *KR, "-m", "4", "--constraints", bad, match="not valid YAML")
     far = tmp_path / "far.yaml"
     far.write_text("workspace_box: {lower: [8, 8, 8], upper: [9, 9, 9]}\n")
-    fails(capsys, ["design", *KR, "-m", "4", "--constraints", str(far)], "workspace_box rejected")
+    cli.fails("design", *KR, "-m", "4", "--constraints", far, match="workspace_box rejected")
 
 
-def test_design_out_is_not_written_on_error(capsys, tmp_path):
+def test_design_out_is_not_written_on_error(cli, tmp_path):
     out_csv = tmp_path / "plan.csv"
-    fails(capsys, ["design", *KR, "-m", "1", "--out", str(out_csv)], "at least 2")
+    cli.fails("design", *KR, "-m", "1", "--out", out_csv, match="at least 2")
     assert not out_csv.exists() and not list(tmp_path.iterdir())
 
 
-def test_design_warns_on_one_line_at_a_singular_limit(capsys):
+def test_design_warns_on_one_line_at_a_singular_limit(cli):
     # A low floor that binds is warned about (the default 1e-2 binding is the floor doing its job).
-    assert main(["design", *PLANAR, "-m", "2", "--test-pose=0.3,0", "--min-conditioning", "1e-4"]) == 0
-    err = capsys.readouterr().err.strip().splitlines()
+    code, _, err = cli.run("design", *PLANAR, "-m", "2", "--test-pose=0.3,0", "--min-conditioning", "1e-4")
+    assert code == 0
+    err = err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("pincal: warning:") and "not attained" in err[0]
 
 
-def test_baseline_json(capsys):
-    data = run_json(
-        capsys,
-        [
-            "baseline",
-            *PLANAR,
-            "-m",
-            "2",
-            "--test-pose=0.3,1.0",
-            "--random",
-            "200",
-            "--d-optimal",
-            "--sigma",
-            "1",
-        ],
+def test_baseline_json(cli):
+    data = cli.json(
+        "baseline",
+        *PLANAR,
+        "-m",
+        "2",
+        "--test-pose=0.3,1.0",
+        "--random",
+        "200",
+        "--d-optimal",
+        "--sigma",
+        "1",
     )
     assert data["random"]["n"] == 200 and data["random"]["min"] <= data["random"]["median"]
     assert data["random"]["min"] >= math.sqrt((1 + math.sin(1.0)) / 2) * (1 - 1e-9)
     assert data["d_optimal"] == pytest.approx(1.0, rel=1e-6)
-    assert main(["baseline", *PLANAR, "-m", "2", "--test-pose=0.3,1.0", "--random", "50"]) == 0
-    assert "random feasible plans" in capsys.readouterr().out
+    code, out, _ = cli.run("baseline", *PLANAR, "-m", "2", "--test-pose=0.3,1.0", "--random", "50")
+    assert code == 0 and "random feasible plans" in out
 
 
 @pytest.mark.parametrize("command", ["design", "baseline"])

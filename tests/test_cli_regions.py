@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 import pincal
-from tests.test_cli_design import fails, run_json
 
 PLANAR = ["planar_2r", "--params", "joint2.tx,tip.tx", "--workers", "1", "--starts", "2"]
 SIGMA = 3e-5
@@ -18,11 +17,11 @@ def planar_params():
     return pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")
 
 
-def test_design_for_a_path_reports_its_mean_and_the_d_optimal_plan(capsys, tmp_path, planar_params):
+def test_design_for_a_path_reports_its_mean_and_the_d_optimal_plan(cli, tmp_path, planar_params):
     path = tmp_path / "path.csv"
     poses = np.column_stack([np.linspace(-1, 1, 500), np.linspace(0.3, 1.4, 500)])
     pincal.Plan(poses, ("joint1", "joint2")).to_csv(path)
-    data = run_json(capsys, ["design", *PLANAR, "-m", "3", "--test-path", str(path), "--sigma", str(SIGMA)])
+    data = cli.json("design", *PLANAR, "-m", "3", "--test-path", str(path), "--sigma", str(SIGMA))
     plan = np.array(data["plan"])
     expected = pincal.rho0(planar_params, plan, pincal.TestPath(poses), SIGMA)
     assert data["rho0"] == pytest.approx(expected, rel=1e-12)
@@ -35,14 +34,14 @@ def test_design_for_a_path_reports_its_mean_and_the_d_optimal_plan(capsys, tmp_p
     assert plans[1]["rows"][3]["median"] == pytest.approx(np.sqrt(2 * SIGMA**2 / 3), rel=1e-6)
 
 
-def test_evaluate_with_a_prior_and_a_neighbourhood(capsys, tmp_path, planar_params):
+def test_evaluate_with_a_prior_and_a_neighbourhood(cli, tmp_path, planar_params):
     plan_csv = tmp_path / "plan.csv"
     plan = np.array([[0.1, 0.0]])  # arm stretched: Δl1 and Δl2 move the tip alike, singular without a prior
     pincal.Plan(plan, ("joint1", "joint2")).to_csv(plan_csv)
     argv = ["evaluate", *PLANAR[:3], "--plan", str(plan_csv), "--test-pose=0.2,1.0", "--sigma", str(SIGMA)]
-    fails(capsys, argv, "singular plan")
+    cli.fails(*argv, match="singular plan")
     png = tmp_path / "accuracy.png"
-    data = run_json(capsys, argv + ["--prior", "1mm,1mrad", "--around", "5deg", "--accuracy-plot", str(png)])
+    data = cli.json(*argv, "--prior", "1mm,1mrad", "--around", "5deg", "--accuracy-plot", str(png))
     prior = pincal.Prior(1e-3, 1e-3)
     region = pincal.around([0.2, 1.0], np.radians(5))
     assert data["rho0"] == pytest.approx(
@@ -67,13 +66,13 @@ def test_evaluate_with_a_prior_and_a_neighbourhood(capsys, tmp_path, planar_para
         ([], "give a test pose"),
     ],
 )
-def test_bad_region_input_is_one_line(capsys, tmp_path, extra, match):
+def test_bad_region_input_is_one_line(cli, tmp_path, extra, match):
     plan_csv = tmp_path / "plan.csv"
     pincal.Plan(np.array([[0.1, 0.4], [0.3, -1.0]]), ("joint1", "joint2")).to_csv(plan_csv)
-    fails(capsys, ["evaluate", *PLANAR[:3], "--plan", str(plan_csv), *extra], match)
+    cli.fails("evaluate", *PLANAR[:3], "--plan", str(plan_csv), *extra, match=match)
 
 
-def test_scene_colours_sampled_poses_by_predicted_error(capsys, tmp_path, planar_params):
+def test_scene_colours_sampled_poses_by_predicted_error(cli, tmp_path, planar_params):
     from pincal.viewing.drawing import error_colors
 
     plan = np.array([[0.1, 0.4], [0.3, -1.0], [1.0, 2.0]])
@@ -86,21 +85,18 @@ def test_scene_colours_sampled_poses_by_predicted_error(capsys, tmp_path, planar
     assert rgb[lo][1] > rgb[lo][0] and rgb[hi][0] > rgb[hi][1]  # green at the smallest, red at the largest
     plan_csv, html = tmp_path / "plan.csv", tmp_path / "scene.html"
     pincal.Plan(plan, ("joint1", "joint2")).to_csv(plan_csv)
-    data = run_json(
-        capsys,
-        [
-            "show",
-            *PLANAR[:3],
-            "--plan",
-            str(plan_csv),
-            "--test-pose=0.2,1.0",
-            "--sigma",
-            str(SIGMA),
-            "--error-cloud",
-            "50",
-            "--html",
-            str(html),
-        ],
+    data = cli.json(
+        "show",
+        *PLANAR[:3],
+        "--plan",
+        str(plan_csv),
+        "--test-pose=0.2,1.0",
+        "--sigma",
+        str(SIGMA),
+        "--error-cloud",
+        "50",
+        "--html",
+        str(html),
     )
     assert data["error_cloud"]["n"] == 50 and html.stat().st_size > 0
     assert data["accuracy"]["plans"][0]["rows"][0]["rms"] == pytest.approx(
@@ -108,7 +104,7 @@ def test_scene_colours_sampled_poses_by_predicted_error(capsys, tmp_path, planar
     )
 
 
-def test_evaluate_over_a_cartesian_box(capsys, tmp_path):
+def test_evaluate_over_a_cartesian_box(cli, tmp_path):
     robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
     params = robot.parameters("lengths,offsets").identifiable().identifiable
     q0 = np.radians([0, -60, 60, 0, 45, 0])
@@ -117,25 +113,22 @@ def test_evaluate_over_a_cartesian_box(capsys, tmp_path):
     plan_csv = tmp_path / "plan.csv"
     pincal.Plan.for_robot(robot, plan).to_csv(plan_csv, degrees=True)  # --deg: the plan file too
     box = ",".join(f"{v:.6f}" for v in np.concatenate([p0 - 0.05, p0 + 0.05]))
-    data = run_json(
-        capsys,
-        [
-            "evaluate",
-            "kr270",
-            "--marker",
-            "0.1,0.05,0.2",
-            "--params",
-            "lengths,offsets",
-            "--plan",
-            str(plan_csv),
-            "--test-pose=0,-60,60,0,45,0",
-            "--deg",
-            "--test-box",
-            box,
-            "--sigma",
-            str(SIGMA),
-            "--no-accuracy",
-        ],
+    data = cli.json(
+        "evaluate",
+        "kr270",
+        "--marker",
+        "0.1,0.05,0.2",
+        "--params",
+        "lengths,offsets",
+        "--plan",
+        str(plan_csv),
+        "--test-pose=0,-60,60,0,45,0",
+        "--deg",
+        "--test-box",
+        box,
+        "--sigma",
+        str(SIGMA),
+        "--no-accuracy",
     )
     corners = np.array(box.split(","), dtype=float)  # the box as the command reads it
     region = pincal.cartesian_box(corners[:3], corners[3:], q0).resolve(robot)
