@@ -28,27 +28,11 @@ def plan_csv(tmp_path, kr270):
     return path
 
 
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def fails(capsys, *argv) -> str:
-    """Run a command that must fail: exit 2, one line on stderr; return that line."""
-    code, out, err = run(capsys, *argv)
-    assert code == 2, (out, err)
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("pincal: error: "), err
-    return lines[0]
-
-
-def test_rehearsal_measure_sim_then_identify(tmp_path, capsys, kr270):
+def test_rehearsal_measure_sim_then_identify(tmp_path, cli, kr270):
     meas, true_urdf, cal = tmp_path / "meas.csv", tmp_path / "true.urdf", tmp_path / "cal.urdf"
     plan_deg = tmp_path / "plan_deg.csv"
     pincal.Plan.for_robot(kr270, kr270.random_configurations(30, 1)).to_csv(plan_deg, degrees=True)
-    code, out, _ = run(
-        capsys,
+    code, out, _ = cli.run(
         "measure-sim",
         "kr270",
         "--plan",
@@ -70,8 +54,8 @@ def test_rehearsal_measure_sim_then_identify(tmp_path, capsys, kr270):
     assert code == 0 and "30 configurations" in out
     header = meas.read_text().splitlines()[0]
     assert header == "joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6,x,y,z"
-    code, out, _ = run(
-        capsys, "identify", "kr270", "--data", meas, "--mm", "--deg", "--out", cal, "--json", *MARKER
+    code, out, _ = cli.run(
+        "identify", "kr270", "--data", meas, "--mm", "--deg", "--out", cal, "--json", *MARKER
     )
     assert code == 0
     result = json.loads(out)
@@ -88,14 +72,13 @@ def test_rehearsal_measure_sim_then_identify(tmp_path, capsys, kr270):
     true = pincal.load_robot(true_urdf, markers=[(0.1, 0.05, 0.2)])
     q = kr270.random_configurations(20, 9)
     assert np.abs(calibrated.points(q) - true.points(q)).max() < 1e-5
-    code, out, _ = run(capsys, "identify", "kr270", "--data", meas, "--mm", "--deg", *MARKER)
+    code, out, _ = cli.run("identify", "kr270", "--data", meas, "--mm", "--deg", *MARKER)
     assert code == 0 and "converged" in out and "joint_a2.offset" in out and "mrad" in out
 
 
-def test_instrument_frame_data_with_base(tmp_path, capsys, plan_csv):
+def test_instrument_frame_data_with_base(tmp_path, cli, plan_csv):
     meas = tmp_path / "tracker.csv"
-    code, _, _ = run(
-        capsys,
+    code, _, _ = cli.run(
         "measure-sim",
         "kr270",
         "--plan",
@@ -111,7 +94,7 @@ def test_instrument_frame_data_with_base(tmp_path, capsys, plan_csv):
         *MARKER,
     )
     assert code == 0
-    code, out, _ = run(capsys, "identify", "kr270", "--data", meas, "--base", "--json", *MARKER)
+    code, out, _ = cli.run("identify", "kr270", "--data", meas, "--base", "--json", *MARKER)
     result = json.loads(out)
     assert code == 0 and result["status"] == "converged" and result["method"] == "trf"
     np.testing.assert_allclose(result["base"]["xyz"], [-2.5, 1.0, 0.2], atol=1e-9)
@@ -121,18 +104,15 @@ def test_instrument_frame_data_with_base(tmp_path, capsys, plan_csv):
     np.testing.assert_allclose(
         [result["params"][f"base.{c}"]["value"] for c in ("rx", "ry", "rz")], rotation, atol=1e-9
     )
-    code, out, _ = run(
-        capsys, "identify", "kr270", "--data", meas, "--params", "lengths,offsets,base", *MARKER
-    )
+    code, out, _ = cli.run("identify", "kr270", "--data", meas, "--params", "lengths,offsets,base", *MARKER)
     assert code == 0 and "base.rz" in out and "robot base in the instrument frame" in out
 
 
-def test_simulate_json(tmp_path, capsys):
+def test_simulate_json(tmp_path, cli):
     robot = pincal.load_robot("planar_2r")
     plan = robot.random_configurations(6, 2)
     pincal.Plan.for_robot(robot, plan).to_csv(tmp_path / "p.csv")
-    code, out, _ = run(
-        capsys,
+    code, out, _ = cli.run(
         "simulate",
         "planar_2r",
         "--plan",
@@ -155,8 +135,7 @@ def test_simulate_json(tmp_path, capsys):
     assert result["rho0_predicted"] == pytest.approx(pincal.rho0(params, plan, [0.3, 1.2], sigma=1e-4))
     assert result["trials"] == 100 and set(result["quantiles"]) == {"0.5", "0.9", "0.95", "0.99"}
     assert abs(result["rho0_empirical"] - result["rho0_predicted"]) < 3 * result["rho0_empirical_se"]
-    code, out, _ = run(
-        capsys,
+    code, out, _ = cli.run(
         "simulate",
         "planar_2r",
         "--plan",
@@ -194,15 +173,14 @@ HEADER = "joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6,x,y,z\n"
         (HEADER + "0,1,0,0,0,0,1,2,3\n", "line 2: joint joint_a2 = 1 is outside its limits"),
     ],
 )
-def test_bad_measurement_files(tmp_path, capsys, text, match):
+def test_bad_measurement_files(tmp_path, cli, text, match):
     (tmp_path / "m.csv").write_text(text)
-    assert re.search(match, fails(capsys, "identify", "kr270", "--data", tmp_path / "m.csv", *MARKER))
+    assert re.search(match, cli.fails("identify", "kr270", "--data", tmp_path / "m.csv", *MARKER))
 
 
-def test_identify_failures(tmp_path, capsys, kr270, plan_csv):
+def test_identify_failures(tmp_path, cli, kr270, plan_csv):
     meas = tmp_path / "meas.csv"
-    run(
-        capsys,
+    cli.run(
         "measure-sim",
         "kr270",
         "--plan",
@@ -215,30 +193,27 @@ def test_identify_failures(tmp_path, capsys, kr270, plan_csv):
         meas,
         *MARKER,
     )
-    line = fails(capsys, "identify", "kr270", "--data", meas, "--max-iterations", 1, *MARKER)
+    line = cli.fails("identify", "kr270", "--data", meas, "--max-iterations", 1, *MARKER)
     assert "no convergence" in line
-    code, out, err = run(
-        capsys, "identify", "kr270", "--data", meas, "--max-iterations", 1, "--json", *MARKER
-    )
+    code, out, err = cli.run("identify", "kr270", "--data", meas, "--max-iterations", 1, "--json", *MARKER)
     assert code == 2 and json.loads(out)["status"] == "not_converged" and "no convergence" in err
-    assert "unknown frame 'flange'" in fails(
-        capsys, "identify", "kr270", "--data", meas, "--tip", "flange", *MARKER
+    assert "unknown frame 'flange'" in cli.fails(
+        "identify", "kr270", "--data", meas, "--tip", "flange", *MARKER
     )
     same = np.tile(kr270.random_configurations(1, 0), (30, 1))
     pincal.simulate_measurements(kr270, same, 0.0).to_csv(tmp_path / "same.csv")
-    line = fails(capsys, "identify", "kr270", "--data", tmp_path / "same.csv", *MARKER)
+    line = cli.fails("identify", "kr270", "--data", tmp_path / "same.csv", *MARKER)
     assert "1 distinct configuration" in line and "at least 9" in line
-    line = fails(capsys, "identify", "kr270", "--data", meas, "--params", "full,offsets", *MARKER)
+    line = cli.fails("identify", "kr270", "--data", meas, "--params", "full,offsets", *MARKER)
     assert "cannot be identified" in line
 
 
-def test_outputs_never_overwrite_inputs(tmp_path, capsys, plan_csv):
+def test_outputs_never_overwrite_inputs(tmp_path, cli, plan_csv):
     urdf = tmp_path / "kr270.urdf"
     shutil.copy(pincal.shipped_robots()["kr270"], urdf)
     original = urdf.read_text()
     meas = tmp_path / "meas.csv"
-    run(
-        capsys,
+    cli.run(
         "measure-sim",
         urdf,
         "--plan",
@@ -251,22 +226,19 @@ def test_outputs_never_overwrite_inputs(tmp_path, capsys, plan_csv):
         meas,
         *MARKER,
     )
-    assert "is the robot's URDF" in fails(capsys, "identify", urdf, "--data", meas, "--out", urdf, *MARKER)
-    assert "is the input --data" in fails(capsys, "identify", urdf, "--data", meas, "--out", meas, *MARKER)
-    line = fails(
-        capsys, "measure-sim", urdf, "--plan", plan_csv, "--true", urdf, "--sigma", "0", "--out", plan_csv
+    assert "is the robot's URDF" in cli.fails("identify", urdf, "--data", meas, "--out", urdf, *MARKER)
+    assert "is the input --data" in cli.fails("identify", urdf, "--data", meas, "--out", meas, *MARKER)
+    line = cli.fails(
+        "measure-sim", urdf, "--plan", plan_csv, "--true", urdf, "--sigma", "0", "--out", plan_csv
     )
     assert "is the input --plan" in line
-    line = fails(
-        capsys, "measure-sim", urdf, "--plan", plan_csv, "--true", urdf, "--sigma", "0", "--out", urdf
-    )
+    line = cli.fails("measure-sim", urdf, "--plan", plan_csv, "--true", urdf, "--sigma", "0", "--out", urdf)
     assert "is the robot's URDF" in line
     assert urdf.read_text() == original
 
 
-def test_measure_sim_and_simulate_bad_input(tmp_path, capsys, plan_csv):
-    line = fails(
-        capsys,
+def test_measure_sim_and_simulate_bad_input(tmp_path, cli, plan_csv):
+    line = cli.fails(
         "measure-sim",
         "kr270",
         "--plan",
@@ -279,8 +251,7 @@ def test_measure_sim_and_simulate_bad_input(tmp_path, capsys, plan_csv):
         tmp_path / "m.csv",
     )
     assert "unknown frame 'tool0'" in line  # the true URDF's chain does not hold the tip
-    line = fails(
-        capsys,
+    line = cli.fails(
         "measure-sim",
         "kr270",
         "--plan",
@@ -293,8 +264,7 @@ def test_measure_sim_and_simulate_bad_input(tmp_path, capsys, plan_csv):
         tmp_path / "m.csv",
     )
     assert "LEN,ANG" in line
-    line = fails(
-        capsys,
+    line = cli.fails(
         "measure-sim",
         "kr270",
         "--plan",
@@ -308,9 +278,9 @@ def test_measure_sim_and_simulate_bad_input(tmp_path, capsys, plan_csv):
     )
     assert "does not exist" in line
     assert not (tmp_path / "m.csv").exists()
-    line = fails(
-        capsys, "simulate", "kr270", "--plan", plan_csv, "--test-pose=0,-1,1,0,0,0", "--error-std", "a,b"
+    line = cli.fails(
+        "simulate", "kr270", "--plan", plan_csv, "--test-pose=0,-1,1,0,0,0", "--error-std", "a,b"
     )
     assert "--error-std" in line
-    line = fails(capsys, "simulate", "kr270", "--plan", plan_csv, "--test-pose=0,-1,1,0,0,0", "--trials", 1)
+    line = cli.fails("simulate", "kr270", "--plan", plan_csv, "--test-pose=0,-1,1,0,0,0", "--trials", 1)
     assert "--trials" in line
