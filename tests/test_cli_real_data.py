@@ -14,16 +14,9 @@ import pytest
 
 import pincal
 from pincal import MeasurementData, identify, random_errors, simulate_measurements
-from pincal.cli import main
 
 MARKER = ["--marker", "0.1,0.05,0.2"]
 SIGMA = 3e-5
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")
@@ -47,9 +40,8 @@ def meas(tmp_path, robot, truth):
     return path
 
 
-def test_reject_lists_the_row_and_holdout_reports_before_after(tmp_path, capsys, meas):
-    code, out, _ = run(
-        capsys,
+def test_reject_lists_the_row_and_holdout_reports_before_after(tmp_path, cli, meas):
+    code, out, _ = cli.run(
         "identify",
         "kr270",
         "--data",
@@ -70,27 +62,27 @@ def test_reject_lists_the_row_and_holdout_reports_before_after(tmp_path, capsys,
     assert validation["n_points"] == 10 and len(validation["errors_before"]) == 10
     assert after[-2] < 5 * SIGMA * np.sqrt(3) < validation["before"]["rms"]  # all but the gross error
     assert result["condition_number"] > 1 and result["identifiability"]["rank"] == 27
-    code, out, _ = run(capsys, "identify", "kr270", "--data", meas, *MARKER, "--reject", 5)
+    code, out, _ = cli.run("identify", "kr270", "--data", meas, *MARKER, "--reject", 5)
     assert code == 0 and "rejected 1 row(s)" in out and "line 9: 22" in out
     assert "condition number" in out and "weakest" in out
 
 
-def test_mm_file_without_mm_is_implausible_and_force_writes(tmp_path, capsys, robot, truth):
+def test_mm_file_without_mm_is_implausible_and_force_writes(tmp_path, cli, robot, truth):
     data = simulate_measurements(truth.robot, robot.random_configurations(30, 5), SIGMA, seed=1)
     path = tmp_path / "mm.csv"
     data.to_csv(path, millimetres=True)
     out_urdf = tmp_path / "cal.urdf"
-    code, out, err = run(capsys, "identify", "kr270", "--data", path, *MARKER, "--out", out_urdf, "--json")
+    code, out, err = cli.run("identify", "kr270", "--data", path, *MARKER, "--out", out_urdf, "--json")
     assert code == 2 and json.loads(out)["status"] == "implausible" and "--mm" in json.loads(out)["causes"][0]
     assert len(err.strip().splitlines()) == 1 and err.startswith("pincal: error: no real robot")
     assert not out_urdf.exists()
-    code, out, err = run(capsys, "identify", "kr270", "--data", path, *MARKER, "--out", out_urdf, "--force")
+    code, out, err = cli.run("identify", "kr270", "--data", path, *MARKER, "--out", out_urdf, "--force")
     assert code == 0 and out_urdf.exists() and "written because of --force" in err
-    code, out, _ = run(capsys, "identify", "kr270", "--data", path, *MARKER, "--mm", "--kfold", 3)
+    code, out, _ = cli.run("identify", "kr270", "--data", path, *MARKER, "--mm", "--kfold", 3)
     assert code == 0 and "converged" in out and "3-fold" in out
 
 
-def test_two_placements_and_the_validation_plot(tmp_path, capsys, robot):
+def test_two_placements_and_the_validation_plot(tmp_path, cli, robot):
     pytest.importorskip("matplotlib")
     params = robot.parameters("full,offsets,base").identifiable(prefer="base").identifiable
     truth = random_errors(params, seed=2)
@@ -111,7 +103,7 @@ def test_two_placements_and_the_validation_plot(tmp_path, capsys, robot):
     ).to_csv(other)
     plot = tmp_path / "v.png"
     argv = ["identify", "kr270", "--data", files[0], "--data", files[1], "--base", *MARKER]
-    code, out, _ = run(capsys, *argv, "--validate", other, "--plot", plot, "--json")
+    code, out, _ = cli.run(*argv, "--validate", other, "--plot", plot, "--json")
     result = json.loads(out)
     assert code == 0 and result["status"] == "converged" and len(result["bases"]) == 2
     for found, base in zip(result["bases"], bases, strict=True):
@@ -120,16 +112,16 @@ def test_two_placements_and_the_validation_plot(tmp_path, capsys, robot):
     assert plot.stat().st_size > 1000
 
 
-def test_params_and_evaluate_check_the_users_configurations(tmp_path, capsys, robot, meas):
-    code, out, _ = run(capsys, "params", "kr270", *MARKER, "--data", meas, "--json")
+def test_params_and_evaluate_check_the_users_configurations(tmp_path, cli, robot, meas):
+    code, out, _ = cli.run("params", "kr270", *MARKER, "--data", meas, "--json")
     check = json.loads(out)["data_check"]
     assert code == 0 and check["rank"] == 27 and check["condition_number"] > 1 and check["m"] == 40
     plan = tmp_path / "same.csv"
     pincal.Plan.for_robot(robot, np.tile(robot.random_configurations(1, 0), (12, 1))).to_csv(plan)
-    code, out, _ = run(capsys, "params", "kr270", *MARKER, "--plan", plan)
+    code, out, _ = cli.run("params", "kr270", *MARKER, "--plan", plan)
     assert code == 0 and "condition number infinite" in out and "cannot identify" in out
     pincal.Plan.for_robot(robot, robot.random_configurations(15, 4)).to_csv(plan)
-    code, out, _ = run(capsys, "evaluate", "kr270", "--plan", plan, "--test-pose=0,-1.5,1.5,0,0.5,0", *MARKER)
+    code, out, _ = cli.run("evaluate", "kr270", "--plan", plan, "--test-pose=0,-1.5,1.5,0,0.5,0", *MARKER)
     assert code == 0 and "data identifiability (15 configurations" in out
 
 
