@@ -220,26 +220,22 @@ def test_dh_robot_round_trip_recovers_known_errors(tmp_path):
 
 
 # ------------------------------------------------------------------------ CLI
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
-def test_cli_writes_the_urdf_and_says_how_to_use_it(tmp_path, capsys):
+def test_cli_writes_the_urdf_and_says_how_to_use_it(tmp_path, cli):
     out = tmp_path / "ur5_dh.urdf"
-    code, text, err = run(capsys, "urdf-from-dh", UR5_TABLE, "--out", out)
+    code, text, err = cli.run("urdf-from-dh", UR5_TABLE, "--out", out)
     assert code == 0 and err == ""
     assert f"wrote {out}" in text and "--marker 0.05,0,0.1" in text
     robot = pincal.load_robot(out, markers=[(0.05, 0, 0.1)])
     assert robot.nq == 6 and robot.tip == "tool0"
     assert not list(tmp_path.glob(".*.tmp"))  # atomic write leaves nothing behind
-    code, text, _ = run(capsys, "urdf-from-dh", UR5_TABLE, "--json")
+    code, text, _ = cli.run("urdf-from-dh", UR5_TABLE, "--json")
     data = json.loads(text)
     assert (
         data["self_check"] < 1e-12 and data["urdf"].startswith("<?xml") and data["convention"] == "standard"
     )
-    code, text, _ = run(capsys, "urdf-from-dh", UR5_TABLE)
+    code, text, _ = cli.run("urdf-from-dh", UR5_TABLE)
     assert code == 0 and text == out.read_text()  # no --out: the URDF on stdout
 
 
@@ -272,11 +268,11 @@ BAD_TABLES = [
 
 
 @pytest.mark.parametrize("text, match", BAD_TABLES)
-def test_bad_tables_one_line_exit_2(tmp_path, capsys, text, match):
+def test_bad_tables_one_line_exit_2(tmp_path, cli, text, match):
     table = tmp_path / "bad.yaml"
     table.write_text(text)
     out = tmp_path / "robot.urdf"
-    code, _, err = run(capsys, "urdf-from-dh", table, "--out", out)
+    code, _, err = cli.run("urdf-from-dh", table, "--out", out)
     lines = err.strip().splitlines()
     assert code == 2 and len(lines) == 1 and lines[0].startswith("pincal: error: "), err
     assert match in lines[0] and "Traceback" not in err
@@ -285,12 +281,12 @@ def test_bad_tables_one_line_exit_2(tmp_path, capsys, text, match):
         pincal.urdf_from_dh(table)
 
 
-def test_cli_never_writes_over_the_table(tmp_path, capsys):
+def test_cli_never_writes_over_the_table(tmp_path, cli):
     table = tmp_path / "t.yaml"
     table.write_text(UR5_TABLE.read_text())
-    code, _, err = run(capsys, "urdf-from-dh", table, "--out", table)
+    code, _, err = cli.run("urdf-from-dh", table, "--out", table)
     assert code == 2 and "overwrite" in err and table.read_text() == UR5_TABLE.read_text()
-    code, _, err = run(capsys, "urdf-from-dh", tmp_path / "missing.yaml")
+    code, _, err = cli.run("urdf-from-dh", tmp_path / "missing.yaml")
     assert code == 2 and "does not exist" in err
 
 
@@ -321,16 +317,16 @@ def test_readme_table_is_the_help_table(capsys):
     assert from_readme.joints == from_help.joints
 
 
-def test_unwritable_out_is_one_line(tmp_path, capsys):
+def test_unwritable_out_is_one_line(tmp_path, cli):
     for out, reason in ((tmp_path / "missing" / "r.urdf", "its folder does not exist"), (tmp_path, "")):
-        code, _, err = run(capsys, "urdf-from-dh", UR5_TABLE, "--out", out)
+        code, _, err = cli.run("urdf-from-dh", UR5_TABLE, "--out", out)
         lines = err.strip().splitlines()
         assert code == 2 and len(lines) == 1 and lines[0].startswith("pincal: error: cannot write"), err
         assert reason in lines[0]
     assert list(tmp_path.iterdir()) == []  # no temporary file left behind
 
 
-def test_dh_robot_round_trip_on_the_command_line(tmp_path, capsys):
+def test_dh_robot_round_trip_on_the_command_line(tmp_path, cli):
     """urdf-from-dh → design --base → measure-sim in a tracker's frame → identify --base: converged,
     residuals at the noise, the tracker placement found, a calibrated URDF written."""
     table = tmp_path / "arm.yaml"
@@ -345,15 +341,14 @@ def test_dh_robot_round_trip_on_the_command_line(tmp_path, capsys):
     )
     urdf, plan, meas, cal = (tmp_path / n for n in ("arm.urdf", "plan.csv", "meas.csv", "cal.urdf"))
     marker = ["--marker", "0.1,0.05,0.2"]
-    assert run(capsys, "urdf-from-dh", table, "--out", urdf)[0] == 0
+    assert cli.run("urdf-from-dh", table, "--out", urdf)[0] == 0
     design = [urdf, "-m", "15", "--test-pose=0.3,-0.6,0.2,0.4,0.8,-0.2", "--sigma", "3e-5", "--base"]
-    code, _, err = run(
-        capsys, "design", *design, *marker, "--starts", "2", "--workers", "1", "--no-polish", "--out", plan
+    code, _, err = cli.run(
+        "design", *design, *marker, "--starts", "2", "--workers", "1", "--no-polish", "--out", plan
     )
     assert code == 0, err
     tracker = [2.5, -1.0, 0.2, 0.05, -0.1, 1.2]
-    code, _, err = run(
-        capsys,
+    code, _, err = cli.run(
         "measure-sim",
         urdf,
         "--plan",
@@ -368,7 +363,7 @@ def test_dh_robot_round_trip_on_the_command_line(tmp_path, capsys):
         *marker,
     )
     assert code == 0, err
-    code, out, err = run(capsys, "identify", urdf, "--data", meas, "--base", "--out", cal, "--json", *marker)
+    code, out, err = cli.run("identify", urdf, "--data", meas, "--base", "--out", cal, "--json", *marker)
     assert code == 0, err
     result = json.loads(out)
     assert result["status"] == "converged"
