@@ -4,7 +4,6 @@ base parameter set of ``identify --base`` in design, evaluate, params and baseli
 from __future__ import annotations
 
 import itertools
-import json
 import math
 
 import numpy as np
@@ -39,11 +38,6 @@ def pool_csv(tmp_path):
     return path
 
 
-def run_json(capsys, argv) -> dict:
-    assert main([str(a) for a in argv] + ["--json"]) == 0
-    return json.loads(capsys.readouterr().out)
-
-
 # ------------------------------------------------------------------------ --pool
 def test_random_plans_from_a_pool_are_its_plans(planar):
     params = planar.parameters("joint2.tx,tip.tx")
@@ -65,37 +59,35 @@ def test_random_plans_pool_too_small_is_named(planar):
         pincal.random_plans(params, 2, 10, Q0, pool=[[0.0, 1.0]])
 
 
-def test_design_baseline_is_drawn_from_the_pool(capsys, pool_csv):
-    data = run_json(
-        capsys,
-        ["design", *PLANAR, "-m", "2", "--test-pose=0.3,1.0", "--pool", pool_csv, "--baseline", "200"],
+def test_design_baseline_is_drawn_from_the_pool(cli, pool_csv):
+    data = cli.json(
+        "design", *PLANAR, "-m", "2", "--test-pose=0.3,1.0", "--pool", pool_csv, "--baseline", "200"
     )
     random = data["baseline"]["random"]
     assert data["rho0"] == pytest.approx(PAIRS[0], rel=1e-9)  # the best of the three
     assert random["min"] == pytest.approx(PAIRS[0], rel=1e-9)
     assert random["max"] == pytest.approx(PAIRS[-1], rel=1e-9)  # not a plan from the joint limits
-    argv = ["design", *PLANAR, "-m", "2", "--test-pose=0.3,1.0", "--pool", str(pool_csv), "--baseline", "20"]
-    assert main(argv) == 0
-    assert f"random feasible plans of the configurations of {pool_csv}" in capsys.readouterr().out
+    code, out, _ = cli.run(
+        "design", *PLANAR, "-m", "2", "--test-pose=0.3,1.0", "--pool", pool_csv, "--baseline", "20"
+    )
+    assert code == 0
+    assert f"random feasible plans of the configurations of {pool_csv}" in out
 
 
-def test_baseline_command_draws_from_the_pool(capsys, pool_csv):
+def test_baseline_command_draws_from_the_pool(cli, pool_csv):
     argv = ["baseline", *PLANAR, "-m", "2", "--test-pose=0.3,1.0", "--random", "200", "--pool", pool_csv]
-    data = run_json(capsys, [*argv, "--d-optimal", "--workers", "1", "--starts", "3"])
+    data = cli.json(*argv, "--d-optimal", "--workers", "1", "--starts", "3")
     assert data["pool"] == str(pool_csv)
     assert data["random"]["min"] == pytest.approx(PAIRS[0], rel=1e-9)
     assert data["random"]["max"] == pytest.approx(PAIRS[-1], rel=1e-9)
     assert sorted(q[1] for q in data["d_optimal_plan"]) in ([0.5, 1.5], [0.5, 2.5], [1.5, 2.5])
     # Without the pool, the plans come from the joint limits: their spread is far wider.
-    free = run_json(capsys, argv[:-2])
+    free = cli.json(*argv[:-2])
     assert free["random"]["max"] > 2 * PAIRS[-1]
 
 
-def test_show_pool_needs_plot(capsys, tmp_path, pool_csv):
-    argv = ["show", *PLANAR, "--plan", str(pool_csv), "--test-pose=0.3,1.0", "--pool", str(pool_csv)]
-    assert main(argv) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.startswith("pincal: error: ") and "\n" not in err and "--plot" in err
+def test_show_pool_needs_plot(cli, tmp_path, pool_csv):
+    cli.fails("show", *PLANAR, "--plan", pool_csv, "--test-pose=0.3,1.0", "--pool", pool_csv, match="--plot")
 
 
 # ------------------------------------------------------------------------ --base
@@ -109,9 +101,9 @@ def kr_plan(tmp_path_factory):
     return path
 
 
-def test_evaluate_params_design_share_the_identify_base_set(capsys, kr_plan):
-    with_base = run_json(capsys, ["evaluate", *KR, "--plan", kr_plan, "--base"])
-    without = run_json(capsys, ["evaluate", *KR, "--plan", kr_plan])
+def test_evaluate_params_design_share_the_identify_base_set(cli, kr_plan):
+    with_base = cli.json("evaluate", *KR, "--plan", kr_plan, "--base")
+    without = cli.json("evaluate", *KR, "--plan", kr_plan)
     names = with_base["params"]
     assert {f"base.{c}" for c in ("tx", "ty", "tz", "rx", "ry", "rz")} <= set(names)
     assert not any(n.startswith("joint_a1.") for n in names)  # the base takes joint 1's place
@@ -120,24 +112,24 @@ def test_evaluate_params_design_share_the_identify_base_set(capsys, kr_plan):
     assert len(names) == len(without["params"])
     assert with_base["rho0"] == pytest.approx(without["rho0"], rel=1e-7)
     # The same spec in --params means the same set; params --base reports it; design uses it.
-    spelled = run_json(capsys, ["evaluate", *KR, "--plan", kr_plan, "--params", "base"])
+    spelled = cli.json("evaluate", *KR, "--plan", kr_plan, "--params", "base")
     assert spelled["params"] == names
-    listed = run_json(capsys, ["params", "kr270", "--marker", "0.1,0.05,0.2", "--base"])
+    listed = cli.json("params", "kr270", "--marker", "0.1,0.05,0.2", "--base")
     assert listed["identifiable"] == names
     assert "joint_a1.offset" in listed["dropped"]
-    designed = run_json(capsys, ["design", *KR, "--base", "-m", "10", "--starts", "2", "--workers", "1"])
+    designed = cli.json("design", *KR, "--base", "-m", "10", "--starts", "2", "--workers", "1")
     assert designed["params"] == names
 
 
-def test_base_adds_columns_to_a_chain_set(capsys, kr_plan):
+def test_base_adds_columns_to_a_chain_set(cli, kr_plan):
     lengths = ["--params", "lengths,offsets"]
-    with_base = run_json(capsys, ["evaluate", *KR, "--plan", kr_plan, *lengths, "--base"])
-    without = run_json(capsys, ["evaluate", *KR, "--plan", kr_plan, *lengths])
+    with_base = cli.json("evaluate", *KR, "--plan", kr_plan, *lengths, "--base")
+    without = cli.json("evaluate", *KR, "--plan", kr_plan, *lengths)
     assert "base.tx" in with_base["params"] and len(with_base["params"]) > len(without["params"])
     # More unknowns on the same data: the error at the test pose can only grow.
     assert with_base["rho0"] >= without["rho0"] * (1 - 1e-9)
-    assert main(["evaluate", *KR, "--plan", str(kr_plan), *lengths, "--base"]) == 0
-    assert "with the base frame" in capsys.readouterr().out
+    code, out, _ = cli.run("evaluate", *KR, "--plan", kr_plan, *lengths, "--base")
+    assert code == 0 and "with the base frame" in out
 
 
 @pytest.mark.parametrize("command", ["design", "evaluate", "params", "baseline"])
