@@ -23,19 +23,6 @@ PLANAR = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
 PLAN = "joint1,joint2\n0.1,1.0\n0.5,-1.0\n1.0,2.0\n"
 
 
-def fails(capsys, argv: list[str], fragment: str) -> str:
-    """Run the CLI; it must exit 2 with one 'pincal: error:' line containing ``fragment``."""
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = exc.code
-    err = capsys.readouterr().err
-    assert code == 2, err
-    assert err.startswith("pincal: error: ") and err.count("\n") == 1, err
-    assert fragment in err, err
-    return err
-
-
 @pytest.fixture
 def cell(tmp_path):
     """A folder with the planar robot's URDF and a plan, as a user's cell would have them."""
@@ -67,35 +54,33 @@ def show(cell, *extra):
         ("", "the file name is empty"),
     ],
 )
-def test_show_html_never_replaces_an_input_or_special_file(cell, capsys, output, fragment):
+def test_show_html_never_replaces_an_input_or_special_file(cell, cli, output, fragment):
     os.link(cell / "plan.csv", cell / "hardlink.csv")
     os.symlink(cell / "plan.csv", cell / "symlink.csv")
     os.mkfifo(cell / "fifo")
     before = snapshot(cell)
     target = "" if output == "" else str(cell / output)
-    fails(capsys, show(cell, "--html", target), fragment)
+    cli.fails(*show(cell, "--html", target), match=fragment)
     assert snapshot(cell) == before and (cell / "fifo").is_fifo()
 
 
-def test_every_writer_refuses_inputs_before_any_work(cell, capsys):
+def test_every_writer_refuses_inputs_before_any_work(cell, cli):
     data = cell / "meas.csv"
     argv = ["measure-sim", cell / "robot.urdf", "--tip", "tip", "--plan", cell / "plan.csv"]
     assert main([str(a) for a in [*argv, "--error-std", "1e-3,1e-3", "--sigma", "1e-5", "--out", data]]) == 0
     before = snapshot(cell)
     identify = ["identify", cell / "robot.urdf", "--tip", "tip", "--data", data]
-    fails(capsys, [*identify, "--out", data], "is the input --data")
-    fails(capsys, [*argv, "--error-std", "1e-3,1e-3", "--sigma", "0", "--out", cell / "plan.csv"], "--plan")
-    fails(
-        capsys,
-        [*argv, "--error-std", "1e-3,1e-3", "--sigma", "0", "--out", data, "--save-true", data],
-        "output",
+    cli.fails(*identify, "--out", data, match="is the input --data")
+    cli.fails(*argv, "--error-std", "1e-3,1e-3", "--sigma", "0", "--out", cell / "plan.csv", match="--plan")
+    cli.fails(
+        *argv, "--error-std", "1e-3,1e-3", "--sigma", "0", "--out", data, "--save-true", data, match="output"
     )
     design = ["design", cell / "robot.urdf", "-m", "3", "--test-pose=0.3,1.2", *PLANAR, "--workers", "1"]
-    fails(capsys, [*design, "--pool", cell / "plan.csv", "--out", cell / "plan.csv"], "is the input --pool")
-    fails(capsys, [*design, "--plot", cell / "plot.xyz"], "valid: ")  # the format, before the design
+    cli.fails(*design, "--pool", cell / "plan.csv", "--out", cell / "plan.csv", match="is the input --pool")
+    cli.fails(*design, "--plot", cell / "plot.xyz", match="valid: ")  # the format, before the design
     shutil.copy(ROOT / "docs" / "dh" / "ur5_dh.yaml", cell / "table.yaml")
     before["table.yaml"] = (cell / "table.yaml").read_bytes()
-    fails(capsys, ["urdf-from-dh", cell / "table.yaml", "--out", cell / "table.yaml"], "is the input TABLE")
+    cli.fails("urdf-from-dh", cell / "table.yaml", "--out", cell / "table.yaml", match="is the input TABLE")
     assert snapshot(cell) == before
 
 
@@ -108,12 +93,12 @@ def test_writes_refuse_files_read_in_the_same_run(cell):
     assert atomic_write_text(cell / "robot.urdf", "x").read_text() == "x"  # outside: the API's choice
 
 
-def test_unwritable_place_is_one_line(cell, capsys):
+def test_unwritable_place_is_one_line(cell, cli):
     if os.geteuid() == 0:
         pytest.skip("root writes anywhere")
     locked = cell / "locked"
     locked.mkdir(mode=0o500)
-    fails(capsys, show(cell, "--html", locked / "s.html"), "permission denied in folder")
+    cli.fails(*show(cell, "--html", locked / "s.html"), match="permission denied in folder")
 
 
 # ------------------------------------------------------------------------------ bounded readers
@@ -128,12 +113,16 @@ def test_unwritable_place_is_one_line(cell, capsys):
         (b"joint1,joint2\n" + b"9" * 400 + b",0\n", "must be finite"),
     ],
 )
-def test_plan_csv_limits(cell, capsys, content, fragment):
+def test_plan_csv_limits(cell, cli, content, fragment):
     (cell / "plan.csv").write_bytes(content)
-    fails(
-        capsys,
-        ["evaluate", cell / "robot.urdf", "--plan", cell / "plan.csv", "--test-pose=0,1", *PLANAR],
-        fragment,
+    cli.fails(
+        "evaluate",
+        cell / "robot.urdf",
+        "--plan",
+        cell / "plan.csv",
+        "--test-pose=0,1",
+        *PLANAR,
+        match=fragment,
     )
 
 
@@ -143,11 +132,11 @@ def test_csv_byte_order_mark_and_crlf_are_read(cell, capsys):
     assert main([str(a) for a in argv]) == 0
 
 
-def test_inputs_that_are_not_files(cell, capsys):
+def test_inputs_that_are_not_files(cell, cli):
     os.mkfifo(cell / "fifo.csv")  # reading it would block forever
     base = ["evaluate", cell / "robot.urdf", "--test-pose=0,1", *PLANAR, "--plan"]
-    fails(capsys, [*base, cell / "fifo.csv"], "not a regular file")
-    fails(capsys, [*base, cell], "is a folder")
+    cli.fails(*base, cell / "fifo.csv", match="not a regular file")
+    cli.fails(*base, cell, match="is a folder")
 
 
 @pytest.mark.parametrize(
@@ -166,10 +155,10 @@ def test_inputs_that_are_not_files(cell, capsys):
         ("joint_limits: {margin_deg: 1", ", line 1: not valid YAML"),
     ],
 )
-def test_constraints_yaml_limits(cell, capsys, text, fragment):
+def test_constraints_yaml_limits(cell, cli, text, fragment):
     (cell / "cell.yaml").write_text(text)
     argv = ["design", cell / "robot.urdf", "-m", "3", "--test-pose=0.3,1.2", *PLANAR, "--workers", "1"]
-    fails(capsys, [*argv, "--constraints", cell / "cell.yaml"], fragment)
+    cli.fails(*argv, "--constraints", cell / "cell.yaml", match=fragment)
 
 
 @pytest.mark.parametrize(
@@ -199,11 +188,11 @@ def test_urdf_limits_and_native_messages(cell, capfd, edit, fragment):
     assert fragment in err
 
 
-def test_dh_table_with_a_400_digit_integer_is_refused(cell, capsys):
+def test_dh_table_with_a_400_digit_integer_is_refused(cell, cli):
     # The long fuzz run: the YAML reader's finite check formatted the integer as a float (OverflowError)
     table = (ROOT / "docs" / "dh" / "ur5_dh.yaml").read_text().replace("a: -0.425,", "a: " + "9" * 400 + ",")
     (cell / "table.yaml").write_text(table)
-    fails(capsys, ["urdf-from-dh", cell / "table.yaml"], "joints[1].a is an integer of 400 digits")
+    cli.fails("urdf-from-dh", cell / "table.yaml", match="joints[1].a is an integer of 400 digits")
 
 
 # --------------------------------------------------------------------------- one error format
@@ -225,11 +214,11 @@ def test_usage_errors_are_one_line(capsys, argv):
     assert "--help')" in err and "usage:" not in err
 
 
-def test_identify_one_point_in_millimetres_is_a_verdict_not_a_crash(cell, capsys):
+def test_identify_one_point_in_millimetres_is_a_verdict_not_a_crash(cell, cli, capsys):
     # The long fuzz run: one measured point has no spread, so the units cause divided by zero.
     (cell / "one.csv").write_text("joint1,joint2,x,y,z\n0,0,1.8,0,0\n")
     argv = ["identify", cell / "robot.urdf", "--data", cell / "one.csv", *PLANAR, "--mm"]
-    fails(capsys, argv, "no real robot has this")
+    cli.fails(*argv, match="no real robot has this")
     # and with a marker 5 km away the outlier scores of an exact fit overflowed (a NumPy warning)
     argv = ["identify", cell / "robot.urdf", "--data", cell / "one.csv", *PLANAR, "--marker", "0,0,5394"]
     with np.errstate(all="raise"):
@@ -238,20 +227,20 @@ def test_identify_one_point_in_millimetres_is_a_verdict_not_a_crash(cell, capsys
     assert code in (0, 2) and "encountered in" not in err, err
 
 
-def test_extreme_arguments_are_refused_not_run(capsys):
-    fails(capsys, ["params", "planar_2r", "--seed", "-1"], "seed must be")  # was NumPy's ValueError
+def test_extreme_arguments_are_refused_not_run(cli):
+    cli.fails("params", "planar_2r", "--seed", "-1", match="seed must be")  # was NumPy's ValueError
     base = ["baseline", "planar_2r", "-m", "3", "--test-pose=0.3,1.2", "--workers", "1", "--random"]
-    fails(capsys, [*base, str(2**63)], "from 1 to 10,000,000")
-    fails(
-        capsys, ["simulate", "planar_2r", "--plan", "x.csv", "--test-pose=0,1", "--trials", str(10**30)], ""
+    cli.fails(*base, str(2**63), match="from 1 to 10,000,000")
+    cli.fails(
+        "simulate", "planar_2r", "--plan", "x.csv", "--test-pose=0,1", "--trials", str(10**30), match=""
     )
 
 
-def test_identify_iteration_limit_is_a_bounded_count(cell, capsys):
+def test_identify_iteration_limit_is_a_bounded_count(cell, cli):
     # the long fuzz run: --max-iterations -1e30 was NumPy's TypeError (isfinite of a huge int)
     (cell / "one.csv").write_text("joint1,joint2,x,y,z\n0,0,1.8,0,0\n")
     argv = ["identify", cell / "robot.urdf", "--tip", "tip", "--data", cell / "one.csv", *PLANAR[2:]]
-    fails(capsys, [*argv, "--max-iterations", "-" + "9" * 30], "--maxiter must be an integer from 1 to")
+    cli.fails(*argv, "--max-iterations", "-" + "9" * 30, match="--maxiter must be an integer from 1 to")
     params = pincal.load_robot(cell / "robot.urdf", tip="tip").parameters("joint2.tx,tip.tx")
     data = pincal.MeasurementData.from_csv(cell / "one.csv", params.robot)
     for bad in (float("inf"), "abc"):  # the API: int(inf) was an OverflowError, int('abc') a ValueError
@@ -259,27 +248,29 @@ def test_identify_iteration_limit_is_a_bounded_count(cell, capsys):
             pincal.identify(params, data, maxiter=bad)
 
 
-def test_reject_that_leaves_no_row_is_one_line(cell, capsys):
+def test_reject_that_leaves_no_row_is_one_line(cell, cli):
     # the collecting fuzz driver: --reject 1e-9 rejected every row, and the next robust fit took the
     # median of nothing ('Mean of empty slice', an internal error since NumPy warnings are errors)
     (cell / "meas.csv").write_text(
         "joint1,joint2,x,y,z\n0,0,1.8,0,0\n0,1,1.43,0.67,0\n1,1,0.21,1.57,0\n0.5,-1,1.66,-0.38,0.001\n"
     )
     argv = ["identify", cell / "robot.urdf", "--tip", "tip", "--data", cell / "meas.csv", *PLANAR[2:]]
-    fails(capsys, [*argv, "--reject", "1e-9"], "reject 1e-09 dropped 4 of the 4 configurations as outliers")
+    cli.fails(*argv, "--reject", "1e-9", match="reject 1e-09 dropped 4 of the 4 configurations as outliers")
 
 
-def test_measure_sim_refuses_a_negative_seed(cell, capsys):
+def test_measure_sim_refuses_a_negative_seed(cell, cli):
     # the long fuzz run: measure-sim --seed -1 was NumPy's ValueError (its generator was not checked)
     argv = ["measure-sim", cell / "robot.urdf", "--tip", "tip", "--plan", cell / "plan.csv"]
     argv += ["--error-std", "1e-3,1e-3", "--out", cell / "m.csv", "--seed", "-1"]
-    fails(capsys, argv, "seed must be an integer ≥ 0")
+    cli.fails(*argv, match="seed must be an integer ≥ 0")
     assert not (cell / "m.csv").exists()
 
 
-def test_error_cloud_size_is_a_bounded_count(cell, capsys):
+def test_error_cloud_size_is_a_bounded_count(cell, cli):
     # the long fuzz run: show --error-cloud 2**63 was NumPy's 'Maximum allowed dimension exceeded'
-    fails(capsys, show(cell, "--plot", cell / "x.png", "--error-cloud", str(2**63)), "from 1 to 10,000,000")
+    cli.fails(
+        *show(cell, "--plot", cell / "x.png", "--error-cloud", str(2**63)), match="from 1 to 10,000,000"
+    )
     with pytest.raises(pincal.PincalError, match="number of configurations must be an integer"):
         pincal.load_robot("planar_2r").random_configurations(2**63)
 
@@ -434,22 +425,20 @@ def test_identify_without_residual_degrees_of_freedom_prints_no_nan_sigma(cell, 
         (["--data", "{data}", "--prior", "1e300,1e300"], "prior standard deviation of lengths must be from"),
     ],
 )
-def test_absurd_lengths_and_sigmas_are_refused_at_the_boundary(cell, capsys, argv, fragment):
+def test_absurd_lengths_and_sigmas_are_refused_at_the_boundary(cell, cli, argv, fragment):
     (cell / "data.csv").write_text("joint1,joint2,x,y,z\n0,0,1.8,0,0\n0,1,1.43,0.67,0\n1,1,0.21,1.57,0\n")
     (cell / "far.csv").write_text("joint1,joint2,x,y,z\n0,0,1.8,0,0\n0,1,1.43,1e300,0\n")
     argv = [a.format(data=cell / "data.csv", far=cell / "far.csv") for a in argv]
-    fails(
-        capsys,
-        ["identify", cell / "robot.urdf", "--tip", "tip", "--params", "joint2.tx,tip.tx", *argv],
-        fragment,
+    cli.fails(
+        "identify", cell / "robot.urdf", "--tip", "tip", "--params", "joint2.tx,tip.tx", *argv, match=fragment
     )
 
 
-def test_dh_table_with_an_absurd_length_is_refused_by_name(cell, capsys):
+def test_dh_table_with_an_absurd_length_is_refused_by_name(cell, cli):
     # It was refused, but as 'the URDF written differs from its DH product by 2.2e+284'
     table = (ROOT / "docs" / "dh" / "ur5_dh.yaml").read_text().replace("a: -0.425,", "a: 1.0e+300,")
     (cell / "table.yaml").write_text(table)
-    fails(capsys, ["urdf-from-dh", cell / "table.yaml"], "row 2 (shoulder_lift_joint): a is 1e+300 m, over")
+    cli.fails("urdf-from-dh", cell / "table.yaml", match="row 2 (shoulder_lift_joint): a is 1e+300 m, over")
 
 
 XACRO_ROBOT = (
@@ -467,13 +456,13 @@ XACRO_ROBOT = (
         ("${'x' * 20000000}", "expands to over 16 MiB of URDF"),
     ],
 )
-def test_a_runaway_xacro_is_stopped_in_one_line(tmp_path, capsys, monkeypatch, expression, fragment):
+def test_a_runaway_xacro_is_stopped_in_one_line(tmp_path, cli, monkeypatch, expression, fragment):
     """xacro sources are programs: they run in a child process, bounded in time, memory and
     output (pincal.model.xacro_expansion); each runaway ends in one line, and pincal goes on."""
     path = tmp_path / "runaway.urdf.xacro"
     path.write_text(XACRO_ROBOT.format(name=expression))
     with monkeypatch.context() as patched:
         patched.setattr(xacro_expansion, "XACRO_SECONDS", 2.0)
-        fails(capsys, ["params", path], fragment)
+        cli.fails("params", path, match=fragment)
     path.write_text(XACRO_ROBOT.format(name="tip"))  # the same file, sane: it loads
     assert main(["params", str(path)]) == 0
