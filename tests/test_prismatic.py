@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.cli import main
 
 SIGMA = 3e-5
 Q0 = [0.8, 0.3, 0.4, -0.6]  # rail [m], waist, shoulder, elbow [rad]
@@ -106,33 +105,28 @@ def test_design_simulate_identify_export_recover_the_true_robot(rail, tmp_path):
     assert built.rho0[0] == pytest.approx(result.rho0, rel=1e-9)
 
 
-def test_cli_params_design_measure_identify_show(tmp_path, capsys):
-    def run(argv):
-        assert main(argv) == 0, argv
-        return json.loads(capsys.readouterr().out)
-
-    params = run(["params", "rail_arm", "--params", PARAMS, "--json"])
+def test_cli_params_design_measure_identify_show(tmp_path, cli):
+    params = cli.json("params", "rail_arm", "--params", PARAMS)
     assert "rail.offset" in json.dumps(params)
     assert (
         ",".join(pincal.load_robot("rail_arm").parameters(PARAMS).identifiable().identifiable.names) == BASE
     )
     plan = tmp_path / "plan.csv"
     test_pose = "--test-pose=0.8,17.19,22.92,-34.38"  # the rail in metres, the angles in degrees
-    run(["design", "rail_arm", "-m", "10", test_pose, "--deg", "--params", BASE, "--sigma", "3e-5",
-         "--starts", "4", "--workers", "1", "--pool-size", "400", "--out", str(plan), "--json"])  # fmt: skip
+    cli.json("design", "rail_arm", "-m", "10", test_pose, "--deg", "--params", BASE, "--sigma", "3e-5",
+             "--starts", "4", "--workers", "1", "--pool-size", "400", "--out", plan)  # fmt: skip
     rows = np.loadtxt(plan, delimiter=",", skiprows=1)
     assert rows[:, 0].min() >= 0 and rows[:, 0].max() <= 1.5  # metres, within the rail
     assert np.abs(rows[:, 1:]).max() > 2 * math.pi  # degrees
     meas, urdf = tmp_path / "meas.csv", tmp_path / "rail_calibrated.urdf"
-    assert main(["measure-sim", "rail_arm", "--plan", str(plan), "--deg", "--error-std", "1e-3,1e-3",
-                 "--sigma", "1e-7", "--out", str(meas)]) == 0  # fmt: skip
-    capsys.readouterr()
+    code, _, _ = cli.run("measure-sim", "rail_arm", "--plan", plan, "--deg", "--error-std", "1e-3,1e-3",
+                         "--sigma", "1e-7", "--out", meas)  # fmt: skip
+    assert code == 0
     written = np.loadtxt(meas, delimiter=",", skiprows=1)
     np.testing.assert_allclose(written[:, :4], rows, atol=1e-9)  # the rail in metres, angles in degrees
-    identified = run(["identify", "rail_arm", "--data", str(meas), "--deg", "--params", BASE,
-                      "--out", str(urdf), "--json"])  # fmt: skip
+    identified = cli.json("identify", "rail_arm", "--data", meas, "--deg", "--params", BASE, "--out", urdf)
     assert identified["status"] == "converged"
     assert pincal.load_robot(urdf).revolute.tolist() == [False, True, True, True]
-    run(["show", "rail_arm", "--plan", str(plan), "--deg", test_pose, "--params", BASE, "--html",
-         str(tmp_path / "plan.html"), "--json"])  # fmt: skip
+    cli.json("show", "rail_arm", "--plan", plan, "--deg", test_pose, "--params", BASE, "--html",
+             tmp_path / "plan.html")  # fmt: skip
     assert (tmp_path / "plan.html").stat().st_size > 1000
