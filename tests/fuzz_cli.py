@@ -611,6 +611,7 @@ class Outcome:
 
 
 NOT_TEXT_OUTPUT = re.compile(rb"\s*(<!DOCTYPE html|<html|\x89PNG|<\?xml[^>]*>\s*<svg|%PDF)")
+"""A written file that is a page or a figure (its scripts and bytes may spell 'nan'), not a table."""
 # A printed non-finite number: nan, inf or infinity (signed or not) standing alone, not a part of a
 # name: 'tool-inf', 'x.nan' or 'nan_joint' are names a mutation may make, and are not numbers.
 NAN = re.compile(r"(?<![\w.-])[-+]?(nan|inf|infinity)(?![\w.-]*\w)", re.IGNORECASE)
@@ -720,9 +721,7 @@ def check_run(outcome: Outcome, before: dict, after: dict, inputs: set[str]) -> 
         assert not changed, f"partial output on error: {changed}"
     for name in new:  # written CSV and URDF files (not the figures, not the HTML page's scripts)
         content = after[name]
-        if isinstance(content, bytes) and not re.match(
-            rb"\s*(<!DOCTYPE html|<html|\x89PNG|<\?xml[^>]*>\s*<svg|%PDF)", content
-        ):
+        if isinstance(content, bytes) and not NOT_TEXT_OUTPUT.match(content):
             text = content.decode("utf-8", "replace")
             assert not NAN.search(re.sub(r"<!--.*?-->", "", text, flags=re.S)), f"NaN/inf in {name}"
 

@@ -239,7 +239,6 @@ def test_cli_writes_the_urdf_and_says_how_to_use_it(tmp_path, cli):
     assert code == 0 and text == out.read_text()  # no --out: the URDF on stdout
 
 
-ROW = "{a: 0, alpha: 0, d: 0, theta: 0}"
 BAD_TABLES = [
     ("joints: []", "'joints' must be a list"),
     ("convention: craig\njoints: [{a: 0, alpha: 0, d: 0, theta: 0}]", "convention 'craig' is not one of"),
