@@ -114,6 +114,39 @@ def test_scipy_errors_do_not_leak(kr270, kr270_params, monkeypatch):
     assert "least_squares" in result.message and "infeasible" in result.message
 
 
+def test_a_failed_or_rank_deficient_result_reports_what_was_asked(kr270, kr270_params, monkeypatch):
+    """The loss, method, prior, the data's own σ and the rows rejected of a fit that failed or could
+    not start are those of the call (they were the defaults: linear, trf, no prior, σ estimated,
+    nothing rejected)."""
+    import scipy.optimize
+
+    same = _data(kr270, np.tile(kr270.random_configurations(1, 3), (30, 1)))
+    same = MeasurementData(same.q, same.points, same.joint_names, sigma=3e-5)
+    prior = pincal.Prior(1e-3, 1e-3)
+    deficient = identify(kr270_params, same, loss="huber", prior=prior)
+    assert deficient.status == "rank_deficient"
+    assert (deficient.loss, deficient.method, deficient.prior) == ("huber", "trf", prior)
+    assert deficient.sigma == 3e-5 and not deficient.sigma_estimated
+    assert deficient.as_dict()["loss"] == "huber" and deficient.as_dict()["prior"] == prior.as_dict()
+    assert identify(kr270_params, same, method="lm").method == "lm"
+
+    data = _data(random_errors(kr270_params, seed=4).robot, kr270.random_configurations(30, 3), 3e-5, 2)
+    points = np.array(data.points)
+    points[7] += [0.0, 0.022, 0.0]
+    real = scipy.optimize.least_squares
+
+    def final_fit_fails(*args, **kwargs):  # reject's scoring fits (soft_l1) run, the last fit fails
+        if kwargs["loss"] == "linear":
+            raise ValueError("boom")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr("scipy.optimize.least_squares", final_fit_fails)
+    failed = identify(kr270_params, MeasurementData(data.q, points, data.joint_names), reject=5)
+    assert failed.status == "failed" and "boom" in failed.message
+    assert [o.row for o in failed.rejected] == [7]
+    assert failed.residual_rms_before < 0.01  # the 22 mm row rejected is left out of it
+
+
 def test_non_convergence_is_a_status_not_an_exception(kr270, kr270_params, tmp_path):
     truth = random_errors(kr270_params, {"length": 1e-2, "angle": 1e-2}, seed=9)
     result = identify(kr270_params, _data(truth.robot, kr270.random_configurations(30, 1)), maxiter=1)

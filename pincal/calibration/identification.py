@@ -160,8 +160,9 @@ def identify(
     dropped = {} if prior is not None else dict(check.dropped)
     labels = _labels(sessions)
     why = _rank_deficiency(problem, check, free, m)
+    asked = dict(loss=loss, prior=prior, method=method, per_point=per_point)
     if why is not None:
-        return _result(problem, check, z0, None, before, "rank_deficient", why, 0, sigma, reference)
+        return _result(problem, check, z0, None, before, "rank_deficient", why, 0, sigma, reference, **asked)
 
     def fit(used: np.ndarray, fit_loss: str, z_start: np.ndarray) -> tuple[np.ndarray, int, bool, str]:
         return _solve(problem, free, used, z_start, prior_std, fit_loss, method, maxiter, tol, sigma_known)
@@ -171,8 +172,9 @@ def identify(
     if z is None:
         failed = f"identification {note}"
         return _result(
-            problem, check, z0, None, before, "failed", failed, iterations, sigma, reference, dropped
-        )
+            problem, check, z0, None, before, "failed", failed, iterations, sigma, reference, dropped,
+            rejected=tuple(rejected), **asked,
+        )  # fmt: skip
     residual = problem.residual(z)
     keep = np.repeat(used, residual.size // m)
     outliers = tuple(
@@ -189,8 +191,8 @@ def identify(
     )  # fmt: skip
     return _result(
         problem, check, z0, z, before, status, message, iterations, sigma, reference, dropped,
-        free=free, used=used, outliers=outliers, rejected=tuple(rejected), loss=loss, prior=prior,
-        prior_std=prior_std, causes=causes, method=method, per_point=per_point,
+        free=free, used=used, outliers=outliers, rejected=tuple(rejected), prior_std=prior_std,
+        causes=causes, **asked,
     )  # fmt: skip
 
 
