@@ -125,6 +125,11 @@ def test_outliers_are_named_by_line_and_rejected(robot, params, truth, outlier_f
     assert np.abs(z).max() < 5  # the true errors within the standard errors
     robust = identify(params, data, loss="cauchy")
     assert np.abs(robust.values - truth.values).max() < np.abs(plain.values - truth.values).max() / 10
+    # Levenberg-Marquardt takes the linear loss only: reject scores its rows on a trf fit (its soft_l1
+    # scoring fit used to fail under lm, silently, and nothing was rejected)
+    with_lm = identify(params, data, reject=5, method="lm")
+    assert with_lm.method == "lm" and [o.row for o in with_lm.rejected] == [o.row for o in rejected.rejected]
+    assert not with_lm.outliers and with_lm.residual_rms_after < 2 * SIGMA * np.sqrt(3)
 
 
 # ----------------------------------------------------------------------------- per-point σ

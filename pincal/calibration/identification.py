@@ -23,8 +23,8 @@ The steps, each reported:
    points onto the measured ones when ``base.*`` is identified. The "before" residual is the
    residual there (after the rigid fit), not at a base at the identity.
 3. **Outliers**: rows above :data:`~pincal.calibration.sanity.OUTLIER_SCORE` robust σ are named
-   by file and line; with ``reject=K`` the rows above K robust σ (scored on a ``soft_l1`` fit) are
-   dropped and the fit repeated until none is left.
+   by file and line; with ``reject=K`` the rows above K robust σ (scored on a ``soft_l1`` fit, by
+   ``trf`` whatever the method) are dropped and the fit repeated until none is left.
 4. **Sanity** (:mod:`pincal.calibration.sanity`): a fit with values or residuals no real robot has
    is ``implausible``, with its likely causes, never ``converged``.
 
@@ -165,7 +165,8 @@ def identify(
         return _result(problem, check, z0, None, before, "rank_deficient", why, 0, sigma, reference, **asked)
 
     def fit(used: np.ndarray, fit_loss: str, z_start: np.ndarray) -> tuple[np.ndarray, int, bool, str]:
-        return _solve(problem, free, used, z_start, prior_std, fit_loss, method, maxiter, tol, sigma_known)
+        how = method if fit_loss == "linear" else "trf"  # lm takes the linear loss only
+        return _solve(problem, free, used, z_start, prior_std, fit_loss, how, maxiter, tol, sigma_known)
 
     used, rejected = _reject_outliers(problem, fit, z0, labels, free, loss, reject)
     z, iterations, converged, note = fit(used, loss, z0)
