@@ -21,6 +21,7 @@ from pincal import (
     random_errors,
     simulate_measurements,
 )
+from pincal.calibration.noise import Noise
 from pincal.calibration.problem import Problem
 
 MARKER = [(0.1, 0.05, 0.2)]
@@ -162,7 +163,8 @@ def test_jacobian_in_total_coordinates_matches_finite_differences(kr270):
     """Rotation errors compose as R·exp3(ω): the Jacobian uses the right Jacobian of exp3."""
     params = kr270.parameters("full,offsets,base").identifiable(prefer="base").identifiable
     params = params.on(kr270).select(",".join(params.names[:-2]) + ",base.rz")  # a partial base
-    problem = Problem(params, [_data(kr270, kr270.random_configurations(6, 2))], np.ones(18))
+    data = _data(kr270, kr270.random_configurations(6, 2))
+    problem = Problem(params, [data], Noise.of([data], 1.0))
     x = 0.3 * np.random.default_rng(0).standard_normal(len(params))
     J = problem.jacobian(x)
     h = 1e-6

@@ -19,33 +19,36 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.calibration.measurements import MeasurementData
+from pincal.calibration.noise import Noise
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 
 
 class Problem:
-    """measured − model over sessions, with per-coordinate weights 1/σ.
+    """measured − model over sessions, with the noise of the measured coordinates.
 
     Attributes:
         params: the shared parameter set.
         sessions: the data of each session, in the robot's joint order.
+        noise: the noise of the measured coordinates (their weights), sessions stacked.
         base: indices of the ``base.*`` parameters in ``params``.
         names: the name of each unknown (``base2.tx`` ... for the bases of extra sessions).
         units: the unit of each unknown.
         measured: (N,) the measured coordinates, sessions stacked.
-        sigma: (N,) the standard uncertainty of each coordinate [m].
+        labels: how messages name each row (configuration), sessions stacked: file and line.
     """
 
-    def __init__(self, params: ParameterSet, sessions: Sequence[MeasurementData], sigma: np.ndarray) -> None:
+    def __init__(self, params: ParameterSet, sessions: Sequence[MeasurementData], noise: Noise) -> None:
         self.params = params
         self.sessions = tuple(sessions)
+        self.noise = noise
+        self.labels = tuple(label for d in self.sessions for label in d.labels())
         self.base = [i for i, p in enumerate(params) if p.kind == "base"]
         extra = [(s, params.names[i]) for s in range(2, len(self.sessions) + 1) for i in self.base]
         self.names = params.names + tuple(f"base{s}.{name.split('.', 1)[1]}" for s, name in extra)
         self.units = params.units + tuple(params.units[i] for i in self.base) * (len(self.sessions) - 1)
         self.measured = np.concatenate([d.points.reshape(-1) for d in self.sessions])
-        self.sigma = np.asarray(sigma, dtype=float)
         self._rows = np.cumsum([0] + [d.points.size for d in self.sessions])
         # Rotation components need all three rotation columns of their placement (and base).
         groups: dict[tuple[str, int], list[int]] = {}
@@ -68,6 +71,11 @@ class Problem:
 
     def __len__(self) -> int:
         return len(self.names)
+
+    @property
+    def m(self) -> int:
+        """The number of rows (measured configurations), sessions stacked."""
+        return len(self.labels)
 
     def session_values(self, z: np.ndarray, s: int) -> np.ndarray:
         """x_s: the parameter values session s uses (its own base)."""

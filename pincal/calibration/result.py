@@ -9,16 +9,12 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.calibration.measurements import MeasurementData
-from pincal.calibration.problem import Problem
 from pincal.calibration.sanity import OUTLIER_SCORE, Outlier
+from pincal.calibration.state import Rows, Setup, Solution, Verdict
 from pincal.evaluation.data_check import DataCheck
 from pincal.evaluation.prior import Prior
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
-
-POOR_FIT = 1e-3
-"""Residual RMS [m] after calibration above which the result's message warns that geometric
-errors do not explain the data (non-geometric errors, a model that is too small)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,56 +202,41 @@ def _num(v: float) -> float | None:
     return float(v) if np.isfinite(v) else None
 
 
-def _result(
-    problem: Problem,
-    check: DataCheck,
-    z0: np.ndarray,
-    z: np.ndarray | None,
-    before: np.ndarray,
-    status: str,
-    message: str,
-    iterations: int,
-    sigma: float | None,
-    reference: float,
-    dropped: dict[str, str] | None = None,
-    *,
-    free: np.ndarray | None = None,
-    used: np.ndarray | None = None,
-    outliers: tuple[Outlier, ...] = (),
-    rejected: tuple[Outlier, ...] = (),
-    loss: str = "linear",
-    prior: Prior | None = None,
-    prior_std: np.ndarray | None = None,
-    causes: tuple[str, ...] = (),
-    method: str = "trf",
-    per_point: bool = False,
+def identification_result(
+    setup: Setup, solution: Solution | None, rows: Rows, verdict: Verdict
 ) -> IdentificationResult:
+    """The result of an identification from its state: the setup, the solver's solution (None
+    when no fit ran: rank-deficient data), the rows and the verdict. Without an estimate (no fit,
+    or a failed one) the values and standard errors are NaN and the residuals those at the start."""
+    problem, settings, noise = setup.problem, setup.settings, setup.problem.noise
     params, sessions = problem.params, list(problem.sessions)
-    n, m = len(params), sum(d.m for d in sessions)
-    estimated = sigma is None and not per_point
+    n, m = len(params), problem.m
+    estimated = not noise.known
     shape = (m, params.robot.n_markers, 3)
+    z = None if solution is None else solution.z
     if z is None:
         values, std, correlation = np.full(n, np.nan), np.full(n, np.nan), np.full((n, n), np.nan)
-        robot, residuals = problem.robot(z0), before.reshape(shape)
-        sigma_out = np.nan if estimated else reference
-        z_final = z0
+        robot, residuals = problem.robot(setup.z0), setup.before.reshape(shape)
+        sigma_out = np.nan if estimated else noise.reference
+        z_final = setup.z0
     else:
         values, robot = z[:n].copy(), problem.robot(z)
         residuals = problem.residual(z).reshape(shape)
-        used = np.ones(m, dtype=bool) if used is None else used
-        keep = np.repeat(used, 3 * params.robot.n_markers)
-        dof = int(keep.sum()) - len(free)
+        keep = noise.coordinates(rows.used)
+        dof = int(keep.sum()) - len(setup.free)
         per_coordinate = float(np.sqrt(np.sum(residuals.reshape(-1)[keep] ** 2) / dof)) if dof > 0 else np.nan
-        sigma_out = per_coordinate if estimated else reference
+        sigma_out = per_coordinate if estimated else noise.reference
         std, correlation = _covariance(
-            problem, z, free, keep, prior_std, per_coordinate if estimated and prior is None else None
+            setup, z, rows.used, per_coordinate if estimated and settings.prior is None else None
         )
         z_final = z
     bases = tuple(problem.robot(z_final, s).base for s in range(len(sessions))) if problem.base else ()
-    initial_bases = tuple(problem.robot(z0, s).base for s in range(len(sessions))) if problem.base else ()
+    initial_bases = (
+        tuple(problem.robot(setup.z0, s).base for s in range(len(sessions))) if problem.base else ()
+    )
     for array in (values, std, correlation, residuals):
         array.flags.writeable = False
-    before = before.reshape(shape)
+    before = setup.before.reshape(shape)
     before.flags.writeable = False
     return IdentificationResult(
         params=params,
@@ -266,38 +247,34 @@ def _result(
         sigma_estimated=estimated,
         residuals=residuals,
         residuals_before=before,
-        iterations=iterations,
-        status=status,
-        message=message,
-        method=method,
+        iterations=0 if solution is None else solution.iterations,
+        status=verdict.status,
+        message=verdict.message,
+        method=settings.method,
         robot=robot,
         data=_stacked(sessions),
-        check=check,
-        dropped=dict(dropped or {}),
-        outliers=outliers,
-        rejected=rejected,
-        loss=loss,
-        prior=prior,
-        causes=causes,
+        check=setup.check,
+        dropped={} if solution is None else dict(setup.dropped),
+        outliers=rows.outliers,
+        rejected=rows.rejected,
+        loss=settings.loss,
+        prior=settings.prior,
+        causes=verdict.causes,
         sessions=tuple(sessions),
         bases=bases,
-        initial_robot=problem.robot(z0),
+        initial_robot=problem.robot(setup.z0),
         initial_bases=initial_bases,
     )
 
 
 def _covariance(
-    problem: Problem,
-    z: np.ndarray,
-    free: np.ndarray,
-    keep: np.ndarray,
-    prior_std: np.ndarray,
-    scale_to: float | None,
+    setup: Setup, z: np.ndarray, used: np.ndarray, scale_to: float | None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(std, correlation) of the parameters: (JᵀWJ + Σp⁻¹)⁻¹ over the free unknowns, scaled to
-    σ̂² when σ is estimated; NaN for the parameters left out."""
+    """(std, correlation) of the parameters: (JᵀWJ + Σp⁻¹)⁻¹ over the free unknowns and the rows
+    used, scaled to σ̂² = ``scale_to``² when σ is estimated; NaN for the parameters left out."""
+    problem, free, prior_std = setup.problem, setup.free, setup.prior_std
     n = len(problem.params)
-    J = problem.jacobian(z)[np.ix_(keep, free)] / problem.sigma[keep, None]
+    J = problem.noise.whiten(problem.jacobian(z)[np.ix_(problem.noise.coordinates(used), free)], used)
     M = J.T @ J + np.diag(np.where(np.isfinite(prior_std[free]), 1.0 / prior_std[free] ** 2, 0.0))
     d = np.sqrt(np.diag(M))
     d[d == 0] = 1.0
@@ -307,7 +284,7 @@ def _covariance(
     except np.linalg.LinAlgError:
         return std, correlation
     if scale_to is not None:
-        cov = cov * (scale_to / np.median(problem.sigma)) ** 2
+        cov = cov * (scale_to / problem.noise.reference) ** 2
     inside = free < n
     idx = free[inside]
     sub = cov[np.ix_(inside, inside)]
@@ -315,25 +292,6 @@ def _covariance(
     with np.errstate(invalid="ignore", divide="ignore"):
         correlation[np.ix_(idx, idx)] = sub / np.outer(std[idx], std[idx])
     return std, correlation
-
-
-def _warnings(rms: float, r: np.ndarray, sigma: np.ndarray, known: bool, n_free: int) -> str:
-    """What a converged fit's residuals say about the data, as a message suffix."""
-    dof = r.size - n_free
-    if dof <= 0:
-        return "; as many parameters as measured coordinates: no residual degrees of freedom"
-    chi = float(np.sqrt(np.sum((r / sigma) ** 2) / dof))
-    if rms > POOR_FIT:
-        return (
-            f"; but the residuals stay at {rms * 1e3:.3g} mm RMS, more than geometric errors explain: "
-            f"non-geometric errors (compliance, gear errors) or parameters missing from the set"
-        )
-    if known and chi > 3:
-        return (
-            f"; the residuals are {chi:.3g} times the instrument's sigma per coordinate: the data "
-            f"hold errors the model does not"
-        )
-    return ""
 
 
 def _stacked(sessions: list[MeasurementData]) -> MeasurementData:

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pincal.calibration.noise import Noise
 from pincal.calibration.problem import Problem, fit_rms
 from pincal.model.parameters import ParameterSet
 
@@ -66,10 +67,11 @@ def robust_sigma(e: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(e)))
 
 
-def row_scores(residual: np.ndarray, sigma: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+def row_scores(residual: np.ndarray, noise: Noise) -> tuple[np.ndarray, np.ndarray]:
     """(distances [m], scores [robust σ]) of each of the m rows of a stacked (N,) residual."""
+    m = len(noise.std)
     r = residual.reshape(m, -1, 3)
-    e = (residual / sigma).reshape(m, -1, 3)
+    e = noise.whiten(residual).reshape(m, -1, 3)
     # An exact fit (e.g. as many unknowns as coordinates) has no spread to score against: a floor of
     # 1e-6 σ keeps the scores finite (an exactly fitted row scores 0, not inf or NaN).
     scale = max(robust_sigma(e), 1e-6)
@@ -77,10 +79,10 @@ def row_scores(residual: np.ndarray, sigma: np.ndarray, m: int) -> tuple[np.ndar
 
 
 def find_outliers(
-    residual: np.ndarray, sigma: np.ndarray, labels: Sequence[str], threshold: float = OUTLIER_SCORE
+    residual: np.ndarray, noise: Noise, labels: Sequence[str], threshold: float = OUTLIER_SCORE
 ) -> tuple[Outlier, ...]:
     """The rows whose residual exceeds ``threshold`` robust σ, worst first."""
-    distance, score = row_scores(residual, sigma, len(labels))
+    distance, score = row_scores(residual, noise)
     rows = sorted(np.flatnonzero(score > threshold), key=lambda i: -score[i])
     return tuple(Outlier(int(i), labels[i], float(distance[i]), float(score[i])) for i in rows)
 

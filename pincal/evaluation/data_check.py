@@ -25,7 +25,7 @@ reduced set) or give a prior (:class:`~pincal.Prior`, MAP identification).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -270,15 +270,39 @@ def _weakest_words(names: tuple[str, ...], M: np.ndarray) -> tuple[str, ...]:
     return tuple(words)
 
 
+def check_parameters(
+    params: ParameterSet, M: np.ndarray, m: int, sigma: float, extra: Mapping[str, str] | None = None
+) -> DataCheck:
+    """The data check identification makes: which of ``params`` data of whitened information
+    ``M`` determine, taken in the order :func:`~pincal.model.base_parameters.preference_order`
+    prefers them, the base (``base.*``, if in ``params``) first and always kept: an instrument's
+    placement is never left at the nominal identity. :func:`pincal.identify`, :func:`check_plan`
+    and a design's check of its plan all go through here.
+
+    Args:
+        params: the parameter set, the first columns of ``M``.
+        M: (P + E, P + E) information Σ JᵢᵀWᵢJᵢ (W = 1/σ² per coordinate, so cov = M⁻¹).
+        m: number of configurations (for the report).
+        sigma: the noise per coordinate behind W [m] (for the report).
+        extra: ``{name: unit}`` of the E columns after the parameters, always kept (the bases of
+            further sessions, one per instrument placement).
+    """
+    extra = {} if extra is None else extra
+    P = len(params)
+    base = [i for i, p in enumerate(params) if p.kind == "base"]
+    always = base + list(range(P, P + len(extra)))
+    order = preference_order(params, frozenset(params.names[i] for i in base)) + always[len(base) :]
+    names, units = params.names + tuple(extra), params.units + tuple(extra.values())
+    return check_information(names, units, M, order, m, sigma, always=always)
+
+
 def check_plan(params: ParameterSet, plan: object, sigma: float) -> DataCheck:
     """The data check of ``params`` on configurations ``plan`` (a Plan, (m, nq) array, or the
-    ``q`` of measurements) for noise ``sigma`` per coordinate [m]; the base, if in ``params``,
-    first and always kept (as identify does)."""
+    ``q`` of measurements) for noise ``sigma`` per coordinate [m], as identify makes it
+    (:func:`check_parameters`)."""
     qs = params.robot.configurations(plan)
     M = information_matrix(params.jacobian(qs, frame="tip")) / sigma**2
-    base = [i for i, p in enumerate(params) if p.kind == "base"]
-    order = preference_order(params, frozenset(params.names[i] for i in base))
-    return check_information(params.names, params.units, M, order, len(qs), sigma, always=base)
+    return check_parameters(params, M, len(qs), sigma)
 
 
 def _condition_text(value: float) -> str:

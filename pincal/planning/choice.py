@@ -16,9 +16,8 @@ from pincal.errors import (
     warn,
 )
 from pincal.evaluation.classic import criteria_from_jacobian
-from pincal.evaluation.data_check import MIN_DATA_CONDITIONING, DataCheck, check_information
+from pincal.evaluation.data_check import MIN_DATA_CONDITIONING, DataCheck, check_parameters
 from pincal.evaluation.test_pose import TestPoseCriterion
-from pincal.model.base_parameters import preference_order
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning.objectives import TEST_POSE_CRITERIA, make_objective
@@ -188,9 +187,7 @@ def identification_check(
     params: ParameterSet, engine: JacobianEngine, q: np.ndarray, sigma: float
 ) -> DataCheck:
     """The data check :func:`pincal.identify` makes of one session's data measured at the plan q
-    with noise σ: which parameters it would identify, the base (if identified) kept first and
-    always (see :mod:`pincal.evaluation.data_check`)."""
+    with noise σ: which parameters it would identify
+    (:func:`~pincal.evaluation.data_check.check_parameters`)."""
     J = engine.jacobian(q, frame="tip").reshape(-1, engine.n_params) / sigma
-    base = [i for i, p in enumerate(params) if p.kind == "base"]
-    order = preference_order(params, frozenset(params.names[i] for i in base))
-    return check_information(params.names, params.units, J.T @ J, order, len(q), sigma, always=base)
+    return check_parameters(params, J.T @ J, len(q), sigma)
