@@ -10,7 +10,7 @@ by how much (:attr:`MonteCarloResult.ratio`, :attr:`MonteCarloResult.note`).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -142,59 +142,72 @@ def monte_carlo(
     qs = robot.configurations(plan)
     q0 = robot.configurations(test_pose, what="test pose")
     predicted = float(rho0(params, qs, q0, sigma=sigma))
-    errors_arr, before_arr, at_truth, failures, local_minima = _run_trials(
-        params, qs, q0, sigma, length, angle, int(trials), generator(seed)
-    )
-    n = len(errors_arr)
+    check = _Check(params, qs, q0, float(sigma), {"length": length, "angle": angle}, int(trials))
+    runs = _run_trials(check, generator(seed))
+    n = len(runs.errors)
     if n < 2:
         raise BadArgument(
-            f"monte carlo: {failures + local_minima} of {trials} identifications failed or found "
+            f"monte carlo: {runs.failures + runs.local_minima} of {trials} identifications failed or found "
             f"local minima; the geometric errors (std {length:g} m, {angle:g} rad) are too large",
             argument="error_std",
             value={"length": length, "angle": angle},
         )
-    squared = errors_arr**2
+    squared = runs.errors**2
     empirical = float(np.sqrt(squared.mean()))
     se = float(squared.std(ddof=1) / np.sqrt(n) / (2.0 * empirical)) if empirical > 0 else 0.0
-    truth_rms = float(np.sqrt(np.mean(np.square(at_truth))))
-    nonlinear = bool(abs(empirical - predicted) > AGREEMENT * se or failures or local_minima)
-    note = _note(predicted, empirical, se, truth_rms, failures, local_minima, int(trials))
-    quantiles = {q: float(np.quantile(errors_arr, q)) for q in QUANTILES}
-    return MonteCarloResult(
+    truth_rms = float(np.sqrt(np.mean(np.square(runs.at_truth))))
+    result = MonteCarloResult(
         rho0_predicted=predicted,
         rho0_empirical=empirical,
         rho0_empirical_se=se,
         rho0_at_truth=truth_rms,
-        errors=errors_arr,
-        errors_before=before_arr,
-        quantiles=quantiles,
+        errors=runs.errors,
+        errors_before=runs.before,
+        quantiles={q: float(np.quantile(runs.errors, q)) for q in QUANTILES},
         trials=int(trials),
-        failures=failures,
-        local_minima=local_minima,
+        failures=runs.failures,
+        local_minima=runs.local_minima,
         sigma=float(sigma),
         error_std={"length": length, "angle": angle},
-        nonlinear=nonlinear,
-        note=note,
+        nonlinear=bool(abs(empirical - predicted) > AGREEMENT * se or runs.failures or runs.local_minima),
+        note="",
     )
+    return replace(result, note=_note(result))
 
 
-def _run_trials(
-    params: ParameterSet,
-    qs: np.ndarray,
-    q0: np.ndarray,
-    sigma: float,
-    length: float,
-    angle: float,
-    trials: int,
-    rng: np.random.Generator,
-) -> tuple[np.ndarray, np.ndarray, list[float], int, int]:
-    """(errors after, errors before, ρ0 at each true robot) of the trials that found the truth,
-    then the number of failed identifications and of local minima (see :func:`monte_carlo`)."""
+@dataclass(frozen=True, eq=False)
+class _Check:
+    """What one Monte-Carlo check simulates: the parameters, the plan and test poses [rad or m],
+    the noise [m], the std of the random errors, the number of trials."""
+
+    params: ParameterSet
+    qs: np.ndarray
+    q0: np.ndarray
+    sigma: float
+    error_std: dict[str, float]
+    trials: int
+
+
+@dataclass(frozen=True, eq=False)
+class _Runs:
+    """What the trials gave: the errors after and before calibration and ρ0 at the true robot of
+    each trial that found the truth [m]; the failed identifications and the local minima."""
+
+    errors: np.ndarray
+    before: np.ndarray
+    at_truth: list[float]
+    failures: int
+    local_minima: int
+
+
+def _run_trials(check: _Check, rng: np.random.Generator) -> _Runs:
+    """Each trial: draw the truth, simulate, identify, score (see :func:`monte_carlo`)."""
+    params, qs, q0, sigma = check.params, check.qs, check.q0, check.sigma
     nominal0 = params.robot.points(q0)
     errors, before, at_truth = [], [], []
     failures = local_minima = 0
-    for _ in range(trials):
-        truth = random_errors(params, {"length": length, "angle": angle}, rng)
+    for _ in range(check.trials):
+        truth = random_errors(params, check.error_std, rng)
         data = simulate_measurements(truth.robot, qs, sigma, rng)
         result = identify(params, data, sigma=sigma, sanity=False)
         if not result.success:
@@ -208,7 +221,7 @@ def _run_trials(
         errors.append(_rms_over_poses(result.robot.points(q0) - true0))
         before.append(_rms_over_poses(nominal0 - true0))
         at_truth.append(float(rho0(params.on(truth.robot), qs, q0, sigma=sigma)))
-    return np.array(errors), np.array(before), at_truth, failures, local_minima
+    return _Runs(np.array(errors), np.array(before), at_truth, failures, local_minima)
 
 
 def _rms_over_poses(difference: np.ndarray) -> float:
@@ -216,9 +229,11 @@ def _rms_over_poses(difference: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum(difference**2, axis=(1, 2)))))
 
 
-def _note(
-    predicted: float, empirical: float, se: float, at_truth: float, failures: int, minima: int, trials: int
-) -> str:
+def _note(result: MonteCarloResult) -> str:
+    """A sentence on agreement between the empirical and the predicted ρ0 and, if any,
+    nonlinearity."""
+    predicted, empirical, se = result.rho0_predicted, result.rho0_empirical, result.rho0_empirical_se
+    at_truth, failures, minima = result.rho0_at_truth, result.failures, result.local_minima
     ratio, ratio_se = empirical / predicted, se / predicted
     text = f"empirical/predicted rho0 = {ratio:.3f} ± {ratio_se:.3f}"
     agree = abs(empirical - predicted) <= AGREEMENT * se
@@ -230,7 +245,7 @@ def _note(
     parts = [text]
     if failures or minima:
         parts.append(
-            f"nonlinearity: of {trials} identifications started at the nominal geometry, "
+            f"nonlinearity: of {result.trials} identifications started at the nominal geometry, "
             f"{failures} did not converge and {minima} converged to a wrong solution (local "
             f"minimum); errors this large need a better start (a coarse calibration first)"
         )

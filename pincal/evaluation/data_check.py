@@ -3,7 +3,7 @@ r"""Identifiability on the data that will be used (issue 10): can *these* config
 
 :func:`pincal.model.base_parameters.identifiability` answers the question for random
 configurations over the whole joint range. Real data cover less: a small region, joints parked at
-one value. :func:`check_information` takes the information matrix of the user's own
+one value. :func:`check_parameters` takes the information matrix of the user's own
 configurations, whitened by the measurement noise (M = Σ JᵢᵀWᵢJᵢ, W = diag(1/σ²), so that
 cov(Π̂) = M⁻¹), and reports:
 
@@ -149,34 +149,43 @@ def _combination(names: Sequence[str], v: np.ndarray) -> str:
     return text[2:] if text.startswith("+ ") else "-" + text[2:]
 
 
-def check_information(
-    names: Sequence[str],
-    units: Sequence[str],
-    M: np.ndarray,
-    order: Sequence[int],
-    m: int,
-    sigma: float,
-    always: Sequence[int] = (),
-) -> DataCheck:
-    """The data check of a whitened information matrix (see the module doc).
+@dataclass(frozen=True, eq=False)
+class _Columns:
+    """The columns of an information matrix under check.
 
-    Args:
-        names, units: of each column of M.
-        M: (P, P) information Σ JᵢᵀWᵢJᵢ with W = 1/σ² per coordinate (so cov = M⁻¹).
-        order: the columns in the order they are preferred (all of them).
-        m: number of configurations (for the report).
-        sigma: the noise per coordinate behind W [m] (for the report).
-        always: columns kept whatever their standard error (instrument bases: never left at the
-            nominal identity).
+    Attributes:
+        names, units: of each column.
+        M: (P, P) the whitened information (cov = M⁻¹).
+        scaled: M Jacobi-scaled: the cosines between the columns of the whitened Jacobian.
+        bound: (P,) the standard error beyond which a column is not identified [m or rad].
+        always: the columns kept whatever their standard error.
     """
-    names, units = tuple(names), tuple(units)
-    kept, std, dropped = _identifiable_subset(names, units, M, order, set(always))
+
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    M: np.ndarray
+    scaled: np.ndarray
+    bound: np.ndarray
+    always: frozenset[int]
+
+    @classmethod
+    def of(cls, names: Sequence[str], units: Sequence[str], M: np.ndarray, always: Sequence[int]) -> _Columns:
+        _, scaled = jacobi_scaled(M, ZERO_COLUMN)
+        bound = np.array([IDENTIFIABLE_STD[u] for u in units])
+        return cls(tuple(names), tuple(units), M, scaled, bound, frozenset(always))
+
+
+def _check(columns: _Columns, order: Sequence[int], m: int, sigma: float) -> DataCheck:
+    """The data check of the columns, taken in ``order`` (see the module doc), for m
+    configurations of noise ``sigma`` per coordinate [m] (for the report)."""
+    names, M = columns.names, columns.M
+    kept, std, dropped = _identifiable_subset(columns, order)
     position = {i: n for n, i in enumerate(kept)}
     kept_sorted = sorted(kept)
     std = np.array([std[position[i]] for i in kept_sorted])
     return DataCheck(
         names=names,
-        units=units,
+        units=columns.units,
         kept=tuple(kept_sorted),
         dropped={n: dropped[n] for n in names if n in dropped},
         rank=rank(M),
@@ -192,13 +201,12 @@ def check_information(
 
 
 def _identifiable_subset(
-    names: tuple[str, ...], units: tuple[str, ...], M: np.ndarray, order: Sequence[int], always: set[int]
+    columns: _Columns, order: Sequence[int]
 ) -> tuple[list[int], np.ndarray, dict[str, str]]:
     """(kept columns in the order taken, their standard errors, {name: reason} of those left out):
     the ``always`` columns first, then each column of ``order`` unless :func:`_refusal` says why not."""
-    bound = np.array([IDENTIFIABLE_STD[u] for u in units])
-    _, scaled = jacobi_scaled(M, ZERO_COLUMN)
-    zero = scaled.diagonal() == 0.0
+    names, M, always = columns.names, columns.M, columns.always
+    zero = columns.scaled.diagonal() == 0.0
     kept: list[int] = []
     dropped: dict[str, str] = {}
     std = np.zeros(0)
@@ -213,7 +221,7 @@ def _identifiable_subset(
         if i in always:
             kept, std = trial, np.sqrt(diag) if diag is not None else np.full(len(trial), np.inf)
             continue
-        why = _refusal(names, units, M, scaled, bound, trial, diag, always)
+        why = _refusal(columns, trial, diag)
         if why is not None:
             dropped[names[i]] = why
             continue
@@ -221,19 +229,11 @@ def _identifiable_subset(
     return kept, std, dropped
 
 
-def _refusal(
-    names: tuple[str, ...],
-    units: tuple[str, ...],
-    M: np.ndarray,
-    scaled: np.ndarray,
-    bound: np.ndarray,
-    trial: list[int],
-    diag: np.ndarray | None,
-    always: set[int],
-) -> str | None:
+def _refusal(columns: _Columns, trial: list[int], diag: np.ndarray | None) -> str | None:
     """Why the last column of ``trial`` cannot join the ones kept before it (``diag``: the
     covariance diagonal of ``trial``, None if singular): inseparable from them, nearly so, or it
     leaves one too poorly determined; None when it can."""
+    names, units, scaled, bound = columns.names, columns.units, columns.scaled, columns.bound
     i, kept = trial[-1], trial[:-1]
     partner = ""
     if kept:
@@ -241,14 +241,14 @@ def _refusal(
         partner = f"; it moves the points nearly as {names[k]} does (cosine {abs(scaled[i, k]):.4f})"
     if diag is None:
         return "inseparable in these data from the parameters kept before it" + partner
-    floor = conditioning(M[np.ix_(trial, trial)])
+    floor = conditioning(columns.M[np.ix_(trial, trial)])
     if floor < MIN_DATA_CONDITIONING:
         return (
             f"nearly inseparable in these data from those kept before it (conditioning {floor:.2g} "
             f"< {MIN_DATA_CONDITIONING:g})" + partner
         )
     trial_std = np.sqrt(diag)
-    limited = [j for j in range(len(trial)) if trial[j] not in always]
+    limited = [j for j in range(len(trial)) if trial[j] not in columns.always]
     worse = [j for j in limited if trial_std[j] > bound[trial[j]]]
     if not worse:
         return None
@@ -293,7 +293,7 @@ def check_parameters(
     always = base + list(range(P, P + len(extra)))
     order = preference_order(params, frozenset(params.names[i] for i in base)) + always[len(base) :]
     names, units = params.names + tuple(extra), params.units + tuple(extra.values())
-    return check_information(names, units, M, order, m, sigma, always=always)
+    return _check(_Columns.of(names, units, M, always), order, m, sigma)
 
 
 def check_plan(params: ParameterSet, plan: object, sigma: float) -> DataCheck:
