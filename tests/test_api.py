@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import ast
 import re
+from pathlib import Path
 
 import pytest
 
 import pincal
 from tests.conftest import ROOT
+
+PACKAGE = Path(pincal.__file__).resolve().parent
+"""The package under test (the checkout's pincal/, or the installed wheel's under .ci/run)."""
 
 
 def test_all_names_import():
@@ -27,8 +31,8 @@ def test_no_import_inside_a_function_but_optional_ones():
         ("pincal/cli/show.py", "pincal.viewing.scene"),
         ("pincal/viewing/scene.py", "pincal.viewing.static_page"),
     }
-    for path in sorted((ROOT / "pincal").rglob("*.py")):
-        name = path.relative_to(ROOT).as_posix()
+    for path in sorted(PACKAGE.rglob("*.py")):
+        name = path.relative_to(PACKAGE.parent).as_posix()
         for function in ast.walk(ast.parse(path.read_text())):
             if not isinstance(function, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 continue
@@ -46,8 +50,8 @@ STAGES = ("model", "evaluation", "planning", "calibration", "viewing", "cli")
 def test_data_flows_one_way():
     """Each stage imports only the stages before it (robot → parameters → Jacobians → criteria →
     design → identify → view → CLI); the foundation modules (errors, files, arguments, ...) none."""
-    for path in sorted((ROOT / "pincal").rglob("*.py")):
-        parts = path.relative_to(ROOT / "pincal").parts
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = path.relative_to(PACKAGE).parts
         stage = parts[0] if len(parts) > 1 else None
         if stage is None and parts[0] in ("__init__.py", "__main__.py"):
             continue  # the public surface gathers every stage
@@ -56,7 +60,7 @@ def test_data_flows_one_way():
                 target = node.module.split(".")[1]
                 if target not in STAGES:
                     continue
-                where = path.relative_to(ROOT).as_posix()
+                where = path.relative_to(PACKAGE.parent).as_posix()
                 assert stage is not None, f"foundation module {where} imports the stage {target}"
                 assert STAGES.index(target) <= STAGES.index(stage), f"{where} imports the later {target}"
 
