@@ -144,16 +144,19 @@ def test_exchange_and_continuous_agree(lengths, kr_params):
     assert continuous.rho0**2 == pytest.approx(exact, rel=1e-6)
     assert exact <= exchange.rho0**2 <= exact * 1.01  # a 2000-candidate pool: close, not exact
     assert polished.rho0**2 == pytest.approx(exact, rel=1e-6)
-    # kr270, 12 parameters, m = 12, few starts: both far below the random median, within 10 %.
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DegenerateOptimumWarning)
-        a = design(kr_params, 12, test_pose=KR_Q0, starts=6, workers=1, seed=1, method="continuous")
-        b = design(
-            kr_params, 12, test_pose=KR_Q0, starts=6, workers=1, seed=1, method="exchange", polish=True
-        )
-    assert abs(a.value - b.value) < 0.1 * min(a.value, b.value)
+    # kr270, 12 parameters, m = 12, few starts: local searches, so no closed form; for every seed
+    # both end far below the random median and within 10 % of each other (measured on seeds 1-4:
+    # 0.47-0.48 of the median, 1-4 % apart; two seeds here, so a path-dependent result shows).
     median = random_plans(kr_params, 12, 300, KR_Q0, seed=1).median
-    assert max(a.value, b.value) < 0.6 * median
+    for seed in (1, 2):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DegenerateOptimumWarning)
+            a = design(kr_params, 12, test_pose=KR_Q0, starts=6, workers=1, seed=seed, method="continuous")
+            b = design(
+                kr_params, 12, test_pose=KR_Q0, starts=6, workers=1, seed=seed, method="exchange", polish=True
+            )
+        assert abs(a.value - b.value) < 0.1 * min(a.value, b.value), (seed, a.value, b.value)
+        assert max(a.value, b.value) < 0.6 * median, (seed, a.value, b.value, median)
 
 
 # ------------------------------------------------------------------- interface and internals
@@ -245,8 +248,10 @@ def test_every_returned_configuration_satisfies_every_constraint(kr_params, kr27
         ),
         MinSpacing(math.radians(20)),
     )
-    free = design(kr_params, 6, test_pose=KR_Q0, **FAST)
-    assert not satisfied(kr270_marker, free.plan, constraints).all()  # the constraints bind
+    # The constraints cut the joint space (most random configurations break one; whether they bind
+    # at the unconstrained optimum would depend on where a search happened to end).
+    drawn = kr270_marker.random_configurations(50, np.random.default_rng(0))
+    assert satisfied(kr270_marker, drawn, constraints).mean() < 0.5
     for method in ("continuous", "exchange"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DegenerateOptimumWarning)  # the floor may bind here

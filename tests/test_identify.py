@@ -84,11 +84,13 @@ def test_unknown_base_far_away_and_rotated(kr270):
     base = [params.index(f"base.{c}") for c in ("tx", "ty", "tz", "rx", "ry", "rz")]
     values[base] = [2.5, -1.2, 0.3, 0.2, -0.1, 2.8]
     truth = params.apply(values)
-    result = identify(params, _data(truth, kr270.random_configurations(30, 8)))
-    assert result.success and result.method == "trf" and result.iterations <= 8, result.message
-    np.testing.assert_allclose(result.values, values, rtol=0, atol=1e-9)
-    # Issue 10: "before" is after the initial rigid fit of the base, not at a base at the identity
-    assert 1e-4 < result.residual_rms_before < 0.05
+    for seed in (8, 9):  # two plans: what holds for any (the iteration count is the search's path)
+        result = identify(params, _data(truth, kr270.random_configurations(30, seed)))
+        assert result.success and result.method == "trf", result.message
+        np.testing.assert_allclose(result.values, values, rtol=0, atol=1e-9)
+        # Issue 10: "before" is after the initial rigid fit of the base, not at a base at the
+        # identity: the search starts centimetres from the answer, not metres.
+        assert 1e-4 < result.residual_rms_before < 0.05
 
 
 def test_instrument_frame_data_without_base_are_implausible_not_converged(kr270, kr270_params):

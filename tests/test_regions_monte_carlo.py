@@ -12,7 +12,7 @@ which ``rho0_at_truth`` (the prediction linearised at each true robot) measures.
 anyway) plus that measured linearisation difference plus 2 % (the prediction is a first-order
 one; measured bias at 1 mm / 1 mrad on this robot is below 1 %, issue 9). Budget: the KR 270 case
 about 25 s of CPU (150 trials × 12 plan-region pairs; measured ratios 0.97–1.07, standard errors
-~3 %); the UR10 case is marked slow (500 trials, ~65 s of CPU; ratios 0.96–1.02, errors 1–2.5 %).
+~3 %) and a few seconds for the designs of two more seeds (compared by their predicted errors); the UR10 case is marked slow (500 trials, ~65 s of CPU; ratios 0.96–1.02, errors 1–2.5 %).
 """
 
 from __future__ import annotations
@@ -38,10 +38,16 @@ CASES = [
 ]
 
 
+SEEDS = (0, 1, 2)
+"""Design seeds: the plans of seed 0 are calibrated (Monte Carlo); those of every seed are compared
+by their predicted errors, so a claim that holds for one search's path only fails here."""
+
+
 @pytest.fixture(scope="module", params=CASES)
 def calibrations(request):
-    """{(plan, region): MonteCarloResult} for plans designed for q0, its ±10° neighbourhood and a
-    path, each checked at q0, over ±10° and ±20° boxes and along the path."""
+    """({(plan, region): MonteCarloResult}, {seed: {(plan, region): predicted ρ0}}) for plans
+    designed for q0, its ±10° neighbourhood and a path, each checked at q0, over ±10° and ±20°
+    boxes and along the path: calibrated for the first design seed, predicted for each."""
     name, q0, trials = request.param
     robot = pincal.load_robot(name, tip="tool0", markers=[(0.1, 0.05, 0.2)])
     params = robot.parameters("lengths,offsets").identifiable().identifiable
@@ -52,27 +58,40 @@ def calibrations(request):
         return q0 + np.radians(degrees) * rng.uniform(-1, 1, (25, 6))
 
     regions = {"q0": q0[None], "±10°": box(10), "±20°": box(20), "path": path}
-    options = dict(sigma=SIGMA, starts=2, seed=0, workers=1)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
-        plans = {
-            # At the former default floor 1e-4 (issue 9's case): the default 1e-2 already keeps a
-            # single-pose plan far more regular (benchmarks/RESULTS.md, bench_floor).
-            "single pose": pincal.design(params, M, q0, min_conditioning=1e-4, **options).plan,
-            "neighbourhood": pincal.design(params, M, pincal.around(q0, np.radians(10)), **options).plan,
-            "path": pincal.design(params, M, pincal.TestPath(path), **options).plan,
-        }
-    return {
+
+    def plans(seed):
+        options = dict(sigma=SIGMA, starts=2, seed=seed, workers=1)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
+            return {
+                # At the former default floor 1e-4 (issue 9's case): the default 1e-2 already keeps
+                # a single-pose plan far more regular (benchmarks/RESULTS.md, bench_floor).
+                "single pose": pincal.design(params, M, q0, min_conditioning=1e-4, **options).plan,
+                "neighbourhood": pincal.design(params, M, pincal.around(q0, np.radians(10)), **options).plan,
+                "path": pincal.design(params, M, pincal.TestPath(path), **options).plan,
+            }
+
+    designed = {seed: plans(seed) for seed in SEEDS}
+    measured = {
         (plan_name, region): pincal.monte_carlo(
             params, plan, poses, sigma=SIGMA, trials=trials, seed=7, error_std=ERRORS
         )
-        for plan_name, plan in plans.items()
+        for plan_name, plan in designed[SEEDS[0]].items()
         for region, poses in regions.items()
     }
+    predicted = {
+        seed: {
+            (plan_name, region): pincal.rho0(params, plan, poses, SIGMA)
+            for plan_name, plan in designed[seed].items()
+            for region, poses in regions.items()
+        }
+        for seed in SEEDS
+    }
+    return measured, predicted
 
 
 def test_predicted_errors_hold_at_and_away_from_the_test_poses(calibrations):
-    measured = calibrations
+    measured, _ = calibrations
     for (plan, region), mc in measured.items():
         assert mc.failures == 0 and mc.local_minima == 0, (plan, region, mc.note)
         linearisation = abs(mc.rho0_at_truth / mc.rho0_predicted - 1)
@@ -80,23 +99,29 @@ def test_predicted_errors_hold_at_and_away_from_the_test_poses(calibrations):
         assert abs(mc.ratio - 1) < tolerance, (plan, region, mc.ratio, tolerance, mc.note)
 
 
+def _errors(calibrations):
+    """(what, error(plan, region)) for the measured errors, then the predicted ones of each seed."""
+    measured, predicted = calibrations
+    yield "measured", lambda plan, region: measured[plan, region].rho0_empirical
+    for seed, rho in predicted.items():
+        yield f"predicted, design seed {seed}", lambda plan, region, rho=rho: rho[plan, region]
+
+
 def test_designing_for_the_region_pays_off_where_the_robot_works(calibrations):
-    """Measured, not predicted: the single-pose plan is far worse away from q0 than a plan
-    designed for the neighbourhood, and worse along the path than the plan designed for it."""
-    measured = calibrations
-
-    def error(plan, region):
-        return measured[plan, region].rho0_empirical
-
-    for region in ("±10°", "±20°"):
-        assert error("neighbourhood", region) < error("single pose", region) / 2, region
-    assert error("path", "path") < error("single pose", "path") / 2
-    # ... and the price at q0 is small: within 15 % of the plan designed for q0 alone.
-    assert error("neighbourhood", "q0") < 1.15 * error("single pose", "q0")
+    """Measured, and predicted for several design seeds: the single-pose plan is far worse away
+    from q0 than a plan designed for the neighbourhood, and worse along the path than the plan
+    designed for it."""
+    for what, error in _errors(calibrations):
+        for region in ("±10°", "±20°"):
+            assert error("neighbourhood", region) < error("single pose", region) / 2, (what, region)
+        assert error("path", "path") < error("single pose", "path") / 2, what
+        # ... and the price at q0 is small: within 25 % of the plan designed for q0 alone (two
+        # local searches: predicted 7-10 % on the KR 270 for design seeds 0-3, plus the Monte
+        # Carlo's standard error of ~3 % on each measured error).
+        assert error("neighbourhood", "q0") < 1.25 * error("single pose", "q0"), what
 
 
 def test_the_single_pose_promise_is_local(calibrations):
     """The plan designed for q0 alone keeps its promise at q0 and measurably loses it 10° away."""
-    measured = calibrations
-    at_q0, away = measured["single pose", "q0"], measured["single pose", "±10°"]
-    assert away.rho0_empirical > 2 * at_q0.rho0_empirical
+    for what, error in _errors(calibrations):
+        assert error("single pose", "±10°") > 2 * error("single pose", "q0"), what

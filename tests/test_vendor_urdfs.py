@@ -63,20 +63,32 @@ def test_design_and_identify_match_the_exact_robot_to_one_percent(pair):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
         design = pincal.design(exact_params, m, test_pose=q0, starts=2, seed=1, sigma=SIGMA)
-        # The exact robot's optimum is (to 1 %) a plan of the rounded robot's, and the rounded
-        # robot's design from it stays there: no singular information matrix, no floor failure.
-        assert pincal.rho0(rounded_params, design.plan, q0, SIGMA) == pytest.approx(design.value, rel=0.01)
-        again = pincal.design(
-            rounded_params,
-            m,
-            test_pose=q0,
-            method="continuous",
-            init=[design.plan],
-            starts=1,
-            seed=1,
-            sigma=SIGMA,
-        )
-    assert again.value == pytest.approx(design.value, rel=0.01)
+        # The exact robot's optimum is (to 1 %) as good a plan of the rounded robot: ρ0 of a given
+        # plan moves by micrometres' worth, whatever the search did.
+        start = pincal.rho0(rounded_params, design.plan, q0, SIGMA)
+        assert start == pytest.approx(design.value, rel=0.01)
+        # The rounded robot's continuous design from it runs (no singular information matrix, no
+        # floor failure) and, a descent from that plan, ends no worse than it. How much further it
+        # gets is the optimiser's path (4 % and 9 % on one CPU, 1 % on another): not asserted. The
+        # floor is given, below the start's conditioning: the default one adapts to the D-optimal
+        # starts a seed draws, and can land above the start's. Three seeds (another drawn start
+        # beside the init plan) show that the bound holds whichever start wins.
+        floor = design.conditioning / 2
+        for seed in (1, 2, 3):
+            again = pincal.design(
+                rounded_params,
+                m,
+                test_pose=q0,
+                method="continuous",
+                init=[design.plan],
+                starts=1,
+                seed=seed,
+                sigma=SIGMA,
+                min_conditioning=floor,
+            )
+            assert again.value <= start * (1 + 1e-9), (seed, again.value / start)
+            assert again.value == pytest.approx(pincal.rho0(rounded_params, again.plan, q0, SIGMA), rel=1e-9)
+            assert again.conditioning > floor
     fits = []
     for params in (exact_params, rounded_params):
         truth = pincal.random_errors(params, seed=3)
