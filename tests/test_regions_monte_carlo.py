@@ -12,7 +12,8 @@ which ``rho0_at_truth`` (the prediction linearised at each true robot) measures.
 anyway) plus that measured linearisation difference plus 2 % (the prediction is a first-order
 one; measured bias at 1 mm / 1 mrad on this robot is below 1 %, issue 9). Budget: the KR 270 case
 about 25 s of CPU (150 trials × 12 plan-region pairs; measured ratios 0.97–1.07, standard errors
-~3 %) and a few seconds for the designs of two more seeds (compared by their predicted errors); the UR10 case is marked slow (500 trials, ~65 s of CPU; ratios 0.96–1.02, errors 1–2.5 %).
+~3 %) and a few seconds for the designs of two more seeds (compared by their predicted errors);
+the UR10 case is marked slow (500 trials, ~65 s of CPU; ratios 0.96–1.02, errors 1–2.5 %).
 """
 
 from __future__ import annotations
