@@ -462,7 +462,8 @@ def test_a_runaway_xacro_is_stopped_in_one_line(tmp_path, cli, monkeypatch, expr
     path = tmp_path / "runaway.urdf.xacro"
     path.write_text(XACRO_ROBOT.format(name=expression))
     with monkeypatch.context() as patched:
-        patched.setattr(xacro_expansion, "XACRO_SECONDS", 2.0)
+        if "took over" in fragment:  # only the time limit is shortened: on a loaded machine the
+            patched.setattr(xacro_expansion, "XACRO_SECONDS", 2.0)  # child's start alone can take 2 s
         cli.fails("params", path, match=fragment)
     path.write_text(XACRO_ROBOT.format(name="tip"))  # the same file, sane: it loads
     assert main(["params", str(path)]) == 0
