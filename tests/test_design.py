@@ -15,12 +15,13 @@ from scipy.optimize import minimize_scalar
 import pincal
 from pincal.errors import DegenerateOptimum, DegenerateOptimumWarning
 from pincal.evaluation.information import conditioning
+from pincal.evaluation.registry import CRITERIA
+from pincal.evaluation.registry import make_criterion as make_objective
 from pincal.planning import exchange as _exchange
 from pincal.planning import multistart as _multistart
 from pincal.planning.baselines import random_plans
 from pincal.planning.constraints import HalfSpace, MinSpacing, Visibility, WorkspaceBox, satisfied
 from pincal.planning.driver import design
-from pincal.planning.objectives import CRITERIA, make_objective
 
 KR_Q0 = np.radians([0, -90, 90, 0, 45, 0])
 # Plans at the conditioning floor warn (asserted where it matters, with pytest.warns).

@@ -196,9 +196,9 @@ def test_objectives_with_a_prior_and_a_path(kr, criterion):
     prior starts from a plan singular without it and ends exactly locally optimal (brute force)."""
     import itertools
 
+    from pincal.evaluation.registry import make_criterion as make_objective
     from pincal.model.jacobian import JacobianEngine
     from pincal.planning import exchange
-    from pincal.planning.objectives import make_objective
 
     params, q0 = kr
     robot = params.robot

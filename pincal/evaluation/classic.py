@@ -7,7 +7,8 @@ r"""The classic criteria of a plan, for comparison with ρ0 (docs/method.md §6.
   O3 = σ_P (smallest singular value),  O4 = σ_P²/σ₁ (noise amplification index).
 
 D, A, E and cond are *lower is better*; O1–O4 are *higher is better*. D, A and E mix units when the
-set mixes lengths and angles (m² and rad²).
+set mixes lengths and angles (m² and rad²). D, A, E and cond are the criterion objects a design
+minimises (:mod:`pincal.evaluation.d_optimal`, ...), here from the singular values of J.
 """
 
 from __future__ import annotations
@@ -16,6 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pincal.evaluation.a_optimal import AOptimal
+from pincal.evaluation.condition import Condition
+from pincal.evaluation.d_optimal import DOptimal
+from pincal.evaluation.e_optimal import EOptimal
 from pincal.evaluation.information import factor
 from pincal.model.parameters import ParameterSet
 
@@ -45,6 +50,10 @@ class Criteria:
     n_params: int
     m: int
 
+    def by_criterion(self, name: str) -> float:
+        """The value of the criterion ``name`` (``"D"``, ``"A"``, ``"E"`` or ``"cond"``)."""
+        return getattr(self, {"D": "log_det", "A": "trace", "E": "max_eig", "cond": "cond"}[name])
+
     def as_dict(self) -> dict[str, float]:
         """The criteria by name (the keys of ``pincal evaluate --json``)."""
         return {k: getattr(self, k) for k in ("log_det", "trace", "max_eig", "cond", "O1", "O2", "O3", "O4")}
@@ -59,10 +68,10 @@ def criteria_from_jacobian(J: np.ndarray, m: int) -> Criteria:
     factor(J2.T @ J2, rows, m)  # raises SingularPlan like ρ0 does
     s = np.linalg.svd(J2, compute_uv=False)
     return Criteria(
-        log_det=float(-2.0 * np.sum(np.log(s))),
-        trace=float(np.sum(1.0 / s**2)),
-        max_eig=float(1.0 / s[-1] ** 2),
-        cond=float(s[0] / s[-1]),
+        log_det=DOptimal(rows).from_singular_values(s),
+        trace=AOptimal(n, rows).from_singular_values(s),
+        max_eig=EOptimal(rows).from_singular_values(s),
+        cond=Condition(rows).from_singular_values(s),
         O1=float(np.exp(np.mean(np.log(s))) / np.sqrt(m)),
         O2=float(s[-1] / s[0]),
         O3=float(s[-1]),

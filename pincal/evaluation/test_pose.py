@@ -15,6 +15,10 @@ finite for every plan, ρ0² without prior as Σp → ∞. It splits exactly int
 measurement noise, σ² tr(J₀CMCJ₀ᵀ), and the part of the prior errors the plan leaves uncorrected,
 σ² tr(J₀CΛCJ₀ᵀ), with C = (M + Λ)⁻¹ (:meth:`TestPoseCriterion.split`).
 
+The criterion a design minimises is :class:`TestPoseMean` (``test-pose``; the worst test pose is
+:class:`~pincal.evaluation.test_pose_worst.TestPoseWorst`): F = log mean_k tr(J0k (M + Λ)⁻¹ J0kᵀ),
+reported as ρ0 = σ·sqrt(exp F). :class:`TestPoseCriterion` and :func:`rho0` evaluate both on plans.
+
 A plan whose M is singular (too few configurations, or degenerate ones) has no finite criterion:
 :class:`~pincal.errors.SingularPlan` is raised, naming the minimum number of configurations.
 """
@@ -24,11 +28,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg.lapack import dtrtrs as _trtrs
 
-from pincal.arguments import DEFAULT_SIGMA
+from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.errors import BadArgument
 from pincal.evaluation.information import factor, information_matrix
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import resolve_test_poses
+from pincal.evaluation.test_pose_worst import TestPoseWorst
+from pincal.evaluation.weighted_trace import WeightedTrace
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 
@@ -46,6 +52,36 @@ def mean_weight_factor(J0: np.ndarray) -> np.ndarray:
     w, V = np.linalg.eigh(W.T @ W / k)
     keep = w > w[-1] * 1e-15
     return np.ascontiguousarray(V[:, keep] * np.sqrt(w[keep]))
+
+
+class TestPoseMean(WeightedTrace):
+    """The ``test-pose`` criterion: F = log mean_k tr(J0k (M + Λ)⁻¹ J0kᵀ), ρ0 = σ·sqrt(exp F) [m].
+
+    The mean over k test poses is one weighted trace tr((M + Λ)⁻¹A) with A = FFᵀ
+    (:func:`mean_weight_factor`, at most P columns): its cost does not grow with k.
+
+    Args:
+        J0: (k, r, P) tip-frame Jacobians at the test poses.
+        sigma: measurement noise per coordinate [m] (ρ0 is proportional).
+        rows: measured coordinates per configuration.
+        prior: (P, P) the prior's information Λ = σ²Σp⁻¹, or None.
+    """
+
+    name = "test-pose"
+
+    def __init__(self, J0: np.ndarray, sigma: float, rows: int, prior: np.ndarray | None = None) -> None:
+        super().__init__(mean_weight_factor(J0), 1, sigma, rows, prior)
+
+    def aggregate(self, t: np.ndarray) -> np.ndarray:
+        return t.mean(axis=-1)
+
+    def gradient_weights(self, t: np.ndarray) -> tuple[float, np.ndarray]:
+        return float(np.log(t.mean())), np.full(self.k, 1.0 / t.sum())
+
+    def rho0(self, M: np.ndarray, m: int) -> float:
+        """ρ0 [m], the root of the mean ρ0² over the test poses, for information M of m configurations."""
+        X, _ = _trtrs(factor(self.posterior(M), self.rows, m), self.J0T, lower=1)
+        return self.scale * np.sqrt(np.einsum("ij,ij", X, X))
 
 
 class TestPoseCriterion:
@@ -77,8 +113,7 @@ class TestPoseCriterion:
     ) -> None:
         if aggregate not in AGGREGATES:
             raise BadArgument(f"unknown aggregate {aggregate!r}; valid: {', '.join(AGGREGATES)}")
-        if not (np.isfinite(sigma) and sigma > 0):
-            raise BadArgument(f"sigma must be a positive number of metres, got {sigma!r}")
+        sigma = positive_sigma(sigma)
         self.params = params
         self.engine = JacobianEngine(params)
         self.test_poses, self.region = resolve_test_poses(params.robot, test_poses)
@@ -86,10 +121,13 @@ class TestPoseCriterion:
         self.aggregate = aggregate
         J0 = self.engine.jacobian(self.test_poses, frame="tip")
         self.k = len(self.test_poses)
-        self.J0T = np.ascontiguousarray(J0.reshape(-1, len(params)).T)  # (P, k·3K)
-        self.weight_factor = mean_weight_factor(J0)  # (P, ≤ P): the mean's one weighted trace
         self.prior = prior
         self.prior_information = None if prior is None else prior.information(params, self.sigma)
+        rows = self.engine.rows
+        self.mean = TestPoseMean(J0, self.sigma, rows, self.prior_information)
+        self.per_pose = TestPoseWorst(J0, self.sigma, rows, self.prior_information)
+        self.J0T = self.per_pose.J0T  # (P, k·3K)
+        self.weight_factor = self.mean.J0T  # (P, ≤ P): the mean's one weighted trace
 
     @property
     def rows(self) -> int:
@@ -98,35 +136,22 @@ class TestPoseCriterion:
 
     def posterior(self, M: np.ndarray) -> np.ndarray:
         """M + Λ (Λ = σ²Σp⁻¹ of the prior; M itself without one)."""
-        return M if self.prior_information is None else M + self.prior_information
+        return self.mean.posterior(M)
 
     def rho0_squared_from_information(self, M: np.ndarray, m: int) -> np.ndarray:
         """(k,) ρ0² [m²] at each test pose for information matrix M of an m-configuration plan."""
-        L = factor(self.posterior(M), self.rows, m)
-        X, _ = _trtrs(L, self.J0T, lower=1)
-        return self.sigma**2 * np.einsum("ij,ij->j", X, X).reshape(self.k, -1).sum(axis=1)
+        return self.sigma**2 * self.per_pose.traces(M, m)
 
     def split(self, M: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
         """(k,) ρ0² [m²] due to the measurement noise and (k,) ρ0² due to the prior errors the plan
         leaves uncorrected; they add up to ρ0² (the second is 0 without a prior)."""
-        L = factor(self.posterior(M), self.rows, m)
-        X, _ = _trtrs(L, self.J0T, lower=1)
-        Y, _ = _trtrs(L, X, lower=1, trans=1)  # (M + Λ)⁻¹ J0ᵀ
-        s2 = self.sigma**2
-        noise = s2 * np.einsum("ij,ij->j", Y, M @ Y).reshape(self.k, -1).sum(axis=1)
-        if self.prior_information is None:
-            return noise, np.zeros(self.k)
-        bias = s2 * np.einsum("ij,ij->j", Y, self.prior_information @ Y).reshape(self.k, -1).sum(axis=1)
-        return noise, bias
+        return self.per_pose.split(M, m)
 
     def from_information(self, M: np.ndarray, m: int):
         """ρ0 [m] (aggregated as asked) for an information matrix M of m configurations."""
-        if self.aggregate == "mean":  # the hot path: one weighted trace, whatever the number of poses
-            X, _ = _trtrs(factor(self.posterior(M), self.rows, m), self.weight_factor, lower=1)
-            return self.sigma * np.sqrt(np.einsum("ij,ij", X, X))
+        if self.aggregate == "mean":  # one weighted trace, whatever the number of poses
+            return self.mean.rho0(M, m)
         r2 = self.rho0_squared_from_information(M, m)
-        if self.aggregate == "mean":
-            return float(np.sqrt(r2.mean()))
         if self.aggregate == "worst":
             return float(np.sqrt(r2.max()))
         return np.sqrt(r2)

@@ -1,5 +1,6 @@
 """Choosing the measurement configurations: the plan (:mod:`.plan`), what the workcell allows
-(:mod:`.constraints`, :mod:`.feasibility`), the search objectives (:mod:`.objectives`), the search
-methods (:mod:`.exchange`, :mod:`.continuous`, run by :mod:`.multistart`), the search stage
-(:mod:`.search`), the driver :func:`~pincal.planning.driver.design`, what it returns
-(:mod:`.results`) and the random-plan baseline (:mod:`.baselines`)."""
+(:mod:`.constraints`, :mod:`.feasibility`), the test poses of a design (:mod:`.objectives`; the
+criteria are :mod:`pincal.evaluation`'s), the search methods (:mod:`.exchange`,
+:mod:`.continuous`, run by :mod:`.multistart`), the search stage (:mod:`.search`), the driver
+:func:`~pincal.planning.driver.design`, what it returns (:mod:`.results`) and the random-plan
+baseline (:mod:`.baselines`)."""

@@ -10,12 +10,13 @@ import numpy as np
 from pincal.arguments import DEFAULT_SIGMA, Seed, generator, positive_int, positive_sigma
 from pincal.errors import Infeasible
 from pincal.evaluation.prior import Prior
+from pincal.evaluation.registry import make_criterion
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint
 from pincal.planning.feasibility import Feasibility
 from pincal.planning.multistart import single_threaded_blas
-from pincal.planning.objectives import TEST_POSE_CRITERIA, checked_test_poses, criterion_name, make_objective
+from pincal.planning.objectives import TEST_POSE_CRITERIA, checked_test_poses, criterion_name
 from pincal.planning.results import RandomPlans
 
 __all__ = ["random_plans"]
@@ -102,7 +103,7 @@ def _random_plans(
     P, rows = len(params), engine.rows
     J0 = engine.jacobian(test_poses, frame="tip").copy() if test_poses is not None else None
     information = None if prior is None else prior.information(params, sigma)
-    objective = make_objective(
+    objective = make_criterion(
         criterion, P, rows, J0 if criterion in TEST_POSE_CRITERIA else None, sigma, information
     )
     chunk = max(1, 2_000_000 // (m * rows * P + P * P))

@@ -17,10 +17,10 @@ from pincal.errors import (
 )
 from pincal.evaluation.classic import criteria_from_jacobian
 from pincal.evaluation.data_check import MIN_DATA_CONDITIONING, DataCheck, check_parameters
+from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
 from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
-from pincal.planning.objectives import TEST_POSE_CRITERIA, make_objective
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, StartRecord
 from pincal.planning.search import Outcome, Pool, Settings, plan_conditioning
@@ -173,14 +173,13 @@ def _report(
         return rho0, rho0, each
     if prior is not None:  # the Bayesian classic criterion, as the search minimised it
         P = len(params)
-        objective = make_objective(
+        objective = make_criterion(
             criterion, P, J.shape[1], sigma=sigma, prior=prior.information(params, sigma)
         )
         flat = J.reshape(-1, P)
         return float(objective.report(objective.value(flat.T @ flat, len(plan)))), rho0, each
     c = criteria_from_jacobian(J, len(plan))
-    value = {"D": c.log_det, "A": c.trace, "E": c.max_eig, "cond": c.cond}[criterion]
-    return float(value), rho0, each
+    return float(c.by_criterion(criterion)), rho0, each
 
 
 def identification_check(

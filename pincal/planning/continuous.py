@@ -1,9 +1,11 @@
 """Continuous search: all m·nq joint values at once, by bounded quasi-Newton (L-BFGS-B).
 
-The gradient is analytic in M: with G = ∂F/∂M (from :mod:`pincal.planning.objectives`) and
-M = Σᵢ JᵢᵀJᵢ, ∂F/∂q_ij = 2⟨Jᵢ G, ∂Jᵢ/∂q_ij⟩. Only ∂Jᵢ/∂q_ij comes from central differences on
-the joint values: the Jacobians at qᵢ ± h e_j for every configuration and joint are computed in
-one batch with the plan's own (m·(2nq+1) configurations, one forward-kinematics pass each).
+The gradient is analytic in M: with G = ∂F/∂M (from the criterion,
+:meth:`pincal.evaluation.criterion.Criterion.plan_gradient`) and M = Σᵢ JᵢᵀJᵢ,
+∂F/∂q_ij = 2⟨Jᵢ G, ∂Jᵢ/∂q_ij⟩ (plus the criterion's own ∂F/∂Jᵢ and ∂F/∂q, if any). Only
+∂Jᵢ/∂q_ij comes from central differences on the joint values: the Jacobians at qᵢ ± h e_j for
+every configuration and joint are computed in one batch with the plan's own (m·(2nq+1)
+configurations, one forward-kinematics pass each).
 
 Joint limits (with their margin) are the optimiser's box bounds. The other constraints add a
 truncated logarithmic barrier (see :meth:`pincal.planning.feasibility.Feasibility.barrier`): starts are
@@ -24,10 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.errors import SingularPlan
+from pincal.evaluation.criterion import Criterion
 from pincal.evaluation.information import conditioning, jacobi_scaled
 from pincal.model.jacobian import JacobianEngine
 from pincal.planning.feasibility import Feasibility
-from pincal.planning.objectives import Objective, TraceObjective
 
 STEP = 1e-5
 """Central-difference step on the joint values for ∂J/∂q [rad or m]."""
@@ -83,7 +85,7 @@ class PlanFunction:
     def __init__(
         self,
         engine: JacobianEngine,
-        objective: Objective,
+        objective: Criterion,
         feasibility: Feasibility,
         m: int,
         floor: float = 1e-6,
@@ -106,7 +108,7 @@ class PlanFunction:
     def criterion(self, qs: np.ndarray) -> float:
         """F of the plan, exact (no penalty, true maximum); inf if singular."""
         try:
-            return self.objective.value(self.information(qs), len(qs))
+            return self.objective.plan_value(self.engine.jacobian(qs, frame="tip"), qs)
         except SingularPlan:
             return np.inf
 
@@ -124,12 +126,16 @@ class PlanFunction:
         flat = J0.reshape(-1, P)
         M = flat.T @ flat
         try:
-            F, G = self.objective.value_and_gradient(M, m)
-            F, G = self._regular(M, F, G)
+            slope = self.objective.plan_gradient(J0, qs)
+            F, G = self._regular(M, slope.F, slope.dM)
         except SingularPlan:
             return SINGULAR_VALUE, np.zeros_like(x)
         dJ = (J[m : m + m * nq] - J[m + m * nq :]).reshape(nq, m, -1, P)
         grad = (2.0 / (2.0 * STEP)) * np.einsum("irp,jirp->ij", J0 @ G, dJ)
+        if slope.dJ is not None:
+            grad += (1.0 / (2.0 * STEP)) * np.einsum("irp,jirp->ij", slope.dJ, dJ)
+        if slope.dq is not None:
+            grad += slope.dq
         if bgrad is not None:
             F += barrier
             grad += bgrad
@@ -168,8 +174,7 @@ class PlanFunction:
         return res.x.reshape(self.m, self.nq), int(res.nit), str(res.message)
 
     def set_power(self, power: float | None) -> None:
-        if isinstance(self.objective, TraceObjective) and self.objective.worst:
-            self.objective = self.objective.with_power(power)
+        self.objective = self.objective.with_power(power)
 
     def score(self, qs: np.ndarray) -> float:
         F = self.criterion(qs)
@@ -207,7 +212,7 @@ def polish(fn: PlanFunction, q0: np.ndarray, anchor: np.ndarray, maxiter: int) -
         maxiter: L-BFGS-B iterations allowed per stage.
     """
     t0 = time.perf_counter()
-    worst = isinstance(fn.objective, TraceObjective) and fn.objective.worst
+    worst = fn.objective.smoothed
     trivial = fn.feasibility.trivial
     powers = POWERS if worst else (None,) * len(WEIGHTS)
     weights = WEIGHTS + (WEIGHTS[-1],) * (len(powers) - len(WEIGHTS))

@@ -22,13 +22,14 @@ from functools import cached_property
 
 import numpy as np
 
+from pincal.evaluation.criterion import Criterion
+from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning import continuous as _continuous
 from pincal.planning import exchange as _exchange
 from pincal.planning.constraints import AnyConstraint
 from pincal.planning.feasibility import Feasibility
-from pincal.planning.objectives import TEST_POSE_CRITERIA, Objective, make_objective
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,7 +71,7 @@ class Problem:
         J0 = None
         if spec.test_poses is not None and spec.criterion in TEST_POSE_CRITERIA:
             J0 = self.engine.jacobian(spec.test_poses, frame="tip").copy()
-        self.objective: Objective = make_objective(
+        self.objective: Criterion = make_criterion(
             spec.criterion, len(spec.params), self.engine.rows, J0, spec.sigma, spec.prior
         )
         self.feasibility = Feasibility(spec.params.robot, spec.constraints)

@@ -15,15 +15,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from pincal.errors import FloorUnreachable, Infeasible, SingularPlan
+from pincal.evaluation.criterion import Criterion
+from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.information import conditioning, factor, rank
 from pincal.evaluation.prior import Prior
+from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning import multistart as _multistart
 from pincal.planning.constraints import AnyConstraint
 from pincal.planning.exchange import fedorov
 from pincal.planning.feasibility import Feasibility
-from pincal.planning.objectives import TEST_POSE_CRITERIA, LogDetObjective, Objective, make_objective
 from pincal.planning.results import StartRecord
 
 
@@ -159,7 +161,7 @@ def _pick(
             pass
         best_rank = max(best_rank, rank(M))
     if regular is not None:
-        out = fedorov(LogDetObjective(rows), J, pool, regular, spacing)
+        out = fedorov(DOptimal(rows), J, pool, regular, spacing)
         stacked = J[out.index].reshape(-1, P)
         reached = conditioning(stacked.T @ stacked)
         if reached > floor:
@@ -192,7 +194,7 @@ def search(
         s.prior_information,
     )
     J0 = engine.jacobian(s.test_poses, frame="tip").copy() if s.criterion in TEST_POSE_CRITERIA else None
-    objective = make_objective(s.criterion, len(params), engine.rows, J0, s.sigma, s.prior_information)
+    objective = make_criterion(s.criterion, len(params), engine.rows, J0, s.sigma, s.prior_information)
     n_starts, n_keep = pooled.n_starts(s), pooled.n_keep(s)
     second_stage = (s.method == "continuous" and n_keep < n_starts) or s.polish
     bar = _Progress(progress, n_starts + (n_keep if second_stage else 0), s.criterion, objective)
@@ -210,7 +212,7 @@ def search(
         _multistart.forget(spec)
 
 
-def _exchange(spec, ex, candidates, indices, objective: Objective, bar) -> tuple[Outcome, ...]:
+def _exchange(spec, ex, candidates, indices, objective: Criterion, bar) -> tuple[Outcome, ...]:
     """The exchange search from each start's plan."""
     outcomes = _multistart.run(ex, _multistart.exchange_task, [(spec, i) for i in indices], bar)
     return tuple(
@@ -295,14 +297,14 @@ def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, ba
     return tuple(outcome(s) for s in range(n))
 
 
-def _report_value(objective: Objective, F: float) -> float:
+def _report_value(objective: Criterion, F: float) -> float:
     return float(objective.report(F)) if np.isfinite(F) else math.inf
 
 
 class _Progress:
     """The progress bar of a design on stderr (starts done, best value so far); off: does nothing."""
 
-    def __init__(self, on: bool, total: int, criterion: str, objective: Objective) -> None:
+    def __init__(self, on: bool, total: int, criterion: str, objective: Criterion) -> None:
         self.criterion, self.objective, self.best = criterion, objective, math.inf
         self.bar = None
         if on:

@@ -1,0 +1,135 @@
+r"""Criteria that are weighted traces of the inverse posterior information: the shared arithmetic
+of the test-pose criteria (mean and worst) and of A-optimality.
+
+t_k = tr(Wk (M + Λ)⁻¹), Wk = J0kᵀJ0k, for k = 1..K weights given by their factors J0k (the test
+poses' Jacobians; the identity for A), aggregated over k by the criterion (mean, maximum). With
+M + Λ = LLᵀ, t_k = ‖L⁻¹J0kᵀ‖²_F: one triangular solve for every k at once. The value after a swap
+of configurations is the Woodbury update tr(Wk M'⁻¹) = t_k − ⟨Q, H⁻¹Q⟩ (see
+:mod:`pincal.evaluation.low_rank`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg.lapack import dtrtrs as _trtrs
+
+from pincal.evaluation.criterion import Criterion, scaled_eigh
+from pincal.evaluation.information import factor
+
+
+class WeightedTrace(Criterion):
+    """Weighted traces t_k = tr(J0k (M + Λ)⁻¹ J0kᵀ), aggregated over k (see module doc).
+
+    F is the log of the aggregate; subclasses say how the traces are aggregated
+    (:meth:`aggregate`) and weighted in the gradient (:meth:`gradient_weights`).
+
+    Args:
+        J0T: (P, R) the weights' factors, transposed and stacked over k groups of R/k columns.
+        groups: k.
+        scale: the reported value is scale·sqrt(aggregate) (σ for ρ0 [m]).
+        rows: measured coordinates per configuration.
+        prior: (P, P) the prior's information Λ, or None.
+    """
+
+    def __init__(
+        self, J0T: np.ndarray, groups: int, scale: float, rows: int, prior: np.ndarray | None = None
+    ) -> None:
+        super().__init__(rows, prior)
+        self.J0T = np.ascontiguousarray(J0T)
+        self.k = groups
+        self.scale = scale
+
+    # ------------------------------------------------------------ what subclasses say
+    def aggregate(self, t: np.ndarray) -> np.ndarray:
+        """The aggregate of traces (..., k) over k."""
+        raise NotImplementedError
+
+    def gradient_weights(self, t: np.ndarray) -> tuple[float, np.ndarray]:
+        """(F, w): F and ∂F/∂t_k for the traces t (k,)."""
+        raise NotImplementedError
+
+    # -------------------------------------------------------------------- the value
+    def _solve(self, M: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+        L = factor(self.posterior(M), self.rows, m)
+        X, _ = _trtrs(L, self.J0T, lower=1)
+        return L, X
+
+    def traces(self, M: np.ndarray, m: int) -> np.ndarray:
+        """(k,) t_k = tr(J0k (M + Λ)⁻¹ J0kᵀ)."""
+        _, X = self._solve(M, m)
+        return np.einsum("ij,ij->j", X, X).reshape(self.k, -1).sum(axis=1)
+
+    def from_traces(self, t: np.ndarray) -> np.ndarray:
+        """F from traces (..., k) (the exact aggregate)."""
+        agg = self.aggregate(np.asarray(t))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(agg > 0, np.log(np.where(agg > 0, agg, 1.0)), np.inf)
+
+    def value(self, M: np.ndarray, m: int) -> float:
+        return float(self.from_traces(self.traces(M, m)))
+
+    def value_and_gradient(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
+        L, X = self._solve(M, m)
+        Y, _ = _trtrs(L, X, lower=1, trans=1)  # (M + Λ)⁻¹ J0ᵀ
+        t = np.einsum("ij,ij->j", X, X).reshape(self.k, -1).sum(axis=1)
+        F, w = self.gradient_weights(t)
+        cols = np.repeat(w, Y.shape[1] // self.k)
+        return F, -(Y * cols) @ Y.T
+
+    def report(self, F):
+        return self.scale * np.sqrt(np.exp(F))
+
+    def split(self, M: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """(k,) scale²·t_k due to the measurements, scale²·t_k[CMC] with C = (M + Λ)⁻¹, and due to
+        the prior the plan leaves uncorrected, scale²·t_k[CΛC]; they add up to scale²·t_k (the
+        second is 0 without a prior)."""
+        L = factor(self.posterior(M), self.rows, m)
+        X, _ = _trtrs(L, self.J0T, lower=1)
+        Y, _ = _trtrs(L, X, lower=1, trans=1)  # (M + Λ)⁻¹ J0ᵀ
+        s2 = self.scale**2
+        noise = s2 * np.einsum("ij,ij->j", Y, M @ Y).reshape(self.k, -1).sum(axis=1)
+        if self.prior is None:
+            return noise, np.zeros(self.k)
+        bias = s2 * np.einsum("ij,ij->j", Y, self.prior @ Y).reshape(self.k, -1).sum(axis=1)
+        return noise, bias
+
+    # ------------------------------------------------------------------- in batches
+    def batch_traces(self, Ms: np.ndarray) -> np.ndarray:
+        """(n, k) traces for a stack of information matrices; NaN rows where M is singular."""
+        d, w, V, singular = scaled_eigh(self.posterior(Ms))
+        w = np.where(singular[:, None], 1.0, w)
+        X = np.swapaxes(V, 1, 2) @ (self.J0T[None] / d[:, :, None])
+        X /= np.sqrt(np.abs(w))[:, :, None]
+        t = np.einsum("npr,npr->nr", X, X).reshape(len(Ms), self.k, -1).sum(axis=2)
+        t[singular] = np.nan
+        return t
+
+    def batch_values(self, Ms: np.ndarray) -> np.ndarray:
+        t = self.batch_traces(Ms)
+        out = np.full(len(Ms), np.nan)
+        ok = ~np.isnan(t[:, 0])
+        out[ok] = self.from_traces(t[ok])
+        return out
+
+    # ---------------------------------------------------------------- the exchange
+    def exchange_exact(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
+        return self.value(M, m), self.traces(M, m)
+
+    def exchange_products(self, J_pool: np.ndarray, Minv: np.ndarray) -> np.ndarray:
+        """(N, r, R) J_c (M + Λ)⁻¹ J0ᵀ of every candidate."""
+        N, r, P = J_pool.shape
+        return (J_pool.reshape(N * r, P) @ (Minv @ self.J0T)).reshape(N, r, -1)
+
+    def exchange_values(self, swap) -> tuple[np.ndarray, np.ndarray]:
+        """F and the traces after each swap (inf where a trace would not stay positive)."""
+        cand = swap.cand
+        H, AJ0 = swap.H[cand], swap.products[cand]
+        AiJ0 = swap.Ji @ (swap.Minv @ self.J0T)
+        n, r = len(H), AiJ0.shape[0]
+        Q = np.concatenate([AJ0, np.broadcast_to(AiJ0, (n, r, AJ0.shape[2]))], axis=1)
+        Y = np.linalg.solve(H, Q)
+        red = np.einsum("nar,nar->nr", Q, Y).reshape(n, self.k, -1).sum(axis=2)
+        new_t = swap.aux - red
+        values = self.from_traces(new_t)
+        values[~np.all(new_t > 0, axis=1)] = np.inf
+        return values, new_t
