@@ -1,5 +1,6 @@
 r"""The value of an information criterion after swapping one configuration of a plan for every
-candidate of a pool at once (docs/method.md §7.2): low-rank (Woodbury) updates of the inverse information matrix.
+candidate of a pool at once (docs/method.md §7.2): low-rank (Woodbury) updates of the inverse
+information matrix.
 
 Swapping configuration i (rows Jᵢ) for candidate c (rows J_c, r rows each) changes the posterior
 information by a rank-2r term, M' = M + U C Uᵀ with U = [J_cᵀ, Jᵢᵀ] and C = diag(I, −I). With
