@@ -8,11 +8,14 @@ from pathlib import Path
 
 import pytest
 
+import pincal
 from tests.conftest import ROOT
 
 METHOD = ROOT / "docs" / "method.md"
-CITING = ("pincal", "tests", "notebooks", "robots", "benchmarks", "docs")
-"""Folders whose files may cite the method (with README.md and CHANGELOG.md)."""
+PACKAGE = Path(pincal.__file__).resolve().parent
+"""The package imported (the checkout's, or the installed wheel's under .ci/run): its docstrings."""
+CITING = ("tests", "notebooks", "robots", "benchmarks", "docs")
+"""Folders of the repository whose files may cite the method (with README.md and CHANGELOG.md)."""
 SUFFIXES = {".py", ".md", ".ipynb", ".urdf", ".yaml", ".txt"}
 
 BY_NUMBER = re.compile(
@@ -43,10 +46,18 @@ def _citing_files():
     for path in sorted(ROOT.iterdir()):
         if path.name in ("README.md", "CHANGELOG.md"):
             yield path
-    for folder in CITING:
-        for path in sorted((ROOT / folder).rglob("*")):
+    for folder in [PACKAGE] + [ROOT / name for name in CITING]:
+        for path in sorted(folder.rglob("*")):
             if path.suffix in SUFFIXES and path.is_file() and "__pycache__" not in path.parts:
                 yield path
+
+
+def _shown(path: Path) -> str:
+    """The file as a reader finds it: relative to the repository or to the package."""
+    for root, prefix in ((ROOT, ""), (PACKAGE, "pincal/")):
+        if path.is_relative_to(root):
+            return prefix + str(path.relative_to(root))
+    return str(path)
 
 
 def _citations():
@@ -67,7 +78,7 @@ def test_every_citation_of_the_method_resolves():
     assert {"2.1", "6.2", "7.5", "9.3", "11", "12", "13"} <= sections
     cited_numbers = cited_anchors = 0
     for path, numbers, names in _citations():
-        where = path.relative_to(ROOT)
+        where = _shown(path)
         assert numbers <= sections, f"{where} cites docs/method.md §{sorted(numbers - sections)}: none such"
         assert names <= anchors, f"{where} cites docs/method.md#{sorted(names - anchors)}: no such anchor"
         cited_numbers += len(numbers)
@@ -91,4 +102,4 @@ def test_nothing_cites_the_spec():
             continue  # this file names what it looks for
         text = path.read_text(encoding="utf-8", errors="replace")
         found = re.search(r"SPEC\s*(?:§|section)|the SPEC\b|project's SPEC", text)
-        assert not found, f"{path.relative_to(ROOT)} cites the SPEC ({found.group()!r}): cite docs/method.md"
+        assert not found, f"{_shown(path)} cites the SPEC ({found.group()!r}): cite docs/method.md"
