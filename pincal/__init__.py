@@ -36,6 +36,7 @@ from pincal.errors import (
     IdentificationFailed,
     Infeasible,
     MissingDependency,
+    NoInertias,
     OverwriteRefused,
     PincalError,
     PincalWarning,
@@ -67,6 +68,7 @@ from pincal.model.dh import DHTable, urdf_from_dh
 from pincal.model.loading import load_robot, shipped_robots
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
+from pincal.model.statics import Payload
 from pincal.planning.baselines import random_plans
 from pincal.planning.constraints import (
     HalfSpace,
@@ -116,10 +118,12 @@ __all__ = [
     "MissingDependency",
     "MonteCarloResult",
     "Neighbourhood",
+    "NoInertias",
     "Outlier",
     "OverwriteRefused",
     "Parameter",
     "ParameterSet",
+    "Payload",
     "PincalError",
     "PincalWarning",
     "Plan",

@@ -138,6 +138,11 @@ class UnsupportedJoint(BadArgument):
     """A joint on the measured chain that is not a one-dof (revolute or prismatic) joint."""
 
 
+class NoInertias(BadArgument):
+    """A term that needs the links' masses (joint compliance: gravity torques) on a robot whose URDF
+    gives its links none."""
+
+
 class BadDHTable(BadArgument):
     """A Denavit–Hartenberg table that cannot be read as documented (the message names the key or row)."""
 

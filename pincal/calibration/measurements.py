@@ -17,6 +17,10 @@ CSV format (read by :meth:`MeasurementData.from_csv`, written by :meth:`Measurem
   value for x, y and z) or ``sx,sy,sz``, for every marker, or ``s0,s1,...``/``sx0,sy0,sz0,...``
   per marker; in the unit of the coordinates (metres, millimetres with ``--mm``). Identification
   weights each coordinate by 1/s²;
+* optionally, the payload the robot carried at each configuration: ``payload_kg`` [kg], and its
+  centre of mass in the tip frame ``payload_x,payload_y,payload_z`` (all three, in the unit of the
+  coordinates; default the tip origin). It loads the joints, which matters when joint compliances
+  are identified (:mod:`pincal.model.statics`); without the columns, no payload;
 * a row with a missing, empty, non-numeric, NaN or infinite cell, the wrong number of cells, or a
   joint value outside the joint limits is an error naming the file and its line; nothing is
   silently dropped.
@@ -40,9 +44,12 @@ from pincal.arguments import MAX_LENGTH, SIGMA_RANGE, check_lengths
 from pincal.errors import BadArgument, BadMeasurementData
 from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
 from pincal.model.robot import Robot
+from pincal.model.statics import MAX_PAYLOAD
 
 _MEASURED = re.compile(r"^([xyz])(\d*)$")
 _SIGMA = re.compile(r"^s([xyz]?)(\d*)$")
+PAYLOAD_COLUMNS = ("payload_kg", "payload_x", "payload_y", "payload_z")
+"""The payload columns of a measurement (or plan) file: mass [kg], centre in the tip frame."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,6 +64,8 @@ class MeasurementData:
         source: the file the data came from, or None.
         sigma: (m, K, 3) standard uncertainty of each measured coordinate [m], read-only, or None
             (the same unknown σ for all).
+        payload: (m, 4) payload carried at each configuration, rows [kg, x, y, z] (centre of mass
+            in the tip frame [m]), read-only, or None (no payload).
     """
 
     q: np.ndarray
@@ -65,6 +74,7 @@ class MeasurementData:
     lines: tuple[int, ...] | None = None
     source: str | None = None
     sigma: np.ndarray | None = None
+    payload: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         try:
@@ -113,6 +123,7 @@ class MeasurementData:
                 )
             sigma.flags.writeable = False
         object.__setattr__(self, "sigma", sigma)
+        object.__setattr__(self, "payload", _checked_payload(self.payload, len(q), self.labels_of(lines)))
         q.flags.writeable = False
         points.flags.writeable = False
         object.__setattr__(self, "q", q)
@@ -149,7 +160,10 @@ class MeasurementData:
         index = np.arange(self.m)[np.asarray(rows)]
         lines = tuple(int(i) for i in index) if self.lines is None else tuple(self.lines[i] for i in index)
         sigma = None if self.sigma is None else self.sigma[index]
-        return MeasurementData(self.q[index], self.points[index], self.joint_names, lines, self.source, sigma)
+        payload = None if self.payload is None else self.payload[index]
+        return MeasurementData(
+            self.q[index], self.points[index], self.joint_names, lines, self.source, sigma, payload
+        )
 
     def for_robot(self, robot: Robot) -> MeasurementData:
         """These data with columns in ``robot``'s joint order, checked against the robot.
@@ -166,7 +180,7 @@ class MeasurementData:
         robot.check_limits(q, self.labels(), degrees=False)
         if names == self.joint_names:
             return self
-        return MeasurementData(q, self.points, names, self.lines, self.source, self.sigma)
+        return MeasurementData(q, self.points, names, self.lines, self.source, self.sigma, self.payload)
 
     def _where(self) -> str:
         return f"measurement file {self.source!r}" if self.source else "the measurements"
@@ -201,7 +215,8 @@ class MeasurementData:
         where = f"measurement file {source!r}"
         measured = [h for h in header if _MEASURED.match(h)]
         uncertain = [h for h in header if _SIGMA.match(h)]
-        joints = [h for h in header if not (_MEASURED.match(h) or _SIGMA.match(h))]
+        loads = [h for h in header if h.startswith("payload_")]
+        joints = [h for h in header if not (_MEASURED.match(h) or _SIGMA.match(h) or h in loads)]
         _check_joint_names(tuple(joints), robot.joint_names, where)
         columns = _measured_columns(measured, where)
         K = len(columns) // 3
@@ -210,14 +225,16 @@ class MeasurementData:
             q = robot.to_radians(q)
         points = rows[:, [header.index(c) for c in columns]].reshape(len(rows), K, 3)
         sigma = _sigma_columns(header, rows, uncertain, K, where)
+        payload = _payload_columns(header, rows, loads, where)
         if millimetres:
             points = points / 1000.0
             sigma = None if sigma is None else sigma / 1000.0
+            payload = None if payload is None else payload / [1.0, 1000.0, 1000.0, 1000.0]
         _check_markers(K, robot, where)
         if sigma is not None and not np.all(sigma > 0):
             row = int(np.argwhere(~(sigma > 0))[0][0])
             raise BadMeasurementData(f"{where}, line {lines[row]}: the uncertainty s must be positive")
-        data = cls(q, points, robot.joint_names, tuple(lines), source, sigma)
+        data = cls(q, points, robot.joint_names, tuple(lines), source, sigma, payload)
         robot.check_limits(q, data.labels(), degrees)
         return data
 
@@ -250,6 +267,9 @@ class MeasurementData:
         if self.sigma is not None:
             coords += ["s" + c for c in coords]
             values.append(self.sigma.reshape(len(points), -1) * (1000.0 if millimetres else 1.0))
+        if self.payload is not None:
+            coords += list(PAYLOAD_COLUMNS)
+            values.append(self.payload * ([1.0, 1000.0, 1000.0, 1000.0] if millimetres else 1.0))
         out = io.StringIO()
         out.write(",".join(list(self.joint_names) + coords) + "\n")
         for row in np.hstack(values):
@@ -333,3 +353,50 @@ def _sigma_columns(
                     f"without one; valid: {valid}"
                 )
     return out
+
+
+def _payload_columns(
+    header: list[str], rows: np.ndarray, columns: list[str], where: str
+) -> np.ndarray | None:
+    """(m, 4) payload rows [kg, x, y, z] from the payload_* columns, or None without them."""
+    if not columns:
+        return None
+    valid = "payload_kg, with payload_x,payload_y,payload_z (all three) or none of them"
+    unknown = [c for c in columns if c not in PAYLOAD_COLUMNS]
+    centre = [c for c in PAYLOAD_COLUMNS[1:] if c in columns]
+    if unknown or "payload_kg" not in columns or len(centre) not in (0, 3):
+        raise BadMeasurementData(f"{where}: payload columns {','.join(columns)}; valid: {valid}")
+    out = np.zeros((len(rows), 4))
+    for c, name in enumerate(PAYLOAD_COLUMNS):
+        if name in columns:
+            out[:, c] = rows[:, header.index(name)]
+    return out
+
+
+def _checked_payload(payload: object, m: int, labels: list[str]) -> np.ndarray | None:
+    """The (m, 4) payload rows, read-only, checked (masses from 0 to MAX_PAYLOAD kg, centres within
+    MAX_LENGTH m), or None."""
+    if payload is None:
+        return None
+    try:
+        rows = np.array(payload, dtype=float).reshape(m, 4)
+    except (TypeError, ValueError):
+        raise BadMeasurementData(
+            f"measurements: payload must be {m} rows [kg, x, y, z], got shape {np.shape(payload)}"
+        ) from None
+    mass = rows[:, 0]
+    bad = ~((mass >= 0) & (mass <= MAX_PAYLOAD))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise BadMeasurementData(
+            f"{labels[i]}: payload_kg {float(mass[i])!r} must be from 0 to {MAX_PAYLOAD:g} kg"
+        )
+    far = ~np.all(np.abs(rows[:, 1:]) <= MAX_LENGTH, axis=1)
+    if far.any():
+        i = int(np.argmax(far))
+        raise BadMeasurementData(
+            f"{labels[i]}: the payload's centre {rows[i, 1:].tolist()} must be finite and within "
+            f"{MAX_LENGTH:.0e} m of the tip"
+        )
+    rows.flags.writeable = False
+    return rows

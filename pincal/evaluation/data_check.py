@@ -43,10 +43,12 @@ from pincal.model.base_parameters import preference_order
 from pincal.model.jacobian import ZERO_COLUMN
 from pincal.model.parameters import ParameterSet
 
-IDENTIFIABLE_STD = {"m": 1e-2, "rad": 1e-2}
+IDENTIFIABLE_STD = {"m": 1e-2, "rad": 1e-2, "1": 1e-2, "rad/(N·m)": 1e-4, "m/N": 1e-5}
 """A parameter is identifiable on the data when they determine it to better than this standard
-error [m for lengths, rad for angles] (with every other kept parameter estimated too): beyond,
-its estimate is noise that can reach values no real robot has."""
+error [m for lengths, rad for angles, 1 for gains, rad/(N·m) and m/N for compliances] (with every
+other kept parameter estimated too): beyond, its estimate is noise that can reach values no real
+robot has (a gain of 1 %; a compliance that bends a joint by 10 mrad under 100 N·m, ten times a
+cobot's)."""
 
 MIN_DATA_CONDITIONING = 1e-6
 """...and when the kept set's conditioning (σ_min² of the unit-column Jacobian,

@@ -13,19 +13,30 @@ its unit column and the span of the kept ones) of such a combination. Near depen
 vendor URDFs whose angles are rounded (1.5708 for π/2: the axes are then parallel to ~4e-6; 3.14
 for π: to 1.6e-3) and from nearly parallel axes; identifying such a parameter would cost
 1/distance times its own precision, so it is left to the kept ones, which absorb it.
+
+Joint gains and compliances come last in that order. A gain separates from its joint's offset
+only because the joint's value varies; a compliance moves the point like the offset scaled by the
+joint's gravity torque τ_j, so it is invisible where τ_j ≡ 0 (a vertical first axis; a joint whose
+load is balanced about its axis), redundant with the offset where τ_j barely varies, and, through
+the arm's own weight, correlated with the lengths of the links that weigh on it. A change of payload
+breaks that correlation: the report gives each compliance's *separation* (the sine of its
+column's angle to the span of the parameters kept before it) under the arm's weight alone and, when
+payloads are given, with a payload drawn for each configuration.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from dataclasses import dataclass, replace
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pincal.arguments import Seed, generator
+from pincal.errors import BadArgument
 from pincal.model.catalogue import LENGTH_TOLERANCE, split_spec
 from pincal.model.jacobian import unit_columns
+from pincal.model.statics import payload_rows
 
 if TYPE_CHECKING:  # ParameterSet.identifiable() calls this module: parameters.py imports it
     from pincal.model.parameters import ParameterSet
@@ -99,6 +110,11 @@ class Identifiability:
         singular_values: of the column-normalised stacked Jacobian, decreasing (how close to
             dependent the set is: the smallest ones belong to redundant combinations).
         n_configurations: random configurations used.
+        separation: ``{name: sine}`` for each visible compliance: the sine of the angle between
+            its column and the span of the parameters kept before it, under the arm's own weight
+            alone (no payload); near 0, it cannot be told from them.
+        separation_with_payloads: the same with the payloads given (one drawn per
+            configuration), or None when none were given.
     """
 
     params: ParameterSet
@@ -109,6 +125,8 @@ class Identifiability:
     rank: int
     singular_values: np.ndarray
     n_configurations: int
+    separation: dict[str, float] = field(default_factory=dict)
+    separation_with_payloads: dict[str, float] | None = None
 
     def report(self) -> str:
         """A human-readable text report."""
@@ -120,6 +138,22 @@ class Identifiability:
         if self.dropped:
             lines.append("  dropped:")
             lines += [f"    {name}: {reason}" for name, reason in self.dropped.items()]
+        if self.separation:
+            lines.append(
+                "  compliance separation (sine of the angle to the parameters kept before it; near 0: "
+                "it cannot be told from them):"
+            )
+            with_payloads = self.separation_with_payloads or {}
+            for name, value in self.separation.items():
+                loaded = (
+                    f", {with_payloads[name]:.2g} with the payloads given" if name in with_payloads else ""
+                )
+                lines.append(f"    {name}: {value:.2g} under the arm's own weight{loaded}")
+            if self.separation_with_payloads is None:
+                lines.append(
+                    "    a payload change breaks the correlation of compliance with the link lengths: "
+                    "give the payloads you can mount (payloads=[0, 50, 100]) to see by how much"
+                )
         return "\n".join(lines)
 
 
@@ -137,7 +171,7 @@ def preference_order(params: ParameterSet, prefer: frozenset[str] = frozenset())
             return 1 if length else 2
         if p.kind == "placement":
             return 3
-        return 4 if p.kind == "marker" else 5
+        return {"marker": 4, "base": 5, "gain": 6}.get(p.kind, 7)
 
     def key(i: int) -> tuple:
         p = params.parameters[i]
@@ -157,6 +191,7 @@ def identifiability(
     seed: Seed = 0,
     tol: float = NEARLY_REDUNDANT,
     prefer: str | Iterable[str] = (),
+    payloads: Sequence[object] | None = None,
 ) -> Identifiability:
     """Identifiability report of ``params`` (see module doc).
 
@@ -171,10 +206,16 @@ def identifiability(
         prefer: names and/or groups kept before the default order (if in ``params``), e.g. ``"base"``
             when measurements are in the instrument's frame (the base is then identified and the
             chain parameters it makes redundant are dropped).
+        payloads: the payloads the experiment can mount (masses [kg] or
+            :class:`~pincal.model.statics.Payload`), one drawn at random for each configuration:
+            the report then also gives each compliance's separation with them. Without, the
+            arm's own weight alone loads the joints.
     """
     robot = params.robot
-    qs = robot.random_configurations(n_configurations, generator(seed))
-    J = params.jacobian(qs, frame="tip").reshape(-1, len(params))
+    rng = generator(seed)
+    qs = robot.random_configurations(n_configurations, rng)
+    loads = _drawn_payloads(payloads, n_configurations, rng)
+    J = params.jacobian(qs, frame="tip", payload=loads).reshape(-1, len(params))
     A, visible = unit_columns(J)
     singular_values = np.linalg.svd(A, compute_uv=False)
 
@@ -185,11 +226,17 @@ def identifiability(
     dropped: dict[str, str] = {}
     combinations: dict[str, dict[str, float]] = {}
     nearly: dict[str, float] = {}
+    compliant = [i for i, p in enumerate(params.parameters) if p.kind == "compliance"]
+    torques = robot.joint_torques(qs, payload=loads, check=False) if compliant else None
     for i in range(len(params)):
         if i in kept:
             continue
         if not visible[i]:
-            dropped[names[i]] = "invisible: it does not move the measured point(s) in any configuration"
+            dropped[names[i]] = (
+                _unloaded(params.parameters[i].index, torques)
+                if i in compliant
+                else "invisible: it does not move the measured point(s) in any configuration"
+            )
             continue
         coef, *_ = np.linalg.lstsq(J[:, kept], J[:, i], rcond=None)
         big = np.abs(coef) > 1e-6 * max(np.abs(coef).max(), 1e-300)
@@ -197,8 +244,12 @@ def identifiability(
         combinations[names[i]] = combo
         terms = " ".join(f"{'+' if c >= 0 else '-'} {abs(c):.6g}·{n}" for n, c in combo.items())
         terms = terms[2:] if terms.startswith("+ ") else "-" + terms[2:]
+        why = _torque_range(params.parameters[i], torques) if i in compliant else ""
         if distance[i] < REDUNDANT:
-            dropped[names[i]] = f"redundant: equals {terms}"
+            dropped[names[i]] = f"redundant: equals {terms}{why}"
+        elif why:
+            nearly[names[i]] = float(distance[i])
+            dropped[names[i]] = f"nearly redundant: equals {terms} to within {distance[i]:.2g}{why}"
         else:
             nearly[names[i]] = float(distance[i])
             dropped[names[i]] = (
@@ -206,6 +257,12 @@ def identifiability(
                 f"between its column and theirs; rounded angles in the URDF, e.g. 1.5708 for pi/2, "
                 f"or nearly parallel axes): left to them"
             )
+    separation, with_payloads = {}, None
+    if compliant:
+        kept_order = [i for i in order if i in kept or i in compliant]
+        separation = _separation(params, qs, None, kept_order, compliant, visible, tol)
+        if payloads is not None:
+            with_payloads = _separation(params, qs, loads, kept_order, compliant, visible, tol)
     return Identifiability(
         params=params,
         identifiable=replace(params, parameters=tuple(params.parameters[i] for i in kept)),
@@ -215,4 +272,60 @@ def identifiability(
         rank=len(kept),
         singular_values=singular_values,
         n_configurations=n_configurations,
+        separation=separation,
+        separation_with_payloads=with_payloads,
+    )
+
+
+def _drawn_payloads(payloads: Sequence[object] | None, n: int, rng: np.random.Generator) -> np.ndarray | None:
+    """(n, 4) payload rows drawn from ``payloads`` (one per configuration), or None."""
+    if payloads is None:
+        return None
+    rows = np.array([payload_rows(p, 1)[0] for p in payloads]).reshape(-1, 4)
+    if not len(rows):
+        raise BadArgument(
+            "payloads: give at least one payload (a mass [kg] or a Payload)", argument="payloads"
+        )
+    return rows[rng.integers(len(rows), size=n)]
+
+
+def _separation(
+    params: ParameterSet,
+    qs: np.ndarray,
+    loads: np.ndarray | None,
+    order: list[int],
+    compliant: list[int],
+    visible: np.ndarray,
+    tol: float,
+) -> dict[str, float]:
+    """Each visible compliance's distance (sine) to the span of the parameters kept before it."""
+    J = params.jacobian(qs, frame="tip", payload=loads).reshape(-1, len(params))
+    A, shown = unit_columns(J)
+    _, distance = independent_columns(A, [i for i in order if shown[i] and visible[i]], tol)
+    return {params.names[i]: float(distance[i]) for i in compliant if shown[i] and visible[i]}
+
+
+def _unloaded(joint: int, torques: np.ndarray) -> str:
+    """Why a compliance is invisible: its joint never carries a gravity torque (or hides the point)."""
+    largest = float(np.abs(torques[:, joint]).max(initial=0.0))
+    if largest <= 1e-9 * max(float(np.abs(torques).max(initial=0.0)), 1e-300):
+        return (
+            "invisible: gravity applies no torque on this joint in any configuration (its axis is "
+            "vertical, or what it carries is balanced about its axis), so it never deflects"
+        )
+    return "invisible: it does not move the measured point(s) in any configuration"
+
+
+def _torque_range(parameter, torques: np.ndarray) -> str:
+    """How little a joint's gravity torque varies, said after a compliance found (nearly) redundant."""
+    lo, hi = float(torques[:, parameter.index].min()), float(torques[:, parameter.index].max())
+    unit = "N·m" if parameter.unit == "rad/(N·m)" else "N"
+    varies = (
+        f"is the same, {lo:.4g} {unit}, in every configuration"
+        if hi - lo <= 1e-9 * max(abs(lo), abs(hi))
+        else f"only ranges over [{lo:.4g}, {hi:.4g}] {unit} in these configurations"
+    )
+    return (
+        f"; its gravity torque {varies}, so it moves the point as they do: a payload change, or "
+        f"configurations that load the joint differently, separate it"
     )

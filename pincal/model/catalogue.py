@@ -1,5 +1,8 @@
-"""The names of a robot's geometric parameters: the catalogue in canonical order, the groups, and
-how a spec (``"lengths,offsets,joint2.tx"``) splits (conventions: :mod:`pincal.model.parameters`)."""
+"""The names of a robot's parameters: the catalogue in canonical order, the groups, and how a spec
+(``"lengths,offsets,joint2.tx"``) splits (conventions: :mod:`pincal.model.parameters`).
+
+Beside the geometric parameters, each joint has a gain and a compliance (how its reading scales and
+how it yields to gravity: :mod:`pincal.model.statics`); they come last in the canonical order."""
 
 from __future__ import annotations
 
@@ -11,7 +14,7 @@ if TYPE_CHECKING:
     from pincal.model.robot import Robot
 
 COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
-GROUPS = ("offsets", "lengths", "full", "base", "markers")
+GROUPS = ("offsets", "lengths", "full", "base", "markers", "gains", "compliance")
 LENGTH_TOLERANCE = 1e-9
 """An origin component counts as a length when |xyz component| exceeds this [m]."""
 
@@ -22,11 +25,13 @@ class Parameter:
 
     Attributes:
         name: stable readable name, e.g. ``joint_a2.tx``.
-        kind: ``"placement"``, ``"offset"``, ``"marker"`` or ``"base"``.
+        kind: ``"placement"``, ``"offset"``, ``"marker"``, ``"base"``, ``"gain"`` or
+            ``"compliance"``.
         index: origin index (placement: joints in chain order, then the tip), joint index
-            (offset, 0-based in configuration order), marker index, or 0 (base).
-        component: 0..5 for tx ty tz rx ry rz; 0..2 for a marker's x y z; 0 for an offset.
-        unit: ``"m"`` or ``"rad"``.
+            (offset, gain, compliance: 0-based in configuration order), marker index, or 0 (base).
+        component: 0..5 for tx ty tz rx ry rz; 0..2 for a marker's x y z; 0 otherwise.
+        unit: ``"m"``, ``"rad"``, ``"1"`` (a gain), ``"rad/(N·m)"`` or ``"m/N"`` (the compliance
+            of a revolute or a prismatic joint).
     """
 
     name: str
@@ -57,6 +62,12 @@ def catalogue(robot: Robot) -> list[Parameter]:
             out.append(Parameter(f"marker{k}.{comp}", "marker", k, c, "m"))
     for c, comp in enumerate(COMPONENTS):
         out.append(Parameter(f"base.{comp}", "base", 0, c, "m" if c < 3 else "rad"))
+    names = robot.joint_names
+    out += [Parameter(f"{names[j]}.gain", "gain", j, 0, "1") for j in range(n_joints)]
+    out += [
+        Parameter(f"{names[j]}.compliance", "compliance", j, 0, "rad/(N·m)" if robot.revolute[j] else "m/N")
+        for j in range(n_joints)
+    ]
     return out
 
 
@@ -77,6 +88,10 @@ def group(robot: Robot, every: list[Parameter], name: str) -> list[Parameter]:
         return [p for p in every if p.kind == "base"]
     if name == "markers":
         return [p for p in every if p.kind == "marker"]
+    if name == "gains":
+        return [p for p in every if p.kind == "gain"]
+    if name == "compliance":
+        return [p for p in every if p.kind == "compliance"]
     raise AssertionError(name)
 
 

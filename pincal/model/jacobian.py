@@ -8,14 +8,23 @@ parameter is then a constant combination of those columns:
 * ``tx|ty|tz`` of origin j: the twist (R_Lᵀ e, 0) of placement j, R_L the URDF origin's rotation;
 * ``rx|ry|rz``: the twist (0, e);
 * ``offset``: the joint's motion axis S_j (the joint's own Jacobian column);
+* ``gain`` and ``compliance``: the same column times, per configuration, ∂θ_j/∂k_j = q_j (the
+  reading) and ∂θ_j/∂c_j = τ_j(θ, w) (the gravity torque on the joint under the payload w,
+  :mod:`pincal.model.statics`). These are first order in the compliances: the exact derivative
+  carries (I − C ∂τ/∂θ)⁻¹, which differs from I by ‖C ∂τ/∂θ‖, about 1e-3 on industrial arms, and
+  is I at zero compliance;
 * the tip's own placement: a twist of the tip frame itself (identity columns);
 
 and a marker m_k moves by v + ω × m_k for a tip twist (v, ω). So, in the tip frame,
 J_i = G · Reg_i · C + const, with G = [I, −[m_k]×] stacked over markers and C, const fixed for the
 parameter set. World rows are those rotated by the tip's orientation.
 
+On a robot with gains or compliances every column is taken at the joints' actual values θ (the
+static solution), not at q + offsets.
+
 Finite differences: central differences of the measured points of perturbed robot *copies*
-(:meth:`ParameterSet.apply`), step 1e-6, for checking.
+(:meth:`ParameterSet.apply`), step 1e-6 in the parameter's natural scale
+(:attr:`ParameterSet.scales`), for checking.
 """
 
 from __future__ import annotations
@@ -24,6 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import BadArgument
+from pincal.model.statics import payload_rows
 
 FD_STEP = 1e-6
 """Central finite-difference step [m or rad]."""
@@ -44,6 +54,11 @@ def unit_columns(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _skew(v: np.ndarray) -> np.ndarray:
     x, y, z = v
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def _split(pairs: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray]:
+    """(columns, joints) as two integer arrays, from (column, joint) pairs."""
+    return np.array([c for c, _ in pairs], dtype=int), np.array([j for _, j in pairs], dtype=int)
 
 
 class JacobianEngine:
@@ -71,6 +86,7 @@ class JacobianEngine:
         tip_twist = np.zeros((6, n_params))
         const = np.zeros((self.rows, n_params))
         base_cols: list[tuple[int, int]] = []
+        joint_terms: dict[str, list[tuple[int, int]]] = {"gain": [], "compliance": []}
         for col, p in enumerate(params.parameters):
             if p.kind == "placement":
                 twist = np.zeros(6)
@@ -82,8 +98,10 @@ class JacobianEngine:
                     C[6 * p.index : 6 * p.index + 6, col] = twist
                 else:
                     tip_twist[:, col] = twist
-            elif p.kind == "offset":
+            elif p.kind in ("offset", "gain", "compliance"):
                 C[6 * p.index : 6 * p.index + 6, col] = robot.motion_axes[p.index + 1]
+                if p.kind != "offset":
+                    joint_terms[p.kind].append((col, p.index))
             elif p.kind == "marker":
                 const[3 * p.index + p.component, col] = 1.0
             else:
@@ -96,6 +114,23 @@ class JacobianEngine:
         # J_i = [Reg_i, I] @ [C; const]: one matrix product for all configurations.
         self.C_ext = np.vstack([C, self.const])
         self._buffers: dict[int, tuple] = {}
+        # Gain and compliance columns: the joint's column times q_j or τ_j, per configuration.
+        self.gain_cols, self.gain_joints = _split(joint_terms["gain"])
+        self.compliance_cols, self.compliance_joints = _split(joint_terms["compliance"])
+        self.rigid = not robot.is_elastic and not self.compliance_cols.size
+        needs_gravity = self.compliance_cols.size or robot.joint_compliances.any()
+        self.gravity = robot.gravity_model() if needs_gravity else None
+
+    def joint_values(self, qs: np.ndarray, payload: object = None) -> tuple[np.ndarray, np.ndarray | None]:
+        """(θ, τ): the joints' actual values (m, nq) at readings ``qs`` (:meth:`Robot.joint_values`),
+        and the gravity torques (m, nq) on them under ``payload`` when the set has compliances
+        (else None)."""
+        if self.rigid:
+            return (qs + self.offsets if self.has_offsets else qs), None
+        loads = payload_rows(payload, len(qs))
+        theta = self.robot.joint_values(qs, payload=loads, check=False, gravity=self.gravity)
+        tau = self.gravity.torques(theta, loads) if self.compliance_cols.size else None
+        return theta, tau
 
     def _buffer(self, m: int) -> tuple[np.ndarray, list[list[np.ndarray]]]:
         """A reusable (m, 3K, 6·nq + 3K) regressor buffer and views of its per-marker blocks."""
@@ -110,8 +145,9 @@ class JacobianEngine:
             cached = self._buffers[m] = (buf, views)
         return cached
 
-    def regressors(self, qs: np.ndarray, pose: bool = False):
-        """Linear rows of the kinematic regressor at each marker, in the tip frame's axes.
+    def regressors(self, qs: np.ndarray, pose: bool = False, payload: object = None):
+        """Linear rows of the kinematic regressor at each marker, in the tip frame's axes, at the
+        joint readings ``qs`` (under ``payload`` on a compliant robot).
 
         Returns:
             (m, 3K, 6·nq + 3K) regressors: a twist of joint placement j moves marker k by
@@ -120,14 +156,17 @@ class JacobianEngine:
             positions (m, 3) in the robot base frame, else None, None. The array is a buffer of
             the engine's, overwritten by the next call.
         """
+        return self._regressors(self.joint_values(qs, payload)[0], pose)
+
+    def _regressors(self, configurations: np.ndarray, pose: bool):
+        """:meth:`regressors` at the joints' actual values."""
         model, data, joint = self.model, self.data, self.joint
-        m = len(qs)
+        m = len(configurations)
         reg, views = self._buffer(m)
         rot = np.empty((m, 3, 3)) if pose else None
         pos = np.empty((m, 3)) if pose else None
         regressor, fk, local = pin.computeJointKinematicRegressor, pin.forwardKinematics, pin.LOCAL
         points = self.points
-        configurations = qs + self.offsets if self.has_offsets else qs
         if not pose and len(points) == 1:  # the hot path of searches: one marker, no pose
             point = points[0]
             for q, (view,) in zip(configurations, views):
@@ -144,7 +183,7 @@ class JacobianEngine:
                 pos[i] = tip.translation
         return reg, rot, pos
 
-    def jacobian(self, qs: np.ndarray, frame: str = "tip") -> np.ndarray:
+    def jacobian(self, qs: np.ndarray, frame: str = "tip", payload: object = None) -> np.ndarray:
         """(m, 3K, P) parameter Jacobian at configurations ``qs`` (validated by the caller).
 
         Args:
@@ -152,10 +191,17 @@ class JacobianEngine:
             frame: ``"tip"``: each configuration's rows in its own tip frame (enough for every
                 criterion: M = Σ JᵢᵀJᵢ is unchanged by a rotation of each configuration's rows);
                 ``"world"``: in the instrument's frame.
+            payload: the payload at each configuration
+                (:func:`~pincal.model.statics.payload_rows`; default none).
         """
         pose = frame == "world" or self.needs_pose
-        reg, rot, pos = self.regressors(qs, pose=pose)
+        configurations, tau = self.joint_values(qs, payload)
+        reg, rot, pos = self._regressors(configurations, pose)
         J = (reg.reshape(-1, reg.shape[2]) @ self.C_ext).reshape(len(qs), self.rows, self.n_params)
+        if self.gain_cols.size:
+            J[:, :, self.gain_cols] *= qs[:, None, self.gain_joints]
+        if self.compliance_cols.size:
+            J[:, :, self.compliance_cols] *= tau[:, None, self.compliance_joints]
         if not pose:
             return J
         base = self.robot.base
@@ -179,21 +225,27 @@ class JacobianEngine:
         return J
 
 
-def analytic_jacobian(params, qs: np.ndarray, frame: str = "world") -> np.ndarray:
+def analytic_jacobian(params, qs: np.ndarray, frame: str = "world", payload: object = None) -> np.ndarray:
     """(m, 3K, P) analytic parameter Jacobian (see :meth:`ParameterSet.jacobian`)."""
     if frame not in ("world", "tip"):
         raise BadArgument(f"unknown Jacobian frame {frame!r}; valid: world, tip")
-    return JacobianEngine(params).jacobian(qs, frame=frame)
+    loads = payload_rows(payload, len(qs))
+    return JacobianEngine(params).jacobian(qs, frame=frame, payload=loads)
 
 
-def finite_difference_jacobian(params, qs: np.ndarray, step: float = FD_STEP) -> np.ndarray:
-    """(m, 3K, P) world-frame Jacobian by central differences on perturbed robot copies."""
+def finite_difference_jacobian(
+    params, qs: np.ndarray, step: float = FD_STEP, payload: object = None
+) -> np.ndarray:
+    """(m, 3K, P) world-frame Jacobian by central differences on perturbed robot copies; the step
+    of each parameter is ``step`` / its natural scale (:attr:`ParameterSet.scales`)."""
     m, n = len(qs), len(params)
+    loads = payload_rows(payload, m)
     J = np.empty((m, 3 * params.robot.n_markers, n))
     for col in range(n):
+        h = step / params.scales[col]
         dx = np.zeros(n)
-        dx[col] = step
-        plus = params.apply(dx).points(qs, check=False)
-        minus = params.apply(-dx).points(qs, check=False)
-        J[:, :, col] = ((plus - minus) / (2 * step)).reshape(m, -1)
+        dx[col] = h
+        plus = params.apply(dx).points(qs, check=False, payload=loads)
+        minus = params.apply(-dx).points(qs, check=False, payload=loads)
+        J[:, :, col] = ((plus - minus) / (2 * h)).reshape(m, -1)
     return J

@@ -1,4 +1,4 @@
-"""Geometric parameters: the errors a calibration identifies, with stable readable names.
+"""Parameters: the errors a calibration identifies, with stable readable names.
 
 Conventions (docs/method.md §2, chosen to match URDF):
 
@@ -13,10 +13,21 @@ Conventions (docs/method.md §2, chosen to match URDF):
   instrument's coordinates, rotation about the base's own axes) — for measurements expressed in
   the instrument's frame.
 
+* ``<joint>.gain``: the joint moves by q·(1 + gain) for a reading q (dimensionless).
+* ``<joint>.compliance``: the joint yields by compliance·τ to the torque τ gravity applies on it
+  through the links and the payload [rad/(N·m), or m/N for a prismatic joint]
+  (:mod:`pincal.model.statics`). It needs the links' masses: a robot whose URDF has none is refused.
+
 Groups: ``offsets`` (one per joint), ``lengths`` (each non-zero component of each origin's xyz on
 the chain, the tip's included), ``full`` (all six of every origin, the tip's included), ``base``,
-``markers``; any mix of groups and names, separated by commas. Whatever the order asked, a set
-keeps the canonical order: chain order, tx ty tz rx ry rz offset per joint, then tip, markers, base.
+``markers``, ``gains``, ``compliance``; any mix of groups and names, separated by commas. Whatever
+the order asked, a set keeps the canonical order: chain order, tx ty tz rx ry rz offset per joint,
+then tip, markers, base, gains, compliances.
+
+Compliance columns of the Jacobian are large (a torque of 1e3 N·m times a lever of 1 m) and their
+values small (1e-6 rad/(N·m)): :attr:`ParameterSet.scales` gives each parameter a natural scale, a
+reference torque for a compliance and 1 otherwise, so that values × scales are all rad- or m-sized
+and the columns / scales all of the size of the geometric ones.
 """
 
 from __future__ import annotations
@@ -34,11 +45,19 @@ from pincal.errors import BadArgument, UnknownParameter
 from pincal.model.base_parameters import NEARLY_REDUNDANT, identifiability
 from pincal.model.catalogue import GROUPS, Parameter, catalogue, group, split_spec
 from pincal.model.jacobian import analytic_jacobian, finite_difference_jacobian
+from pincal.model.statics import require_masses
 
 if TYPE_CHECKING:  # a Robot builds its ParameterSets (Robot.parameters): robot.py imports this module
     from pincal.model.robot import Robot
 
 __all__ = ["Parameter", "ParameterSet"]
+
+REFERENCE_CONFIGURATIONS = 200
+"""Random configurations (seed 0) over which a compliance's reference torque is taken."""
+
+UNLOADED = 1e-9
+"""A joint whose RMS gravity torque is below this fraction of the largest one is never loaded (a
+vertical first axis): its compliance's scale is 1."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,7 +93,10 @@ class ParameterSet:
                 raise UnknownParameter(token, list(GROUPS) + list(by_name))
         if not chosen:
             raise BadArgument(f"parameter set {spec!r} is empty for robot {robot.name!r}")
-        return cls(robot, tuple(p for p in every if p.name in chosen))
+        parameters = tuple(p for p in every if p.name in chosen)
+        if any(p.kind == "compliance" for p in parameters):
+            require_masses(robot.model, robot.name)
+        return cls(robot, parameters)
 
     # ---------------------------------------------------------------------- naming
     @cached_property
@@ -112,8 +134,26 @@ class ParameterSet:
 
     @cached_property
     def units(self) -> tuple[str, ...]:
-        """Unit of each parameter (``"m"`` or ``"rad"``)."""
+        """Unit of each parameter (``"m"``, ``"rad"``, ``"1"``, ``"rad/(N·m)"`` or ``"m/N"``)."""
         return tuple(p.unit for p in self.parameters)
+
+    @cached_property
+    def scales(self) -> np.ndarray:
+        """(P,) natural scale of each parameter: a compliance's reference torque [N·m or N] (the
+        root-mean-square gravity torque on its joint over the joint ranges, without payload; 1 when
+        gravity never loads the joint), 1 for every other parameter. ``values * scales`` are all
+        in rad or m (a compliance's: its deflection at the reference torque), and the Jacobian's
+        ``J / scales`` has columns of comparable size. Read-only."""
+        out = np.ones(len(self))
+        joints = [(i, p.index) for i, p in enumerate(self.parameters) if p.kind == "compliance"]
+        if joints:
+            qs = self.robot.random_configurations(REFERENCE_CONFIGURATIONS, 0)
+            tau = self.robot.joint_torques(qs, check=False)
+            rms = np.sqrt(np.mean(tau**2, axis=0))
+            for i, j in joints:
+                out[i] = rms[j] if rms[j] > UNLOADED * max(rms.max(), 1e-300) else 1.0
+        out.flags.writeable = False
+        return out
 
     def __repr__(self) -> str:
         return f"ParameterSet({len(self)} parameters of {self.robot.name!r}: {', '.join(self.names)})"
@@ -140,13 +180,15 @@ class ParameterSet:
         """A new Robot whose geometry is this robot's with errors ``values`` added.
 
         The caller's robot and model are not touched. Translations add; rotations compose on the
-        right (R ← R·exp3(δω)); offsets and marker errors add.
+        right (R ← R·exp3(δω)); offsets, gains, compliances and marker errors add.
         """
         dx = self._values(values)
         robot = self.robot
         n_origins = len(robot.origins)
         placement = np.zeros((n_origins, 6))
         offsets = np.array(robot.joint_offsets)
+        gains = np.array(robot.joint_gains)
+        compliances = np.array(robot.joint_compliances)
         markers = np.array(robot.markers)
         base = np.zeros(6)
         for p, v in zip(self.parameters, dx):
@@ -156,6 +198,10 @@ class ParameterSet:
                 offsets[p.index] += v
             elif p.kind == "marker":
                 markers[p.index, p.component] += v
+            elif p.kind == "gain":
+                gains[p.index] += v
+            elif p.kind == "compliance":
+                compliances[p.index] += v
             else:
                 base[p.component] += v
         model = pin.Model(robot.model)
@@ -170,12 +216,16 @@ class ParameterSet:
         return robot.replace(
             model=model,
             joint_offsets=offsets,
+            joint_gains=gains,
+            joint_compliances=compliances,
             markers=markers,
             base=_perturb(robot.base, base),
         )
 
     # ---------------------------------------------------------------- derivatives
-    def jacobian(self, plan: object, method: str = "analytic", frame: str = "world") -> np.ndarray:
+    def jacobian(
+        self, plan: object, method: str = "analytic", frame: str = "world", payload: object = None
+    ) -> np.ndarray:
         """Parameter Jacobian ∂p/∂Π at each configuration of ``plan``.
 
         Args:
@@ -184,6 +234,9 @@ class ParameterSet:
                 per configuration) or ``"fd"`` (central finite differences on perturbed copies).
             frame: ``"world"`` (the instrument's frame) or ``"tip"`` (each configuration's rows in
                 its tip frame: the same information matrix, cheaper).
+            payload: the payload at each configuration (see
+                :func:`~pincal.model.statics.payload_rows`; default none): it changes the gravity
+                torques, hence the compliance columns and, on a compliant robot, the joint values.
 
         Returns:
             (m, 3K, P) array: for configuration i, rows 3k..3k+2 are marker k's x, y, z;
@@ -191,11 +244,11 @@ class ParameterSet:
         """
         qs = self.robot.configurations(plan)
         if method == "analytic":
-            return analytic_jacobian(self, qs, frame=frame)
+            return analytic_jacobian(self, qs, frame=frame, payload=payload)
         if method == "fd":
             if frame != "world":
                 raise BadArgument("finite differences give world-frame rows only (frame='world')")
-            return finite_difference_jacobian(self, qs)
+            return finite_difference_jacobian(self, qs, payload=payload)
         raise BadArgument(f"unknown Jacobian method {method!r}; valid: analytic, fd")
 
     def identifiable(
@@ -204,12 +257,15 @@ class ParameterSet:
         seed: Seed = 0,
         tol: float = NEARLY_REDUNDANT,
         prefer: str | Iterable[str] = (),
+        payloads: Sequence[object] | None = None,
     ):
         """Which of these parameters position measurements can identify.
 
         See :func:`pincal.model.base_parameters.identifiability`.
         """
-        return identifiability(self, n_configurations=n_configurations, seed=seed, tol=tol, prefer=prefer)
+        return identifiability(
+            self, n_configurations=n_configurations, seed=seed, tol=tol, prefer=prefer, payloads=payloads
+        )
 
 
 def _perturb(placement: pin.SE3, twist: np.ndarray) -> pin.SE3:

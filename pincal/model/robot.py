@@ -8,6 +8,10 @@ name of a robot pincal ships (``kr270``, ``planar_2r``), the name of an example-
 Joints that do not move the tip (grippers, other branches) are locked at their neutral value, so a
 configuration holds exactly the joints of the chain, in chain order. A Robot never changes: the
 perturbed robots of identification and simulation are new Robots holding their own model copy.
+
+A configuration is the joints' *reading* q; a joint stands at q + offset for a rigid robot, and at
+the static solution θ of :mod:`pincal.model.statics` when the robot has joint gains or compliances
+(then the payload carried matters: ``payload=`` of :meth:`Robot.points`).
 """
 
 from __future__ import annotations
@@ -21,12 +25,16 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.arguments import Seed, generator, positive_int
-from pincal.errors import BadConfiguration
+from pincal.errors import BadArgument, BadConfiguration
 from pincal.model.chain import frame_id
 from pincal.model.parameters import ParameterSet
+from pincal.model.statics import Gravity, chain_mass, payload_rows
 
 LIMIT_TOLERANCE = 1e-9
 """Slack [rad or m] allowed when checking configurations against joint limits."""
+
+MAX_GRAVITY = 100.0
+"""Largest gravity pincal accepts [m/s²] (ten times the Earth's): beyond it, a unit error."""
 
 
 def _frame_names(model: pin.Model) -> list[str]:
@@ -91,6 +99,10 @@ class Robot:
         name: display name (URDF stem or robot name).
         urdf_path: the URDF this robot came from, if any (used by URDF export).
         joint_offsets: (nq,) joint zero errors [rad or m] added to every configuration.
+        joint_gains: (nq,) joint gain errors (dimensionless): a joint reading q moves it by
+            q·(1 + gain).
+        joint_compliances: (nq,) joint compliances [rad/(N·m) or m/N]: the joint yields by
+            compliance·τ to the gravity torque τ on it (:mod:`pincal.model.statics`).
         base: placement of the robot base in the measuring instrument's frame.
         root: the frame the chain starts from, when one was asked for (else None).
         package_dirs: ``((package name, folder), ...)`` resolving the URDF's ``package://NAME/``
@@ -107,6 +119,8 @@ class Robot:
     base: pin.SE3 = field(default_factory=pin.SE3.Identity)
     root: str | None = None
     package_dirs: tuple[tuple[str, str], ...] = ()
+    joint_gains: np.ndarray = field(default=None)  # type: ignore[assignment]
+    joint_compliances: np.ndarray = field(default=None)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         dirs = tuple((str(name), str(folder)) for name, folder in dict(self.package_dirs).items())
@@ -114,13 +128,11 @@ class Robot:
         markers = np.array(self.markers, dtype=float, copy=True).reshape(-1, 3)
         markers.flags.writeable = False
         object.__setattr__(self, "markers", markers)
-        offsets = (
-            np.zeros(self.model.nq)
-            if self.joint_offsets is None
-            else np.array(self.joint_offsets, dtype=float, copy=True)
-        )
-        offsets.flags.writeable = False
-        object.__setattr__(self, "joint_offsets", offsets)
+        for name in ("joint_offsets", "joint_gains", "joint_compliances"):
+            given = getattr(self, name)
+            values = np.zeros(self.model.nq) if given is None else np.array(given, dtype=float, copy=True)
+            values.flags.writeable = False
+            object.__setattr__(self, name, values)
 
     # ----------------------------------------------------------------- structure
     @cached_property
@@ -306,7 +318,7 @@ class Robot:
         return lo + (hi - lo) * rng.random((n, self.nq))
 
     # ------------------------------------------------------------------ kinematics
-    def points(self, q: object, *, check: bool = True) -> np.ndarray:
+    def points(self, q: object, *, check: bool = True, payload: object = None) -> np.ndarray:
         """Measured points at configurations ``q``, in the instrument (base) frame.
 
         Args:
@@ -314,15 +326,17 @@ class Robot:
             check: validate ``q`` (shape, finite, within the limits). ``check=False`` is for inner
                 loops over an (m, nq) float array already checked, and for geometry outside the
                 limits (finite differences, drawings).
+            payload: the payload at each configuration (:func:`~pincal.model.statics.payload_rows`;
+                default none); it matters only on a robot with joint compliances.
 
         Returns:
             (m, K, 3) positions [m] (the leading axis is kept even for one configuration).
         """
-        rotations, positions = self.tip_poses(q, check=check)
+        rotations, positions = self.tip_poses(q, check=check, payload=payload)
         return positions[:, None, :] + np.einsum("mij,kj->mki", rotations, self.markers)
 
     def tip_poses(
-        self, q: object, *, check: bool = True, data: pin.Data | None = None
+        self, q: object, *, check: bool = True, data: pin.Data | None = None, payload: object = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """Tip orientations (m, 3, 3) and positions (m, 3) [m] in the instrument frame: the one
         forward-kinematics path (points, constraints and scenes use it).
@@ -331,6 +345,7 @@ class Robot:
             q: (nq,) or (m, nq) joint values; with ``check=False`` an (m, nq) float array, used as is.
             check: validate ``q`` first (see :meth:`points`).
             data: a ``pinocchio.Data`` of this robot's model to reuse (default: a new one).
+            payload: the payload at each configuration (see :meth:`points`).
         """
         qs = self.configurations(q) if check else q
         model = self.model
@@ -338,12 +353,88 @@ class Robot:
         placement = model.frames[self.tip_frame].placement
         rotations = np.empty((len(qs), 3, 3))
         positions = np.empty((len(qs), 3))
-        for i, qi in enumerate(qs + self.joint_offsets):
+        for i, qi in enumerate(self.joint_values(qs, payload=payload, check=False)):
             pin.forwardKinematics(model, data, qi)
             tip = self.base * data.oMi[self.tip_joint] * placement
             rotations[i] = tip.rotation
             positions[i] = tip.translation
         return rotations, positions
+
+    # --------------------------------------------------------------------- statics
+    @property
+    def is_elastic(self) -> bool:
+        """True when the robot has joint gains or compliances: a joint's value is then not its
+        reading plus its offset (see :meth:`joint_values`)."""
+        return bool(self.joint_gains.any() or self.joint_compliances.any())
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """Gravity's acceleration in the robot's base frame [m/s²] (a new array); by default
+        (0, 0, -9.81)."""
+        return np.array(self.model.gravity.linear)
+
+    @property
+    def mass(self) -> float:
+        """Total mass of the links the chain moves [kg] (0 for a URDF without inertias)."""
+        return chain_mass(self.model)
+
+    def with_gravity(self, gravity: object) -> Robot:
+        """A new Robot mounted so that gravity is ``gravity`` (3,) [m/s²] in its base frame (a
+        tilted or wall-mounted base, a measured tilt). The caller's robot is not touched.
+
+        Raises:
+            BadArgument: not three finite numbers of at most 100 m/s².
+        """
+        try:
+            g = np.array(gravity, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            g = np.full(1, np.nan)
+        if g.shape != (3,) or not np.all(np.isfinite(g)) or np.linalg.norm(g) > MAX_GRAVITY:
+            raise BadArgument(
+                f"gravity must be three finite numbers [m/s²] of at most {MAX_GRAVITY:g} m/s², "
+                f"got {gravity!r}",
+                argument="gravity",
+                value=gravity,
+            )
+        model = pin.Model(self.model)
+        model.gravity = pin.Motion(g, np.zeros(3))
+        return self.replace(model=model)
+
+    def gravity_model(self) -> Gravity:
+        """A new :class:`~pincal.model.statics.Gravity` of this robot's chain (one per thread)."""
+        return Gravity(self.model, self.tip_joint, self.model.frames[self.tip_frame].placement)
+
+    def joint_values(
+        self, q: object, *, payload: object = None, check: bool = True, gravity: Gravity | None = None
+    ) -> np.ndarray:
+        """The joints' actual values θ (m, nq) at readings ``q`` [rad or m]: q + offsets for a rigid
+        robot; with gains and compliances, the solution of θ = q + Δq + k⊙q + c⊙τ(θ, w) for the
+        payload w (:mod:`pincal.model.statics`).
+
+        Args:
+            q: (nq,) or (m, nq) joint readings.
+            payload: the payload at each configuration (see :meth:`points`).
+            check: validate ``q`` first (see :meth:`points`).
+            gravity: a :meth:`gravity_model` of this robot to reuse (default: a new one).
+        """
+        qs = self.configurations(q) if check else np.asarray(q, dtype=float)
+        start = qs + self.joint_offsets
+        if not self.is_elastic:
+            return start
+        start = start + self.joint_gains * qs
+        if not self.joint_compliances.any():
+            return start
+        gravity = self.gravity_model() if gravity is None else gravity
+        return gravity.deflected(start, self.joint_compliances, payload_rows(payload, len(qs)))
+
+    def joint_torques(self, q: object, *, payload: object = None, check: bool = True) -> np.ndarray:
+        """(m, nq) torques [N·m, or N for a prismatic joint] gravity applies at each joint, through
+        the links and the payload, at readings ``q`` (at the actual joint values
+        :meth:`joint_values`): τ = -g(θ), g Pinocchio's generalized gravity."""
+        qs = self.configurations(q) if check else np.asarray(q, dtype=float)
+        gravity = self.gravity_model()
+        loads = payload_rows(payload, len(qs))
+        return gravity.torques(self.joint_values(qs, payload=loads, check=False, gravity=gravity), loads)
 
     def folded_origin(self, o: int) -> pin.SE3:
         """The URDF ``<origin>`` of chain joint ``o`` (0-based) with its joint offset folded in,
@@ -356,7 +447,9 @@ class Robot:
         """A plain ``pinocchio.Model`` of this robot (a new copy), joint offsets folded into the
         joint placements as in the exported URDF: ``pin.framesForwardKinematics(model, data, q)``
         then ``robot.base * data.oMf[model.getFrameId(robot.tip)]`` applied to each marker gives
-        :meth:`points` (q the joint values as measured, no offset table)."""
+        :meth:`points` (q the joint values as measured, no offset table) for a rigid robot. Joint
+        gains and compliances are not geometry: they are not in the model (see
+        :meth:`joint_values`)."""
         model = pin.Model(self.model)
         for o in range(self.nq):
             joint = self.origins[o].joint
@@ -375,6 +468,8 @@ class Robot:
             "base": self.base,
             "root": self.root,
             "package_dirs": self.package_dirs,
+            "joint_gains": self.joint_gains,
+            "joint_compliances": self.joint_compliances,
         }
         fields.update(changes)
         return Robot(**fields)  # type: ignore[arg-type]
