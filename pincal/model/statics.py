@@ -1,4 +1,5 @@
-r"""Gravity on a robot's joints, the payload it carries, and how compliant joints yield to both.
+r"""Gravity on a robot's joints, the payload it carries, and how compliant joints yield to both
+(docs/method.md §11.2).
 
 With the joint reading q, a joint actually stands at θ, the solution of
 
