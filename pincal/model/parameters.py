@@ -16,7 +16,8 @@ Conventions (docs/method.md §2, chosen to match URDF):
 * ``<joint>.gain``: the joint moves by q·(1 + gain) for a reading q (dimensionless; method §11.1).
 * ``<joint>.compliance``: the joint yields by compliance·τ to the torque τ gravity applies on it
   through the links and the payload [rad/(N·m), or m/N for a prismatic joint]
-  (:mod:`pincal.model.statics`, method §11.2). It needs the links' masses: a robot whose URDF has none is refused.
+  (:mod:`pincal.model.statics`, method §11.2). It needs the links' masses: a robot whose URDF has
+  none is refused.
 
 Groups: ``offsets`` (one per joint), ``lengths`` (each non-zero component of each origin's xyz on
 the chain, the tip's included), ``full`` (all six of every origin, the tip's included), ``base``,

@@ -25,16 +25,13 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.arguments import Seed, generator, positive_int
-from pincal.errors import BadArgument, BadConfiguration
+from pincal.errors import BadConfiguration
 from pincal.model.chain import frame_id
 from pincal.model.parameters import ParameterSet
-from pincal.model.statics import Gravity, chain_mass, payload_rows
+from pincal.model.statics import Gravity, chain_mass, mounted, payload_rows
 
 LIMIT_TOLERANCE = 1e-9
 """Slack [rad or m] allowed when checking configurations against joint limits."""
-
-MAX_GRAVITY = 100.0
-"""Largest gravity pincal accepts [m/s²] (ten times the Earth's): beyond it, a unit error."""
 
 
 def _frame_names(model: pin.Model) -> list[str]:
@@ -380,25 +377,8 @@ class Robot:
 
     def with_gravity(self, gravity: object) -> Robot:
         """A new Robot mounted so that gravity is ``gravity`` (3,) [m/s²] in its base frame (a
-        tilted or wall-mounted base, a measured tilt). The caller's robot is not touched.
-
-        Raises:
-            BadArgument: not three finite numbers of at most 100 m/s².
-        """
-        try:
-            g = np.array(gravity, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            g = np.full(1, np.nan)
-        if g.shape != (3,) or not np.all(np.isfinite(g)) or np.linalg.norm(g) > MAX_GRAVITY:
-            raise BadArgument(
-                f"gravity must be three finite numbers [m/s²] of at most {MAX_GRAVITY:g} m/s², "
-                f"got {gravity!r}",
-                argument="gravity",
-                value=gravity,
-            )
-        model = pin.Model(self.model)
-        model.gravity = pin.Motion(g, np.zeros(3))
-        return self.replace(model=model)
+        tilted or wall-mounted base, a measured tilt); see :func:`~pincal.model.statics.mounted`."""
+        return self.replace(model=mounted(self.model, gravity))
 
     def gravity_model(self) -> Gravity:
         """A new :class:`~pincal.model.statics.Gravity` of this robot's chain (one per thread)."""
@@ -408,15 +388,9 @@ class Robot:
         self, q: object, *, payload: object = None, check: bool = True, gravity: Gravity | None = None
     ) -> np.ndarray:
         """The joints' actual values θ (m, nq) at readings ``q`` [rad or m]: q + offsets for a rigid
-        robot; with gains and compliances, the solution of θ = q + Δq + k⊙q + c⊙τ(θ, w) for the
-        payload w (:mod:`pincal.model.statics`).
-
-        Args:
-            q: (nq,) or (m, nq) joint readings.
-            payload: the payload at each configuration (see :meth:`points`).
-            check: validate ``q`` first (see :meth:`points`).
-            gravity: a :meth:`gravity_model` of this robot to reuse (default: a new one).
-        """
+        robot; with gains and compliances, θ = q + Δq + k⊙q + c⊙τ(θ, w) solved for the payload w
+        (see :meth:`points`; :mod:`pincal.model.statics`). ``gravity``: a :meth:`gravity_model`
+        of this robot to reuse."""
         qs = self.configurations(q) if check else np.asarray(q, dtype=float)
         start = qs + self.joint_offsets
         if not self.is_elastic:

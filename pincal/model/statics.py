@@ -37,6 +37,9 @@ MASSLESS = 1e-6
 """A chain whose moving bodies weigh less than this in all [kg] has no masses in its URDF (some
 URDFs give every link a token 1e-9 kg)."""
 
+MAX_GRAVITY = 100.0
+"""Largest gravity pincal accepts [m/s²] (ten times the Earth's): beyond it, a unit error."""
+
 STATIC_TOLERANCE = 1e-13
 """The static solve stops when no joint moves by more than this between two steps [rad or m]."""
 
@@ -130,6 +133,27 @@ def payload_rows(payload: object, m: int) -> np.ndarray:
     return arr
 
 
+def mounted(model: pin.Model, gravity: object) -> pin.Model:
+    """A copy of ``model`` whose gravity is ``gravity`` (3,) [m/s²] in its base frame.
+
+    Raises:
+        BadArgument: not three finite numbers of at most :data:`MAX_GRAVITY` m/s².
+    """
+    try:
+        g = np.array(gravity, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        g = np.full(1, np.nan)
+    if g.shape != (3,) or not np.all(np.isfinite(g)) or np.linalg.norm(g) > MAX_GRAVITY:
+        raise BadArgument(
+            f"gravity must be three finite numbers [m/s²] of at most {MAX_GRAVITY:g} m/s², got {gravity!r}",
+            argument="gravity",
+            value=gravity,
+        )
+    copy = pin.Model(model)
+    copy.gravity = pin.Motion(g, np.zeros(3))
+    return copy
+
+
 def chain_mass(model: pin.Model) -> float:
     """Total mass of the bodies the chain's joints move [kg]."""
     return float(sum(model.inertias[j].mass for j in range(1, model.njoints)))
@@ -194,6 +218,12 @@ class Gravity:
             for i in np.flatnonzero(which.reshape(-1) == k):
                 out[i] = -gravity(model, data, thetas[i])
         return out
+
+    def torque_derivatives(self, theta: np.ndarray, load: np.ndarray) -> np.ndarray:
+        """(nq, nq) ∂τ/∂θ at one configuration ``theta`` under the payload row ``load``
+        (Pinocchio's derivatives of the generalized gravity, negated)."""
+        model, data = self._with(np.asarray(load, dtype=float))
+        return -pin.computeGeneralizedGravityDerivatives(model, data, np.asarray(theta, dtype=float))
 
     def deflected(self, start: np.ndarray, compliances: np.ndarray, loads: np.ndarray) -> np.ndarray:
         """θ solving θ = start + c ⊙ τ(θ, w), by fixed-point iteration (see module doc).
