@@ -226,6 +226,27 @@ def test_parameters_the_data_cannot_identify_are_left_nominal_and_named():
     assert not np.isfinite(result.condition_number)
 
 
+def test_identical_rows_are_not_outliers():
+    """Issue 21: one measurement repeated 12 times; the plane's two coordinates are fitted exactly,
+    the third keeps its noise (10 µm): the median residual is zero and each row scored 333 333
+    robust σ, every row an outlier. Scored against σ when the robust scale is zero, none is; a
+    gross error among exact rows is still found and rejected."""
+    robot = pincal.load_robot("planar_2r")
+    params = robot.parameters("joint2.tx,tip.tx")
+    q = robot.random_configurations(1, 3)
+    point = robot.points(q) + [0.0, 0.0, 1e-5]
+    same = MeasurementData(np.tile(q, (12, 1)), np.tile(point, (12, 1, 1)), robot.joint_names)
+    result = identify(params, same)
+    assert result.success and result.outliers == () and "suspicious" not in result.report()
+    assert identify(params, same, reject=3).rejected == ()
+    exact = _data(params.apply([1e-3, -2e-3]), robot.random_configurations(12, 4))
+    points = np.array(exact.points)
+    points[5] += [2e-3, 0.0, 0.0]
+    bad = MeasurementData(exact.q, points, exact.joint_names)
+    assert [o.row for o in identify(params, bad).outliers] == [5]
+    assert [o.row for o in identify(params, bad, reject=5).rejected] == [5]
+
+
 def test_degenerate_data_are_rank_deficient(kr270, kr270_params):
     same = np.tile(kr270.random_configurations(1, 3), (30, 1))
     result = identify(kr270_params, _data(kr270, same))

@@ -1,8 +1,8 @@
 """Sanity of a calibration before it is called converged: outliers and implausible results.
 
 * :func:`find_outliers` scores each measured configuration by its residual in robust standard
-  deviations (σ̂ = 1.4826·median|e| of the whitened residual coordinates e) and names the rows
-  above a threshold, by file and line.
+  deviations (σ̂ = 1.4826·median|e| of the whitened residual coordinates e; σ itself when σ̂ is
+  below :data:`ZERO_SCALE`, an exact fit) and names the rows above a threshold, by file and line.
 * :func:`implausible` lists what no real robot does — a link origin moving by more than
   :data:`LINK_LIMIT`, the tool frame or a marker by more than :data:`TOOL_LIMIT`, an angle
   changing by more than :data:`ANGLE_LIMIT`, residuals :data:`RESIDUAL_FACTOR` times the
@@ -37,6 +37,10 @@ before it, above this or :data:`BEFORE_LIMIT`, whichever is larger: a badly mast
 moves a large robot's tool by centimetres)."""
 BEFORE_LIMIT = 0.1
 """Residual RMS before calibration [m] that no real robot's geometric errors reach."""
+ZERO_SCALE = 1e-4
+"""A robust spread of the whitened residuals below this (a ten-thousandth of σ: 3 nm for a
+tracker's 30 µm) is no measure of the noise: residuals are then scored against σ itself. (Scored
+against the median of an exact fit, identical rows each scored 139 366 σ: every row an outlier.)"""
 
 
 @dataclass(frozen=True)
@@ -47,7 +51,7 @@ class Outlier:
         row: index in the data (sessions stacked).
         label: the file and line (or the row index).
         distance: largest distance between measured and model point in the row [m].
-        score: its whitened residual in robust standard deviations.
+        score: its whitened residual in robust standard deviations (see :func:`robust_scale`).
     """
 
     row: int
@@ -67,15 +71,22 @@ def robust_sigma(e: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(e)))
 
 
+def robust_scale(e: np.ndarray) -> float:
+    """The spread of whitened residuals e to score them against: their :func:`robust_sigma`, or 1
+    (σ itself) when that is below :data:`ZERO_SCALE`: more than half the coordinates are fitted
+    exactly (identical or duplicated rows, as many unknowns as coordinates, exact simulated data),
+    and the median measures the fit's arithmetic, not the instrument's noise."""
+    scale = robust_sigma(e)
+    return scale if scale >= ZERO_SCALE else 1.0
+
+
 def row_scores(residual: np.ndarray, noise: Noise) -> tuple[np.ndarray, np.ndarray]:
-    """(distances [m], scores [robust σ]) of each of the m rows of a stacked (N,) residual."""
+    """(distances [m], scores [robust σ, see :func:`robust_scale`]) of each of the m rows of a
+    stacked (N,) residual."""
     m = len(noise.std)
     r = residual.reshape(m, -1, 3)
     e = noise.whiten(residual).reshape(m, -1, 3)
-    # An exact fit (e.g. as many unknowns as coordinates) has no spread to score against: a floor of
-    # 1e-6 σ keeps the scores finite (an exactly fitted row scores 0, not inf or NaN).
-    scale = max(robust_sigma(e), 1e-6)
-    return np.linalg.norm(r, axis=-1).max(axis=1), np.linalg.norm(e, axis=-1).max(axis=1) / scale
+    return np.linalg.norm(r, axis=-1).max(axis=1), np.linalg.norm(e, axis=-1).max(axis=1) / robust_scale(e)
 
 
 def find_outliers(

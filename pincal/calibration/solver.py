@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pincal.calibration.sanity import robust_sigma
+from pincal.calibration.sanity import robust_scale
 from pincal.calibration.state import Setup, Solution
 from pincal.errors import PincalError
 
@@ -37,9 +37,9 @@ def solve(setup: Setup, used: np.ndarray, z_start: np.ndarray, loss: str) -> Sol
 
 
 def _robust_scale(setup: Setup, used: np.ndarray, z_start: np.ndarray, loss: str) -> float | None:
-    """σ unknown: the robust scale of the whitened residuals (in units of the reference σ) of a
-    plain fit, then of the robust fit with that scale, until it changes by less than 5 % (at most
-    5 fits); None when the first fit fails."""
+    """σ unknown: the robust scale (:func:`~pincal.calibration.sanity.robust_scale`) of the whitened
+    residuals (in units of the reference σ) of a plain fit, then of the robust fit with that scale,
+    until it changes by less than 5 % (at most 5 fits); None when the first fit fails."""
     whitened = setup.problem.noise.whitening(used)
     keep = setup.problem.noise.coordinates(used)
     z, fit_loss, scale = z_start, "linear", None
@@ -48,7 +48,7 @@ def _robust_scale(setup: Setup, used: np.ndarray, z_start: np.ndarray, loss: str
         z = _run(setup, used, z, fit_loss, f_scale, "trf").z
         if z is None:
             break
-        new_scale = max(robust_sigma(whitened(-setup.problem.residual(z)[keep])), 1e-12)
+        new_scale = robust_scale(whitened(-setup.problem.residual(z)[keep]))
         if scale is not None and abs(new_scale - scale) < 0.05 * scale:
             break
         scale, fit_loss = new_scale, loss
