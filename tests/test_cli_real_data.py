@@ -76,10 +76,24 @@ def test_mm_file_without_mm_is_implausible_and_force_writes(tmp_path, cli, robot
     assert code == 2 and json.loads(out)["status"] == "implausible" and "--mm" in json.loads(out)["causes"][0]
     assert len(err.strip().splitlines()) == 1 and err.startswith("pincal: error: no real robot")
     assert not out_urdf.exists()
+    # the one-line refusal names the likely cause, without --json or --force (issue 21)
+    code, out, err = cli.run("identify", "kr270", "--data", path, *MARKER, "--out", out_urdf)
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert "likely cause: units" in err and "millimetres read as metres? try --mm" in err
+    assert not out_urdf.exists()
     code, out, err = cli.run("identify", "kr270", "--data", path, *MARKER, "--out", out_urdf, "--force")
     assert code == 0 and out_urdf.exists() and "written because of --force" in err
     code, out, _ = cli.run("identify", "kr270", "--data", path, *MARKER, "--mm", "--kfold", 3)
     assert code == 0 and "converged" in out and "3-fold" in out
+
+
+def test_a_forgotten_marker_is_named_in_the_refusal(tmp_path, cli, robot, truth):
+    path = tmp_path / "tracker.csv"
+    simulate_measurements(truth.robot, robot.random_configurations(30, 5), SIGMA, seed=1).to_csv(path)
+    code, out, err = cli.run("identify", "kr270", "--data", path)  # no --marker
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert err.startswith("pincal: error: no real robot has this: the tool frame tool0 moves by")
+    assert "likely cause: marker" in err and "did you pass --marker X,Y,Z" in err
 
 
 def test_two_placements_and_the_validation_plot(tmp_path, cli, robot):

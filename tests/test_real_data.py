@@ -190,8 +190,8 @@ def test_a_millimetre_file_read_as_metres_is_implausible(tmp_path, robot, params
     data.to_csv(path, millimetres=True)
     wrong = identify(params, MeasurementData.from_csv(path, robot))
     assert wrong.status == "implausible" and not wrong.success
-    assert "--mm" in wrong.causes[0]
-    with pytest.raises(pincal.IdentificationFailed):
+    assert "--mm" in wrong.causes[0] and f"likely cause: {wrong.causes[0]}" in wrong.message
+    with pytest.raises(pincal.IdentificationFailed, match="likely cause: units"):
         pincal.export_urdf(wrong, tmp_path / "x.urdf")
     right = identify(params, MeasurementData.from_csv(path, robot, millimetres=True))
     assert right.success and np.abs(right.values - truth.values).max() < 1e-4

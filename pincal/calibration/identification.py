@@ -27,7 +27,7 @@ The steps, each reported:
    by file and line; with ``reject=K`` the rows above K robust σ (scored on a ``soft_l1`` fit, by
    ``trf`` whatever the method) are dropped and the fit repeated until none is left.
 4. **Sanity** (:mod:`pincal.calibration.sanity`): a fit with values or residuals no real robot has
-   is ``implausible``, with its likely causes, never ``converged``.
+   is ``implausible``, never ``converged``; its message names the likely causes (``causes``).
 
 Standard errors: cov(x̂) = (JᵀWJ + Σp⁻¹)⁻¹ at the solution; without per-point σ and without a
 given σ, scaled by σ̂² = Σ residual² / (N − P) (σ estimated from the residuals).
@@ -297,12 +297,15 @@ def _verdict(setup: Setup, solution: Solution, rows: Rows) -> Verdict:
     if not solution.converged:
         problems = [p for p in problems if "before calibration" in p]
     if problems:
+        causes = tuple(likely_causes(problem, z, problems))
         message = (
             "no real robot has this: "
             + "; ".join(problems)
+            + ("; likely cause: " if len(causes) == 1 else "; likely causes: ")
+            + "; ".join(causes)
             + " (not a calibration; --force writes it anyway)"
         )
-        return Verdict("implausible", message, tuple(likely_causes(problem, z, problems)))
+        return Verdict("implausible", message, causes)
     if solution.converged:
         message = (
             f"{solution.iterations} Jacobian evaluation(s) of scipy least_squares ({settings.method}, "

@@ -158,8 +158,7 @@ class IdentificationResult:
     def report(self) -> str:
         """A human-readable report: status, residuals, data identifiability, estimates ± standard
         errors (mm, mrad), outliers."""
-        lines = [f"{self.status}: {self.message}"]
-        lines += [f"  likely cause: {c}" for c in self.causes]
+        lines = [f"{self.status}: {self.message}"]  # an implausible one names its likely causes
         lines += [
             f"residual RMS: {self.residual_rms_before * 1e3:.4g} mm before, "
             f"{self.residual_rms_after * 1e3:.4g} mm after ({self.data.m} configurations, "

@@ -54,8 +54,8 @@ robust sigma are named by file line (mm and sigma); --reject K drops rows over K
 refits. sigma defaults to {DEFAULT_SIGMA:g} m for these checks; the standard errors use sigma
 estimated from the residuals unless --sigma or s columns give it.
 A result no real robot has (a link origin or the tool frame moving by over 5 cm, an angle by over
-0.1 rad, residuals 1000x sigma) is "implausible", with the likely cause (units: --mm; a forgotten
---marker; --base; columns).
+0.1 rad, residuals 1000x sigma) is "implausible"; the error line names the likely cause (units:
+--mm; a forgotten --marker; --base; columns).
 --out writes the user's URDF with corrected joint origins (joint offsets folded into them) and the
 tip's fixed joint corrected, and a sidecar CAL.calibration.json with the base, markers, sigma and
 condition number: p = base * oMf[tip] * marker predicts the instrument's coordinates.
