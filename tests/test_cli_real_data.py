@@ -96,6 +96,22 @@ def test_a_forgotten_marker_is_named_in_the_refusal(tmp_path, cli, robot, truth)
     assert "likely cause: marker" in err and "did you pass --marker X,Y,Z" in err
 
 
+def test_a_holdout_too_small_to_fit_is_warned_about(tmp_path, cli, robot, truth):
+    """Issue 21: a 12-configuration plan held out by 20 % fits 10 configurations, 30 coordinates
+    for 27 parameters: the held-out error overstates the calibration's, and the user is told so."""
+    path = tmp_path / "twelve.csv"
+    simulate_measurements(truth.robot, robot.random_configurations(12, 5), SIGMA, seed=1).to_csv(path)
+    code, out, err = cli.run("identify", "kr270", "--data", path, *MARKER, "--holdout", 0.2)
+    assert code == 0 and "validation on 2 held-out point(s)" in out
+    (line,) = err.strip().splitlines()
+    assert line.startswith("pincal: warning: holdout 0.2: the fit on 10 of 12 configurations has 30 measured")
+    assert "for 27 parameters, fewer than twice as many (54)" in line
+    # 22 configurations, 20 % (4) held out: the 18 left give 54 coordinates, twice 27
+    assert "measure at least 22 configurations for this holdout" in line and "--validate" in line
+    code, out, err = cli.run("identify", "kr270", "--data", path, *MARKER, "--holdout", 0.2, "--json")
+    assert code == 0 and json.loads(out)["validation"]["n_points"] == 2 and "pincal: warning: holdout" in err
+
+
 def test_two_placements_and_the_validation_plot(tmp_path, cli, robot):
     pytest.importorskip("matplotlib")
     params = robot.parameters("full,offsets,base").identifiable(prefer="base").identifiable

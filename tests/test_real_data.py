@@ -10,6 +10,8 @@ Budget: about 20 s.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -215,6 +217,25 @@ def test_before_residual_with_base_is_after_the_rigid_fit(robot):
 
 
 # ---------------------------------------------------------------------------- validation
+def test_validation_warns_when_a_fit_has_fewer_than_two_coordinates_per_parameter(robot, params, truth):
+    """A fit on fewer than 2 × 27 coordinates follows the noise; the warning says the numbers and
+    what to do (hold out fewer, more folds, more configurations); a fit with enough says nothing."""
+    data = simulate_measurements(truth.robot, robot.random_configurations(30, 8), SIGMA, seed=3)
+    with pytest.warns(
+        pincal.PincalWarning, match="the fit on 15 of 30 configurations has 45 measured"
+    ) as caught:
+        pincal.holdout(params, data, 0.5, seed=1)
+    assert "hold out at most 12 of the 30 configurations, measure more" in str(caught[0].message)
+    twenty = data.subset(range(20))
+    with pytest.warns(pincal.PincalWarning, match="a fold's fit on 13 of 20 configurations has 39") as caught:
+        pincal.kfold(params, twenty, 3, seed=1)
+    assert "use 10 folds or more" in str(caught[0].message)  # each fit then has 18 configurations
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pincal.holdout(params, data, 0.2, seed=1)  # 24 configurations, 72 coordinates: enough
+        pincal.kfold(params, twenty, 10, seed=1)
+
+
 def test_kfold_holds_every_point_out_once(robot, params, truth):
     data = simulate_measurements(truth.robot, robot.random_configurations(40, 8), SIGMA, seed=3)
     check = pincal.kfold(params, data, 4, seed=1)

@@ -63,7 +63,9 @@ Estimates are errors relative to the nominal URDF (m, rad); text output shows mm
 Exit code 2 when the data cannot identify the parameters, the fit does not converge, or the result is
 implausible (then no URDF, unless --force: the URDF is written, with a warning, and the exit code is 0).
 --validate, --holdout FRACTION --seed S, --kfold K: RMS, 95th percentile and max position error before
-and after calibration on held-out points (text, JSON 'validation', --plot FILE.png).
+and after calibration on held-out points (text, JSON 'validation', --plot FILE.png). A holdout or a
+k-fold fold whose fit keeps fewer than twice as many measured coordinates as parameters is warned
+about (its held-out error overstates the calibration's), with what to do.
 """
 
 
