@@ -148,6 +148,34 @@ def test_simulate_json(tmp_path, cli):
     assert code == 0 and "rho0 predicted" in out and "rho0 empirical" in out
 
 
+def test_simulate_compare_is_in_the_report(tmp_path, cli):
+    """Issue 21: --compare without --plot was ignored. The compared plans are simulated with the
+    same trials and seed and reported beside the plan, in text and JSON."""
+    robot = pincal.load_robot("planar_2r")
+    params = robot.parameters("joint2.tx,tip.tx")
+    plans = {"designed": robot.random_configurations(6, 2), "random": robot.random_configurations(4, 5)}
+    for name, plan in plans.items():
+        pincal.Plan.for_robot(robot, plan).to_csv(tmp_path / f"{name}.csv")
+    argv = ["simulate", "planar_2r", "--plan", tmp_path / "designed.csv", "--test-pose", "0.3,1.2",
+            "--params", "joint2.tx,tip.tx", "--trials", 30, "--sigma", "1e-4",
+            "--compare", tmp_path / "random.csv"]  # fmt: skip
+    result = cli.json(*argv)
+    assert [c["plan"] for c in result["compare"]] == [str(tmp_path / "random.csv")]
+    compared = result["compare"][0]
+    assert compared["m"] == 4 and compared["trials"] == 30
+    predicted = pincal.rho0(params, plans["random"], [0.3, 1.2], sigma=1e-4)
+    assert compared["rho0_predicted"] == pytest.approx(predicted, rel=1e-12)
+    assert result["rho0_predicted"] == pytest.approx(
+        pincal.rho0(params, plans["designed"], [0.3, 1.2], sigma=1e-4)
+    )
+    code, out, _ = cli.run(*argv)
+    ratio = predicted / result["rho0_predicted"]
+    assert code == 0 and "compared plans" in out
+    assert f"{tmp_path / 'random.csv'}: 4 configurations, rho0 predicted {predicted * 1e3:.4g} mm" in out
+    assert f"({ratio:.3g} times this plan's)" in out
+    cli.fails(*argv[:-1], tmp_path / "none.csv", match="does not exist")
+
+
 @pytest.mark.parametrize("command", ["identify", "simulate", "measure-sim"])
 def test_help_has_examples(capsys, command):
     with pytest.raises(SystemExit) as exit_info:

@@ -3,10 +3,7 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from pincal.calibration.monte_carlo import monte_carlo
-from pincal.cli._common import read_plan
 from pincal.viewing import plots
 
 PLOT_HELP = (
@@ -57,19 +54,12 @@ def add_simulation_plot_arguments(parser: argparse.ArgumentParser) -> None:
         "--compare",
         action="append",
         metavar="PLAN.csv",
-        help="another plan (a random one, a D-optimal one) to simulate alongside in --plot; repeat",
+        help="another plan (a random one, a D-optimal one) simulated alongside with the same trials, "
+        "errors and seed: in the report (text and JSON) and in --plot; repeat",
     )
 
 
-def save_simulation_plot(args: argparse.Namespace, params, q0, sigma: float, error_std, result) -> None:
-    """Simulate each ``--compare`` plan like the main one and save the side-by-side figure."""
-    results = {Path(args.plan).stem: result}
-    for path in args.compare or ():
-        plan = read_plan(params.robot, path, args.deg)
-        label = Path(path).stem
-        while label in results:
-            label += "'"
-        results[label] = monte_carlo(
-            params, plan, q0, sigma, trials=args.trials, seed=args.seed, error_std=error_std
-        )
-    plots.save_figure(plots.error_comparison(results), args.plot)
+def save_simulation_plot(path: str, results: dict) -> None:
+    """Save the side-by-side figure of the Monte-Carlo results of each plan (``{label:
+    MonteCarloResult}``, the simulated plan first) to ``path``."""
+    plots.save_figure(plots.error_comparison(results), path)

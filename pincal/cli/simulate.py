@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
-from pincal.calibration.monte_carlo import monte_carlo
+from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
 from pincal.calibration.synthetic import DEFAULT_ERROR_STD
 from pincal.cli._common import (
     SIGMA_HELP,
@@ -31,6 +32,8 @@ examples:
   pincal simulate kr270 --plan plan.csv --test-pose=0,-1.57,1.57,0,0.78,0 --marker 0.1,0.05,0.2 \\
       --trials 1000 --sigma 3e-5 --error-std 1e-3,1e-3 --seed 7 --json
   pincal simulate planar_2r --plan plan.csv --test-pose=0.3,1.2 --params joint2.tx,tip.tx --sigma 1e-4
+  pincal simulate kr270 --plan designed.csv --compare random.csv --compare dopt.csv \
+      --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2
 
 Each trial draws a "true" robot with random errors of the parameters (Gaussian, std LEN metres for
 lengths and ANG radians for angles; default 1e-3,1e-3), simulates measurements at the plan with
@@ -38,7 +41,9 @@ noise --sigma per coordinate (metres; default 3e-5, a laser tracker), identifies
 measures the remaining position error at the test pose(s). rho0_empirical (RMS of that error) must
 match rho0_predicted within its statistical error when the errors are small; the report says how
 nonlinearity shows when they are not. PLAN.csv: a header row of joint names, one configuration per
-row, radians (degrees with --deg).
+row, radians (degrees with --deg). --compare OTHER.csv (repeatable) simulates other plans (a random
+one, a D-optimal one) with the same trials, errors, noise and seed, and reports their rho0 beside
+this plan's (text, JSON 'compare', and --plot side by side).
 """
 
 
@@ -80,10 +85,18 @@ def run(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)
     plan = read_plan(robot, args.plan, args.deg)
+    others = [(path, read_plan(robot, path, args.deg)) for path in args.compare or ()]
     q0 = test_poses_from_args(robot, args)
-    mc = monte_carlo(params, plan, q0, sigma, trials=args.trials, seed=args.seed, error_std=error_std)
+
+    def simulated(configurations: object) -> MonteCarloResult:  # the same trials, errors and seed
+        return monte_carlo(
+            params, configurations, q0, sigma, trials=args.trials, seed=args.seed, error_std=error_std
+        )
+
+    mc = simulated(plan)
+    compared = [(path, len(other), simulated(other)) for path, other in others]
     if args.plot:
-        save_simulation_plot(args, params, q0, sigma, error_std, mc)
+        save_simulation_plot(args.plot, _labelled(args.plan, mc, compared))
     if args.json:
         emit_json(
             {
@@ -95,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
                 "params": list(params.names),
                 "seed": args.seed,
                 **mc.as_dict(),
+                "compare": [{"plan": path, "m": m, **result.as_dict()} for path, m, result in compared],
             }
         )
         return 0
@@ -111,4 +125,27 @@ def run(args: argparse.Namespace) -> int:
         + ", ".join(f"{q:g}: {fmt_length(v)}" for q, v in mc.quantiles.items())
     )
     print(mc.note)
+    if compared:
+        print("compared plans (the same trials, errors, noise and seed):")
+        for path, m, result in compared:
+            predicted = result.rho0_predicted
+            print(
+                f"  {path}: {m} configurations, rho0 predicted {fmt_length(predicted)} "
+                f"({predicted / mc.rho0_predicted:.3g} times this plan's), empirical "
+                f"{fmt_length(result.rho0_empirical)} ± {fmt_length(result.rho0_empirical_se)}"
+            )
     return 0
+
+
+def _labelled(
+    plan: str, result: MonteCarloResult, compared: list[tuple[str, int, MonteCarloResult]]
+) -> dict[str, MonteCarloResult]:
+    """``{label: result}`` for the figure: each plan file's name without its suffix, primed when
+    two are alike; the simulated plan first."""
+    labelled = {Path(plan).stem: result}
+    for path, _, other in compared:
+        label = Path(path).stem
+        while label in labelled:
+            label += "'"
+        labelled[label] = other
+    return labelled
