@@ -140,7 +140,9 @@ def _warn_if_thin(
     """Warn when a fit behind a validation (a holdout of ``fraction``, or the k-fold ``fits``) has
     fewer than :data:`MIN_COORDINATES_PER_UNKNOWN` measured coordinates per unknown it estimated,
     saying the numbers and what to do."""
-    counts = [(fit, int(fit._used.sum()) * 3 * fit.data.n_markers, _unknowns(fit)) for fit in fits]
+    counts = [
+        (fit, (fit.data.m - len(fit.rejected)) * 3 * fit.data.n_markers, _unknowns(fit)) for fit in fits
+    ]
     fit, coordinates, unknowns = min(counts, key=lambda c: c[1] / max(c[2], 1))
     if coordinates >= MIN_COORDINATES_PER_UNKNOWN * unknowns:
         return
