@@ -11,6 +11,11 @@ Writers (:func:`atomic_write_text`, :func:`atomic_write_bytes`) go through a tem
 rename, and refuse (:func:`check_output`) an output that is a folder or special file, in a missing
 or unwritable folder, or the same file as an input. Inside :func:`guard_inputs` (the CLI runs
 every command in it) every file read through this module is an input no write may replace.
+
+Several outputs are written all or nothing inside :func:`all_or_nothing` (the CLI runs every
+command in it; :func:`pincal.export_urdf` writes its URDF and sidecar in it): each write goes to its
+temporary file, and the renames happen only when the block ends without an error, so that a
+command that fails leaves none of its outputs (and the files they would have replaced untouched).
 """
 
 from __future__ import annotations
@@ -43,6 +48,10 @@ MAX_YAML_NODES = 100_000
 
 # Files read so far inside guard_inputs(): {(st_dev, st_ino): path}; None outside.
 _INPUTS: contextvars.ContextVar[dict | None] = contextvars.ContextVar("pincal_inputs", default=None)
+# Writes staged inside all_or_nothing(): {target: (temporary file, path as given, what)}; None outside.
+_STAGED: contextvars.ContextVar[dict[Path, tuple[str, Path, str]] | None] = contextvars.ContextVar(
+    "pincal_staged", default=None
+)
 
 
 def _error(error: type[Exception], message: str, path: object, line: int | None = None) -> Exception:
@@ -134,6 +143,19 @@ def read_text(
         ) from None
 
 
+def csv_header(names: Iterable[str]) -> str:
+    """A CSV header line of column names that :func:`read_numeric_csv` reads back as they are: a
+    name holding a comma, a quote or a line break, or beginning with ``#`` (a comment line
+    otherwise), is quoted (CSV's rule: in double quotes, a quote doubled)."""
+
+    def cell(name: str) -> str:
+        if any(c in name for c in ',"\r\n') or name.startswith("#"):
+            return '"' + name.replace('"', '""') + '"'
+        return name
+
+    return ",".join(cell(n) for n in names) + "\n"
+
+
 def column_mismatch(expected: Sequence[str], found: Sequence[str]) -> str:
     """'; missing a, b; unknown column(s) c' for columns that differ from ``expected`` ('' if none)."""
     missing = [n for n in expected if n not in found]
@@ -160,8 +182,8 @@ def read_numeric_csv(
     path = Path(path)
     lines = [
         (n, row)
-        for n, row in _csv_rows(path, what, error)
-        if row and any(c.strip() for c in row) and not row[0].lstrip().startswith("#")
+        for n, row, comment in _csv_rows(path, what, error)
+        if row and any(c.strip() for c in row) and not comment
     ]
     if not lines:
         raise _error(
@@ -218,10 +240,12 @@ def read_numeric_csv(
     return header, np.array(rows, dtype=float), np.array(numbers, dtype=int)
 
 
-def _csv_rows(path: Path, what: str, error: type[Exception]) -> Iterator[tuple[int, list[str]]]:
-    """(line number, cells) of each CSV row, within the line and cell limits."""
+def _csv_rows(path: Path, what: str, error: type[Exception]) -> Iterator[tuple[int, list[str], bool]]:
+    """(line number, cells, a comment: its line begins with '#') of each CSV row, within the line
+    and cell limits (a quoted cell "#..." is not a comment)."""
     text = read_text(path, what, error)
-    for n, line in enumerate(text.splitlines(), start=1):
+    raw = text.splitlines()
+    for n, line in enumerate(raw, start=1):
         if len(line) > MAX_LINE_CHARS:
             raise _error(
                 error,
@@ -231,6 +255,7 @@ def _csv_rows(path: Path, what: str, error: type[Exception]) -> Iterator[tuple[i
                 n,
             )
     reader = csv.reader(io.StringIO(text, newline=""))
+    first = 1  # the line the next row begins on
     while True:
         try:
             row = next(reader)
@@ -249,7 +274,9 @@ def _csv_rows(path: Path, what: str, error: type[Exception]) -> Iterator[tuple[i
                     path,
                     reader.line_num,
                 )
-        yield reader.line_num, row
+        comment = first <= len(raw) and raw[first - 1].lstrip().startswith("#")
+        first = reader.line_num + 1
+        yield reader.line_num, row, comment
 
 
 def read_yaml(path: str | os.PathLike, what: str, error: type[Exception]) -> object:
@@ -393,7 +420,47 @@ def check_output(
         raise CannotWrite(f"cannot write {what} {text!r}: its folder does not exist ({str(folder)!r})")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise CannotWrite(f"cannot write {what} {text!r}: permission denied in folder {str(folder)!r}")
+    try:  # the real test (root passes os.access everywhere; /proc, read-only mounts, quotas)
+        fd, probe = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".probe")
+    except OSError as exc:
+        raise CannotWrite(f"cannot write {what} {text!r}: {exc.strerror or exc}") from None
+    os.close(fd)
+    Path(probe).unlink(missing_ok=True)
     return path
+
+
+@contextlib.contextmanager
+def all_or_nothing() -> Iterator[None]:
+    """Within this block, the writes of :func:`atomic_write_bytes` are staged: each is written to
+    its temporary file next to its target, and every target is replaced (renamed into place) only
+    when the block ends without an exception. On an exception (or Ctrl-C) every temporary file is
+    removed: no output appears and no file is replaced. A block inside another joins it (the
+    outermost one commits). A target written twice keeps its last content.
+
+    Raises:
+        CannotWrite: a rename failed at the end (the outputs renamed before it stay written).
+    """
+    if _STAGED.get() is not None:
+        yield
+        return
+    staged: dict[Path, tuple[str, Path, str]] = {}
+    token = _STAGED.set(staged)
+    try:
+        yield
+    except BaseException:
+        for tmp, _, _ in staged.values():
+            Path(tmp).unlink(missing_ok=True)
+        raise
+    finally:
+        _STAGED.reset(token)
+    pending = list(staged.items())
+    for i, (target, (tmp, path, what)) in enumerate(pending):
+        try:
+            os.replace(tmp, target)
+        except OSError as exc:
+            for other, _, _ in (v for _, v in pending[i:]):
+                Path(other).unlink(missing_ok=True)
+            raise CannotWrite(f"cannot write {what} {str(path)!r}: {exc.strerror or exc}") from None
 
 
 def atomic_write_text(path: str | os.PathLike, text: str, what: str = "output") -> Path:
@@ -415,6 +482,13 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes, what: str = "output
         os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
+        staged = _STAGED.get()
+        if staged is not None:  # renamed into place when the all_or_nothing block ends
+            earlier = staged.pop(target, None)
+            if earlier is not None:
+                Path(earlier[0]).unlink(missing_ok=True)
+            staged[target] = (tmp, path, what)
+            return path
         os.replace(tmp, target)
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)

@@ -14,15 +14,14 @@ def require(module: str, feature: str, install: str) -> ModuleType:
 
     Args:
         module: the module to import, e.g. ``"matplotlib.pyplot"``.
-        feature: what needs it, for the message (``"pincal.plots"``).
+        feature: what needs it, for the message (``"pincal.viewing.plots"``, ``"--plot"``).
         install: the pip requirement that provides it (``"pincal[plot]"``).
     """
     try:
         with warnings.catch_warnings():  # meshcat imports pyzmq's deprecated eventloop module
             warnings.simplefilter("ignore", DeprecationWarning)
             return importlib.import_module(module)
-    except ImportError as exc:
+    except ImportError:
         raise MissingDependency(
-            f"{feature} needs {module.split('.')[0]}, which is not installed ({exc}); "
-            f"install it with: pip install '{install}'"
+            f'{feature} needs {module.split(".")[0]}, which is not installed: pip install "{install}"'
         ) from None

@@ -47,8 +47,10 @@ EDGE_NUMBERS = (
     "-3.15", "180", "-720", "1_0", "0x10", "", " ", "abc", "1e", "--1", "+1", "1,2", "١", "9" * 400,
     "1" * 5000, "0." + "0" * 400 + "1", "True", "null", "~",
 )  # fmt: skip
+HUGE_NUMBERS = ("1e308", "-1e308", "1.7976931348623157e308", "1e307", "1e100", "1e7", "-1e7", "1e6", "9e15")
 number_text = st.one_of(
     st.sampled_from(EDGE_NUMBERS),
+    st.sampled_from(HUGE_NUMBERS),
     st.floats(allow_nan=True, allow_infinity=True).map(repr),
     st.floats(-4, 4).map(lambda v: f"{v:.6g}"),
     st.integers(-(10**30), 10**30).map(str),
@@ -57,7 +59,10 @@ joint_value = st.floats(-3.1, 3.1).map(lambda v: f"{v:.6g}")
 int_text = st.one_of(
     st.integers(-3, 6).map(str),
     st.sampled_from(["0", "-1", str(2**63), str(10**30), "1e3", "abc", "", "2.5", "-" + "9" * 30]),
+    st.sampled_from([str(10**7), str(10**7 + 1), str(2**31), str(2**64), "9" * 400, "1e308"]),
 )
+# Names as users' files may hold them: long, with commas, quotes, '#', spaces, non-ASCII, empty.
+ODD_NAMES = ("a,b", "#j", 'j"1', " j1", "j1 ", "é", "j" * 300, "x", "s", "1", "", "joint1,joint2", "a;b")
 
 
 def comma_list(n: int) -> st.SearchStrategy[str]:
@@ -106,7 +111,10 @@ def measurement_csv(draw) -> str:
     return _csv(["joint1", "joint2", "x", "y", "z"], rows)
 
 
-yaml_scalar = st.one_of(st.floats(-5, 5), st.integers(-10, 10), st.booleans(), st.none(), st.text(max_size=5))
+yaml_scalar = st.one_of(
+    st.floats(-5, 5), st.integers(-10, 10), st.booleans(), st.none(), st.text(max_size=5),
+    st.sampled_from([1e308, -1e308, 1e7, True, False, "true", "yes", "5"]),
+)  # fmt: skip
 vec3 = st.one_of(st.lists(st.floats(-3, 3), min_size=3, max_size=3), st.lists(yaml_scalar, max_size=4))
 CONSTRAINT_ENTRIES = {
     "joint_limits": st.fixed_dictionaries({"margin_deg": st.one_of(st.floats(0, 20), yaml_scalar)}),
@@ -152,6 +160,10 @@ def dh_table(draw) -> str:
             row["name"] = f"j{i + 1}"
         if draw(st.integers(0, 3)) == 0:
             row.update(velocity=draw(st.floats(0, 3)), effort=draw(st.floats(0, 100)))
+        if draw(st.integers(0, 9)) == 0:  # a YAML bool or a huge value where a number belongs
+            row[draw(st.sampled_from(["a", "alpha", "d", "theta"]))] = draw(
+                st.sampled_from([True, False, 1e308, -1e308, 1e7])
+            )
         rows.append(row)
     table: dict = {"name": "fuzz_arm", "convention": draw(st.sampled_from(["standard", "modified"]))}
     table["units"] = {"length": "mm" if mm else "m", "angle": "deg" if deg else "rad"}
@@ -224,8 +236,40 @@ prior_malformed = st.one_of(
     comma_list(2),
     st.text(max_size=12),
 )
+# --around ANGLE[,LENGTH]: an angle and perhaps a length, with units, huge, negative or malformed.
+around_value = st.one_of(
+    st.sampled_from(["10deg", "0.17rad", "5mrad", "10", "10deg,2cm", "2cm,10deg", "10deg,1e308m", "1e308",
+                     "1e308deg", "-10deg", "0", "10deg,10deg", "10kg", "10deg,", "nan", "inf", "1e-300"]),
+    st.tuples(number_text, st.sampled_from(["deg", "rad", "mrad", "", "cm", "mm", "m", "x"])).map("".join),
+)  # fmt: skip
+# --test-box X0,Y0,Z0,X1,Y1,Z1: six numbers, some at the edge of float range.
+test_box_value = st.one_of(
+    st.just("0.5,-0.5,-0.5,1.5,0.5,0.5"),
+    st.lists(st.one_of(st.floats(-2, 2).map(lambda v: f"{v:.3g}"), st.sampled_from(HUGE_NUMBERS)),
+             min_size=6, max_size=6).map(",".join),
+)  # fmt: skip
+# --joint-range NAME=LO,HI: a joint (or not) and two numbers, huge ones too.
+joint_range_value = st.builds(
+    lambda name, lo, hi: f"{name}={lo},{hi}",
+    st.sampled_from([*JOINTS, "joint1", "nope", *ODD_NAMES[:4]]),
+    st.one_of(st.sampled_from(["-1", "-3.2", "-1e308", "-1e7", "0"]), number_text),
+    st.one_of(st.sampled_from(["1", "3.2", "1e308", "1e7", "0"]), number_text),
+)
+# Robot names and paths: long, missing, odd.
+robot_value = st.sampled_from(["a" * 300, "b" * 300 + ".urdf", "kr270", "planar_2r", "x" * 5000, "ur10,ur5"])
 # Argument values drawn for a {placeholder} in BASE_ARGV: (valid values, malformed values).
-VALUE_KINDS = {"prior": (prior_valid, prior_malformed)}
+VALUE_KINDS = {
+    "prior": (prior_valid, prior_malformed),
+    "around": (st.sampled_from(["10deg", "0.1rad", "5", "20deg"]), around_value),
+}
+# Values for options with a form of their own (drawn beside the generic ones).
+OPTION_VALUES = {
+    "--around": around_value,
+    "--test-box": test_box_value,
+    "--joint-range": joint_range_value,
+    "--sigma": st.sampled_from(["1e308", "1e-20", "1e-12", "1000", "1001", "0", "-0", "3e-5", "5e-324"]),
+    "--tip": st.sampled_from(["t" * 300, "a,b", ""]),
+}
 
 
 # ------------------------------------------------------------------------------- mutations
@@ -305,7 +349,27 @@ def _yaml_structure(draw, text: str) -> str:
 
 
 def _urdf_structure(draw, text: str) -> str:
-    kind = draw(st.sampled_from(["many_joints", "entity", "joint_type", "axis", "limits", "drop", "xml"]))
+    kinds = ["many_joints", "entity", "joint_type", "axis", "limits", "drop", "xml", "tree", "name", "huge"]
+    kind = draw(st.sampled_from(kinds))
+    if kind == "tree":  # joints that do not make one tree: a self loop, two parents, an undefined link
+        how = draw(st.sampled_from(["self", "two_parents", "undefined", "stray", "loop"]))
+        if how == "self":  # joint2's child made its parent: link2 and the tip cut off silently, before
+            return text.replace('<child link="link2"/>', '<child link="link1"/>', 1)
+        if how == "two_parents":
+            return text.replace('<child link="tip"/>', '<child link="link2"/>', 1)
+        if how == "undefined":
+            return text.replace('<child link="link2"/>', '<child link="nowhere"/>', 1)
+        if how == "stray":
+            return text.replace("</robot>", '<link name="stray"/></robot>')
+        return text.replace('<parent link="base_link"/>', '<parent link="link2"/>', 1)
+    if kind == "name":  # a joint or link renamed (plan and data columns then no longer match)
+        old = draw(st.sampled_from(['"joint1"', '"joint2"', '"tip"', '"link1"']))
+        return text.replace(old, '"' + draw(st.sampled_from(ODD_NAMES)).replace('"', "&quot;") + '"')
+    if kind == "huge":  # limits or origins at the edge of float range
+        value = draw(st.sampled_from(["1e308", "-1e308", "1e7", "1e300", "1.7976931348623157e308"]))
+        if draw(st.booleans()):
+            return text.replace('upper="3.141592653589793"', f'upper="{value}"', 1)
+        return text.replace('xyz="1.0 0 0"', f'xyz="{value} 0 0"', 1)
     if kind == "many_joints":
         n = draw(st.sampled_from([30, 2100]))
         links = "".join(f'<link name="extra{i}"/>' for i in range(n))
@@ -458,6 +522,11 @@ BASE_ARGV = {
     "identify-validate": "identify {urdf} --tip tip --data {data} --validate {validate} --prior {prior} "
     "--params joint2.tx,tip.tx --out {out.urdf}",
     "params-xacro": "params {xacro} --tip tip --seed 1",
+    # two outputs each: a command that fails must leave neither (the second one unwritable, ...)
+    "measure-sim-true": "measure-sim {urdf} --tip tip --plan {plan} --error-std 1e-3,1e-3 --sigma 1e-5 "
+    "--params joint2.tx,tip.tx --out {out.csv} --save-true {out.urdf}",
+    "evaluate-region": "evaluate {urdf} --tip tip --plan {plan} --test-pose=0.3,1.2 --around {around} "
+    "--params joint2.tx,tip.tx --accuracy-plot {out.png}",
 }
 PINNED = {
     "--workers": st.sampled_from(["1", "0", "-1", "x", str(2**63)]),
@@ -517,9 +586,12 @@ def option_value(draw, option: str, action) -> list[str]:
     strategies = [st.text(max_size=12)]
     if option in GOOD_VALUES:
         strategies += [st.sampled_from(GOOD_VALUES[option])] * 3
-    if action.type is int:
+    if option in OPTION_VALUES:
+        strategies += [OPTION_VALUES[option]] * 2
+    parses = getattr(action.type, "parses", action.type)  # pincal's checked types read int or float
+    if parses is int:
         strategies.append(int_text)
-    elif action.type is float:
+    elif parses is float:
         strategies.append(number_text)
     if "," in metavar or metavar in ("Q0",):
         strategies.append(comma_list(metavar.count(",") + 1 if "," in metavar else 2))
@@ -561,7 +633,7 @@ def argv_mutation(draw, command: str, argv: list[str]) -> tuple[str, list[str]]:
             return "output", argv[:i] + [draw(SPECIAL_OUTPUTS)] + argv[i + 1 :]
     if op == "positional":
         robots = ["{urdf}", "{xacro}", "kr270", "planar_2r", "nope", "", "-x", "{plan}", "{dir}"]
-        robot = draw(st.sampled_from(robots))
+        robot = draw(st.one_of(st.sampled_from(robots), robot_value))
         return "args", argv[:1] + [robot] + argv[2:]
     name = draw(st.sampled_from(sorted(n for n in actions if n not in ("--html", "--plot") or n in argv)))
     return "args", argv + [name, *draw(option_value(name, actions[name]))]
@@ -575,7 +647,8 @@ SPECIAL_OUTPUTS = st.sampled_from(
         "{xacro}", "{dir}", "{fifo}",
         "{dir}/missing/out.csv", "{plan}/out.csv", "{link_to_input}", "{hardlink_to_input}",
         "{dir}/a b,c;'\".csv", "{dir}/" + "n" * 300 + ".csv", "", "{dir}/out.xyz", "{dir}/noext",
-        "{dir}/out.PNG", "{dir}/out.svg",
+        "{dir}/out.PNG", "{dir}/out.svg", "/proc/pincal-fuzz.urdf", "/proc/pincal-fuzz.csv",
+        "/sys/pincal-fuzz.png", "{dir}/" + "n" * 250 + ".csv",
     ]
 )  # fmt: skip
 

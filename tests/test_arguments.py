@@ -105,3 +105,108 @@ def test_every_report_in_metres_names_its_sigma(command, tmp_path, capsys):
     out = capsys.readouterr().out
     assert "σ = 0.100 mm" in out and "default" not in out.split("σ = 0.100 mm")[1].splitlines()[0]
     assert pincal.DEFAULT_SIGMA == 3e-5
+
+
+# ------------------------------------------------- one answer for the same value, everywhere
+SIGMA_REFUSED = "sigma must be a positive number of metres from 1e-12 to 1000"
+
+
+def _sigma_calls(planar):
+    """Every public function that takes σ, called with it (a plan and test pose of the planar arm)."""
+    params = planar.parameters("joint2.tx,tip.tx")
+    plan, q0 = [[0.1, 1.0], [0.5, -1.0], [1.0, 2.0]], [0.3, 1.2]
+    return {
+        "rho0": lambda s: pincal.rho0(params, plan, q0, sigma=s),
+        "rho0_each": lambda s: pincal.rho0_each(params, plan, q0, sigma=s),
+        "position_covariance": lambda s: pincal.position_covariance(params, plan, q0, sigma=s),
+        "TestPoseCriterion": lambda s: pincal.TestPoseCriterion(params, q0, sigma=s),
+        "PredictedError": lambda s: pincal.PredictedError(params, plan, s),
+        "accuracy": lambda s: pincal.accuracy(params, plan, q0, s, samples=8, workspace=8),
+        "error_profile": lambda s: pincal.error_profile(params, {"p": plan}, q0, s, samples=8),
+        "check_plan": lambda s: pincal.check_plan(params, plan, s),
+        "design": lambda s: pincal.design(params, 3, q0, sigma=s, starts=1, workers=1, pool=50),
+        "random_plans": lambda s: pincal.random_plans(params, 3, 5, q0, sigma=s),
+        "monte_carlo": lambda s: pincal.monte_carlo(params, plan, q0, sigma=s, trials=2),
+        "simulate_measurements": lambda s: pincal.simulate_measurements(planar, plan, sigma=s),
+        "identify": lambda s: pincal.identify(params, pincal.simulate_measurements(planar, plan, 0.0), s),
+        "scene": lambda s: pincal.scene(params, plan, q0, sigma=s),
+        "Prior.information": lambda s: pincal.Prior(1e-3, 1e-3).information(params, s),
+    }
+
+
+@pytest.mark.parametrize("sigma", [1e-20, -1.0, 0.0, float("inf"), float("nan"), 1e308, True, "3e-5", None])
+def test_sigma_has_one_answer_everywhere(planar, sigma):
+    """rho0(sigma=1e-20) was accepted where design refused it, position_covariance(sigma=-1)
+    returned a covariance: every function now refuses the same values with the same words (0 is
+    exact points for simulate_measurements only)."""
+    for name, call in _sigma_calls(planar).items():
+        if name == "simulate_measurements" and sigma == 0.0:
+            assert call(sigma).points.shape == (3, 1, 3)
+            continue
+        if name == "identify" and sigma is None:  # identify's None: estimated from the residuals
+            continue
+        with pytest.raises(pincal.BadArgument, match=SIGMA_REFUSED) as caught:
+            call(sigma)
+        assert caught.value.argument == "sigma", name
+
+
+@pytest.mark.parametrize(
+    "option, value, fragment",
+    [
+        ("--sigma", "1e-20", "must be a positive number of metres from 1e-12 to 1000, got 1e-20"),
+        ("--sigma", "nan", "must be a positive number of metres from 1e-12 to 1000, got nan"),
+        ("--seed", "-1", "must be an integer ≥ 0, got -1"),
+        ("--starts", "0", "must be an integer from 1 to 10,000,000, got 0"),
+        ("--starts", str(10**30), "must be an integer from 1 to 10,000,000"),
+        ("--min-conditioning", "0.5", "must be a number in [0, 0.1), got 0.5"),
+        ("--around", "-10deg", "--around '-10deg': the angle must be a positive number of radians"),
+    ],
+)
+def test_the_cli_refuses_with_the_api_s_bounds_naming_the_option(capsys, option, value, fragment):
+    from pincal.cli import main
+
+    argv = ["design", "planar_2r", "-m", "3", "--test-pose=0.3,1.2", "--params", "joint2.tx,tip.tx"]
+    try:
+        code = main([*argv, f"{option}={value}"])
+    except SystemExit as exc:
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and fragment in err, err
+    if option != "--around":  # read by argparse: the option is named once, in argparse's words
+        assert err.startswith(f"pincal: error: argument {option}: must be")
+
+
+def test_counts_angles_lengths_fractions_have_one_rule(planar):
+    params = planar.parameters("joint2.tx,tip.tx")
+    q0 = [0.3, 1.2]
+    counts = {
+        "around samples": lambda n: pincal.around(q0, 0.1, samples=n),
+        "cartesian_box samples": lambda n: pincal.cartesian_box([0, 0, 0], [1, 1, 1], q0, samples=n),
+        "random_plans n": lambda n: pincal.random_plans(params, 3, n, q0),
+        "design starts": lambda n: pincal.design(params, 3, q0, starts=n, workers=1),
+        "monte_carlo trials": lambda n: pincal.monte_carlo(params, [[0, 1], [1, 1], [1, 2]], q0, trials=n),
+        "random_configurations": lambda n: planar.random_configurations(n),
+        "Plan.repeat": lambda n: pincal.Plan.for_robot(planar, [[0, 1]]).repeat(n),
+        "identifiability": lambda n: pincal.identifiability(params, n_configurations=n),
+    }
+    for name, call in counts.items():
+        for bad in (True, 1.5, -1, 10**8):
+            with pytest.raises(pincal.BadArgument, match="must be an integer") as caught:
+                call(bad)
+            assert caught.value.value is bad, name
+    for call in (
+        lambda a: pincal.around(q0, a),
+        lambda a: pincal.accuracy(params, [[0, 1], [1, 1], [1, 2]], q0, 3e-5, neighbourhoods=(a,)),
+        lambda a: planar.random_configurations(3, margin=a),
+    ):
+        for bad in (-0.1, float("inf"), 1e7, True):
+            with pytest.raises(pincal.BadArgument, match="number of radians"):
+                call(bad)
+    for bad in ([0, 0, 1e7], [0, 0, True], [0, 0, float("nan")]):
+        with pytest.raises(pincal.BadArgument, match="must be a number of metres in"):
+            pincal.cartesian_box([0, 0, 0], bad, q0)
+    for bad in (0, 1, 1.5, True):
+        with pytest.raises(pincal.BadArgument, match=r"must be a fraction in \(0, 1\)"):
+            pincal.holdout(params, pincal.simulate_measurements(planar, [[0, 1], [1, 1], [1, 2]], 0.0), bad)
+    with pytest.raises(pincal.BadArgument, match=r"keep must be a fraction in \(0, 1\]"):
+        pincal.design(params, 3, q0, keep=0, workers=1)

@@ -54,7 +54,7 @@ def test_design_text_in_degrees_and_out_file(cli, tmp_path):
         "design", *PLANAR, "-m", "3", "--test-pose=10,70", "--deg", "--criterion", "D", "--out", out_csv
     )
     assert code == 0
-    assert "plan (degrees)" in text and "D = " in text and f"wrote {out_csv} (degrees)" in text
+    assert "plan:" in text and "[deg]" in text and "D = " in text and f"wrote {out_csv} (degrees)" in text
     robot = pincal.load_robot("planar_2r")
     plan = pincal.Plan.from_csv(out_csv, robot=robot, degrees=True)
     assert abs(np.cos(plan.q[:, 1]).sum()) < 1e-4  # D-optimal: Σ cos q2 = 0

@@ -59,7 +59,7 @@ def test_evaluate_with_a_prior_and_a_neighbourhood(cli, tmp_path, planar_params)
     "extra, match",
     [
         (["--test-pose=0.2,1.0", "--around", "-5deg"], "--around '-5deg'"),
-        (["--test-pose=0.2,1.0", "--around", "5furlongs"], "expected a positive angle"),
+        (["--test-pose=0.2,1.0", "--around", "5furlongs"], "unknown unit 'furlongs'"),
         (["--test-pose=0.2,1.0", "--prior", "1kg,1mrad"], "unknown unit"),
         (["--test-pose=0.2,1.0", "--test-box", "1,2,3,4,5"], "six numbers"),
         (["--around", "5deg"], "need a --test-pose"),

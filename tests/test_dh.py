@@ -246,7 +246,7 @@ BAD_TABLES = [
     ("joints: [{a: 0, alpha: 0, d: 0, theta: 0, lenght: 1}]", "row 1 (joint1): unknown key 'lenght'"),
     ("joints: [{name: j1, type: spherical, a: 0, alpha: 0, d: 0, theta: 0}]", "type 'spherical'"),
     ("joints: [{name: s, type: prismatic, a: 0, alpha: 0, d: 0, theta: 0}]", "row 1 (s): a prismatic"),
-    ("joints: [{a: x, alpha: 0, d: 0, theta: 0}]", "row 1 (joint1): a is 'x', not a number"),
+    ("joints: [{a: x, alpha: 0, d: 0, theta: 0}]", "row 1 (joint1): a must be a finite number, got 'x'"),
     ("joints: [{a: .nan, alpha: 0, d: 0, theta: 0}]", "joints[0].a is nan, not a finite number"),
     ("joints: [{a: 0, alpha: 0, d: 0, theta: 0, limits: [1, -1]}]", "lower < upper"),
     ("joints: [{a: 0, alpha: 0, d: 0, theta: 0, limits: [1]}]", "limits: expected a list of 2 numbers"),

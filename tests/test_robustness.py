@@ -228,7 +228,8 @@ def test_identify_one_point_in_millimetres_is_a_verdict_not_a_crash(cell, cli, c
 
 
 def test_extreme_arguments_are_refused_not_run(cli):
-    cli.fails("params", "planar_2r", "--seed", "-1", match="seed must be")  # was NumPy's ValueError
+    # was NumPy's ValueError
+    cli.fails("params", "planar_2r", "--seed", "-1", match="argument --seed: must be an integer ≥ 0")
     base = ["baseline", "planar_2r", "-m", "3", "--test-pose=0.3,1.2", "--workers", "1", "--random"]
     cli.fails(*base, str(2**63), match="from 1 to 10,000,000")
     cli.fails(
@@ -240,7 +241,7 @@ def test_identify_iteration_limit_is_a_bounded_count(cell, cli):
     # the long fuzz run: --max-iterations -1e30 was NumPy's TypeError (isfinite of a huge int)
     (cell / "one.csv").write_text("joint1,joint2,x,y,z\n0,0,1.8,0,0\n")
     argv = ["identify", cell / "robot.urdf", "--tip", "tip", "--data", cell / "one.csv", *PLANAR[2:]]
-    cli.fails(*argv, "--max-iterations", "-" + "9" * 30, match="--maxiter must be an integer from 1 to")
+    cli.fails(*argv, "--max-iterations", "-" + "9" * 30, match="--max-iterations: must be an integer from 1")
     params = pincal.load_robot(cell / "robot.urdf", tip="tip").parameters("joint2.tx,tip.tx")
     data = pincal.MeasurementData.from_csv(cell / "one.csv", params.robot)
     for bad in (float("inf"), "abc"):  # the API: int(inf) was an OverflowError, int('abc') a ValueError
@@ -262,7 +263,7 @@ def test_measure_sim_refuses_a_negative_seed(cell, cli):
     # the long fuzz run: measure-sim --seed -1 was NumPy's ValueError (its generator was not checked)
     argv = ["measure-sim", cell / "robot.urdf", "--tip", "tip", "--plan", cell / "plan.csv"]
     argv += ["--error-std", "1e-3,1e-3", "--out", cell / "m.csv", "--seed", "-1"]
-    cli.fails(*argv, match="seed must be an integer ≥ 0")
+    cli.fails(*argv, match="argument --seed: must be an integer ≥ 0")
     assert not (cell / "m.csv").exists()
 
 
@@ -420,9 +421,15 @@ def test_identify_without_residual_degrees_of_freedom_prints_no_nan_sigma(cell, 
     "argv, fragment",
     [  # the fuzzer: each overflowed in the least squares or the Jacobians (a NumPy floating-point error)
         (["--data", "{far}"], "line 3: measured coordinate 1e+300 m, over the 1e+06 m"),
-        (["--data", "{data}", "--sigma", "1e-300"], "--sigma must be from 1e-12 to 1000 m"),
+        (
+            ["--data", "{data}", "--sigma", "1e-300"],
+            "argument --sigma: must be a positive number of metres from 1e-12 to 1000",
+        ),
         (["--data", "{data}", "--marker", "1e300,0,0"], "marker coordinate 1e+300 m, over"),
-        (["--data", "{data}", "--prior", "1e300,1e300"], "prior standard deviation of lengths must be from"),
+        (
+            ["--data", "{data}", "--prior", "1e300,1e300"],
+            "prior standard deviation of lengths (or inf: no prior) must be a positive number from",
+        ),
     ],
 )
 def test_absurd_lengths_and_sigmas_are_refused_at_the_boundary(cell, cli, argv, fragment):

@@ -48,7 +48,7 @@ def test_random_errors_are_reproducible_and_scaled(kr270):
     assert kr270.joint_offsets.sum() == 0  # the nominal robot is untouched
     with pytest.raises(PincalError, match="'length'"):
         random_errors(params, {"lenght": 1e-3})
-    with pytest.raises(PincalError, match="non-negative"):
+    with pytest.raises(PincalError, match="error std 'length' must be a number of metres from 0"):
         random_errors(params, {"length": -1.0, "angle": 0.0})
 
 

@@ -44,7 +44,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from pincal.arguments import positive_int, positive_sigma
+from pincal.arguments import positive_int, positive_sigma, ratio
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.noise import Noise
 from pincal.calibration.problem import Problem, initial_values
@@ -186,12 +186,8 @@ def _settings(
         raise BadArgument(
             f"method 'lm' takes the linear loss only; use method 'trf' with loss {loss!r}", argument="method"
         )
-    if reject is not None and not (np.isfinite(reject) and reject > 0):
-        raise BadArgument(
-            f"reject must be a positive number of robust standard deviations, got {reject!r}",
-            argument="reject",
-            value=reject,
-        )
+    if reject is not None:
+        ratio(reject, "reject (robust standard deviations)")
     if prior is not None and not isinstance(prior, Prior):
         raise BadArgument(
             f"prior must be a pincal.Prior (e.g. Prior.parse('1mm,1mrad')), got {prior!r}", argument="prior"

@@ -42,7 +42,7 @@ import numpy as np
 
 from pincal.arguments import MAX_LENGTH, SIGMA_RANGE, check_lengths
 from pincal.errors import BadArgument, BadMeasurementData
-from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
+from pincal.files import atomic_write_text, column_mismatch, csv_header, read_numeric_csv
 from pincal.model.robot import Robot
 from pincal.model.statics import MAX_PAYLOAD
 
@@ -271,7 +271,7 @@ class MeasurementData:
             coords += list(PAYLOAD_COLUMNS)
             values.append(self.payload * ([1.0, 1000.0, 1000.0, 1000.0] if millimetres else 1.0))
         out = io.StringIO()
-        out.write(",".join(list(self.joint_names) + coords) + "\n")
+        out.write(csv_header(list(self.joint_names) + coords))
         for row in np.hstack(values):
             out.write(",".join(repr(float(v)) for v in row) + "\n")
         return out.getvalue()

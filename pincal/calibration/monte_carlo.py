@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, Seed, generator, positive_int
+from pincal.arguments import DEFAULT_SIGMA, Seed, generator, positive_int, positive_sigma
 from pincal.calibration.identification import identify
 from pincal.calibration.synthetic import error_std_pair, random_errors, simulate_measurements
 from pincal.errors import BadArgument
@@ -134,8 +134,7 @@ def monte_carlo(
         SingularPlan: the plan cannot identify ``params``.
         BadConfiguration: a configuration or test pose outside the limits.
     """
-    if not (np.isfinite(sigma) and sigma > 0):
-        raise BadArgument(f"sigma must be a positive number of metres, got {sigma!r}")
+    sigma = positive_sigma(sigma)
     trials = positive_int(trials, "trials", 2)
     length, angle = error_std_pair(error_std)
     robot = params.robot

@@ -98,6 +98,12 @@ class IdentificationResult:
         return self.correlation * np.outer(self.std, self.std)
 
     @property
+    def conditioning(self) -> float:
+        """Conditioning of the data for the parameters asked for (the number every report gives:
+        :attr:`pincal.DataCheck.conditioning`)."""
+        return self.check.conditioning if self.check is not None else float("nan")
+
+    @property
     def condition_number(self) -> float:
         """Condition number of the column-scaled data Jacobian of the parameters asked for."""
         return self.check.condition_number if self.check is not None else float("nan")
@@ -140,6 +146,7 @@ class IdentificationResult:
             "markers": self.robot.markers.tolist(),
             "base": _pose(base),
             "bases": [_pose(b) for b in self.bases],
+            "conditioning": _num(self.conditioning),
             "condition_number": _num(self.condition_number),
             "identifiability": self.check.as_dict() if self.check is not None else None,
             "dropped": dict(self.dropped),

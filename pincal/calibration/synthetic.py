@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, Seed, generator
+from pincal.arguments import DEFAULT_SIGMA, Seed, angle, generator, length, positive_sigma
 from pincal.calibration.measurements import MeasurementData
 from pincal.errors import BadArgument
 from pincal.model.parameters import ParameterSet
@@ -57,11 +57,10 @@ def error_std_pair(error_std: Mapping[str, float] | None) -> tuple[float, float]
         raise BadArgument(
             f"error std must be a mapping with keys 'length' [m] and 'angle' [rad], got {std!r}"
         )
-    values = (std.get("length", 0.0), std.get("angle", 0.0))
-    for key, v in zip(("length", "angle"), values, strict=True):
-        if not (isinstance(v, (int, float, np.floating)) and np.isfinite(v) and v >= 0):
-            raise BadArgument(f"error std {key!r} must be a non-negative number, got {v!r}")
-    return float(values[0]), float(values[1])
+    return (
+        length(std.get("length", 0.0), "error std 'length'", positive=False),
+        angle(std.get("angle", 0.0), "error std 'angle'", positive=False),
+    )
 
 
 def random_errors(
@@ -109,8 +108,7 @@ def simulate_measurements(
     robot = true_robot.robot if isinstance(true_robot, RandomErrors) else true_robot
     if not isinstance(robot, Robot):
         raise BadArgument(f"simulate_measurements needs a Robot, got {type(true_robot).__name__}")
-    if not (np.isfinite(sigma) and sigma >= 0):
-        raise BadArgument(f"sigma must be a non-negative number of metres, got {sigma!r}")
+    sigma = positive_sigma(sigma, zero=True)
     qs = robot.configurations(plan)
     points = robot.points(qs)
     if sigma > 0:

@@ -52,10 +52,10 @@ from pincal.errors import (
     PincalWarning,
     UrdfError,
 )
-from pincal.files import atomic_write_text
+from pincal.files import all_or_nothing, atomic_write_text
 from pincal.model.loading import load_robot
 from pincal.model.robot import Robot
-from pincal.model.urdf import model_from_text, prepare
+from pincal.model.urdf import expanded_text, model_from_text, prepare
 from pincal.version import __version__
 
 ROUND_TRIP_TOLERANCE = 1e-9
@@ -91,6 +91,7 @@ def sidecar(calibrated: IdentificationResult | Robot, urdf: str | os.PathLike) -
                 "status": result.status,
                 "sigma": summary["sigma"],
                 "sigma_estimated": result.sigma_estimated,
+                "conditioning": summary["conditioning"],
                 "condition_number": summary["condition_number"],
                 "residual_rms_before": summary["residual_rms_before"],
                 "residual_rms_after": summary["residual_rms_after"],
@@ -117,7 +118,9 @@ def export_urdf(
             :class:`~pincal.calibration.identification.IdentificationResult`, or a Robot (e.g.
             a perturbed one, ``params.apply(values)`` or ``random_errors(...).robot``).
         path: the URDF file to write; must not be the source.
-        source_urdf: the URDF to start from; default the robot's own (``robot.urdf_path``).
+        source_urdf: the URDF to start from; default the robot's own (``robot.urdf_path``: the file
+            it was loaded from, a xacro source expanded as loading expands it, or the URDF file
+            a ``RobotWrapper`` carries, as example-robot-data's do in ``wrapper.urdf``).
         force: export an ``implausible`` result too (never one that did not converge).
         write_sidecar: also write the JSON sidecar (:func:`sidecar_path`).
 
@@ -141,17 +144,21 @@ def export_urdf(
     source = source_urdf if source_urdf is not None else robot.urdf_path
     if source is None:
         raise UrdfError(
-            f"robot {robot.name!r} was not loaded from a URDF file: give source_urdf, the URDF to "
-            f"write the calibrated origins into"
+            f"robot {robot.name!r} was not loaded from a URDF file (a pinocchio Model, or a RobotWrapper "
+            "without a URDF file in its 'urdf' attribute): give source_urdf, the URDF to write the "
+            "calibrated origins into"
         )
     source, out = Path(source), Path(path)
     if _same_file(source, out):
         raise OverwriteRefused(
             f"refusing to overwrite the source URDF {str(source)!r}: choose another output path"
         )
-    if not source.is_file():
-        raise UrdfError(f"URDF file {str(source)!r} does not exist")
+    # The URDF as loading read it: a xacro source expanded the same way ($(find NAME) too); a plain
+    # URDF's own bytes (its declaration and encoding kept).
+    expanded = expanded_text(source, dict(robot.package_dirs))
     text = source.read_bytes()
+    if source.suffix.lower() == ".xacro" or b"<xacro:" in text:
+        text = expanded.encode("utf-8")
     tree = _parse(text, source)
     _check_with_yourdfpy(tree, source)
     root = tree.getroot()
@@ -168,11 +175,12 @@ def export_urdf(
     _add_comment(root, robot, result, source, changed)
     new = _serialise(root, text)
     _verify(new, robot, origins, source)
-    written = atomic_write_text(out, new)
-    if write_sidecar:
-        atomic_write_text(
-            sidecar_path(out), json.dumps(sidecar(calibrated, out), indent=2, allow_nan=False) + "\n"
-        )
+    with all_or_nothing():  # the URDF and its sidecar, or neither
+        written = atomic_write_text(out, new)
+        if write_sidecar:
+            atomic_write_text(
+                sidecar_path(out), json.dumps(sidecar(calibrated, out), indent=2, allow_nan=False) + "\n"
+            )
     return written
 
 

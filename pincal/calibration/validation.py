@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.arguments import positive_int
+from pincal.arguments import fraction as checked_fraction
+from pincal.arguments import generator, positive_int
 from pincal.calibration.identification import IdentificationResult, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.errors import BadArgument, warn
@@ -227,9 +228,8 @@ def holdout(
     Returns:
         (the fit on the training rows, its validation on the held-out rows).
     """
-    if not (isinstance(fraction, (int, float)) and 0 < fraction < 1):
-        raise BadArgument(f"holdout fraction must be between 0 and 1 (exclusive), got {fraction!r}")
-    rng = np.random.default_rng(seed)
+    fraction = checked_fraction(fraction, "holdout fraction")
+    rng = generator(seed)
     sessions = _as_sessions(data)
     rows = [np.sort(rng.permutation(d.m)[: max(1, round(fraction * d.m))]) for d in sessions]
     result, before, after, labels = _fit_and_test(params, sessions, rows, kwargs)
@@ -257,7 +257,7 @@ def kfold(
     sessions = _as_sessions(data)
     if any(d.m < k for d in sessions):
         raise BadArgument(f"k-fold: {k} folds need at least {k} configurations in each data file")
-    rng = np.random.default_rng(seed)
+    rng = generator(seed)
     orders = [rng.permutation(d.m) for d in sessions]
     before, after, labels, fits = [], [], [], []
     for fold in range(k):

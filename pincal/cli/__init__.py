@@ -32,7 +32,7 @@ from pincal.cli._common import (
     trap_floating_point_warnings,
 )
 from pincal.errors import PincalError
-from pincal.files import guard_inputs
+from pincal.files import all_or_nothing, guard_inputs
 from pincal.version import __version__
 
 # One module per subcommand, each with add_parser(subparsers); the order is the --help order.
@@ -108,6 +108,9 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI on ``argv`` (default ``sys.argv[1:]``); return the exit code (``--help``,
     ``--version`` and usage errors raise ``SystemExit`` with it, as argparse does).
 
+    Every output of a command is written all or nothing (:func:`pincal.files.all_or_nothing`): a
+    command that fails leaves none of its outputs.
+
     0: done; 2: bad input or a refused output (one line ``pincal: error: ...`` on stderr); 130:
     interrupted; 1: a bug in pincal (one line ``pincal: internal error: ...`` naming where; set
     PINCAL_DEBUG=1 for the traceback), NumPy's floating-point warnings (overflow, invalid value,
@@ -121,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "run", None):
         parser.error("give a COMMAND")
     try:
-        with guard_inputs(), warnings.catch_warnings():
+        with guard_inputs(), all_or_nothing(), warnings.catch_warnings():
             warnings.showwarning = _show_warning
             trap_floating_point_warnings()  # an overflow is an internal error, not a warning and inf
             check_outputs(args, argument_names(parser.commands[args.command]))

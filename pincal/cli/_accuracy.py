@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import argparse
 import math
-import re
 import warnings
 
 import numpy as np
 
+from pincal.arguments import UNITS_TEXT, quantities
+from pincal.arguments import angle as checked_angle
+from pincal.arguments import length as checked_length
 from pincal.cli._common import parse_configuration, parse_floats, read_plan, trap_floating_point_warnings
 from pincal.errors import BadArgument, PincalError, SingularPlan
 from pincal.evaluation.accuracy import AccuracyReport, accuracy, error_profile
@@ -22,7 +24,8 @@ REGION_HELP = """\
 Where the robot works (any of design, evaluate, show, baseline):
   --test-pose Q0 [--test-pose Q1 ...]   one or several test poses
   --around 10deg                        the neighbourhood Q0 ± 10° of each joint (256 samples; with
-                                        several --test-pose, of each); rho0 is then the rms over it
+                                        several --test-pose, of each); rho0 is then the rms over it;
+  --around 10deg,2cm                    with prismatic joints: ± 2 cm for them (a length is needed)
   --test-path PATH.csv                  a path, plan CSV format (--deg applies), any length: the
                                         mean costs the same for 10 or 10 000 points
   --test-box X0,Y0,Z0,X1,Y1,Z1          configurations whose marker lies in this box [m, instrument
@@ -36,16 +39,15 @@ percentile), for the plan and a D-optimal plan of the same size (--no-accuracy: 
 --accuracy-plot FILE.png plots it against the distance from the test pose.
 """
 
-_ANGLE = re.compile(r"^\s*([0-9.eE+-]+)\s*(deg|rad|mrad)?\s*$")
-
 
 def add_region_arguments(parser: argparse.ArgumentParser) -> None:
     """--around, --test-path, --test-box, --prior."""
     parser.add_argument(
         "--around",
-        metavar="DELTA",
-        help="design/evaluate for the neighbourhood test pose ± DELTA per joint (e.g. 10deg, 0.17rad; "
-        "a bare number follows --deg)",
+        metavar="ANGLE[,LENGTH]",
+        help="design/evaluate for the neighbourhood test pose ± ANGLE for each revolute joint and "
+        "± LENGTH for each prismatic joint (e.g. 10deg, 0.17rad, 10deg,2cm; a bare number is the angle "
+        "and follows --deg)",
     )
     parser.add_argument(
         "--test-path", metavar="PATH.csv", help="test configurations of a path (plan CSV format), any length"
@@ -99,17 +101,26 @@ def report_accuracy(
     return report
 
 
-def parse_delta(text: str, degrees: bool) -> float:
-    """A half-width from '10deg', '0.17rad', '5mrad' or a bare number (degrees with --deg) [rad]."""
-    match = _ANGLE.match(str(text))
-    try:
-        value = float(match.group(1)) if match else math.nan
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and value > 0):
-        raise BadArgument(f"--around {text!r}: expected a positive angle, e.g. 10deg, 0.17rad or 5mrad")
-    unit = match.group(2) or ("deg" if degrees else "rad")
-    return value * {"deg": math.pi / 180, "rad": 1.0, "mrad": 1e-3}[unit]
+AROUND_VALID = (
+    "expected an angle for the revolute joints and, for prismatic joints, a length, e.g. 10deg or "
+    f"10deg,2cm ({UNITS_TEXT}; a bare number is the angle, in degrees with --deg, else radians)"
+)
+
+
+def parse_around(text: str, degrees: bool) -> tuple[float | None, float | None]:
+    """(angle [rad] or None, length [m] or None) of --around '10deg', '10deg,2cm', '2cm', '0.17'
+    (a bare number is the angle: degrees with --deg)."""
+    found: dict[str, float] = {}
+    for kind, value in quantities(text, "--around", AROUND_VALID):
+        if kind is None:
+            kind, value = "angle", math.radians(value) if degrees else value
+        if kind in found:
+            raise BadArgument(f"--around {text!r}: two {kind}s; {AROUND_VALID}", argument="--around")
+        found[kind] = value
+    where = f"--around {text!r}: the"
+    angle = None if "angle" not in found else checked_angle(found["angle"], f"{where} angle")
+    length = None if "length" not in found else checked_length(found["length"], f"{where} length")
+    return angle, length
 
 
 def test_region_from_args(robot, args: argparse.Namespace, required: bool = True):
@@ -138,11 +149,13 @@ def test_region_from_args(robot, args: argparse.Namespace, required: bool = True
             )
         return cartesian_box(box[:3], box[3:], poses[0])
     if args.around:
-        delta = parse_delta(args.around, args.deg)
+        angle, length = parse_around(args.around, args.deg)
         if len(poses) == 1:
-            return around(poses[0], delta)
-        samples = [around(q, delta, samples=max(16, 256 // len(poses))).resolve(robot).poses for q in poses]
-        return TestPath(np.vstack(samples))
+            return around(poses[0], angle, length=length)
+        n = max(16, 256 // len(poses))
+        return TestPath(
+            np.vstack([around(q, angle, length=length, samples=n).resolve(robot).poses for q in poses])
+        )
     return np.array(poses)
 
 

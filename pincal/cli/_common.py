@@ -7,11 +7,12 @@ import json
 import os
 import sys
 import warnings
+from collections.abc import Callable
 from contextlib import contextmanager
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, positive_sigma, sigma_note
+from pincal.arguments import DEFAULT_SIGMA, positive_int, positive_sigma, sigma_note
 from pincal.errors import BadArgument, BadConfiguration
 from pincal.files import check_output
 from pincal.model.loading import load_robot
@@ -82,7 +83,44 @@ def check_outputs(args: argparse.Namespace, names: dict[str, str]) -> None:
         earlier = [(f"the output {names[d]}", p) for d, p in outputs[:i]]
         check_output(path, names[dest], inputs + earlier)
         if OUTPUT_OPTIONS[dest] == "figure":
-            figure_format(path)
+            figure_format(path, f"{names[dest]} (a figure)")
+
+
+def checked(option: str, check: Callable[..., object], parse: type = float, **bounds: object):
+    """An argparse ``type=``: the option's text read as ``parse`` (int or float), then checked by
+    ``check`` (a :mod:`pincal.arguments` checker, with ``bounds``) under the option's name, so that
+    the CLI refuses a value where it is read with the same bounds and words as the API:
+    ``pincal: error: argument --trials: must be an integer from 2 to 10,000,000, got 1``."""
+
+    def convert(text: str) -> object:
+        try:
+            value = parse(text)
+        except (ValueError, OverflowError):
+            kind = "an integer" if parse is int else "a number"
+            raise argparse.ArgumentTypeError(f"expected {kind}, got {text!r}") from None
+        try:
+            return check(value, option, **bounds)
+        except BadArgument as exc:
+            raise argparse.ArgumentTypeError(str(exc).removeprefix(f"{option} ")) from None
+
+    convert.__name__ = check.__name__
+    convert.parses = parse  # type: ignore[attr-defined]  # what it reads (the fuzzer draws from it)
+    return convert
+
+
+def count(option: str, low: int = 1) -> Callable[[str], object]:
+    """The argparse type of a count option (configurations, starts, trials, ...)."""
+    return checked(option, positive_int, int, low=low)
+
+
+def seed_type(option: str = "--seed") -> Callable[[str], object]:
+    """The argparse type of --seed: an integer ≥ 0."""
+    return checked(option, positive_int, int, low=0, high=None)
+
+
+def sigma_type(option: str = "--sigma", zero: bool = False) -> Callable[[str], object]:
+    """The argparse type of --sigma [m] (``zero``: 0 allowed, exact points)."""
+    return checked(option, lambda v, name: positive_sigma(v, name, zero=zero))
 
 
 def argument_names(parser: argparse.ArgumentParser) -> dict[str, str]:
@@ -329,16 +367,17 @@ def read_plan(robot: Robot, path: str, degrees: bool, what: str = "plan") -> Pla
     return Plan.from_csv(path, robot=robot, degrees=degrees, what=what)
 
 
-def positive(value: float, name: str) -> float:
-    if not (np.isfinite(value) and value > 0):
-        raise BadArgument(f"{name} must be a positive number, got {value}")
-    return value
-
-
 def emit_json(payload: dict) -> None:
     json.dump(payload, sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
 
+
+CONDITIONING_HELP = """\
+Conditioning (every report, one number): the smallest eigenvalue of the information matrix JᵀJ
+with its columns normalised (σ_min² of the Jacobian with unit columns): 1 when every parameter
+moves the points independently, 0 for a singular plan, whatever the units. A design keeps its plan
+above 1e-2 (--min-conditioning); a plan below 1e-3 is warned about as effectively singular, and
+identification leaves at their nominal values the parameters the data separate below 1e-6."""
 
 SIGMA_HELP = f"measurement noise per coordinate [m] (default {DEFAULT_SIGMA:g}: a laser tracker)"
 
@@ -349,6 +388,15 @@ def sigma_from_args(args: argparse.Namespace) -> tuple[float, str]:
         return DEFAULT_SIGMA, sigma_note(DEFAULT_SIGMA, given=False)
     sigma = positive_sigma(args.sigma, "--sigma")
     return sigma, sigma_note(sigma)
+
+
+def joint_units(robot: Robot, degrees: bool) -> str:
+    """The units of a robot's joint values as written: 'degrees', 'radians', 'metres', or
+    'degrees, metres for prismatic joints'."""
+    angles = "degrees" if degrees else "radians"
+    if np.all(robot.revolute):
+        return angles
+    return "metres" if not np.any(robot.revolute) else f"{angles}, metres for prismatic joints"
 
 
 def fmt_length(metres: float) -> str:

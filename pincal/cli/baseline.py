@@ -9,6 +9,7 @@ from pincal.cli._common import (
     add_command,
     add_output_arguments,
     constraints_from_args,
+    count,
     emit_json,
     params_from_args,
     read_plan,
@@ -41,7 +42,9 @@ finite rho0) are counted, not averaged. rho0 in metres for --sigma.
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = add_command(sub, "baseline", HELP, EXAMPLES)
     add_design_arguments(p)
-    p.add_argument("--random", type=int, required=True, metavar="N", help="number of random plans")
+    p.add_argument(
+        "--random", type=count("--random"), required=True, metavar="N", help="number of random plans"
+    )
     p.add_argument(
         "--worst", action="store_true", help="with several test poses, the worst rho0, not the mean"
     )
@@ -54,8 +57,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="NAME",
         help=f"search for --d-optimal: {' or '.join(METHODS)}",
     )
-    p.add_argument("--starts", type=int, default=16, help="starts of the --d-optimal search (default 16)")
-    p.add_argument("--workers", type=int, help="processes for the --d-optimal search (default: all CPUs)")
+    p.add_argument(
+        "--starts", type=count("--starts"), default=16, help="starts of the --d-optimal search (default 16)"
+    )
+    p.add_argument(
+        "--workers", type=count("--workers"), help="processes for the --d-optimal search (default: all CPUs)"
+    )
     add_output_arguments(p)
     p.set_defaults(run=run)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from pincal.arguments import number
 from pincal.cli._accuracy import (
     REGION_HELP,
     add_region_arguments,
@@ -14,20 +15,26 @@ from pincal.cli._accuracy import (
     test_region_from_args,
 )
 from pincal.cli._common import (
+    CONDITIONING_HELP,
     SIGMA_HELP,
     add_base_argument,
     add_command,
     add_output_arguments,
     add_robot_arguments,
     add_test_pose_argument,
+    checked,
     constraints_from_args,
+    count,
     emit_json,
     fmt_length,
+    joint_units,
     params_from_args,
     read_plan,
     recorded_warnings,
     robot_from_args,
+    seed_type,
     sigma_from_args,
+    sigma_type,
 )
 from pincal.cli._plot import add_plot_argument, save_design_plot
 from pincal.errors import BadArgument
@@ -60,15 +67,17 @@ limits and --constraints) and of the D-optimal plan, next to the designed plan's
 --base: the tracker measures in its own frame, so base.* are identified too (as 'identify --base').
 --constraints FILE.yaml: joint_limits, workspace_box, half_space, visibility, self_collision,
 min_spacing (see pincal.constraints.load_constraints for the layout).
---min-conditioning X: no plan whose Jacobi-scaled information matrix has its smallest eigenvalue
-below X (default 1e-2, none with --prior); a plan below 1e-3 is warned about whatever the floor.
+--min-conditioning X: no plan whose conditioning is below X (default 1e-2, none with --prior); a
+plan below 1e-3 is warned about whatever the floor, and so is a floor below 1e-3 that stops the
+search.
+{conditioning}
 
 {region}
 Units: metres and radians; --deg reads test poses and --pool, and writes --out and prints the plan,
 in degrees. The JSON plan is always in radians; rho0 is in metres for --sigma
 (default 3e-5 m, a laser tracker; the report says which sigma it used).
 """
-EXAMPLES = EXAMPLES.replace("{region}", REGION_HELP.rstrip())
+EXAMPLES = EXAMPLES.replace("{region}", REGION_HELP.rstrip()).replace("{conditioning}", CONDITIONING_HELP)
 
 
 def add_design_arguments(p: argparse.ArgumentParser) -> None:
@@ -76,15 +85,17 @@ def add_design_arguments(p: argparse.ArgumentParser) -> None:
     the pool of candidate configurations."""
     add_robot_arguments(p)
     add_base_argument(p)
-    p.add_argument("-m", type=int, required=True, metavar="M", help="number of configurations to measure")
+    p.add_argument(
+        "-m", type=count("-m"), required=True, metavar="M", help="number of configurations to measure"
+    )
     add_test_pose_argument(p, required=False)
     add_region_arguments(p)
     p.add_argument("--constraints", metavar="FILE.yaml", help="workcell constraints (YAML)")
-    p.add_argument("--sigma", type=float, default=None, help=SIGMA_HELP)
+    p.add_argument("--sigma", type=sigma_type(), default=None, help=SIGMA_HELP)
     p.add_argument(
         "--deg", action="store_true", help="joint values in degrees (test poses, pool, plan output)"
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0)")
+    p.add_argument("--seed", type=seed_type(), default=0, help="seed of every random choice (default 0)")
     p.add_argument(
         "--pool",
         metavar="FILE.csv",
@@ -106,7 +117,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--method", default="exchange", metavar="NAME", help=f"{' or '.join(METHODS)} (default exchange)"
     )
     p.add_argument(
-        "--pool-size", type=int, metavar="N", help="random feasible candidates to draw (default 2000)"
+        "--pool-size",
+        type=count("--pool-size"),
+        metavar="N",
+        help="random feasible candidates to draw (default 2000)",
     )
     p.add_argument(
         "--polish",
@@ -114,21 +128,27 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="exchange: refine the best plans with the continuous search (default: on, off with --pool)",
     )
-    p.add_argument("--starts", type=int, default=32, help="number of starts (default 32)")
-    p.add_argument("--workers", type=int, help="processes running the starts (default: all CPUs; 1: serial)")
+    p.add_argument("--starts", type=count("--starts"), default=32, help="number of starts (default 32)")
+    p.add_argument(
+        "--workers",
+        type=count("--workers"),
+        help="processes running the starts (default: all CPUs; 1: serial)",
+    )
     p.add_argument(
         "--min-conditioning",
-        type=float,
+        type=checked("--min-conditioning", number, low=0.0, high=0.1, high_open=True),
         default=None,
         metavar="X",
-        help=f"floor of the plan's conditioning, the smallest eigenvalue of its Jacobi-scaled information "
-        f"matrix (default {MIN_CONDITIONING:g}; 0 with --prior)",
+        help=f"floor of the plan's conditioning (see below; default {MIN_CONDITIONING:g}, 0 with --prior)",
     )
     p.add_argument(
         "--out", metavar="PLAN.csv", help="write the plan (radians, degrees with --deg), atomically"
     )
     p.add_argument(
-        "--baseline", type=int, metavar="N", help="also report N random feasible plans and the D-optimal plan"
+        "--baseline",
+        type=count("--baseline"),
+        metavar="N",
+        help="also report N random feasible plans and the D-optimal plan",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     add_plot_argument(p)
@@ -219,7 +239,7 @@ def _write_and_print(
         if report is not None:
             print("\n".join(report.lines(degrees=args.deg)))
         if args.out:
-            print(f"wrote {args.out} ({'degrees' if args.deg else 'radians'})")
+            print(f"wrote {args.out} ({joint_units(robot, args.deg)})")
     sys.stdout.flush()
 
 
@@ -248,10 +268,14 @@ def design_json(robot, params, result: DesignResult, baseline, out: str | None) 
 
 
 def format_plan(robot, plan: Plan, degrees: bool) -> list[str]:
+    """The plan as a table: joint names, each column's unit ([deg] or [rad]; [m] for a prismatic
+    joint), one row per configuration."""
     values = robot.to_degrees(plan.q) if degrees else plan.q
     names = plan.joint_names
+    units = [f"[{('deg' if degrees else 'rad') if r else 'm'}]" for r in robot.revolute]
     width = max(10, *(len(n) for n in names))
     lines = ["  " + " ".join(f"{n:>{width}}" for n in names)]
+    lines.append("  " + " ".join(f"{u:>{width}}" for u in units))
     lines += ["  " + " ".join(f"{v:>{width}.4f}" for v in row) for row in values]
     return lines
 
@@ -277,7 +301,7 @@ def print_design(robot, params, source: str, result: DesignResult, degrees: bool
     if result.criterion not in ("test-pose", "test-pose-worst"):
         print(f"{result.criterion} = {result.value:.6g}")
     print(f"conditioning {result.conditioning:.3g}")
-    print(f"plan ({'degrees' if degrees else 'radians'}):")
+    print("plan:")
     for line in format_plan(robot, result.plan, degrees):
         print(line)
 

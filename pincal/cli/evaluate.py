@@ -15,6 +15,7 @@ from pincal.cli._accuracy import (
     test_region_from_args,
 )
 from pincal.cli._common import (
+    CONDITIONING_HELP,
     SIGMA_HELP,
     add_base_argument,
     add_command,
@@ -46,11 +47,12 @@ examples:
 
 PLAN.csv: a header row of joint names, one configuration per row, radians (degrees with --deg).
 rho0 is in metres for --sigma (noise per coordinate, metres; default 3e-5, a laser tracker).
-The report also checks the parameters on the plan's configurations: rank and condition number of the
-column-scaled Jacobian, the weakest combinations, and those the plan cannot determine to 1 cm / 10 mrad
-for the noise --sigma.
+The report also checks the parameters on the plan's configurations: rank and conditioning, the
+weakest combinations, and those the plan cannot determine to 1 cm / 10 mrad for the noise --sigma.
+The design criteria (D: log_det, A: trace, E: max_eig, cond: σ_max/σ_min of the unscaled Jacobian,
+unit-dependent, for --criterion cond; O1-O4 higher is better) are listed for comparison.
 """
-EXAMPLES += "\n" + REGION_HELP
+EXAMPLES += "\n" + CONDITIONING_HELP + "\n\n" + REGION_HELP
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -120,7 +122,10 @@ def run(args: argparse.Namespace) -> int:
     if crit is None:
         print("criteria: none (the plan alone cannot identify the parameters; rho0 holds with the prior)")
     else:
-        print("criteria (lower is better: log_det, trace, max_eig, cond; higher: O1-O4):")
+        print(
+            "design criteria (lower is better: log_det (D), trace (A), max_eig (E), cond (σ_max/σ_min of "
+            "the unscaled Jacobian); higher: O1-O4):"
+        )
         for name, v in crit.as_dict().items():
             print(f"  {name:8s} {v:.6g}")
     print(check.report())

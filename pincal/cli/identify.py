@@ -6,19 +6,24 @@ import argparse
 import sys
 from pathlib import Path
 
-from pincal.arguments import DEFAULT_SIGMA, positive_int, positive_sigma
+from pincal.arguments import DEFAULT_SIGMA, fraction, positive_int, positive_sigma, ratio
 from pincal.calibration.identification import LOSSES, METHODS, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.urdf_export import export_urdf, sidecar_path
 from pincal.calibration.validation import holdout, kfold, validate
 from pincal.cli._common import (
+    CONDITIONING_HELP,
     add_base_argument,
     add_command,
     add_output_arguments,
     add_robot_arguments,
+    checked,
+    count,
     emit_json,
     parameters_with_base,
     robot_from_args,
+    seed_type,
+    sigma_type,
 )
 from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused
 from pincal.evaluation.prior import Prior
@@ -46,8 +51,8 @@ Rows with a missing or non-numeric cell, NaN, or a joint outside its limits are 
 and the chain parameters it makes redundant are dropped. Several --data files, each measured from its
 own instrument placement, share the robot's parameters with one base each (base2.*, base3.*, ...).
 
-The report gives the data's identifiability first: rank and condition number of the column-scaled
-Jacobian of YOUR configurations, the weakest parameter combinations, and the parameters the data
+The report gives the data's identifiability first: rank and conditioning (see below) of YOUR
+configurations, the weakest parameter combinations, and the parameters the data
 cannot identify (nearly inseparable, or determined only to worse than 1 cm / 10 mrad), left at their
 nominal value with the reason (with --prior, every parameter estimated MAP instead). Rows over 5
 robust sigma are named by file line (mm and sigma); --reject K drops rows over K robust sigma and
@@ -58,7 +63,7 @@ A result no real robot has (a link origin or the tool frame moving by over 5 cm,
 --mm; a forgotten --marker; --base; columns).
 --out writes the user's URDF with corrected joint origins (joint offsets folded into them) and the
 tip's fixed joint corrected, and a sidecar CAL.calibration.json with the base, markers, sigma and
-condition number: p = base * oMf[tip] * marker predicts the instrument's coordinates.
+conditioning: p = base * oMf[tip] * marker predicts the instrument's coordinates.
 Estimates are errors relative to the nominal URDF (m, rad); text output shows mm and mrad.
 Exit code 2 when the data cannot identify the parameters, the fit does not converge, or the result is
 implausible (then no URDF, unless --force: the URDF is written, with a warning, and the exit code is 0).
@@ -67,6 +72,7 @@ and after calibration on held-out points (text, JSON 'validation', --plot FILE.p
 k-fold fold whose fit keeps fewer than twice as many measured coordinates as parameters is warned
 about (its held-out error overstates the calibration's), with what to do.
 """
+EXAMPLES += "\n" + CONDITIONING_HELP + "\n"
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -86,7 +92,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_base_argument(p)
     p.add_argument(
         "--sigma",
-        type=float,
+        type=sigma_type(),
         help="measurement noise per coordinate [m] for the standard errors (default: from the residuals)",
     )
     p.add_argument(
@@ -94,19 +100,31 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear)")
     p.add_argument("--method", choices=METHODS, default="trf", help="least_squares method (default trf)")
-    p.add_argument("--reject", type=float, metavar="K", help="drop rows beyond K robust sigma and refit")
+    p.add_argument(
+        "--reject",
+        type=checked("--reject", ratio),
+        metavar="K",
+        help="drop rows beyond K robust sigma and refit",
+    )
     p.add_argument(
         "--maxiter",
         "--max-iterations",
         dest="maxiter",
-        type=int,
+        type=count("--max-iterations"),
         default=100,
         help="solver evaluations (default 100)",
     )
     p.add_argument("--validate", metavar="OTHER.csv", help="held-out measurements (same placement as --data)")
-    p.add_argument("--holdout", type=float, metavar="FRACTION", help="hold this share of the rows out")
-    p.add_argument("--kfold", type=int, metavar="K", help="k-fold cross-validation of the fit")
-    p.add_argument("--seed", type=int, default=0, help="seed of --holdout and --kfold (default 0)")
+    p.add_argument(
+        "--holdout",
+        type=checked("--holdout", fraction),
+        metavar="FRACTION",
+        help="hold this share of the rows out",
+    )
+    p.add_argument(
+        "--kfold", type=count("--kfold", low=2), metavar="K", help="k-fold cross-validation of the fit"
+    )
+    p.add_argument("--seed", type=seed_type(), default=0, help="seed of --holdout and --kfold (default 0)")
     p.add_argument("--plot", metavar="FILE.png", help="save the validation errors before/after (a figure)")
     p.add_argument(
         "--out", metavar="CALIBRATED.urdf", help="write the calibrated URDF (and its sidecar) here"

@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import DEFAULT_SIGMA, check_lengths, generator
+from pincal.arguments import DEFAULT_SIGMA, MAX_ANGLE, check_lengths, generator, number
 from pincal.calibration.synthetic import random_errors, simulate_measurements
 from pincal.calibration.urdf_export import export_urdf
 from pincal.cli._common import (
@@ -15,10 +15,13 @@ from pincal.cli._common import (
     add_command,
     add_robot_arguments,
     joint_ranges_from_args,
+    joint_units,
     params_from_args,
     parse_floats,
     read_plan,
     robot_from_args,
+    seed_type,
+    sigma_type,
 )
 from pincal.cli.simulate import parse_error_std
 from pincal.errors import BadArgument, BadConfiguration, UrdfError
@@ -54,10 +57,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--save-true", metavar="TRUE.urdf", help="with --error-std: write the true robot as a URDF"
     )
-    p.add_argument("--sigma", type=float, default=DEFAULT_SIGMA, help=SIGMA_HELP + "; 0: exact points")
+    p.add_argument(
+        "--sigma", type=sigma_type(zero=True), default=DEFAULT_SIGMA, help=SIGMA_HELP + "; 0: exact points"
+    )
     p.add_argument("--out", required=True, metavar="MEAS.csv", help="the measurement file to write")
     p.add_argument("--base-pose", metavar="X,Y,Z,R,P,Y", help="robot base in the instrument's frame")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=seed_type(), default=0, help="random seed (default 0)")
     p.add_argument("--mm", action="store_true", help="write coordinates in millimetres")
     p.add_argument("--deg", action="store_true", help="plan (and written joint values) in degrees")
     p.set_defaults(run=run)
@@ -71,12 +76,14 @@ def _base_pose(text: str | None, degrees: bool) -> pin.SE3:
         raise BadConfiguration(f"--base-pose {text!r}: expected X,Y,Z,ROLL,PITCH,YAW (six numbers)")
     check_lengths(values[:3], f"--base-pose {text!r}: translation", BadConfiguration)
     rpy = np.radians(values[3:]) if degrees else np.array(values[3:])
+    for v in rpy:
+        number(
+            v, f"--base-pose {text!r}: an angle", -MAX_ANGLE, MAX_ANGLE, unit="rad", error=BadConfiguration
+        )
     return pin.SE3(pin.rpy.rpyToMatrix(*rpy), np.array(values[:3]))
 
 
 def run(args: argparse.Namespace) -> int:
-    if not (np.isfinite(args.sigma) and args.sigma >= 0):
-        raise BadArgument(f"--sigma must be a non-negative number of metres, got {args.sigma}")
     if args.save_true and not args.error_std:
         raise BadArgument("--save-true needs --error-std (the true robot is then drawn at random)")
     robot = robot_from_args(args)
@@ -110,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
     if args.save_true:
         export_urdf(true_robot, args.save_true)
     unit = "mm" if args.mm else "m"
-    angles = "degrees" if args.deg and robot.revolute.any() else "radians"
+    angles = joint_units(robot, args.deg)
     print(
         f"{args.out}: {data.m} configurations x {data.n_markers} marker(s), noise {args.sigma:g} m, "
         f"{description}; joints in {angles}, points in {unit}"

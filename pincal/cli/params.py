@@ -7,6 +7,7 @@ import argparse
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.calibration.measurements import MeasurementData
 from pincal.cli._common import (
+    CONDITIONING_HELP,
     DEFAULT_PARAMS,
     add_base_argument,
     add_command,
@@ -16,6 +17,8 @@ from pincal.cli._common import (
     mentions_base,
     read_plan,
     robot_from_args,
+    seed_type,
+    sigma_type,
 )
 from pincal.evaluation.data_check import check_plan
 
@@ -30,13 +33,16 @@ examples:
   pincal params kr270 --marker 0.1,0.05,0.2 --plan plan.csv --deg --sigma 3e-5
 
 With --data or --plan, the identifiable set is also checked on those configurations (what identify
-does first): rank and condition number of the column-scaled Jacobian, the weakest combinations, and
-the parameters they cannot determine to 1 cm / 10 mrad for the noise --sigma (default 3e-5 m).
+does first): rank and conditioning, the weakest combinations, and the parameters they cannot
+determine to 1 cm / 10 mrad for the noise --sigma (default 3e-5 m).
+
+{conditioning}
 
 Names: <joint>.tx|ty|tz (origin xyz error, parent link coordinates, m), <joint>.rx|ry|rz (rotation
 about the joint frame's axes, rad), <joint>.offset, <tip>.tx..rz, marker<k>.x|y|z, base.tx..rz.
 Groups: offsets, lengths, full, base, markers; mix them and names with commas.
 """
+EXAMPLES = EXAMPLES.replace("{conditioning}", CONDITIONING_HELP)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -49,14 +55,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help=f"parameters to examine (default {DEFAULT_PARAMS})",
     )
     add_base_argument(p)
-    p.add_argument("--seed", type=int, default=0, help="seed of the random configurations (default 0)")
+    p.add_argument(
+        "--seed", type=seed_type(), default=0, help="seed of the random configurations (default 0)"
+    )
     source = p.add_mutually_exclusive_group()
     source.add_argument("--data", metavar="MEAS.csv", help="check identifiability on these measurements")
     source.add_argument("--plan", metavar="PLAN.csv", help="check identifiability on these configurations")
     p.add_argument("--deg", action="store_true", help="joint values of --data/--plan are in degrees")
     p.add_argument("--mm", action="store_true", help="coordinates of --data are in millimetres")
     p.add_argument(
-        "--sigma", type=float, help=f"noise per coordinate [m] for the check (default {DEFAULT_SIGMA:g})"
+        "--sigma",
+        type=sigma_type(),
+        help=f"noise per coordinate [m] for the check (default {DEFAULT_SIGMA:g})",
     )
     add_output_arguments(p)
     p.set_defaults(run=run)

@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from pincal.arguments import positive_int
+from pincal.arguments import positive_int, ratio
 from pincal.cli._accuracy import (
     REGION_HELP,
     add_region_arguments,
@@ -26,15 +26,18 @@ from pincal.cli._common import (
     add_output_arguments,
     add_robot_arguments,
     add_test_pose_argument,
+    checked,
     constraints_from_args,
+    count,
     emit_json,
     fmt_length,
     params_from_args,
     parse_floats,
-    positive,
     read_plan,
     robot_from_args,
+    seed_type,
     sigma_from_args,
+    sigma_type,
 )
 from pincal.errors import BadArgument, BadConfiguration
 from pincal.evaluation.test_pose import rho0
@@ -73,12 +76,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_region_arguments(p)
     p.add_argument(
         "--error-cloud",
-        type=int,
+        type=count("--error-cloud"),
         metavar="N",
         help="draw the measured point at N random configurations, coloured by the predicted error after "
         "calibration (green: smallest, red: largest)",
     )
-    p.add_argument("--sigma", type=float, default=None, help=SIGMA_HELP)
+    p.add_argument("--sigma", type=sigma_type(), default=None, help=SIGMA_HELP)
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
     p.add_argument(
         "--instrument",
@@ -93,7 +96,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--scale",
-        type=float,
+        type=checked("--scale", ratio),
         help="draw the error ellipsoid this many times larger than life (default: a visible size)",
     )
     p.add_argument(
@@ -108,9 +111,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="save a figure of the plan's rho0 against random plans of the same size (needs --test-pose)",
     )
     p.add_argument(
-        "--baseline", type=int, default=1000, metavar="N", help="random plans for --plot (default 1000)"
+        "--baseline",
+        type=count("--baseline"),
+        default=1000,
+        metavar="N",
+        help="random plans for --plot (default 1000)",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the random plans (default 0)")
+    p.add_argument("--seed", type=seed_type(), default=0, help="seed of the random plans (default 0)")
     p.add_argument(
         "--pool",
         metavar="FILE.csv",
@@ -174,14 +181,10 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_options(args: argparse.Namespace) -> None:
     """Refuse options that cannot go together or are out of range (before the robot is loaded)."""
-    if args.scale is not None:
-        positive(args.scale, "--scale")
     if args.plot and not args.test_pose:
         raise BadArgument("--plot compares rho0 at the test pose: give --test-pose")
     if args.pool and not args.plot:
         raise BadArgument("--pool is where --plot draws its random plans: give --plot too")
-    if args.baseline < 1:
-        raise BadArgument(f"--baseline must be a positive number of random plans, got {args.baseline}")
 
 
 def _scene_inputs(args: argparse.Namespace, robot, q0) -> tuple:

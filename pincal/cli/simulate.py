@@ -6,20 +6,23 @@ import argparse
 from pathlib import Path
 
 from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
-from pincal.calibration.synthetic import DEFAULT_ERROR_STD
+from pincal.calibration.synthetic import DEFAULT_ERROR_STD, error_std_pair
 from pincal.cli._common import (
     SIGMA_HELP,
     add_command,
     add_output_arguments,
     add_robot_arguments,
     add_test_pose_argument,
+    count,
     emit_json,
     fmt_length,
     params_from_args,
     parse_floats,
     read_plan,
     robot_from_args,
+    seed_type,
     sigma_from_args,
+    sigma_type,
     test_poses_from_args,
 )
 from pincal.cli._plot import add_simulation_plot_arguments, save_simulation_plot
@@ -52,15 +55,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_robot_arguments(p)
     p.add_argument("--plan", required=True, metavar="PLAN.csv", help="the configurations to simulate")
     add_test_pose_argument(p)
-    p.add_argument("--trials", type=int, default=200, help="Monte-Carlo trials (default 200)")
-    p.add_argument("--sigma", type=float, default=None, help=SIGMA_HELP)
+    p.add_argument(
+        "--trials", type=count("--trials", low=2), default=200, help="Monte-Carlo trials (default 200)"
+    )
+    p.add_argument("--sigma", type=sigma_type(), default=None, help=SIGMA_HELP)
     p.add_argument(
         "--error-std",
         metavar="LEN,ANG",
         default=f"{DEFAULT_ERROR_STD['length']:g},{DEFAULT_ERROR_STD['angle']:g}",
         help="std of the random geometric errors, metres and radians (default 1e-3,1e-3)",
     )
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=seed_type(), default=0, help="random seed (default 0)")
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
     add_simulation_plot_arguments(p)
     add_output_arguments(p)
@@ -70,17 +75,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def parse_error_std(text: str) -> dict[str, float]:
     """'LEN,ANG' (metres, radians) as the error_std of :func:`pincal.monte_carlo`."""
     values = parse_floats(text, "--error-std")
-    if len(values) != 2 or min(values) < 0:
+    if len(values) != 2:
         raise BadArgument(
             f"--error-std {text!r}: expected LEN,ANG, two non-negative numbers (metres, radians)"
         )
-    return {"length": values[0], "angle": values[1]}
+    length, angle = error_std_pair({"length": values[0], "angle": values[1]})
+    return {"length": length, "angle": angle}
 
 
 def run(args: argparse.Namespace) -> int:
     sigma, sigma_text = sigma_from_args(args)
-    if args.trials < 2:
-        raise BadArgument(f"--trials must be at least 2, got {args.trials}")
     error_std = parse_error_std(args.error_std)
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)

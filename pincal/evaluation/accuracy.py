@@ -23,10 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg.lapack import dtrtrs as _trtrs
 
-from pincal.arguments import generator
+from pincal.arguments import angle, generator, positive_int, positive_sigma
 from pincal.evaluation.information import factor
 from pincal.evaluation.prior import Prior
-from pincal.evaluation.region import ResolvedRegion, resolve_test_poses
+from pincal.evaluation.region import Neighbourhood, ResolvedRegion, resolve_test_poses, width_text
 from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
@@ -39,6 +39,11 @@ WORKSPACE_SAMPLES = 2000
 
 NEIGHBOURHOOD_SAMPLES = 512
 """Configurations drawn in each neighbourhood."""
+
+PRISMATIC_PER_RADIAN = 0.01 / math.radians(10)
+"""How far a prismatic joint moves in the neighbourhoods and error profiles where a revolute
+joint turns by one radian [m/rad]: 1 cm for 10°, unless the test region is a neighbourhood with a
+length of its own (``around(q0, angle, length=...)``), whose ratio is then used."""
 
 
 class PredictedError:
@@ -56,7 +61,7 @@ class PredictedError:
 
     def __init__(self, params: ParameterSet, plan: object, sigma: float, prior: Prior | None = None) -> None:
         self.params = params
-        self.sigma = float(sigma)
+        self.sigma = positive_sigma(sigma)
         self.prior = prior
         self.engine = JacobianEngine(params)
         qs = params.robot.configurations(plan)
@@ -112,6 +117,7 @@ class WorstFound:
 def worst_found(predicted: PredictedError, region: ResolvedRegion, starts: int = 3) -> WorstFound:
     """The worst ρ over a region: sampled, then maximised locally from the ``starts`` worst
     samples (continuous regions). See the module doc."""
+    starts = positive_int(starts, "starts", 0)
     r2 = predicted.squared(region.poses)
     best = int(np.argmax(r2))
     sampled = float(np.sqrt(r2[best]))
@@ -230,6 +236,7 @@ class AccuracyReport:
         before: rms error at the test pose(s) before calibration, predicted by the prior
             (sqrt of the mean tr(J₀ΣpJ₀ᵀ)) [m]; None without a (finite) prior.
         region: description of the test region (or ``"test pose"``).
+        revolute: which joints are revolute (poses in degrees convert those only), or None: all.
     """
 
     plans: tuple[PlanAccuracy, ...]
@@ -237,6 +244,7 @@ class AccuracyReport:
     prior: Prior | None
     before: float | None
     region: str
+    revolute: tuple[bool, ...] | None = None
 
     def as_dict(self) -> dict:
         return {
@@ -246,6 +254,16 @@ class AccuracyReport:
             "before_calibration": self.before,
             "region": self.region,
         }
+
+    def _pose_text(self, pose: np.ndarray, degrees: bool) -> str:
+        """'10, -50, 70 deg', or each value with its unit when some joints are prismatic."""
+        angle_unit = "deg" if degrees else "rad"
+        values = np.degrees(pose) if degrees else pose
+        if self.revolute is None or all(self.revolute):
+            return ", ".join(f"{v:.4g}" for v in values) + f" {angle_unit}"
+        return ", ".join(
+            f"{v:.4g} {angle_unit}" if r else f"{q:.4g} m" for v, q, r in zip(values, pose, self.revolute)
+        )
 
     def lines(self, unit: str = "mm", degrees: bool = False) -> list[str]:
         """The report as text lines (a table: one column pair per plan); worst poses in radians,
@@ -268,9 +286,7 @@ class AccuracyReport:
             if p.worst is not None:
                 out.append(
                     f"  {p.name}: worst {'found' if p.worst.searched else 'of the test poses'} "
-                    f"{p.worst.rho * scale:.4g} {unit} at q = "
-                    + ", ".join(f"{v:.4g}" for v in (np.degrees(p.worst.pose) if degrees else p.worst.pose))
-                    + (" deg" if degrees else " rad")
+                    f"{p.worst.rho * scale:.4g} {unit} at q = {self._pose_text(p.worst.pose, degrees)}"
                 )
         if self.prior is not None:
             p = self.plans[0]
@@ -282,9 +298,20 @@ class AccuracyReport:
         return out
 
 
-def _neighbourhood(robot, centers: np.ndarray, delta: float, n: int, rng: np.random.Generator) -> np.ndarray:
-    """n configurations uniform in the boxes centres ± δ (a centre drawn per sample), clipped to
-    the joint limits."""
+def _prismatic_per_radian(test_pose: object) -> float:
+    """[m/rad] the test region's own ratio of length to angle, else :data:`PRISMATIC_PER_RADIAN`."""
+    if isinstance(test_pose, Neighbourhood) and test_pose.length is not None:
+        angle = test_pose.angle
+        if angle is not None and not isinstance(angle, np.ndarray):
+            return test_pose.length / angle
+    return PRISMATIC_PER_RADIAN
+
+
+def _neighbourhood(
+    robot, centers: np.ndarray, delta: np.ndarray, n: int, rng: np.random.Generator
+) -> np.ndarray:
+    """n configurations uniform in the boxes centres ± δ ((nq,) [rad or m]; a centre drawn per
+    sample), clipped to the joint limits."""
     c = centers[rng.integers(len(centers), size=n)]
     return np.clip(c + rng.uniform(-delta, delta, c.shape), robot.lower, robot.upper)
 
@@ -316,20 +343,29 @@ def accuracy(
         sigma: measurement noise per coordinate [m].
         prior: the errors' prior, or None.
         compare: ``{name: plan}`` to report next to it, e.g. ``{"D-optimal": d_plan}``.
-        neighbourhoods: half-widths δ [rad or m].
+        neighbourhoods: half-widths δ of the revolute joints [rad]; the prismatic joints move
+            δ·:data:`PRISMATIC_PER_RADIAN` (or the test region's own ratio of length to angle).
         samples: configurations per neighbourhood.
         workspace: configurations over the workspace.
         seed: seed of the draws.
     """
+    sigma = positive_sigma(sigma)
+    neighbourhoods = tuple(angle(d, "neighbourhoods (half-width)") for d in neighbourhoods)
+    samples = positive_int(samples, "samples")
+    workspace = positive_int(workspace, "workspace")
     robot = params.robot
     poses, region = resolve_test_poses(robot, test_pose)
     rng = generator(seed)
     first = "test region" if region is not None else "test pose" if len(poses) == 1 else "test poses"
     sets = [(first, poses)]
+    per_radian = _prismatic_per_radian(test_pose)
+    prismatic = not np.all(robot.revolute)
     for delta in neighbourhoods:
-        width = f"±{math.degrees(delta):.3g}°"  # around each test pose: beyond a region's edge
+        # around each test pose: beyond a region's edge
+        width = width_text(delta, delta * per_radian if prismatic else None)
         label = f"region {width}" if region is not None else width
-        sets.append((label, _neighbourhood(robot, poses, delta, samples, rng)))
+        delta_q = np.where(robot.revolute, delta, delta * per_radian)
+        sets.append((label, _neighbourhood(robot, poses, delta_q, samples, rng)))
     sets.append(("workspace", robot.random_configurations(workspace, rng)))
     plans = [("plan", plan)] + list((compare or {}).items())
     at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior)
@@ -350,6 +386,7 @@ def accuracy(
         prior,
         before,
         "test pose" if region is None else region.description,
+        tuple(bool(r) for r in robot.revolute),
     )
 
 
@@ -359,7 +396,8 @@ class ErrorProfile:
 
     Attributes:
         name: the plan's name.
-        distance: (n,) joint-space distances max_j |q_j − q0_j| [rad].
+        distance: (n,) joint-space distances max_j |q_j − q0_j| [rad] (a prismatic joint's
+            distance counted in radians through :data:`PRISMATIC_PER_RADIAN`).
         median, p95: (n,) of ρ over configurations at that distance [m].
     """
 
@@ -386,6 +424,10 @@ def error_profile(
     """Median and 95th percentile of ρ on shells at distance d = max_j |q_j − q0_j| from the test
     pose(s), for d in [0, max_distance] (``samples`` configurations per shell, the same for every
     plan; a test pose drawn per sample; clipped to the joint limits)."""
+    sigma = positive_sigma(sigma)
+    max_distance = angle(max_distance, "max_distance")
+    steps = positive_int(steps, "steps", 2)
+    samples = positive_int(samples, "samples")
     robot = params.robot
     poses, _ = resolve_test_poses(robot, test_pose)
     rng = generator(seed)
@@ -395,7 +437,8 @@ def error_profile(
         u = rng.uniform(-1.0, 1.0, (samples, robot.nq))
         u /= np.abs(u).max(axis=1, keepdims=True)
         centres = poses[rng.integers(len(poses), size=samples)]
-        shells.append(np.clip(centres + d * u, robot.lower, robot.upper))
+        step = np.where(robot.revolute, d, d * _prismatic_per_radian(test_pose))
+        shells.append(np.clip(centres + step * u, robot.lower, robot.upper))
     out = []
     for name, plan in plans.items():
         predicted = PredictedError(params, plan, sigma, prior)

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pincal.arguments import positive_sigma
 from pincal.evaluation.information import (
     condition_number,
     conditioning,
@@ -67,8 +68,13 @@ class DataCheck:
         kept: indices into ``names`` of the parameters the data identify, in order.
         dropped: ``{name: reason}`` for the others.
         rank: numerical rank of the column-scaled data Jacobian.
+        conditioning: the data's conditioning, the number every pincal report gives (see
+            :func:`~pincal.evaluation.information.conditioning`: the smallest eigenvalue of the
+            column-normalised information matrix, in (0, 1], 0 when rank deficient), of all of
+            ``names``.
+        conditioning_kept: the same for the kept parameters.
         condition_number: σ_max/σ_min of the column-scaled data Jacobian of all of ``names``
-            (``inf`` when rank deficient).
+            (``inf`` when rank deficient); reports give the conditioning instead.
         condition_number_kept: the same for the kept parameters.
         weakest: the least determined combinations, in words, weakest first.
         std: (len(kept),) standard errors of the kept parameters for the noise σ [m or rad].
@@ -88,6 +94,8 @@ class DataCheck:
     std: np.ndarray
     sigma: float
     m: int
+    conditioning: float = float("nan")
+    conditioning_kept: float = float("nan")
 
     @property
     def identifiable(self) -> bool:
@@ -100,16 +108,16 @@ class DataCheck:
         return tuple(self.names[i] for i in self.kept)
 
     def report(self) -> str:
-        """Text: rank, condition number, weakest combinations, and what is left out and why."""
-        cond = _condition_text(self.condition_number)
+        """Text: rank, conditioning, weakest combinations, and what is left out and why."""
+        shown = _conditioning_text(self.conditioning)
         lines = [
             f"data identifiability ({self.m} configurations, sigma {self.sigma * 1e3:.3g} mm): rank "
-            f"{self.rank} of {len(self.names)} parameters, condition number {cond} (column-scaled)"
+            f"{self.rank} of {len(self.names)} parameters, conditioning {shown}"
         ]
         lines += [f"  weakest: {w}" for w in self.weakest]
         if self.dropped:
             kept = (
-                f"kept {len(self.kept)} (condition number {_condition_text(self.condition_number_kept)})"
+                f"kept {len(self.kept)} (conditioning {_conditioning_text(self.conditioning_kept)})"
                 if self.kept
                 else "kept none"
             )
@@ -129,6 +137,8 @@ class DataCheck:
         return {
             "rank": self.rank,
             "n_params": len(self.names),
+            "conditioning": float(self.conditioning),
+            "conditioning_kept": float(self.conditioning_kept),
             "condition_number": finite(self.condition_number),
             "condition_number_kept": finite(self.condition_number_kept),
             "weakest": list(self.weakest),
@@ -185,6 +195,7 @@ def _check(columns: _Columns, order: Sequence[int], m: int, sigma: float) -> Dat
     position = {i: n for n, i in enumerate(kept)}
     kept_sorted = sorted(kept)
     std = np.array([std[position[i]] for i in kept_sorted])
+    sub = M[np.ix_(kept_sorted, kept_sorted)]
     return DataCheck(
         names=names,
         units=columns.units,
@@ -199,6 +210,8 @@ def _check(columns: _Columns, order: Sequence[int], m: int, sigma: float) -> Dat
         std=std,
         sigma=float(sigma),
         m=int(m),
+        conditioning=_conditioning(M),
+        conditioning_kept=_conditioning(sub) if kept_sorted else 0.0,
     )
 
 
@@ -302,10 +315,17 @@ def check_plan(params: ParameterSet, plan: object, sigma: float) -> DataCheck:
     """The data check of ``params`` on configurations ``plan`` (a Plan, (m, nq) array, or the
     ``q`` of measurements) for noise ``sigma`` per coordinate [m], as identify makes it
     (:func:`check_parameters`)."""
+    sigma = positive_sigma(sigma)
     qs = params.robot.configurations(plan)
     M = information_matrix(params.jacobian(qs, frame="tip")) / sigma**2
     return check_parameters(params, M, len(qs), sigma)
 
 
-def _condition_text(value: float) -> str:
-    return f"{value:.3g}" if np.isfinite(value) else "infinite (singular)"
+def _conditioning(M: np.ndarray) -> float:
+    """The conditioning of M, 0 when it is rank deficient (the rounding of a singular M's
+    smallest eigenvalue is not a conditioning)."""
+    return conditioning(M) if rank(M) == len(M) else 0.0
+
+
+def _conditioning_text(value: float) -> str:
+    return f"{value:.3g}" if value > 0 else "0 (singular)"

@@ -22,20 +22,14 @@ With measurements of noise σ per coordinate, the posterior covariance of the er
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from pincal.arguments import ANGLE_UNITS, LENGTH_UNITS, UNITS_TEXT, number, positive_sigma, quantities
 from pincal.errors import BadArgument
 from pincal.model.parameters import ParameterSet
-
-LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "cm": 1e-2}
-ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "µrad": 1e-6, "deg": math.pi / 180}
-
-_TOKEN = re.compile(r"^\s*([-+0-9.eE]+|inf)\s*([a-zµ]*)\s*$")
-
 
 PRIOR_RANGE = (1e-12, 1e6)
 """Finite prior standard deviations pincal accepts [m or rad] (inf: no prior): 1/std² stays far
@@ -43,19 +37,11 @@ from overflow and underflow."""
 
 
 def _positive(value: object, what: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        v = math.nan
-    if not (v > 0):  # NaN fails too; inf is allowed: no prior
-        raise BadArgument(f"prior standard deviation of {what} must be a positive number, got {value!r}")
+    """A prior standard deviation: in :data:`PRIOR_RANGE`, or inf (no prior)."""
+    if isinstance(value, (float, np.floating)) and value == math.inf:
+        return math.inf
     low, high = PRIOR_RANGE
-    if math.isfinite(v) and not low <= v <= high:
-        raise BadArgument(
-            f"prior standard deviation of {what} must be from {low:g} to {high:g} (or inf: no prior), "
-            f"got {value!r}"
-        )
-    return v
+    return number(value, f"prior standard deviation of {what} (or inf: no prior)", low, high)
 
 
 @dataclass(frozen=True)
@@ -90,33 +76,17 @@ class Prior:
         Raises:
             PincalError: the text is not a length and an angle (the message says what is valid).
         """
-        tokens = [t for t in str(text).split(",") if t.strip()]
         valid = (
-            f"expected a length and an angle, e.g. '1mm,1mrad' (length units: {', '.join(LENGTH_UNITS)}; "
-            f"angle units: {', '.join(ANGLE_UNITS)}; bare numbers are m then rad)"
+            f"expected a length and an angle, e.g. '1mm,1mrad' ({UNITS_TEXT}; bare numbers are m then rad)"
         )
-        if len(tokens) != 2:
+        if len([t for t in str(text).split(",") if t.strip()]) != 2:
             raise BadArgument(f"bad prior {text!r}: {valid}")
         found: dict[str, float] = {}
-        for position, token in enumerate(tokens):
-            match = _TOKEN.match(token.strip().lower())
-            if match is None:
-                raise BadArgument(f"bad prior {text!r}: cannot read {token.strip()!r}; {valid}")
-            number, unit = match.groups()
-            if unit in LENGTH_UNITS:
-                kind, scale = "length", LENGTH_UNITS[unit]
-            elif unit in ANGLE_UNITS:
-                kind, scale = "angle", ANGLE_UNITS[unit]
-            elif unit == "":
-                kind, scale = ("length", "angle")[position], 1.0
-            else:
-                raise BadArgument(f"bad prior {text!r}: unknown unit {unit!r}; {valid}")
+        for position, (kind, value) in enumerate(quantities(str(text), "bad prior", valid)):
+            kind = kind or ("length", "angle")[position]
             if kind in found:
                 raise BadArgument(f"bad prior {text!r}: two {kind}s; {valid}")
-            try:
-                found[kind] = float(number) * scale
-            except ValueError:
-                raise BadArgument(f"bad prior {text!r}: cannot read {token.strip()!r}; {valid}") from None
+            found[kind] = value
         return cls(found["length"], found["angle"])
 
     def std(self, params: ParameterSet) -> np.ndarray:
@@ -139,7 +109,7 @@ class Prior:
     def information(self, params: ParameterSet, sigma: float) -> np.ndarray:
         """(P, P) σ²Σp⁻¹: the prior in the units of M = Σ JᵢᵀJᵢ for noise ``sigma`` [m] per
         coordinate; the posterior covariance is σ²(M + σ²Σp⁻¹)⁻¹."""
-        return sigma**2 * self.precision(params)
+        return positive_sigma(sigma) ** 2 * self.precision(params)
 
     def as_dict(self) -> dict:
         """``{"length": m, "angle": rad, "overrides": {...}}`` (inf as None)."""

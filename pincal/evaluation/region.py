@@ -27,13 +27,17 @@ pose walks on (see :func:`pincal.evaluation.accuracy.worst_found`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import generator
+from pincal.arguments import MAX_ANGLE, generator, number, positive_int
+from pincal.arguments import angle as _angle
+from pincal.arguments import length as _length
+from pincal.arguments import point as _point
 from pincal.errors import BadArgument, Infeasible
 from pincal.model.robot import Robot
 
@@ -89,9 +93,15 @@ def _latin_hypercube(dimension: int, n: int, seed: int) -> np.ndarray:
 
 
 def _samples(samples: object) -> int:
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise BadArgument(f"samples must be an integer ≥ 1, got {samples!r}")
-    return int(samples)
+    return positive_int(samples, "samples")
+
+
+def width_text(angle: float | None, length: float | None) -> str:
+    """'±10°', '±2 cm' or '±10°/±2 cm'."""
+    parts = [] if angle is None else [f"±{math.degrees(angle):.3g}°"]
+    if length is not None:
+        parts.append(f"±{length * 100:.3g} cm" if length < 1 else f"±{length:.3g} m")
+    return "/".join(parts)
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,21 +110,62 @@ class Neighbourhood(TestRegion):
 
     Attributes:
         center: (nq,) the test pose q0 [rad or m].
-        delta: half-width per joint [rad or m]: a number or (nq,).
+        angle: half-width of the revolute joints [rad], or (nq,) half-widths joint by joint, each
+            in its joint's unit [rad or m]; None: no revolute joint may move.
+        length: half-width of the prismatic joints [m], or None (with a scalar ``angle``, the
+            robot must then have no prismatic joint).
         samples: sample configurations (q0 first).
         seed: seed of the sampling.
     """
 
     center: np.ndarray
-    delta: object
+    angle: float | np.ndarray | None
+    length: float | None = None
     samples: int = DEFAULT_SAMPLES
     seed: int = 0
+
+    def half_widths(self, robot: Robot) -> np.ndarray:
+        """(nq,) δ of each joint of ``robot`` [rad or m]: ``angle`` for the revolute joints,
+        ``length`` for the prismatic ones (or the per-joint ``angle``).
+
+        Raises:
+            BadArgument: a kind of joint the robot has was given no half-width, or a per-joint
+                ``angle`` of the wrong size.
+        """
+        if isinstance(self.angle, np.ndarray):
+            if self.angle.shape != (robot.nq,):
+                raise BadArgument(
+                    f"around(): {self.angle.size} half-widths for the {robot.nq} joints of {robot.name} "
+                    f"({', '.join(robot.joint_names)})"
+                )
+            return self.angle
+        revolute = np.asarray(robot.revolute)
+        for kind, value, mask, how in (
+            ("revolute", self.angle, revolute, "an angle: around(q0, angle) (--around 10deg)"),
+            ("prismatic", self.length, ~revolute, "a length in metres: around(q0, angle, length=0.02) "
+             "(--around 10deg,2cm)"),
+        ):  # fmt: skip
+            if value is None and mask.any():
+                names = ", ".join(n for n, k in zip(robot.joint_names, mask) if k)
+                raise BadArgument(
+                    f"the neighbourhood of the test pose gives no half-width for the {kind} joint(s) "
+                    f"{names} of {robot.name}: give {how}",
+                    argument="length" if kind == "prismatic" else "angle",
+                )
+        return np.where(revolute, self.angle or 0.0, self.length or 0.0)
 
     def bounds(self, robot: Robot) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) of the box on ``robot``, within its joint limits."""
         q0 = robot.configurations(self.center, what="test pose")[0]
-        delta = np.broadcast_to(np.asarray(self.delta, dtype=float), q0.shape)
+        delta = self.half_widths(robot)
         return np.maximum(q0 - delta, robot.lower), np.minimum(q0 + delta, robot.upper)
+
+    @property
+    def width(self) -> str:
+        """The half-width in words: '±10°', '±10°/±2 cm' (revolute/prismatic), or '± δ'."""
+        if isinstance(self.angle, np.ndarray):
+            return "± δ"
+        return width_text(self.angle, self.length)
 
     def resolve(self, robot: Robot) -> ResolvedRegion:
         lo, hi = self.bounds(robot)
@@ -128,33 +179,64 @@ class Neighbourhood(TestRegion):
         poses = lo + u * (hi - lo)
         poses[0] = q0
         poses.flags.writeable = False
-        delta = np.asarray(self.delta, dtype=float)
-        width = f"±{np.degrees(delta):.3g}°" if delta.ndim == 0 else "± δ"
         return ResolvedRegion(
             poses,
-            f"{width} around the test pose ({self.samples} samples)",
+            f"{self.width} around the test pose ({self.samples} samples)",
             robot.nq,
             lambda u: lo + np.clip(u, 0.0, 1.0) * (hi - lo),
             u,
         )
 
 
-def around(q0: object, delta: object, samples: int = DEFAULT_SAMPLES, seed: int = 0) -> Neighbourhood:
-    """The joint-space neighbourhood q0 ± δ of a test pose (clipped to the joint limits).
+def around(
+    q0: object,
+    angle: object = None,
+    *,
+    length: object = None,
+    samples: int = DEFAULT_SAMPLES,
+    seed: int = 0,
+) -> Neighbourhood:
+    """The joint-space neighbourhood q0 ± δ of a test pose (clipped to the joint limits): each
+    revolute joint within ±``angle``, each prismatic joint within ±``length``.
 
     Args:
         q0: (nq,) the test pose [rad or m].
-        delta: half-width [rad or m]: one number for every joint, or (nq,).
+        angle: half-width of the revolute joints [rad]; or (nq,) half-widths joint by joint, each
+            in its joint's unit [rad or m] (then no ``length``).
+        length: half-width of the prismatic joints [m]; needed when the robot has one.
         samples: configurations the criteria average over (q0 and Latin-hypercube points of the box).
         seed: seed of the sampling.
 
     Raises:
-        PincalError: δ is not positive and finite, or samples < 1.
+        PincalError: a half-width that is not positive and finite (up to 1e6 rad or m), samples
+            < 1; when the region is used on a robot, a kind of joint it has without a half-width.
     """
-    d = np.asarray(delta, dtype=float)
-    if not (np.all(np.isfinite(d)) and np.all(d > 0)):
-        raise BadArgument(f"the neighbourhood's half-width must be positive [rad or m], got {delta!r}")
-    return Neighbourhood(np.asarray(q0, dtype=float).reshape(-1), d, _samples(samples), int(seed))
+    if angle is None and length is None:
+        raise BadArgument("around() needs a half-width: angle [rad] and, for prismatic joints, length [m]")
+    if angle is not None and np.ndim(angle) == 1:
+        if length is not None:
+            raise BadArgument("around(): give per-joint half-widths (an array) or angle and length, not both")
+        widths = [
+            number(d, f"the neighbourhood's half-width of joint {i}", 0.0, MAX_ANGLE, low_open=True)
+            for i, d in enumerate(np.asarray(angle, dtype=object))
+        ]
+        checked: float | np.ndarray | None = np.array(widths)
+        checked.flags.writeable = False
+    else:
+        checked = None if angle is None else _angle(angle, "the neighbourhood's half-width (angle)")
+    size = None if length is None else _length(length, "the neighbourhood's half-width (length)")
+    return Neighbourhood(_vector(q0, "q0"), checked, size, _samples(samples), _seed(seed))
+
+
+def _seed(seed: object) -> int:
+    return positive_int(seed, "seed", 0, None)
+
+
+def _vector(value: object, what: str) -> np.ndarray:
+    try:
+        return np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise BadArgument(f"{what} must be joint values [rad or m], got {value!r}") from None
 
 
 @dataclass(frozen=True, eq=False)
@@ -256,21 +338,23 @@ def cartesian_box(
         samples: targets drawn in the box (Latin hypercube).
         seed: seed of the sampling.
     """
-    try:
-        lo = np.array(lower, dtype=float).reshape(3)
-        hi = np.array(upper, dtype=float).reshape(3)
-    except (TypeError, ValueError):
-        raise BadArgument(f"box corners must be 3 numbers each [m], got {lower!r} and {upper!r}") from None
-    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi >= lo)):
-        raise BadArgument(f"box: need finite lower <= upper [m], got {lo.tolist()} and {hi.tolist()}")
+    lo = _point(lower, "the box's lower corner")
+    hi = _point(upper, "the box's upper corner")
+    if not np.all(hi >= lo):
+        raise BadArgument(f"box: need lower <= upper on every axis [m], got {lo.tolist()} and {hi.tolist()}")
     R = None
     if rotation is not None:
-        R = np.array(rotation, dtype=float).reshape(3, 3)
-        if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+        try:
+            R = np.array(rotation, dtype=float).reshape(3, 3)
+        except (TypeError, ValueError):
+            raise BadArgument(f"rotation must be a 3×3 rotation matrix, got {rotation!r}") from None
+        if (
+            not np.all(np.isfinite(R))
+            or not np.allclose(R.T @ R, np.eye(3), atol=1e-6)
+            or np.linalg.det(R) < 0
+        ):
             raise BadArgument("rotation must be a 3×3 rotation matrix")
-    return CartesianBox(
-        lo, hi, np.asarray(reference, dtype=float).reshape(-1), R, _samples(samples), int(seed)
-    )
+    return CartesianBox(lo, hi, _vector(reference, "reference"), R, _samples(samples), _seed(seed))
 
 
 class _InverseKinematics:

@@ -117,7 +117,6 @@ class TestPoseCriterion:
         self.params = params
         self.engine = JacobianEngine(params)
         self.test_poses, self.region = resolve_test_poses(params.robot, test_poses)
-        self.sigma = float(sigma)
         self.aggregate = aggregate
         J0 = self.engine.jacobian(self.test_poses, frame="tip")
         self.k = len(self.test_poses)
@@ -222,6 +221,7 @@ def position_covariance(
 ) -> np.ndarray:
     """(k, 3K, 3K) predicted covariance σ² J₀ M⁻¹ J₀ᵀ of the measured points at each test pose,
     after calibration, in the instrument frame [m²]. Its trace is ρ0²."""
+    sigma = positive_sigma(sigma)
     qs = params.robot.configurations(plan)
     q0 = params.robot.configurations(test_pose, what="test pose")
     J = params.jacobian(qs, frame="tip")

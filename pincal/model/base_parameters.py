@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pincal.arguments import Seed, generator
+from pincal.arguments import Seed, fraction, generator, positive_int
 from pincal.errors import BadArgument
 from pincal.model.catalogue import LENGTH_TOLERANCE, split_spec
 from pincal.model.jacobian import unit_columns
@@ -212,6 +212,8 @@ def identifiability(
             arm's own weight alone loads the joints.
     """
     robot = params.robot
+    n_configurations = positive_int(n_configurations, "n_configurations")
+    tol = fraction(tol, "tol")
     rng = generator(seed)
     qs = robot.random_configurations(n_configurations, rng)
     loads = _drawn_payloads(payloads, n_configurations, rng)

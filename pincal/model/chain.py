@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from pincal.arguments import MAX_ANGLE
 from pincal.errors import AmbiguousTip, FrameNotFound, UnsupportedJoint, warn
 
 DIGIT = re.compile(
@@ -233,6 +234,13 @@ def chain_model(model: pin.Model, root: str | None, tip: str, robot: str) -> tup
     zero = []
     for j in chain:
         i = model.idx_qs[j]
+        limits = (model.lowerPositionLimit[i], model.upperPositionLimit[i])
+        if not all(abs(v) <= MAX_ANGLE for v in limits):  # NaN too
+            raise UnsupportedJoint(
+                f"{robot}: joint {model.names[j]!r} has the limits ({limits[0]:g}, {limits[1]:g}), over the "
+                f"{MAX_ANGLE:g} (rad or m) pincal accepts; give its range with --joint-range NAME=LO,HI "
+                "(joint_ranges=)"
+            )
         if model.upperPositionLimit[i] - model.lowerPositionLimit[i] <= ZERO_RANGE:
             zero.append(j)
             q[i] = _locked_value(model, j)

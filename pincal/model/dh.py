@@ -28,7 +28,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import check_lengths, generator
+from pincal.arguments import check_lengths, generator, number
 from pincal.errors import BadDHTable, OverwriteRefused
 from pincal.files import atomic_write_text, read_yaml
 
@@ -319,11 +319,8 @@ def _units(units: object, where: str) -> tuple[float, float]:
 
 
 def _number(value: object, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise BadDHTable(f"{where} is {value!r}, not a number")
-    if not math.isfinite(value):
-        raise BadDHTable(f"{where} is {value}, must be finite")
-    return float(value)
+    """A number of the table (a YAML bool or text refused: :func:`pincal.arguments.number`)."""
+    return number(value, where, error=BadDHTable)
 
 
 def _vector(value: object, n: int, where: str) -> list[float]:

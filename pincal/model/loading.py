@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import check_lengths
+from pincal.arguments import check_lengths, checked_name
 from pincal.errors import (
     AmbiguousTip,
     BadArgument,
@@ -75,13 +75,15 @@ def _resolve_source(
     if isinstance(source, pin.Model):
         return _with_ranges(pin.Model(source), ranges), None, source.name or "model", False
     if hasattr(source, "model") and isinstance(source.model, pin.Model):  # a RobotWrapper
-        return _with_ranges(pin.Model(source.model), ranges), None, source.model.name or "model", False
+        model = _with_ranges(pin.Model(source.model), ranges)
+        return model, _wrapper_urdf(source), source.model.name or "model", False
     if not isinstance(source, (str, os.PathLike)):
         raise RobotNotFound(repr(source), list(shipped_robots()) + example_robot_data_names())
     text = os.fspath(source)
     path = Path(text)
-    if path.suffix.lower() in (".urdf", ".xacro") or path.exists() or os.sep in text:
+    if path.suffix.lower() in (".urdf", ".xacro") or _exists(path) or os.sep in text:
         return read_urdf(path, ranges, package_dirs), path.resolve(), _stem(path), False
+    checked_name(text, "robot name")
     shipped = shipped_robots()
     if text in shipped:
         return read_urdf(shipped[text], ranges, package_dirs), shipped[text], text, False
@@ -91,6 +93,22 @@ def _resolve_source(
     if text in example_robot_data_names():
         raise RobotNotFound(text, [], reason="example-robot-data describes it without a URDF file")
     raise RobotNotFound(text, list(shipped) + example_robot_data_names())
+
+
+def _wrapper_urdf(wrapper: object) -> Path | None:
+    """The URDF file a RobotWrapper carries (example-robot-data's set ``wrapper.urdf``), or None."""
+    urdf = getattr(wrapper, "urdf", None)
+    if isinstance(urdf, (str, os.PathLike)) and _exists(Path(urdf)) and Path(urdf).is_file():
+        return Path(urdf).resolve()
+    return None
+
+
+def _exists(path: Path) -> bool:
+    """``path.exists()``, False for a name the system refuses as a path (too long, a NUL byte)."""
+    try:
+        return path.exists()
+    except (OSError, ValueError):
+        return False
 
 
 def _stem(path: Path) -> str:

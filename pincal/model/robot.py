@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import Seed, generator, positive_int
+from pincal.arguments import Seed, angle, generator, positive_int
 from pincal.errors import BadConfiguration
 from pincal.model.chain import frame_id
 from pincal.model.parameters import ParameterSet
@@ -280,9 +280,9 @@ class Robot:
         if not out.any():
             return
         i, j = np.argwhere(out)[0]
-        angle = bool(self.revolute[j])
-        shown = np.degrees if degrees and angle else float
-        unit = ("degrees" if degrees else "radians") if angle else "metres"
+        turns = bool(self.revolute[j])
+        shown = np.degrees if degrees and turns else float
+        unit = ("degrees" if degrees else "radians") if turns else "metres"
         hint = ""
         if degrees is False and np.abs(q[:, self.revolute]).max(initial=0) > 2 * np.pi + 1e-9:
             hint = "; the values look like degrees: add --deg (degrees=True)"
@@ -304,6 +304,7 @@ class Robot:
             margin: distance kept from each limit [rad or m].
         """
         n = positive_int(n, "the number of configurations", low=0)
+        margin = angle(margin, "margin", positive=False)
         rng = generator(rng)
         lo = np.maximum(self.model.lowerPositionLimit, -np.pi) + margin
         hi = np.minimum(self.model.upperPositionLimit, np.pi) - margin
@@ -418,12 +419,20 @@ class Robot:
         return origin.origin * motion
 
     def to_model(self) -> pin.Model:
-        """A plain ``pinocchio.Model`` of this robot (a new copy), joint offsets folded into the
-        joint placements as in the exported URDF: ``pin.framesForwardKinematics(model, data, q)``
+        """A plain ``pinocchio.Model`` of this robot's chain (a new copy), joint offsets folded into
+        the joint placements as in the exported URDF: ``pin.framesForwardKinematics(model, data, q)``
         then ``robot.base * data.oMf[model.getFrameId(robot.tip)]`` applied to each marker gives
         :meth:`points` (q the joint values as measured, no offset table) for a rigid robot. Joint
         gains and compliances are not geometry: they are not in the model (see
-        :meth:`joint_values`)."""
+        :meth:`joint_values`).
+
+        It is the calibrated chain only: its :attr:`nq` joints, from the root frame to the tip, in
+        the order of :attr:`joint_names`; every other joint of the URDF (a panda's two finger
+        joints: 7 of its 9 joints are here, a humanoid's other limbs, joints of zero range) is
+        locked at the value it had when the robot was loaded and folded into the fixed placements,
+        and the world frame is the chain's root. For the whole robot with every joint, write the
+        calibrated URDF (:func:`pincal.export_urdf`) and load it:
+        ``pin.buildModelFromUrdf("calibrated.urdf")``."""
         model = pin.Model(self.model)
         for o in range(self.nq):
             joint = self.origins[o].joint

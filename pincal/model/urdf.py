@@ -3,7 +3,8 @@
 :func:`read_urdf` turns a file into a Pinocchio model of the whole tree:
 
 * a ``.xacro`` file (or a URDF that still holds ``xacro:`` tags) is expanded when the ``xacro``
-  package is installed; otherwise the error gives the exact command that expands it;
+  package is installed (``pip install "pincal[xacro]"``, no ROS needed); otherwise the error says
+  so;
 * ``continuous`` joints become revolute joints whose *design range* (the joint values the design
   may choose) is one turn, [-π, π], or the range given for them; a range given for any other
   joint replaces its URDF limits;
@@ -29,8 +30,8 @@ import pinocchio as pin
 from lxml import etree
 
 from pincal import files
-from pincal.arguments import check_lengths
-from pincal.errors import UnknownName, UrdfError, warn
+from pincal.arguments import check_lengths, checked_name, joint_range
+from pincal.errors import BadArgument, UnknownName, UrdfError, warn
 from pincal.model import xacro_expansion
 from pincal.model.xacro_expansion import package_roots
 
@@ -45,17 +46,16 @@ ONE_TURN = (-np.pi, np.pi)
 
 
 def parse_joint_ranges(ranges: Mapping[str, object] | None) -> dict[str, tuple[float, float]]:
-    """``{joint: (lower, upper)}`` checked: finite numbers, lower <= upper."""
-    out: dict[str, tuple[float, float]] = {}
-    for name, value in (ranges or {}).items():
-        try:
-            lo, hi = (float(v) for v in value)  # type: ignore[union-attr]
-        except (TypeError, ValueError):
-            raise UrdfError(f"joint range of {name!r}: expected (lower, upper), got {value!r}") from None
-        if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
-            raise UrdfError(f"joint range of {name!r}: expected finite lower <= upper, got ({lo}, {hi})")
-        out[str(name)] = (lo, hi)
-    return out
+    """``{joint: (lower, upper)}`` checked (:func:`pincal.arguments.joint_range`: numbers within
+    ±1e6 rad or m, lower <= upper)."""
+    if ranges is not None and not isinstance(ranges, Mapping):
+        raise BadArgument(
+            f"joint_ranges must be {{joint: (lower, upper)}}, got {ranges!r}", argument="joint_ranges"
+        )
+    return {
+        checked_name(name, "joint name (in a joint range)"): joint_range(value, f"joint range of {name!r}")
+        for name, value in (ranges or {}).items()
+    }
 
 
 def resolve_mesh(
@@ -97,9 +97,9 @@ def _expand_xacro(path: Path, package_dirs: Mapping[str, str] | None = None) -> 
     done = xacro_expansion.expand(path, package_dirs, MAX_URDF_BYTES)
     if done.error == "no xacro":
         raise UrdfError(
-            f"{str(path)!r} is a xacro file, not a URDF: expand it first with "
-            f"'{xacro_command(path)}' (xacro comes with ROS, or 'pip install xacro'), then give the "
-            f".urdf"
+            f"{str(path)!r} is a xacro file, not a URDF: pincal expands it (without ROS) once the xacro "
+            f'package is installed: pip install "pincal[xacro]" (with ROS sourced, '
+            f"'{xacro_command(path)}' expands it too)"
         )
     if done.error is not None or done.text is None:
         raise UrdfError(f"xacro cannot expand {str(path)!r}: {done.error}")
@@ -118,14 +118,21 @@ def read_text(path: Path, package_dirs: Mapping[str, str] | None = None) -> str:
     return text
 
 
-def read_tree(path: Path, package_dirs: Mapping[str, str] | None = None) -> etree._Element:
-    """The XML tree of the URDF (or xacro) file ``path``, as :func:`read_urdf` reads it: a xacro
-    source expanded when it can be; a one-line UrdfError when the file cannot be read."""
+def expanded_text(path: Path, package_dirs: Mapping[str, str] | None = None) -> str:
+    """The URDF text of the URDF (or xacro) file ``path`` as :func:`read_urdf` reads it: a xacro
+    source expanded (in the same bounded child process, ``$(find NAME)`` from ``package_dirs`` or
+    the folders above it), a plain URDF as it is; a one-line UrdfError when it cannot be read."""
     text = read_text(path, package_dirs)
     if "<xacro:" in text and path.suffix.lower() != ".xacro":
         with contextlib.suppress(UrdfError):  # no xacro package: read_urdf accepted the text as is
             text = _expand_xacro(path, package_dirs)
-    return _parse(text, repr(str(path)))
+    return text
+
+
+def read_tree(path: Path, package_dirs: Mapping[str, str] | None = None) -> etree._Element:
+    """The XML tree of the URDF (or xacro) file ``path``, as :func:`read_urdf` reads it (see
+    :func:`expanded_text`)."""
+    return _parse(expanded_text(path, package_dirs), repr(str(path)))
 
 
 def _parse(text: str, where: str) -> etree._Element:
@@ -148,6 +155,55 @@ def _parse(text: str, where: str) -> etree._Element:
     return root
 
 
+def _check_tree(root: etree._Element, where: str) -> None:
+    """The joints join the links into one tree, as the URDF format requires (urdfdom refuses the
+    rest; Pinocchio would cut the chain silently): no joint whose parent and child are the same
+    link, no link that is the child of two joints, one root link.
+
+    Raises:
+        UrdfError: naming the joint or the links at fault.
+    """
+    links = [link.get("name") for link in root if link.tag == "link"]
+    defined = set(links)
+    parent_of: dict[str, str] = {}
+    for joint in (j for j in root if j.tag == "joint"):
+        name = joint.get("name")
+        parent, child = _link_of(joint, "parent"), _link_of(joint, "child")
+        for role, link in (("parent", parent), ("child", child)):
+            if link is not None and link not in defined:
+                raise UrdfError(
+                    f"URDF {where}: joint {name!r} names {role} link {link!r}, which the URDF does not "
+                    f"define (its links: {few(links, 6)})"
+                )
+        if parent is not None and parent == child:
+            raise UrdfError(
+                f"URDF {where}: joint {name!r} has link {parent!r} as both parent and child: a joint "
+                "connects two different links"
+            )
+        if child is None:
+            continue
+        if child in parent_of:
+            raise UrdfError(
+                f"URDF {where}: link {child!r} is the child of two joints ({parent_of[child]!r} and "
+                f"{name!r}): every link but the root hangs from one joint"
+            )
+        parent_of[child] = name
+    roots = [link for link in links if link not in parent_of]
+    if links and not roots:
+        raise UrdfError(f"URDF {where}: the joints form a loop (every link has a parent): no root link")
+    if len(roots) > 1:
+        raise UrdfError(
+            f"URDF {where}: the joints leave {len(roots)} links without a parent ({few(roots)}): they "
+            "must join every link into one tree, from one root link"
+        )
+
+
+def _link_of(joint: etree._Element, tag: str) -> str | None:
+    """The ``link`` attribute of a joint's <parent> or <child>, or None."""
+    element = joint.find(tag)
+    return None if element is None else element.get("link")
+
+
 def _set_range(joint: etree._Element, lo: float, hi: float) -> None:
     limit = joint.find("limit")
     if limit is None:
@@ -163,6 +219,7 @@ def prepare(text: str, ranges: Mapping[str, tuple[float, float]], where: str) ->
     """The URDF text with continuous joints made revolute on their design range and the joint
     ranges asked for written as limits."""
     root = _parse(text, where)
+    _check_tree(root, where)
     joints = {j.get("name"): j for j in root.iter("joint") if j.getparent() is root}
     unknown = [name for name in ranges if name not in joints]
     if unknown:

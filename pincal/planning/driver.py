@@ -32,7 +32,6 @@ seed gives the same plan whatever the executor and the number of workers.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Iterable, Sequence
 from concurrent.futures import Executor
@@ -40,7 +39,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, Seed, positive_int, positive_sigma, seed_entropy
+from pincal.arguments import DEFAULT_SIGMA, Seed, fraction, number, positive_int, positive_sigma, seed_entropy
 from pincal.errors import (
     BadArgument,
     FloorUnreachable,
@@ -259,15 +258,12 @@ def _validate(
         )
     starts = positive_int(starts, "starts")
     workers = _multistart.default_workers() if workers is None else positive_int(workers, "workers")
-    if not (isinstance(keep, (int, float)) and 0 < keep <= 1):
-        raise BadArgument(f"keep must be a fraction in (0, 1], got {keep!r}")
+    keep = fraction(keep, "keep", one=True)
     screen_iterations = positive_int(screen_iterations, "screen_iterations", 0)
     maxiter = positive_int(maxiter, "maxiter")
     floor = (MIN_CONDITIONING if prior is None else 0.0) if min_conditioning is None else min_conditioning
-    low = 0 if prior is not None else math.ulp(0.0)
-    if isinstance(floor, bool) or not (isinstance(floor, (int, float)) and low <= floor < 0.1):
-        valid = "[0, 0.1) with a prior" if prior is not None else "(0, 0.1) (0 only with a prior)"
-        raise BadArgument(f"min_conditioning must be a number in {valid}, got {floor!r}")
+    name = "min_conditioning" + (" (0 only with a prior)" if prior is None else "")
+    floor = number(floor, name, 0.0, 0.1, low_open=prior is None, high_open=True)
     constraints = tuple(constraints)
     feasibility = Feasibility(params.robot, constraints)
     entropy = seed_entropy(seed)

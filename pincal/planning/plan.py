@@ -13,8 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pincal.arguments import MAX_COUNT, positive_int
 from pincal.errors import BadArgument, BadPlanFile
-from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
+from pincal.files import atomic_write_text, column_mismatch, csv_header, read_numeric_csv
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,9 +72,8 @@ class Plan:
 
     def repeat(self, k: int) -> Plan:
         """The whole plan measured ``k`` times (ρ0² is divided by k exactly)."""
-        if int(k) != k or k < 1:
-            raise BadPlanFile(f"repeat count must be a positive integer, got {k!r}")
-        return Plan(np.tile(self.q, (int(k), 1)), self.joint_names, self.revolute)
+        k = positive_int(k, "repeat count", high=MAX_COUNT // max(len(self.q), 1))
+        return Plan(np.tile(self.q, (k, 1)), self.joint_names, self.revolute)
 
     def concat(self, *others: Plan) -> Plan:
         """This plan followed by ``others`` (same joints)."""
@@ -105,7 +105,7 @@ class Plan:
         """
         values = np.where(self._revolute(robot, "write"), np.degrees(self.q), self.q) if degrees else self.q
         out = io.StringIO()
-        out.write(",".join(self.joint_names) + "\n")
+        out.write(csv_header(self.joint_names))
         for row in values:
             out.write(",".join(repr(float(v)) for v in row) + "\n")
         return out.getvalue()

@@ -1,4 +1,4 @@
-"""Figures of a calibration design (matplotlib, optional: ``pip install 'pincal[plot]'``).
+"""Figures of a calibration design (matplotlib, optional: ``pip install "pincal[plot]"``).
 
 Each function takes numbers computed elsewhere (ρ0 of plans, Monte-Carlo errors, search traces),
 draws one figure and returns it: nothing is shown (no ``plt.show()``) and nothing is written;
@@ -38,8 +38,12 @@ UNITS = {"m": 1.0, "mm": 1e3, "um": 1e6, "µm": 1e6}
 _COLORS = ("#7f7f7f", "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf")
 
 
-def _pyplot():
-    return require("matplotlib.pyplot", "pincal.plots", "pincal[plot]")
+PLOT_EXTRA = "pincal[plot]"
+"""The pip requirement that brings matplotlib."""
+
+
+def _pyplot(feature: str = "pincal.viewing.plots"):
+    return require("matplotlib.pyplot", feature, PLOT_EXTRA)
 
 
 def _factor(unit: str) -> float:
@@ -50,15 +54,21 @@ def _factor(unit: str) -> float:
 
 def _figure(figsize: tuple[float, float]) -> Figure:
     """A new Figure that pyplot does not keep (it is freed with its last reference)."""
+    _pyplot()  # a clear error if matplotlib is missing, before any matplotlib import
     from matplotlib.figure import Figure
 
-    _pyplot()  # a clear error if matplotlib is missing
     return Figure(figsize=figsize, layout="constrained")
 
 
-def figure_format(path: str | os.PathLike) -> str:
+def figure_format(path: str | os.PathLike, feature: str = "pincal.viewing.plots") -> str:
     """The image format of a figure file, from its suffix ('png', 'pdf', 'svg', ...), or an error
-    listing the valid ones."""
+    listing the valid ones.
+
+    Raises:
+        MissingDependency: matplotlib is not installed (``feature`` names what needs it).
+        CannotWrite: a suffix matplotlib cannot write.
+    """
+    _pyplot(feature)
     from matplotlib.backend_bases import FigureCanvasBase
 
     valid = FigureCanvasBase.get_supported_filetypes()

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA
+from pincal.arguments import DEFAULT_SIGMA, positive_sigma, ratio
 from pincal.errors import BadConfiguration, SingularPlan, warn
 from pincal.evaluation.accuracy import PredictedError
 from pincal.evaluation.prior import Prior
@@ -263,10 +263,9 @@ def _checked_params(params_or_robot: ParameterSet | Robot, sigma: float, scale: 
         raise BadConfiguration(
             f"expected a pincal ParameterSet or Robot, got {type(params_or_robot).__name__}"
         )
-    if not (np.isfinite(sigma) and sigma > 0):
-        raise BadConfiguration(f"sigma must be a positive number of metres, got {sigma!r}")
-    if scale is not None and not (np.isfinite(scale) and scale > 0):
-        raise BadConfiguration(f"scale must be a positive number, got {scale!r}")
+    positive_sigma(sigma)
+    if scale is not None:
+        ratio(scale, "scale")
     return params
 
 

@@ -4,11 +4,11 @@ constraint's numbers."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pinocchio as pin
 
+from pincal import arguments
+from pincal.arguments import MAX_LENGTH
 from pincal.errors import BadConstraint
 from pincal.model.robot import Robot
 
@@ -17,24 +17,15 @@ TOLERANCE = 1e-9
 
 
 def vector(value: object, what: str, size: int = 3) -> tuple[float, ...]:
-    try:
-        arr = np.array(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError, OverflowError):
-        raise BadConstraint(f"{what} must be {size} numbers, got {value!r}") from None
-    if arr.size != size or not np.all(np.isfinite(arr)):
-        raise BadConstraint(f"{what} must be {size} finite numbers, got {value!r}")
-    return tuple(float(v) for v in arr)
+    """``size`` numbers (a position [m] or a direction), each within ±1e6 (see
+    :func:`pincal.arguments.point`)."""
+    return tuple(float(v) for v in arguments.point(value, what, size, BadConstraint))
 
 
-def number(value: object, what: str, low: float = -math.inf, strict: bool = False) -> float:
-    try:
-        v = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError, OverflowError):
-        raise BadConstraint(f"{what} must be a number, got {value!r}") from None
-    if not math.isfinite(v) or v < low or (strict and v == low):
-        bound = f"{'>' if strict else '≥'} {low:g}"
-        raise BadConstraint(f"{what} must be a finite number {bound}, got {value!r}")
-    return v
+def number(value: object, what: str, low: float = -MAX_LENGTH, strict: bool = False) -> float:
+    """A length [m] or angle [rad] from ``low`` (excluded when ``strict``) to 1e6 (see
+    :func:`pincal.arguments.number`: booleans and text refused)."""
+    return arguments.number(value, what, low, MAX_LENGTH, low_open=strict, error=BadConstraint)
 
 
 class Kinematics:
