@@ -162,16 +162,9 @@ def test_sigma_has_one_answer_everywhere(planar, sigma):
         ("--around", "-10deg", "--around '-10deg': the angle must be a positive number of radians"),
     ],
 )
-def test_the_cli_refuses_with_the_api_s_bounds_naming_the_option(capsys, option, value, fragment):
-    from pincal.cli import main
-
+def test_the_cli_refuses_with_the_api_s_bounds_naming_the_option(cli, option, value, fragment):
     argv = ["design", "planar_2r", "-m", "3", "--test-pose=0.3,1.2", "--params", "joint2.tx,tip.tx"]
-    try:
-        code = main([*argv, f"{option}={value}"])
-    except SystemExit as exc:
-        code = exc.code
-    err = capsys.readouterr().err
-    assert code == 2 and err.count("\n") == 1 and fragment in err, err
+    err = cli.fails(*argv, f"{option}={value}", match=fragment)
     if option != "--around":  # read by argparse: the option is named once, in argparse's words
         assert err.startswith(f"pincal: error: argument {option}: must be")
 

@@ -17,29 +17,11 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.cli import main
 from pincal.files import all_or_nothing, atomic_write_text
 from tests.test_chains import XACRO_ARM
 
 ROOT = Path(__file__).resolve().parents[1]
 PLANAR = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
-
-
-def run(capsys, argv: list) -> tuple[int, str, str]:
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def fails(capsys, argv: list, fragment: str) -> str:
-    """The CLI exits 2 with one 'pincal: error:' line holding ``fragment``."""
-    code, _, err = run(capsys, argv)
-    assert code == 2 and err.startswith("pincal: error: ") and err.count("\n") == 1, err
-    assert fragment in err, err
-    return err
 
 
 @pytest.fixture
@@ -53,7 +35,7 @@ def cell(tmp_path):
 XACRO = XACRO_ARM  # planar 2-joint arm: properties, a macro, ${pi} limits
 
 
-def test_a_xacro_robot_is_calibrated_and_exported_end_to_end(tmp_path, capsys):
+def test_a_xacro_robot_is_calibrated_and_exported_end_to_end(tmp_path, cli):
     """identify on a xacro robot exported 'has no joints' (the xacro source was parsed as the
     URDF): the export starts from the expansion loading uses, and the file loads back."""
     pytest.importorskip("xacro")
@@ -67,7 +49,7 @@ def test_a_xacro_robot_is_calibrated_and_exported_end_to_end(tmp_path, capsys):
     data.to_csv(tmp_path / "meas.csv")
     out = tmp_path / "calibrated.urdf"
     argv = ["identify", src, "--marker", "0.05,0.02,0.1", "--params", ",".join(params.names)]
-    code, stdout, err = run(capsys, [*argv, "--data", tmp_path / "meas.csv", "--out", out])
+    code, stdout, err = cli.run(*argv, "--data", tmp_path / "meas.csv", "--out", out)
     assert code == 0, err
     back = pincal.load_robot(out, markers=[(0.05, 0.02, 0.1)])
     assert back.joint_names == ("j1", "j2")
@@ -177,7 +159,7 @@ def test_the_plots_module_without_matplotlib_names_the_extra():
 
 
 # ------------------------------------------------------------ --around on prismatic joints
-def test_around_takes_a_length_for_prismatic_joints(capsys):
+def test_around_takes_a_length_for_prismatic_joints(cli):
     rail = pincal.load_robot("rail_arm")
     q0 = [0.8, 0.3, 0.4, -0.6]
     with pytest.raises(
@@ -194,9 +176,9 @@ def test_around_takes_a_length_for_prismatic_joints(capsys):
     names = ",".join(rail.parameters("full,offsets").identifiable().identifiable.names)
     base = ["design", "rail_arm", "-m", "8", "--test-pose=0.8,17,23,-34", "--deg", "--starts", "2",
             "--workers", "1", "--pool-size", "300", "--no-accuracy", "--params", names]  # fmt: skip
-    fails(capsys, [*base, "--around", "10deg"], "prismatic joint(s) rail")
-    fails(capsys, [*base, "--around", "10deg,2kg"], "unknown unit 'kg'")
-    code, out, err = run(capsys, [*base, "--around", "10deg,2cm"])
+    cli.fails(*base, "--around", "10deg", match="prismatic joint(s) rail")
+    cli.fails(*base, "--around", "10deg,2kg", match="unknown unit 'kg'")
+    code, out, err = cli.run(*base, "--around", "10deg,2cm")
     assert code == 0, err
     lines = out.splitlines()
     table = lines.index("plan:")
@@ -205,22 +187,18 @@ def test_around_takes_a_length_for_prismatic_joints(capsys):
 
 
 # ------------------------------------------------------------------ one conditioning number
-def test_one_conditioning_number_across_commands(cell, capsys):
+def test_one_conditioning_number_across_commands(cell, cli):
     planar = [cell / "robot.urdf", *PLANAR]
-    code, out, err = run(capsys, ["design", *planar, "-m", "3", "--test-pose=0.3,1.2", "--workers", "1",
-                                  "--out", cell / "d.csv", "--json"])  # fmt: skip
-    assert code == 0, err
-    designed = json.loads(out)["conditioning"]
-    code, out, _ = run(
-        capsys, ["evaluate", *planar, "--plan", cell / "d.csv", "--test-pose=0.3,1.2", "--json"]
-    )
-    assert json.loads(out)["data_check"]["conditioning"] == pytest.approx(designed, rel=1e-9)
-    code, out, _ = run(capsys, ["evaluate", *planar, "--plan", cell / "d.csv", "--test-pose=0.3,1.2"])
-    assert f"conditioning {designed:.3g}" in out and "condition number" not in out
-    code, out, _ = run(capsys, ["params", *planar, "--plan", cell / "d.csv"])
-    assert f"conditioning {designed:.3g}" in out and "condition number" not in out
+    designed = cli.json("design", *planar, "-m", "3", "--test-pose=0.3,1.2", "--workers", "1",
+                        "--out", cell / "d.csv")["conditioning"]  # fmt: skip
+    evaluate = ["evaluate", *planar, "--plan", cell / "d.csv", "--test-pose=0.3,1.2"]
+    assert cli.json(*evaluate)["data_check"]["conditioning"] == pytest.approx(designed, rel=1e-9)
+    for argv in (evaluate, ["params", *planar, "--plan", cell / "d.csv"]):
+        code, out, err = cli.run(*argv)
+        assert code == 0, err
+        assert f"conditioning {designed:.3g}" in out and "condition number" not in out
     for command in ("design", "evaluate", "params", "identify"):
-        code, text, _ = run(capsys, [command, "--help"])
+        code, text, _ = cli.run(command, "--help")
         assert "Conditioning (every report, one number)" in text and "condition number" not in text
 
 
@@ -234,7 +212,7 @@ def test_one_conditioning_number_across_commands(cell, capsys):
         (["--joint-range", "joint_a2=-1e308,1e308"], "joint range of 'joint_a2' lower must be a number"),
     ],
 )
-def test_the_fuzzers_huge_values_are_refused_where_read(capsys, tmp_path, extra, fragment):
+def test_the_fuzzers_huge_values_are_refused_where_read(cli, tmp_path, extra, fragment):
     (tmp_path / "plan.csv").write_text(
         "joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6\n" + "0,-1,1,0,0.5,0\n" * 4
     )
@@ -243,13 +221,13 @@ def test_the_fuzzers_huge_values_are_refused_where_read(capsys, tmp_path, extra,
                 "--out", tmp_path / "m.csv", *extra]  # fmt: skip
     else:
         argv = ["evaluate", "kr270", "--plan", tmp_path / "plan.csv", "--test-pose=0,-1,1,0,0.5,0", *extra]
-    fails(capsys, argv, fragment)
+    cli.fails(*argv, match=fragment)
     assert not (tmp_path / "m.csv").exists()
 
 
-def test_a_long_robot_name_is_refused_as_a_name(capsys):
-    fails(capsys, ["robots", "a" * 300], "is 300 characters long, more than the 200 a name may have")
-    fails(capsys, ["params", "b" * 300 + ".urdf"], "File name too long")
+def test_a_long_robot_name_is_refused_as_a_name(cli):
+    cli.fails("robots", "a" * 300, match="is 300 characters long, more than the 200 a name may have")
+    cli.fails("params", "b" * 300 + ".urdf", match="File name too long")
 
 
 # ------------------------------------------------------ malformed input said in one line
@@ -268,16 +246,16 @@ def _chain_urdf(n: int, loop_at: int | None = None) -> str:
     return f'<robot name="chain">{links}{joints}</robot>'
 
 
-def test_a_joint_from_a_link_to_itself_is_refused(tmp_path, capsys):
+def test_a_joint_from_a_link_to_itself_is_refused(tmp_path, cli):
     (tmp_path / "ok.urdf").write_text(_chain_urdf(7))
     assert pincal.load_robot(tmp_path / "ok.urdf").nq == 7
     (tmp_path / "loop.urdf").write_text(_chain_urdf(7, loop_at=4))  # was a 4-joint robot, tip l4
-    fails(capsys, ["params", tmp_path / "loop.urdf"], "joint 'j5' has link 'l4' as both parent and child")
+    cli.fails("params", tmp_path / "loop.urdf", match="joint 'j5' has link 'l4' as both parent and child")
     broken = _chain_urdf(3).replace('<link name="l2"/>', "")
     (tmp_path / "undefined.urdf").write_text(broken)
-    fails(capsys, ["params", tmp_path / "undefined.urdf"], "names child link 'l2', which the URDF does not")
+    cli.fails("params", tmp_path / "undefined.urdf", match="names child link 'l2', which the URDF does not")
     (tmp_path / "forest.urdf").write_text(_chain_urdf(3).replace("</robot>", '<link name="stray"/></robot>'))
-    fails(capsys, ["params", tmp_path / "forest.urdf"], "2 links without a parent (l0, stray)")
+    cli.fails("params", tmp_path / "forest.urdf", match="2 links without a parent (l0, stray)")
 
 
 @pytest.mark.parametrize(
@@ -290,14 +268,14 @@ def test_a_joint_from_a_link_to_itself_is_refused(tmp_path, capsys):
         ("self_collision: {min_distance: true}", "self_collision min_distance must be"),
     ],
 )
-def test_yaml_booleans_are_not_numbers(cell, capsys, text, fragment):
+def test_yaml_booleans_are_not_numbers(cell, cli, text, fragment):
     (cell / "cell.yaml").write_text(text)
     argv = ["design", cell / "robot.urdf", "-m", "3", "--test-pose=0.3,1.2", *PLANAR, "--workers", "1"]
-    err = fails(capsys, [*argv, "--constraints", cell / "cell.yaml"], fragment)
+    err = cli.fails(*argv, "--constraints", cell / "cell.yaml", match=fragment)
     assert "got True" in err or "got False" in err
 
 
-def test_joint_names_with_commas_and_hashes_survive_a_plan_file(tmp_path, capsys):
+def test_joint_names_with_commas_and_hashes_survive_a_plan_file(tmp_path, cli):
     text = (ROOT / "robots" / "planar_2r.urdf").read_text()
     text = text.replace('"joint1"', '"a,b"').replace('"joint2"', '"#2 &quot;q&quot;"')
     (tmp_path / "odd.urdf").write_text(text)
@@ -312,13 +290,13 @@ def test_joint_names_with_commas_and_hashes_survive_a_plan_file(tmp_path, capsys
     assert pincal.MeasurementData.from_csv(tmp_path / "meas.csv", robot).joint_names == robot.joint_names
     argv = ["design", tmp_path / "odd.urdf", "--tip", "tip", "-m", "6", "--test-pose=0.3,1.2"]
     argv += ["--workers", "1", "--starts", "2", "--pool-size", "200", "--no-accuracy"]
-    code, _, err = run(capsys, [*argv, "--out", tmp_path / "d.csv"])
+    code, _, err = cli.run(*argv, "--out", tmp_path / "d.csv")
     assert code == 0, err
     assert pincal.Plan.from_csv(tmp_path / "d.csv", robot=robot).m == 6
 
 
 # ------------------------------------------------------------- all outputs or none
-def test_a_command_that_fails_leaves_none_of_its_outputs(cell, capsys, monkeypatch):
+def test_a_command_that_fails_leaves_none_of_its_outputs(cell, cli, monkeypatch):
     """measure-sim wrote --out, then failed on --save-true (exit 2): both outputs are now written
     at the end, together, or neither."""
     argv = ["measure-sim", cell / "robot.urdf", "--tip", "tip", "--plan", cell / "plan.csv"]
@@ -329,19 +307,20 @@ def test_a_command_that_fails_leaves_none_of_its_outputs(cell, capsys, monkeypat
         raise pincal.CannotWrite("cannot write the output 'true.urdf': No space left on device")
 
     monkeypatch.setattr(measure_sim, "export_urdf", failing_export)
-    fails(capsys, argv, "No space left on device")
+    cli.fails(*argv, match="No space left on device")
     assert sorted(p.name for p in cell.iterdir()) == ["plan.csv", "robot.urdf"]  # no temporary file either
     monkeypatch.undo()
-    code, _, err = run(capsys, argv)
-    assert code == 0, err and (cell / "m.csv").exists() and (cell / "true.urdf").exists()
+    code, _, err = cli.run(*argv)
+    assert code == 0, err
+    assert (cell / "m.csv").exists() and (cell / "true.urdf").exists()
 
 
-def test_an_unwritable_second_output_is_refused_before_any_work(cell, capsys):
+def test_an_unwritable_second_output_is_refused_before_any_work(cell, cli):
     """A folder the process cannot create files in (root passes os.access everywhere: /proc) is
     found by a real probe before the computation."""
     argv = ["measure-sim", cell / "robot.urdf", "--tip", "tip", "--plan", cell / "plan.csv"]
     argv += ["--error-std", "1e-3,1e-3", "--out", cell / "m.csv", "--save-true", "/proc/true.urdf"]
-    fails(capsys, argv, "cannot write --save-true '/proc/true.urdf'")
+    cli.fails(*argv, match="cannot write --save-true '/proc/true.urdf'")
     assert not (cell / "m.csv").exists()
 
 
