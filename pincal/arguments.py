@@ -81,6 +81,13 @@ def _float(value: object) -> float:
         return math.nan
 
 
+def _shown(value: object) -> str:
+    """``repr`` of a value for a message; NumPy scalars as the plain numbers they hold."""
+    if isinstance(value, (np.generic, np.ndarray)) and np.ndim(value) == 0:
+        return repr(np.asarray(value).item())
+    return repr(value)
+
+
 def _g(x: float) -> str:
     return f"{x:g}"
 
@@ -117,7 +124,7 @@ def number(
     )
     if not inside:
         valid = describe(low, high, low_open=low_open, high_open=high_open, unit=unit)
-        raise error(f"{name} must be {valid}, got {value!r}", argument=name, value=value, valid=valid)
+        raise error(f"{name} must be {valid}, got {_shown(value)}", argument=name, value=value, valid=valid)
     return v
 
 
@@ -217,11 +224,11 @@ def point(value: object, name: str, size: int = 3, error: type[BadArgument] = Ba
     """``size`` coordinates [m] (a point, a box corner), each within ±:data:`MAX_LENGTH`."""
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
         valid = f"{size} numbers [m]"
-        raise error(f"{name} must be {valid}, got {value!r}", argument=name, value=value, valid=valid)
+        raise error(f"{name} must be {valid}, got {_shown(value)}", argument=name, value=value, valid=valid)
     items = list(value)  # type: ignore[call-overload]
     if len(items) != size:
         valid = f"{size} numbers [m]"
-        raise error(f"{name} must be {valid}, got {value!r}", argument=name, value=value, valid=valid)
+        raise error(f"{name} must be {valid}, got {_shown(value)}", argument=name, value=value, valid=valid)
     return np.array([coordinate(v, f"{name}[{i}]", error) for i, v in enumerate(items)])
 
 
@@ -244,7 +251,7 @@ def joint_range(value: object, name: str, error: type[BadArgument] = BadArgument
     except (TypeError, ValueError):
         valid = "(lower, upper) [rad or m]"
         raise error(
-            f"{name} must be {valid}, got {value!r}", argument=name, value=value, valid=valid
+            f"{name} must be {valid}, got {_shown(value)}", argument=name, value=value, valid=valid
         ) from None
     lo = number(lo, f"{name} lower", -MAX_ANGLE, MAX_ANGLE, unit="m or rad", error=error)
     hi = number(hi, f"{name} upper", -MAX_ANGLE, MAX_ANGLE, unit="m or rad", error=error)
@@ -285,7 +292,7 @@ def positive_int(value: object, name: str, low: int = 1, high: int | None = MAX_
     ):
         bounds = f"≥ {low}" if high is None else f"from {low} to {high:,}"
         raise BadArgument(
-            f"{name} must be an integer {bounds}, got {value!r}",
+            f"{name} must be an integer {bounds}, got {_shown(value)}",
             argument=name,
             value=value,
             valid=f"an integer {bounds}",
@@ -307,7 +314,9 @@ def positive_sigma(sigma: object = DEFAULT_SIGMA, name: str = "sigma", *, zero: 
     if not (math.isfinite(v) and low <= v <= high):
         valid = f"a positive number of metres from {low:g} to {high:g}"
         valid += " (or 0: exact points)" if zero else ""
-        raise BadArgument(f"{name} must be {valid}, got {sigma!r}", argument=name, value=sigma, valid=valid)
+        raise BadArgument(
+            f"{name} must be {valid}, got {_shown(sigma)}", argument=name, value=sigma, valid=valid
+        )
     return v
 
 
@@ -315,7 +324,7 @@ def checked_name(value: object, what: str, error: type[BadArgument] = BadArgumen
     """A name (robot, joint, frame, link): non-empty text of at most :data:`MAX_NAME` characters
     without control characters."""
     if not isinstance(value, str) or not value.strip():
-        raise error(f"{what} must be a non-empty name, got {value!r}", argument=what, value=value)
+        raise error(f"{what} must be a non-empty name, got {_shown(value)}", argument=what, value=value)
     if len(value) > MAX_NAME:
         raise error(
             f"{what} {value[:40]!r}... is {len(value)} characters long, more than the {MAX_NAME} a "

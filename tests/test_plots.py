@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 import types
 
 import matplotlib  # the [test] extra: a broken install fails, it does not skip
@@ -112,12 +111,6 @@ def test_search_progress_of_a_design(tmp_path, planar):
 def test_bad_input_is_a_pincal_error(call, message):
     with pytest.raises(pincal.PincalError, match=message):
         call()
-
-
-def test_missing_matplotlib_gives_an_actionable_error(monkeypatch):
-    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
-    with pytest.raises(pincal.PincalError, match=r"pip install 'pincal\[plot\]'"):
-        plots.rho0_histogram([1e-4, 2e-4], 1e-4)
 
 
 @pytest.mark.parametrize("extra", [["--baseline", "50"], []], ids=["histogram", "search"])

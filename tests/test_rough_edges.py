@@ -209,7 +209,7 @@ def test_one_conditioning_number_across_commands(cell, cli):
         (["--sigma=1e308"], "argument --sigma: must be a positive number of metres from 1e-12 to 1000"),
         (["--around=1e308"], "--around '1e308': the angle must be a positive number of radians up to 1e+06"),
         (["--test-box=0,0,0,1e308,1,1"], "the box's upper corner[0] must be a number of metres in"),
-        (["--joint-range", "joint_a2=-1e308,1e308"], "joint range of 'joint_a2' lower must be a number"),
+        (["--joint-range", "joint_a2=-1e308,1e308"], "--joint-range 'joint_a2=-1e308,1e308': lower must be"),
     ],
 )
 def test_the_fuzzers_huge_values_are_refused_where_read(cli, tmp_path, extra, fragment):

@@ -16,8 +16,8 @@ standard deviations: σ when it is known (given or per point), else a robust est
 
 The steps, each reported:
 
-1. **Data identifiability** (:mod:`pincal.evaluation.data_check`): rank and condition number of
-   the column-scaled Jacobian of *these* configurations, the weakest combinations, and the subset
+1. **Data identifiability** (:mod:`pincal.evaluation.data_check`): rank and conditioning of *these*
+   configurations, the weakest combinations, and the subset
    the data determine to better than 1 cm / 10 mrad; the others stay at their nominal value, named
    with the reason. With a :class:`~pincal.Prior` nothing is dropped: the fit is the MAP estimate.
 2. **Fit**, from zero errors except each session's base, from a rigid fit (Kabsch) of the nominal

@@ -42,7 +42,7 @@ class IdentificationResult:
         method: the scipy ``least_squares`` method, ``"trf"`` or ``"lm"``.
         robot: the robot of ``values`` (first session's base), ``params.apply(values)``.
         data: the measurements, in the robot's joint order (sessions stacked).
-        check: the identifiability of ``params`` on these data (rank, condition number, ...).
+        check: the identifiability of ``params`` on these data (rank, conditioning, ...).
         dropped: ``{name: reason}`` for the parameters the data cannot identify (left nominal).
         outliers: suspicious rows of the final fit, worst first.
         rejected: rows dropped by ``reject``, in the order they were dropped.

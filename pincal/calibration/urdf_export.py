@@ -22,14 +22,16 @@ What :func:`export_urdf` writes, precisely:
 * Next to the URDF, a small JSON *sidecar* (:func:`sidecar_path`: ``cal.urdf`` →
   ``cal.calibration.json``) holds what a program needs to predict instrument coordinates from the
   URDF without parsing the comment: the tip frame, the markers in it [m], the base in the
-  instrument frame (xyz [m], rpy [rad] and the 4×4 matrix), σ, the data condition number and the
+  instrument frame (xyz [m], rpy [rad] and the 4×4 matrix), σ, the data's conditioning and the
   residuals::
 
       p = base · oMf[tip] · marker,   oMf from pin.framesForwardKinematics on the URDF's model
 
 Before writing, the new URDF is loaded back with Pinocchio and must reproduce the calibrated
-model's points at random configurations to 1e-9 m; the file is then written through a temporary
-file and a rename. The source URDF is never overwritten.
+model's points at random configurations to 1e-9 m; the URDF and its sidecar are then written all or
+nothing (:func:`pincal.files.all_or_nothing`: temporary files renamed together at the end). The
+source URDF is never overwritten. A xacro source is expanded as loading expands it, and the
+calibrated robot is written as that URDF.
 """
 
 from __future__ import annotations

@@ -12,7 +12,13 @@ import numpy as np
 from pincal.arguments import UNITS_TEXT, quantities
 from pincal.arguments import angle as checked_angle
 from pincal.arguments import length as checked_length
-from pincal.cli._common import parse_configuration, parse_floats, read_plan, trap_floating_point_warnings
+from pincal.cli._common import (
+    FIGURE_NOTE,
+    parse_configuration,
+    parse_floats,
+    read_plan,
+    trap_floating_point_warnings,
+)
 from pincal.errors import BadArgument, PincalError, SingularPlan
 from pincal.evaluation.accuracy import AccuracyReport, accuracy, error_profile
 from pincal.evaluation.prior import Prior
@@ -74,7 +80,7 @@ def add_report_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--accuracy-plot",
         metavar="FILE.png",
-        help="save a plot of the predicted error against the distance from the test pose",
+        help="save a plot of the predicted error against the distance from the test pose" + FIGURE_NOTE,
     )
 
 

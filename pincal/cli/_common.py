@@ -12,7 +12,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, positive_int, positive_sigma, sigma_note
+from pincal.arguments import DEFAULT_SIGMA, joint_range, positive_int, positive_sigma, sigma_note
 from pincal.errors import BadArgument, BadConfiguration
 from pincal.files import check_output
 from pincal.model.loading import load_robot
@@ -62,6 +62,10 @@ OUTPUT_OPTIONS = {
     "plot": "figure",
     "accuracy_plot": "figure",
 }
+
+
+FIGURE_NOTE = '; needs matplotlib: pip install "pincal[plot]"'
+"""Ends the help of every figure option (--plot, --accuracy-plot)."""
 
 
 def check_outputs(args: argparse.Namespace, names: dict[str, str]) -> None:
@@ -276,6 +280,7 @@ def joint_ranges_from_args(args: argparse.Namespace) -> dict[str, tuple[float, f
         bounds = parse_floats(value, f"--joint-range {name}=")
         if len(bounds) != 2 or bounds[0] > bounds[1]:
             raise BadConfiguration(f"--joint-range {text!r}: expected NAME=LO,HI with LO <= HI")
+        joint_range(bounds, f"--joint-range {text!r}:", BadConfiguration)  # as typed, before --deg
         out[name] = tuple(np.radians(bounds)) if getattr(args, "deg", False) else tuple(bounds)
     return out
 

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import argparse
 
+from pincal.cli._common import FIGURE_NOTE
 from pincal.viewing import plots
 
 PLOT_HELP = (
     "save a figure: with --baseline, rho0 of the designed and D-optimal plans against the random "
-    "plans (histogram, log scale); without, the criterion against search time per start"
+    "plans (histogram, log scale); without, the criterion against search time per start" + FIGURE_NOTE
 )
 
 
@@ -48,7 +49,7 @@ def add_simulation_plot_arguments(parser: argparse.ArgumentParser) -> None:
         "--plot",
         metavar="FILE.png",
         help="save a figure of the position errors at the test pose after calibration, this plan and "
-        "the --compare plans side by side, with their predicted rho0",
+        "the --compare plans side by side, with their predicted rho0" + FIGURE_NOTE,
     )
     parser.add_argument(
         "--compare",

@@ -13,6 +13,7 @@ from pincal.calibration.urdf_export import export_urdf, sidecar_path
 from pincal.calibration.validation import holdout, kfold, validate
 from pincal.cli._common import (
     CONDITIONING_HELP,
+    FIGURE_NOTE,
     add_base_argument,
     add_command,
     add_output_arguments,
@@ -125,7 +126,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--kfold", type=count("--kfold", low=2), metavar="K", help="k-fold cross-validation of the fit"
     )
     p.add_argument("--seed", type=seed_type(), default=0, help="seed of --holdout and --kfold (default 0)")
-    p.add_argument("--plot", metavar="FILE.png", help="save the validation errors before/after (a figure)")
+    p.add_argument(
+        "--plot", metavar="FILE.png", help="save the validation errors before/after (a figure)" + FIGURE_NOTE
+    )
     p.add_argument(
         "--out", metavar="CALIBRATED.urdf", help="write the calibrated URDF (and its sidecar) here"
     )

@@ -21,6 +21,7 @@ from pincal.cli._accuracy import (
     test_region_from_args,
 )
 from pincal.cli._common import (
+    FIGURE_NOTE,
     SIGMA_HELP,
     add_command,
     add_output_arguments,
@@ -108,7 +109,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--plot",
         metavar="FILE.png",
-        help="save a figure of the plan's rho0 against random plans of the same size (needs --test-pose)",
+        help="save a figure of the plan's rho0 against random plans of the same size (needs --test-pose)"
+        + FIGURE_NOTE,
     )
     p.add_argument(
         "--baseline",

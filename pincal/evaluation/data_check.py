@@ -7,8 +7,8 @@ one value. :func:`check_parameters` takes the information matrix of the user's o
 configurations, whitened by the measurement noise (M = Σ JᵢᵀWᵢJᵢ, W = diag(1/σ²), so that
 cov(Π̂) = M⁻¹), and reports:
 
-* the rank and the condition number of the column-scaled data Jacobian (the kernel of
-  :mod:`pincal.evaluation.information`);
+* the rank and the conditioning of the data (the number every report gives: the smallest
+  eigenvalue of the column-normalised M, :func:`~pincal.evaluation.information.conditioning`);
 * the weakest parameter combinations, in words;
 * the subset the data can identify: parameters are taken greedily in the order of
   :func:`~pincal.model.base_parameters.preference_order` (offsets, lengths, ...; the base first
