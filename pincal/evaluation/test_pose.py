@@ -117,6 +117,7 @@ class TestPoseCriterion:
         self.params = params
         self.engine = JacobianEngine(params)
         self.test_poses, self.region = resolve_test_poses(params.robot, test_poses)
+        self.sigma = float(sigma)
         self.aggregate = aggregate
         J0 = self.engine.jacobian(self.test_poses, frame="tip")
         self.k = len(self.test_poses)
