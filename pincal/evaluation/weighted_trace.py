@@ -38,6 +38,7 @@ class WeightedTrace(Criterion):
         self.J0T = np.ascontiguousarray(J0T)
         self.k = groups
         self.scale = scale
+        self.weight = self.J0T @ self.J0T.T if groups == 1 else None  # W = Σ J0kᵀJ0k
 
     # ------------------------------------------------------------ what subclasses say
     def aggregate(self, t: np.ndarray) -> np.ndarray:
@@ -115,20 +116,30 @@ class WeightedTrace(Criterion):
     def exchange_exact(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
         return self.value(M, m), self.traces(M, m)
 
-    def exchange_products(self, J_pool: np.ndarray, Minv: np.ndarray) -> np.ndarray:
-        """(N, r, R) J_c (M + Λ)⁻¹ J0ᵀ of every candidate."""
+    def exchange_products(self, J_pool: np.ndarray, Minv: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Of every candidate c, for C = (M + Λ)⁻¹: with one weight (k = 1), (J_c T, J_c T J_cᵀ) with
+        T = C W C, W = J0ᵀJ0 (the update of the trace is then tr(H⁻¹G) of 2r×2r blocks, whatever
+        the rank of W); with several, (J_c C J0ᵀ,) (the update column by column)."""
         N, r, P = J_pool.shape
-        return (J_pool.reshape(N * r, P) @ (Minv @ self.J0T)).reshape(N, r, -1)
+        flat = J_pool.reshape(N * r, P)
+        if self.k == 1:
+            T = Minv @ self.weight @ Minv
+            JT = (flat @ T).reshape(N, r, P)
+            return JT, np.einsum("nrp,nsp->nrs", JT, J_pool)
+        return ((flat @ (Minv @ self.J0T)).reshape(N, r, -1),)
 
     def exchange_values(self, swap) -> tuple[np.ndarray, np.ndarray]:
         """F and the traces after each swap (inf where a trace would not stay positive)."""
-        cand = swap.cand
-        H, AJ0 = swap.H[cand], swap.products[cand]
-        AiJ0 = swap.Ji @ (swap.Minv @ self.J0T)
-        n, r = len(H), AiJ0.shape[0]
-        Q = np.concatenate([AJ0, np.broadcast_to(AiJ0, (n, r, AJ0.shape[2]))], axis=1)
-        Y = np.linalg.solve(H, Q)
-        red = np.einsum("nar,nar->nr", Q, Y).reshape(n, self.k, -1).sum(axis=2)
+        n, cand, Ji = len(swap.cand), swap.cand, swap.Ji
+        if self.k == 1:
+            JT, G_cc = swap.products
+            T = swap.Minv @ self.weight @ swap.Minv
+            N, r, P = JT.shape
+            G_ci = (JT.reshape(N * r, P) @ Ji.T).reshape(N, r, r)[cand]  # J_c T Jᵢᵀ
+            red = swap.blocks.trace(G_cc[cand], G_ci, Ji @ T @ Ji.T)[:, None]
+        else:
+            AiJ0 = Ji @ (swap.Minv @ self.J0T)
+            red = swap.blocks.quadratic(swap.products[0][cand], AiJ0).reshape(n, self.k, -1).sum(axis=2)
         new_t = swap.aux - red
         values = self.from_traces(new_t)
         values[~np.all(new_t > 0, axis=1)] = np.inf
