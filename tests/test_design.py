@@ -132,8 +132,8 @@ def test_classic_criteria_reach_sum_cos_zero(lengths, criterion, method):
     core = pincal.criteria(lengths, result.plan).as_dict()
     key = {"D": "log_det", "A": "trace", "E": "max_eig", "cond": "cond"}[criterion]
     assert result.value == pytest.approx(core[key], rel=1e-12)
-    if criterion in ("D", "A"):
-        assert result.rho0**2 == pytest.approx(2 / m, rel=1e-6)
+    if criterion in ("D", "A"):  # ρ0² is not what is minimised: first order in the plan's tolerance
+        assert result.rho0**2 == pytest.approx(2 / m, rel=1e-5)
 
 
 def test_exchange_and_continuous_agree(lengths, kr_params):

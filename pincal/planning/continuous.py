@@ -40,11 +40,17 @@ SINGULAR_VALUE = 1e10
 WEIGHTS = (1e-2, 1e-5)
 """Barrier weights of the successive stages (the objective F is a log: dimensionless)."""
 
+FTOL = 1e-8
+"""L-BFGS-B stops when an iteration lowers F (a log: dimensionless) by less than this relative
+amount. Measured on the README's design (KR 270, 27 parameters, m = 12, ±10° region): against
+1e-13, the polished ρ0 is the same to 0.03 % with a third of the evaluations (most of them came
+after ρ0 was within 0.1 % of its final value)."""
+
 SCREEN_POWER = 16.0
 POWERS = (64.0, 512.0, 4096.0, 32768.0)
+"""Power-mean exponents standing for the maximum (test-pose-worst): screening, then polishing."""
 CONDITIONING_BAND = 10.0
 """The conditioning barrier acts between the floor and this many times the floor."""
-"""Power-mean exponents standing for the maximum (test-pose-worst): screening, then polishing."""
 
 
 @dataclass(frozen=True)
@@ -169,7 +175,7 @@ class PlanFunction:
             jac=True,
             method="L-BFGS-B",
             bounds=self.bounds,
-            options={"maxiter": int(maxiter), "ftol": 1e-13, "gtol": 1e-10, "maxls": 50},
+            options={"maxiter": int(maxiter), "ftol": FTOL, "gtol": 1e-10, "maxls": 50},
         )
         return res.x.reshape(self.m, self.nq), int(res.nit), str(res.message)
 

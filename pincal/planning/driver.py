@@ -198,10 +198,12 @@ def design(
         pooled = _pool(params, settings, pool, init)
         engine = JacobianEngine(params)
         J_pool = engine.jacobian(pooled.candidates, frame="tip")
-        indices = None
-        while indices is None:
+        outcomes = None
+        while outcomes is None:
             try:
-                indices = draw_starts(settings, J_pool, pooled.candidates)
+                # Start 0 is drawn here, to adapt the floor before the workers draw the others.
+                first = draw_starts(settings, J_pool, pooled.candidates, 0, 1)
+                outcomes = search(settings, params, engine, pooled, first, executor, progress)
             except FloorUnreachable as error:
                 if min_conditioning is not None:  # a floor asked for is honoured, or refused
                     raise
@@ -212,7 +214,6 @@ def design(
                 if settings.floor <= MIN_DATA_CONDITIONING or error.reached <= MIN_DATA_CONDITIONING:
                     raise FloorUnreachable(m, MIN_DATA_CONDITIONING, error.reached, for_data=True) from None
                 settings = replace(settings, floor=max(error.reached / 2, MIN_DATA_CONDITIONING))
-        outcomes = search(settings, params, engine, pooled, indices, executor, progress)
         choice = choose(settings, params, engine, outcomes)
         return design_result(
             settings, params, engine, pooled, outcomes, choice, time.perf_counter() - t_start

@@ -22,12 +22,14 @@ from functools import cached_property
 
 import numpy as np
 
+from pincal.errors import PincalError
 from pincal.evaluation.criterion import Criterion
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning import continuous as _continuous
 from pincal.planning import exchange as _exchange
+from pincal.planning import starts as _starts
 from pincal.planning.constraints import AnyConstraint
 from pincal.planning.feasibility import Feasibility
 
@@ -47,6 +49,8 @@ class ProblemSpec:
         floor: smallest conditioning of a plan (see
             :func:`pincal.evaluation.information.conditioning`); 0: none (with a prior).
         prior: (P, P) the prior's information Λ = σ²Σp⁻¹, or None.
+        entropy: the design's seed, from which a worker draws a start (see
+            :func:`pincal.planning.starts.start_seed`).
         key: identifies the spec in the workers' caches.
     """
 
@@ -59,6 +63,7 @@ class ProblemSpec:
     pool: np.ndarray | None = None
     floor: float = 1e-6
     prior: np.ndarray | None = None
+    entropy: int = 0
     key: str = field(default_factory=lambda: uuid.uuid4().hex)
 
 
@@ -136,13 +141,50 @@ def polish_task(spec: ProblemSpec, q0: np.ndarray, anchor: np.ndarray, maxiter: 
         return _continuous.polish(problem(spec).function, q0, anchor, maxiter)
 
 
-def exchange_task(spec: ProblemSpec, index: np.ndarray) -> _exchange.ExchangeOutcome:
-    """The exchange search over the spec's pool from the plan pool[index]."""
+def exchange_task(
+    spec: ProblemSpec, start: int, index: np.ndarray | None
+) -> _exchange.ExchangeOutcome | CarriedError:
+    """The exchange search over the spec's pool from the plan pool[index], or from the plan of
+    start ``start`` drawn here (``index`` None); a start that cannot be drawn comes back as a
+    :class:`CarriedError`."""
     with single_threaded_blas():
         p = problem(spec)
-        return _exchange.fedorov(
-            p.objective, p.pool_jacobians, spec.pool, index, p.feasibility.spacing, spec.floor
-        )
+        spacing = p.feasibility.spacing
+        if index is None:
+            try:
+                index = _starts.draw_start(
+                    p.pool_jacobians,
+                    spec.pool,
+                    spec.m,
+                    spacing,
+                    _starts.start_seed(spec.entropy, start),
+                    spec.floor,
+                    spec.prior,
+                )
+            except PincalError as error:
+                return CarriedError.of(error)
+        return _exchange.fedorov(p.objective, p.pool_jacobians, spec.pool, index, spacing, spec.floor)
+
+
+@dataclass(frozen=True)
+class CarriedError:
+    """A pincal error raised in a worker, carried back as plain data: an exception unpickles by
+    calling its class with its message, which the errors that take their own arguments refuse."""
+
+    kind: type
+    args: tuple
+    state: dict
+
+    @classmethod
+    def of(cls, error: BaseException) -> CarriedError:
+        return cls(type(error), error.args, dict(error.__dict__))
+
+    def error(self) -> BaseException:
+        """The error again, to raise in the parent."""
+        error = self.kind.__new__(self.kind)
+        error.args = self.args
+        error.__dict__.update(self.state)
+        return error
 
 
 # ------------------------------------------------------------------------- executors

@@ -14,19 +14,17 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pincal.errors import FloorUnreachable, Infeasible, SingularPlan
 from pincal.evaluation.criterion import Criterion
-from pincal.evaluation.d_optimal import DOptimal
-from pincal.evaluation.information import conditioning, factor, rank
+from pincal.evaluation.information import conditioning
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning import multistart as _multistart
 from pincal.planning.constraints import AnyConstraint
-from pincal.planning.exchange import fedorov
 from pincal.planning.feasibility import Feasibility
 from pincal.planning.results import StartRecord
+from pincal.planning.starts import draw_start, start_seed
 
 
 @dataclass(frozen=True)
@@ -93,94 +91,44 @@ class Outcome:
     usable: bool
 
 
-# ---------------------------------------------------------------------------- starts
-def draw_starts(settings: Settings, J_pool: np.ndarray, pool: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The pool indices of each drawn start's plan, from its own child seed."""
-    spacing = settings.feasibility.spacing
+# ---------------------------------------------------------------------------- search
+def draw_starts(
+    settings: Settings, J_pool: np.ndarray, pool: np.ndarray, begin: int = 0, end: int | None = None
+) -> tuple[np.ndarray, ...]:
+    """The pool indices of the plans of starts ``begin`` to ``end`` (default: the last), drawn
+    here, each from its own child seed (see :func:`pincal.planning.starts.draw_start`)."""
     return tuple(
-        _pick(
+        draw_start(
             J_pool,
             pool,
             settings.m,
-            spacing,
-            np.random.default_rng(settings.seed_sequence(1, i)),
+            settings.feasibility.spacing,
+            start_seed(settings.entropy, i),
             settings.floor,
             settings.prior_information,
         )
-        for i in range(settings.starts)
+        for i in range(begin, settings.starts if end is None else end)
     )
 
 
-def _pick(
-    J: np.ndarray,
-    pool: np.ndarray,
-    m: int,
-    spacing: float,
-    rng: np.random.Generator,
-    floor: float,
-    prior: np.ndarray | None = None,
-) -> np.ndarray:
-    """Indices of m pool configurations forming a regular plan (conditioning above ``floor``, spaced),
-    at random. With no floor (a prior), any plan whose posterior information is regular.
-
-    When no random plan reaches twice the floor, a D-optimal exchange from a random regular one
-    does (it spreads the information over every parameter): a floor that a D-optimal plan meets
-    is never refused.
-    """
-    N, rows, P = J.shape
-    best_rank = 0
-    regular = None  # a regular random plan below the floor, to start the D-optimal exchange from
-    for _ in range(100):
-        order = rng.permutation(N)
-        if spacing > 0:
-            chosen: list[int] = []
-            for c in order:
-                if all(np.linalg.norm(pool[c] - pool[k]) >= spacing for k in chosen):
-                    chosen.append(int(c))
-                    if len(chosen) == m:
-                        break
-            if len(chosen) < m:
-                raise Infeasible(
-                    f"cannot place {m} configurations at least {spacing:.4g} rad apart among the "
-                    f"{N} feasible candidates; lower min_spacing"
-                )
-            index = np.array(chosen)
-        else:
-            index = order[:m]
-        stacked = J[index].reshape(-1, P)
-        M = stacked.T @ stacked
-        try:
-            if floor <= 0:
-                factor(M if prior is None else M + prior, rows, m)
-                return index
-            factor(M, rows, m)
-            if conditioning(M) > 2 * floor:
-                return index
-            regular = index if regular is None else regular
-        except SingularPlan:
-            pass
-        best_rank = max(best_rank, rank(M))
-    if regular is not None:
-        out = fedorov(DOptimal(rows), J, pool, regular, spacing)
-        stacked = J[out.index].reshape(-1, P)
-        reached = conditioning(stacked.T @ stacked)
-        if reached > floor:
-            return out.index
-        raise FloorUnreachable(m, floor, reached)
-    raise SingularPlan(P, rows, m, best_rank)
-
-
-# ---------------------------------------------------------------------------- search
 def search(
     settings: Settings,
     params: ParameterSet,
     engine: JacobianEngine,
     pooled: Pool,
-    indices: tuple[np.ndarray, ...],
+    first: tuple[np.ndarray, ...],
     executor: Executor | None,
     progress: bool,
 ) -> tuple[Outcome, ...]:
-    """Every start searched (and the best polished), on the executor; one outcome per start."""
+    """Every start searched (and the best polished), on the executor; one outcome per start.
+
+    ``first`` are the plans of the first starts, drawn by the caller (:func:`draw_starts`); the
+    exchange's workers draw the others themselves, in parallel.
+
+    Raises:
+        FloorUnreachable: a start found no plan above the conditioning floor (the caller adapts
+            a default floor and searches again).
+    """
     s = settings
     spec = _multistart.ProblemSpec(
         params,
@@ -192,6 +140,7 @@ def search(
         pooled.candidates if s.method == "exchange" else None,
         s.floor,
         s.prior_information,
+        s.entropy,
     )
     J0 = engine.jacobian(s.test_poses, frame="tip").copy() if s.criterion in TEST_POSE_CRITERIA else None
     objective = make_criterion(s.criterion, len(params), engine.rows, J0, s.sigma, s.prior_information)
@@ -201,9 +150,11 @@ def search(
     try:
         with _multistart.executor_for(executor, s.workers, n_starts) as ex:
             if s.method == "continuous":
+                J_pool = engine.jacobian(pooled.candidates, frame="tip")
+                indices = first + draw_starts(s, J_pool, pooled.candidates, len(first))
                 x0s = list(pooled.init) + [pooled.candidates[i] for i in indices]
                 return _continuous(spec, ex, x0s, n_keep, s.screen_iterations, s.maxiter, objective, bar)
-            outcomes = _exchange(spec, ex, pooled.candidates, indices, objective, bar)
+            outcomes = _exchange(spec, ex, pooled.candidates, first, s.starts, objective, bar)
             if s.polish:
                 outcomes = _polish(spec, ex, outcomes, n_keep, s.maxiter, objective, engine, s.floor, bar)
             return outcomes
@@ -212,9 +163,13 @@ def search(
         _multistart.forget(spec)
 
 
-def _exchange(spec, ex, candidates, indices, objective: Criterion, bar) -> tuple[Outcome, ...]:
-    """The exchange search from each start's plan."""
-    outcomes = _multistart.run(ex, _multistart.exchange_task, [(spec, i) for i in indices], bar)
+def _exchange(spec, ex, candidates, first, starts: int, objective: Criterion, bar) -> tuple[Outcome, ...]:
+    """The exchange search from each start's plan (the first given, the others drawn by the workers)."""
+    items = [(spec, i, first[i] if i < len(first) else None) for i in range(starts)]
+    outcomes = _multistart.run(ex, _multistart.exchange_task, items, bar)
+    for o in outcomes:
+        if isinstance(o, _multistart.CarriedError):
+            raise o.error()
     return tuple(
         Outcome(
             StartRecord(
