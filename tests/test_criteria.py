@@ -222,3 +222,36 @@ def test_every_criterion_object_keeps_its_promises(kr270_marker, name, with_prio
         state.swap(i, best)
         allowed[out], allowed[into] = True, False
         assert state.F == pytest.approx(exact(state.index), rel=1e-9, abs=1e-10)
+
+
+# ------------------------------------------------------------ public evaluations on many plans
+def test_batches_of_plans_give_each_plans_value(kr270_marker):
+    """rho0, rho0_each, criteria and accuracy on a batch (k, m, nq) — or a list of Plans — give
+    what they give plan by plan; a singular plan of a batch is named."""
+    params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
+    rng = np.random.default_rng(8)
+    plans = kr270_marker.random_configurations(4 * 7, rng).reshape(4, 7, -1)
+    poses = kr270_marker.random_configurations(3, rng)
+    prior = pincal.Prior(1e-3, 1e-3)
+    for kw in ({}, {"aggregate": "worst"}, {"prior": prior}):
+        one = [pincal.rho0(params, p, poses, sigma=SIGMA, **kw) for p in plans]
+        np.testing.assert_allclose(pincal.rho0(params, plans, poses, sigma=SIGMA, **kw), one, rtol=1e-12)
+    each = np.array([pincal.rho0_each(params, p, poses, sigma=SIGMA) for p in plans])
+    np.testing.assert_allclose(pincal.rho0_each(params, plans, poses, sigma=SIGMA), each, rtol=1e-12)
+    as_plans = [pincal.Plan.for_robot(kr270_marker, p) for p in plans]
+    assert pincal.rho0(params, as_plans, poses, sigma=SIGMA).shape == (4,)
+    for c, p in zip(pincal.criteria(params, plans), plans, strict=True):
+        expected = pincal.criteria(params, p).as_dict()
+        for key, value in c.as_dict().items():
+            assert value == pytest.approx(expected[key], rel=1e-9)
+    reports = pincal.accuracy(params, plans[:2], poses, SIGMA, workspace=50, samples=20)
+    for report, p in zip(reports, plans[:2], strict=True):
+        single = pincal.accuracy(params, p, poses, SIGMA, workspace=50, samples=20)
+        for a, b in zip(report.plans[0].rows, single.plans[0].rows, strict=True):
+            assert a.rms == pytest.approx(b.rms, rel=1e-12) and a.max == pytest.approx(b.max, rel=1e-12)
+    singular = plans.copy()
+    singular[2] = singular[2][0]  # seven times the same configuration
+    with pytest.raises(SingularPlan, match="plan 2"):
+        pincal.rho0(params, singular, poses, sigma=SIGMA)
+    with pytest.raises(PincalError):
+        pincal.rho0(params, plans[..., :3], poses)

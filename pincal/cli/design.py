@@ -150,7 +150,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help="also report N random feasible plans and the D-optimal plan",
     )
-    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument(
+        "--no-progress",
+        action="store_true",
+        help="no progress on stderr (a bar on a terminal, else a line every few seconds)",
+    )
     add_plot_argument(p)
     add_report_arguments(p)
     add_output_arguments(p)
@@ -176,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
         raise BadArgument("give --pool FILE.csv or --pool-size N, not both")
     taught = read_plan(robot, args.pool, args.deg) if args.pool else None
     pool = taught if taught is not None else args.pool_size
-    progress = not args.no_progress and sys.stderr.isatty()
+    progress = not args.no_progress
     options = dict(
         method=args.method,
         pool=pool,

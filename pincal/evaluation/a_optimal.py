@@ -19,6 +19,7 @@ class AOptimal(WeightedTrace):
     """
 
     name = "A"
+    label = "tr M⁻¹"
 
     def __init__(self, n_params: int, rows: int, prior: np.ndarray | None = None) -> None:
         super().__init__(np.eye(n_params), 1, 1.0, rows, prior)
@@ -31,6 +32,9 @@ class AOptimal(WeightedTrace):
 
     def report(self, F):
         return np.exp(F)
+
+    def describe(self, value: float) -> str:
+        return f"{self.label} {value:.4g}"
 
     def from_singular_values(self, s: np.ndarray) -> float:
         """tr M⁻¹ from the singular values of the stacked Jacobian (no prior)."""

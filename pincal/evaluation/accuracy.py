@@ -25,10 +25,10 @@ from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from pincal.arguments import angle, generator, positive_int, positive_sigma
 from pincal.evaluation.information import factor
+from pincal.evaluation.plans import blas_for, engine_for, plan_batch
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import Neighbourhood, ResolvedRegion, resolve_test_poses, width_text
 from pincal.evaluation.test_pose import TestPoseCriterion
-from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 
 NEIGHBOURHOODS = (math.radians(10), math.radians(20))
@@ -63,7 +63,7 @@ class PredictedError:
         self.params = params
         self.sigma = positive_sigma(sigma)
         self.prior = prior
-        self.engine = JacobianEngine(params)
+        self.engine = engine_for(params)
         qs = params.robot.configurations(plan)
         J = self.engine.jacobian(qs, frame="tip").reshape(-1, len(params))
         self.information = J.T @ J  # M, of the measurements alone
@@ -77,12 +77,16 @@ class PredictedError:
         """(n,) ρ² [m²] at configurations ``qs`` (trusted: within the limits)."""
         qs = np.atleast_2d(qs)
         out = np.empty(len(qs))
-        P = len(self.params)
         for a in range(0, len(qs), chunk):
             J = self.engine.jacobian(qs[a : a + chunk], frame="tip")
-            X, _ = _trtrs(self.L, np.ascontiguousarray(J.reshape(-1, P).T), lower=1)
-            out[a : a + len(J)] = np.einsum("ij,ij->j", X, X).reshape(len(J), -1).sum(axis=1)
-        return self.sigma**2 * out
+            out[a : a + len(J)] = self.squared_at(J)
+        return out
+
+    def squared_at(self, J: np.ndarray) -> np.ndarray:
+        """(n,) ρ² [m²] at configurations of tip-frame Jacobians J (n, r, P), computed once for
+        every plan compared on them."""
+        X, _ = _trtrs(self.L, np.ascontiguousarray(J.reshape(-1, J.shape[-1]).T), lower=1)
+        return self.sigma**2 * np.einsum("ij,ij->j", X, X).reshape(len(J), -1).sum(axis=1)
 
     def __call__(self, qs: np.ndarray) -> np.ndarray:
         """(n,) ρ [m] at configurations ``qs``."""
@@ -327,9 +331,11 @@ def accuracy(
     samples: int = NEIGHBOURHOOD_SAMPLES,
     workspace: int = WORKSPACE_SAMPLES,
     seed: int = 0,
-) -> AccuracyReport:
+) -> AccuracyReport | tuple[AccuracyReport, ...]:
     """Predicted error after calibrating with ``plan`` (and each plan of ``compare``), at the
-    test pose(s), over neighbourhoods of them, and over the workspace.
+    test pose(s), over neighbourhoods of them, and over the workspace; for a batch of plans
+    ((k, m, nq) or a sequence of Plans), a tuple of k reports, the configurations' Jacobians
+    computed once for all of them.
 
     Every plan is evaluated on the same configurations: the test poses (a region's samples),
     ``samples`` configurations uniform in each box q0 ± δ (a test pose drawn per sample, clipped to
@@ -338,7 +344,7 @@ def accuracy(
 
     Args:
         params: the parameters identified.
-        plan: the plan (m, nq) or a Plan.
+        plan: the plan (m, nq) or a Plan, or a batch of plans.
         test_pose: test pose(s) or a region/path (see :func:`pincal.rho0`).
         sigma: measurement noise per coordinate [m].
         prior: the errors' prior, or None.
@@ -354,6 +360,7 @@ def accuracy(
     samples = positive_int(samples, "samples")
     workspace = positive_int(workspace, "workspace")
     robot = params.robot
+    batch, batched = plan_batch(params, plan)
     poses, region = resolve_test_poses(robot, test_pose)
     rng = generator(seed)
     first = "test region" if region is not None else "test pose" if len(poses) == 1 else "test poses"
@@ -367,27 +374,40 @@ def accuracy(
         delta_q = np.where(robot.revolute, delta, delta * per_radian)
         sets.append((label, _neighbourhood(robot, poses, delta_q, samples, rng)))
     sets.append(("workspace", robot.random_configurations(workspace, rng)))
-    plans = [("plan", plan)] + list((compare or {}).items())
-    at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior)
-    out = []
-    for name, q in plans:
-        predicted = PredictedError(params, q, sigma, prior)
-        rows = tuple(ErrorSummary.of(where, np.sqrt(predicted.squared(qs))) for where, qs in sets)
-        worst = None if region is None else worst_found(predicted, region)
-        noise, bias = at_test_poses.split(predicted.information, predicted.m)
-        out.append(PlanAccuracy(name, rows, worst, float(np.sqrt(noise.mean())), float(np.sqrt(bias.mean()))))
-    before = None
-    if prior is not None and np.all(np.isfinite(prior.std(params))):
-        J0 = JacobianEngine(params).jacobian(poses, frame="tip")
-        before = float(np.sqrt(np.einsum("kip,p,kip->", J0, prior.std(params) ** 2, J0) / len(poses)))
-    return AccuracyReport(
-        tuple(out),
-        float(sigma),
-        prior,
-        before,
-        "test pose" if region is None else region.description,
-        tuple(bool(r) for r in robot.revolute),
-    )
+    engine = engine_for(params)
+    with blas_for(sum(len(qs) for _, qs in sets)):
+        jacobians = [(where, engine.jacobian(qs, frame="tip").copy()) for where, qs in sets]
+        at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior)
+        before = None
+        if prior is not None and np.all(np.isfinite(prior.std(params))):
+            J0 = jacobians[0][1]  # ρ² is unchanged by each pose's rotation to the tip frame
+            before = float(np.sqrt(np.einsum("kip,p,kip->", J0, prior.std(params) ** 2, J0) / len(poses)))
+        compared = [
+            (name, _plan_accuracy(name, q, params, sigma, prior, jacobians, region, at_test_poses))
+            for name, q in (compare or {}).items()
+        ]
+        reports = tuple(
+            AccuracyReport(
+                (_plan_accuracy("plan", q, params, sigma, prior, jacobians, region, at_test_poses),)
+                + tuple(c for _, c in compared),
+                float(sigma),
+                prior,
+                before,
+                "test pose" if region is None else region.description,
+                tuple(bool(r) for r in robot.revolute),
+            )
+            for q in batch
+        )
+    return reports if batched else reports[0]
+
+
+def _plan_accuracy(name, q, params, sigma, prior, jacobians, region, at_test_poses) -> PlanAccuracy:
+    """One plan's accuracy on the sets of configurations (their Jacobians given)."""
+    predicted = PredictedError(params, q, sigma, prior)
+    rows = tuple(ErrorSummary.of(where, np.sqrt(predicted.squared_at(J))) for where, J in jacobians)
+    worst = None if region is None else worst_found(predicted, region)
+    noise, bias = at_test_poses.split(predicted.information, predicted.m)
+    return PlanAccuracy(name, rows, worst, float(np.sqrt(noise.mean())), float(np.sqrt(bias.mean())))
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,8 @@ from pincal.evaluation.a_optimal import AOptimal
 from pincal.evaluation.condition import Condition
 from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.e_optimal import EOptimal
-from pincal.evaluation.information import factor
+from pincal.evaluation.information import factor, factor_batch
+from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch
 from pincal.model.parameters import ParameterSet
 
 
@@ -64,9 +65,14 @@ def criteria_from_jacobian(J: np.ndarray, m: int) -> Criteria:
     J = np.asarray(J)
     rows = J.shape[1] if J.ndim == 3 else J.shape[0] // max(m, 1)
     J2 = J.reshape(-1, J.shape[-1])
-    n = J2.shape[1]
     factor(J2.T @ J2, rows, m)  # raises SingularPlan like ρ0 does
-    s = np.linalg.svd(J2, compute_uv=False)
+    return criteria_from_singular_values(np.linalg.svd(J2, compute_uv=False), m, rows)
+
+
+def criteria_from_singular_values(s: np.ndarray, m: int, rows: int) -> Criteria:
+    """Classic criteria from the singular values s (descending) of a regular plan's stacked
+    Jacobian (m configurations, ``rows`` measured coordinates each)."""
+    n = len(s)
     return Criteria(
         log_det=DOptimal(rows).from_singular_values(s),
         trace=AOptimal(n, rows).from_singular_values(s),
@@ -81,7 +87,17 @@ def criteria_from_jacobian(J: np.ndarray, m: int) -> Criteria:
     )
 
 
-def criteria(params: ParameterSet, plan: object) -> Criteria:
-    """The classic criteria (D, A, E, cond, O1–O4) of ``plan`` for ``params``."""
-    qs = params.robot.configurations(plan)
-    return criteria_from_jacobian(params.jacobian(qs, frame="tip"), len(qs))
+def criteria(params: ParameterSet, plan: object) -> Criteria | tuple[Criteria, ...]:
+    """The classic criteria (D, A, E, cond, O1–O4) of ``plan`` for ``params``; of each plan of a
+    batch ((k, m, nq) or a sequence of Plans: a tuple of k, see :mod:`pincal.evaluation.plans`)."""
+    qs, batched = plan_batch(params, plan)
+    k, m, _ = qs.shape
+    engine = engine_for(params)
+    with blas_for(k * m):
+        J = jacobians(engine, qs)
+        if not batched:
+            return criteria_from_jacobian(J[0], m)
+        factor_batch(informations(J), engine.rows, m)
+        return tuple(
+            criteria_from_singular_values(s, m, engine.rows) for s in np.linalg.svd(J, compute_uv=False)
+        )

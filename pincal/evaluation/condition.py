@@ -18,6 +18,7 @@ class Condition(Spectral):
     """
 
     name = "cond"
+    label = "cond"
 
     def from_extremes(self, lo_log: np.ndarray, hi: np.ndarray) -> np.ndarray:
         return 0.5 * (np.log(np.abs(hi) + 1e-300) - lo_log)

@@ -126,6 +126,13 @@ class Criterion:
         """F for a stack (n, P, P) of information matrices; NaN where M is singular."""
         raise NotImplementedError
 
+    label: str = ""
+    """What the reported value is, for people (``"log det M⁻¹"``)."""
+
+    def describe(self, value: float) -> str:
+        """A reported value with its name and unit, for a progress line (``"ρ0 0.0203 mm"``)."""
+        return f"{self.label or self.name} {value:.4g}"
+
     def with_power(self, power: float | None) -> Criterion:
         """The criterion the gradient search minimises at a smoothing stage ``power`` (a power
         mean standing for a maximum); itself for a criterion with nothing to smooth."""

@@ -23,6 +23,7 @@ class DOptimal(Criterion):
     """
 
     name = "D"
+    label = "log det M⁻¹"
 
     def value(self, M: np.ndarray, m: int) -> float:
         L = factor(self.posterior(M), self.rows, m)

@@ -17,6 +17,7 @@ class EOptimal(Spectral):
     """
 
     name = "E"
+    label = "λ_max(M⁻¹)"
 
     def from_extremes(self, lo_log: np.ndarray, hi: np.ndarray) -> np.ndarray:
         return -lo_log

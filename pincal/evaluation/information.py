@@ -53,6 +53,36 @@ def factor(M: np.ndarray, rows: int, m: int) -> np.ndarray:
     raise SingularPlan(len(M), rows, m, rank(M))
 
 
+def factor_batch(Ms: np.ndarray, rows: int, m: int) -> np.ndarray:
+    """Lower Cholesky factors (k, P, P) of a stack of information matrices, with the singularity
+    test of :func:`factor` for each.
+
+    Raises:
+        SingularPlan: for the first singular M, as :func:`factor` would, naming it
+            (``plan i:``) when the stack holds more than one.
+    """
+    try:
+        L = np.linalg.cholesky(Ms)
+    except np.linalg.LinAlgError:
+        L = None
+    if L is not None:
+        diag = np.diagonal(Ms, axis1=1, axis2=2)
+        pivots = np.diagonal(L, axis1=1, axis2=2) ** 2 / diag
+        regular = (pivots.min(axis=1) >= RCOND * pivots.max(axis=1)) & (
+            diag.min(axis=1) >= ZERO_COLUMN**2 * diag.max(axis=1)
+        )
+        if regular.all():
+            return L
+    for i, M in enumerate(Ms):
+        try:
+            factor(M, rows, m)
+        except SingularPlan as error:
+            if len(Ms) > 1:
+                error.args = (f"plan {i}: {error.args[0]}",) + error.args[1:]
+            raise
+    raise SingularPlan(Ms.shape[-1], rows, m)  # pragma: no cover - Cholesky and factor disagree
+
+
 def jacobi_scaled(M: np.ndarray, zero: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """(d, D⁻¹MD⁻¹) for one (P, P) information matrix or a stack (n, P, P), D = diag(d),
     d = sqrt(diag M): M of the Jacobian with unit columns, free of the parameters' units.

@@ -30,12 +30,12 @@ from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.errors import BadArgument
-from pincal.evaluation.information import factor, information_matrix
+from pincal.evaluation.information import factor, factor_batch, information_matrix
+from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import resolve_test_poses
 from pincal.evaluation.test_pose_worst import TestPoseWorst
 from pincal.evaluation.weighted_trace import WeightedTrace
-from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 
 AGGREGATES = ("mean", "worst", "each")
@@ -115,7 +115,7 @@ class TestPoseCriterion:
             raise BadArgument(f"unknown aggregate {aggregate!r}; valid: {', '.join(AGGREGATES)}")
         sigma = positive_sigma(sigma)
         self.params = params
-        self.engine = JacobianEngine(params)
+        self.engine = engine_for(params)
         self.test_poses, self.region = resolve_test_poses(params.robot, test_poses)
         self.sigma = float(sigma)
         self.aggregate = aggregate
@@ -161,6 +161,23 @@ class TestPoseCriterion:
         J = self.engine.jacobian(qs, frame="tip").reshape(-1, self.J0T.shape[0])
         return self.from_information(J.T @ J, len(qs))
 
+    def plans(self, qs: np.ndarray) -> np.ndarray:
+        """ρ0 [m] of k plans ``qs`` ((k, m, nq), trusted): (k,), or (k, test poses) for ``"each"``.
+        One Jacobian pass for every configuration, batched factorisations (see
+        :mod:`pincal.evaluation.plans`)."""
+        k, m, _ = qs.shape
+        if k == 1:
+            return np.asarray(self(qs[0]), dtype=float)[None]
+        Ms = informations(jacobians(self.engine, qs))
+        L = factor_batch(self.posterior(Ms), self.rows, m)
+        weights = self.weight_factor if self.aggregate == "mean" else self.J0T
+        X = np.linalg.solve(L, weights)
+        squares = np.einsum("kpr,kpr->kr", X, X)
+        if self.aggregate == "mean":
+            return self.sigma * np.sqrt(squares.sum(axis=1))
+        each = self.sigma * np.sqrt(squares.reshape(k, self.k, -1).sum(axis=2))
+        return each.max(axis=1) if self.aggregate == "worst" else each
+
 
 def rho0(
     params: ParameterSet,
@@ -176,7 +193,9 @@ def rho0(
 
     Args:
         params: the parameters identified (use an identifiable set).
-        plan: (m, nq) configurations [rad or m] or a :class:`~pincal.Plan`.
+        plan: (m, nq) configurations [rad or m] or a :class:`~pincal.Plan`; or a batch of k
+            plans, (k, m, nq) or a sequence of Plans: one ρ0 per plan, at near the cost of
+            Pinocchio's own work (see :mod:`pincal.evaluation.plans`).
         test_pose: (nq,) or (k, nq) test configuration(s), or a region or path
             (:func:`pincal.around`, :class:`pincal.TestPath`, :func:`pincal.cartesian_box`).
         sigma: measurement noise standard deviation per coordinate [m] (default 3e-5, a laser
@@ -187,7 +206,7 @@ def rho0(
             σ²(M + σ²Σp⁻¹)⁻¹, finite for every plan (σ must then be the real noise in metres).
 
     Returns:
-        ρ0 [m], a Python float.
+        ρ0 [m], a Python float; (k,) for a batch of plans.
 
     Raises:
         SingularPlan: the plan cannot identify ``params`` (names the minimum m); never with a
@@ -201,8 +220,7 @@ def rho0(
             value=aggregate,
             valid=("mean", "worst"),
         )
-    qs = params.robot.configurations(plan)
-    return float(TestPoseCriterion(params, test_pose, sigma, aggregate, prior)(qs))
+    return _evaluate(params, plan, test_pose, sigma, aggregate, prior)
 
 
 def rho0_each(
@@ -212,9 +230,18 @@ def rho0_each(
     sigma: float = DEFAULT_SIGMA,
     prior: Prior | None = None,
 ) -> np.ndarray:
-    """(k,) ρ0 [m] at each test pose (arguments as :func:`rho0`)."""
-    qs = params.robot.configurations(plan)
-    return np.asarray(TestPoseCriterion(params, test_pose, sigma, "each", prior)(qs), dtype=float)
+    """(n,) ρ0 [m] at each of n test poses, or (k, n) for a batch of k plans (arguments as
+    :func:`rho0`)."""
+    return _evaluate(params, plan, test_pose, sigma, "each", prior)
+
+
+def _evaluate(params, plan, test_pose, sigma, aggregate, prior):
+    qs, batched = plan_batch(params, plan)
+    with blas_for(qs.shape[0] * qs.shape[1] + len(np.atleast_2d(getattr(test_pose, "q", test_pose)))):
+        values = TestPoseCriterion(params, test_pose, sigma, aggregate, prior).plans(qs)
+    if batched:
+        return values
+    return np.asarray(values[0], dtype=float) if aggregate == "each" else float(values[0])
 
 
 def position_covariance(

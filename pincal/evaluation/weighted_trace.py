@@ -80,6 +80,9 @@ class WeightedTrace(Criterion):
     def report(self, F):
         return self.scale * np.sqrt(np.exp(F))
 
+    def describe(self, value: float) -> str:
+        return f"ρ0 {value * 1e3:.4g} mm"
+
     def split(self, M: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
         """(k,) scale²·t_k due to the measurements, scale²·t_k[CMC] with C = (M + Λ)⁻¹, and due to
         the prior the plan leaves uncorrected, scale²·t_k[CΛC]; they add up to scale²·t_k (the

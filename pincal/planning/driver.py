@@ -154,7 +154,8 @@ def design(
             every criterion is taken of the posterior information M + σ²Σp⁻¹ (the Bayesian
             criterion tr(J₀(M/σ² + Σp⁻¹)⁻¹J₀ᵀ) for the test pose), finite for every plan, so m may
             be below the number of parameters. ``sigma`` must then be the real noise [m].
-        progress: show a progress bar on stderr (starts done, best value so far).
+        progress: report progress on stderr, stage by stage (starts searched, then polished; the
+            best value so far in its units): a bar on a terminal, else a line every few seconds.
 
     Returns:
         the best plan found, with its criterion value, ρ0 and the history of every start.

@@ -22,6 +22,7 @@ from functools import cached_property
 
 import numpy as np
 
+from pincal.blas import single_threaded
 from pincal.errors import PincalError
 from pincal.evaluation.criterion import Criterion
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
@@ -111,21 +112,10 @@ def forget(spec: ProblemSpec) -> None:
     getattr(_LOCAL, "cache", {}).pop(spec.key, None)
 
 
-_CONTROLLER = None
-
-
 def single_threaded_blas():
-    """A context in which BLAS runs on one thread.
-
-    The matrices of a design are small: threaded BLAS only adds overhead, and on a busy machine
-    its spinning threads make every call many times slower. Parallelism comes from the starts.
-    """
-    global _CONTROLLER
-    if _CONTROLLER is None:
-        from threadpoolctl import ThreadpoolController
-
-        _CONTROLLER = ThreadpoolController()
-    return _CONTROLLER.limit(limits=1, user_api="blas")
+    """A context in which BLAS runs on one thread (see :func:`pincal.blas.single_threaded`): the
+    matrices of a design are small, parallelism comes from the starts."""
+    return single_threaded()
 
 
 # ------------------------------------------------------------------------ work items

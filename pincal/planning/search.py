@@ -23,6 +23,7 @@ from pincal.model.parameters import ParameterSet
 from pincal.planning import multistart as _multistart
 from pincal.planning.constraints import AnyConstraint
 from pincal.planning.feasibility import Feasibility
+from pincal.planning.progress import Progress
 from pincal.planning.results import StartRecord
 from pincal.planning.starts import draw_start, start_seed
 
@@ -145,8 +146,7 @@ def search(
     J0 = engine.jacobian(s.test_poses, frame="tip").copy() if s.criterion in TEST_POSE_CRITERIA else None
     objective = make_criterion(s.criterion, len(params), engine.rows, J0, s.sigma, s.prior_information)
     n_starts, n_keep = pooled.n_starts(s), pooled.n_keep(s)
-    second_stage = (s.method == "continuous" and n_keep < n_starts) or s.polish
-    bar = _Progress(progress, n_starts + (n_keep if second_stage else 0), s.criterion, objective)
+    bar = Progress(progress, s.criterion, objective)
     try:
         with _multistart.executor_for(executor, s.workers, n_starts) as ex:
             if s.method == "continuous":
@@ -154,8 +154,10 @@ def search(
                 indices = first + draw_starts(s, J_pool, pooled.candidates, len(first))
                 x0s = list(pooled.init) + [pooled.candidates[i] for i in indices]
                 return _continuous(spec, ex, x0s, n_keep, s.screen_iterations, s.maxiter, objective, bar)
+            bar.stage("searched", n_starts)
             outcomes = _exchange(spec, ex, pooled.candidates, first, s.starts, objective, bar)
             if s.polish:
+                bar.stage(f"polished (the best {n_keep} of {n_starts})", n_keep)
                 outcomes = _polish(spec, ex, outcomes, n_keep, s.maxiter, objective, engine, s.floor, bar)
             return outcomes
     finally:
@@ -220,6 +222,7 @@ def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, ba
     screened = None
     if n_keep < n and screen_iterations > 0:
         items = [(spec, x0, screen_iterations) for x0 in x0s]
+        bar.stage("screened", n)
         screened = _multistart.run(ex, _multistart.screen_task, items, bar)
         order = sorted(range(n), key=lambda s: (screened[s].score, s))
         kept = sorted(order[:n_keep])
@@ -228,6 +231,9 @@ def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, ba
         kept = list(range(n))
         starts_from = [x0s[s] for s in kept]
     items = [(spec, q, x0s[s], maxiter) for s, q in zip(kept, starts_from, strict=True)]
+    bar.stage(
+        "run to convergence" if len(kept) == n else f"run to convergence (the best {len(kept)})", len(kept)
+    )
     finals = dict(zip(kept, _multistart.run(ex, _multistart.polish_task, items, bar), strict=True))
 
     def outcome(s: int) -> Outcome:
@@ -254,30 +260,6 @@ def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, ba
 
 def _report_value(objective: Criterion, F: float) -> float:
     return float(objective.report(F)) if np.isfinite(F) else math.inf
-
-
-class _Progress:
-    """The progress bar of a design on stderr (starts done, best value so far); off: does nothing."""
-
-    def __init__(self, on: bool, total: int, criterion: str, objective: Criterion) -> None:
-        self.criterion, self.objective, self.best = criterion, objective, math.inf
-        self.bar = None
-        if on:
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=total, desc="design", unit="start", leave=False, dynamic_ncols=True)
-
-    def __call__(self, outcome) -> None:
-        if self.bar is None:
-            return
-        if getattr(outcome, "feasible", True) and np.isfinite(outcome.F):
-            self.best = min(self.best, float(self.objective.report(outcome.F)))
-        self.bar.update(1)
-        self.bar.set_postfix_str(f"best {self.criterion} {self.best:.6g}")
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
 
 
 def plan_conditioning(engine: JacobianEngine, q: np.ndarray) -> float:

@@ -1,0 +1,85 @@
+"""Evaluating one plan or many at once, near the cost of Pinocchio's own work.
+
+The public evaluations (:func:`pincal.rho0`, :func:`pincal.criteria`, :func:`pincal.accuracy`)
+take one plan (m, nq) — or a :class:`~pincal.Plan` — or a batch of k plans (k, m, nq) — or a
+sequence of Plans — and return one value per plan. Every configuration of a batch is checked
+once; the Jacobians of all k·m configurations come from one pass of forward kinematics and
+kinematic regressors (the floor: Pinocchio's own work), the k information matrices from one
+batched product, and the criteria from batched factorisations. The Jacobian engine of a parameter
+set is built once per thread and kept while the set lives (it holds a ``pinocchio.Data``: one per
+thread). Large batches run with BLAS on one thread (:mod:`pincal.blas`), whatever the caller's
+process has set; a single small evaluation touches no thread setting at all.
+"""
+
+from __future__ import annotations
+
+import threading
+import weakref
+from contextlib import AbstractContextManager, nullcontext
+
+import numpy as np
+
+from pincal.blas import single_threaded
+from pincal.errors import BadConfiguration
+from pincal.model.jacobian import JacobianEngine
+from pincal.model.parameters import ParameterSet
+
+THREADED_ABOVE = 64
+"""Configurations (plan and test poses) above which an evaluation limits BLAS to one thread."""
+
+_LOCAL = threading.local()
+
+
+def engine_for(params: ParameterSet) -> JacobianEngine:
+    """The Jacobian engine of ``params`` for this thread, built on first use and kept while
+    ``params`` lives."""
+    cache = getattr(_LOCAL, "engines", None)
+    if cache is None:
+        cache = _LOCAL.engines = weakref.WeakKeyDictionary()
+    engine = cache.get(params)
+    if engine is None:
+        engine = cache[params] = JacobianEngine(params)
+    return engine
+
+
+def blas_for(configurations: int) -> AbstractContextManager:
+    """One BLAS thread for an evaluation of this many configurations, if it is large."""
+    return single_threaded() if configurations > THREADED_ABOVE else nullcontext()
+
+
+def plan_batch(params: ParameterSet, plan: object) -> tuple[np.ndarray, bool]:
+    """((k, m, nq) checked joint values, batched): one plan ((m, nq), (nq,) or a Plan) is a batch of
+    one, with ``batched`` False; a (k, m, nq) array or a sequence of Plans of one m is a batch.
+
+    Raises:
+        BadConfiguration: wrong shape, a non-finite value or a value outside its joint limits
+            (naming the plan and the configuration).
+    """
+    robot = params.robot
+    values = plan
+    if isinstance(plan, (list, tuple)) and plan and all(hasattr(p, "q") for p in plan):
+        values = [p.q for p in plan]
+    values = getattr(values, "q", values)
+    arr = np.asarray(values, dtype=float) if not isinstance(values, np.ndarray) else values
+    if arr.ndim != 3:
+        return robot.configurations(plan)[None], False
+    k, m, nq = arr.shape
+    if nq != robot.nq or m == 0 or k == 0:
+        raise BadConfiguration(
+            f"plans: expected (k, m, {robot.nq}) joint values ({', '.join(robot.joint_names)}), got shape "
+            f"{arr.shape}"
+        )
+    flat = robot.configurations(arr.reshape(-1, nq), what="plan configuration")
+    return flat.reshape(k, m, nq), True
+
+
+def jacobians(engine: JacobianEngine, qs: np.ndarray) -> np.ndarray:
+    """(k, m·r, P) tip-frame Jacobians of k plans (k, m, nq), in one pass."""
+    k, m, nq = qs.shape
+    J = engine.jacobian(qs.reshape(-1, nq), frame="tip")
+    return J.reshape(k, -1, engine.n_params)
+
+
+def informations(J: np.ndarray) -> np.ndarray:
+    """(k, P, P) information matrices M = JᵀJ of k plans' Jacobians (k, m·r, P)."""
+    return np.matmul(np.swapaxes(J, 1, 2), J)
