@@ -386,3 +386,20 @@ def test_design_and_identification_agree_on_what_a_plan_separates():
     assert fit.success and fit.dropped
     assert all(name in str(warning.message) for name in fit.dropped), (str(warning.message), fit.dropped)
     assert f"leave {len(fit.dropped)} parameter(s)" in str(warning.message)
+
+
+def test_progress_off_a_terminal_is_a_line_per_interval_counting_the_starts(lengths, capsys, monkeypatch):
+    """With stderr not a terminal (a CI log, a pipe), a design reports in lines — the starts done of
+    the starts asked (the same count the result reports), then the polished ones, the best value
+    with its unit."""
+    from pincal.planning import progress
+
+    monkeypatch.setattr(progress, "EVERY", 0.0)
+    result = design(lengths, 3, test_pose=[0.3, 1.0], starts=4, seed=0, workers=1, sigma=1e-4, progress=True)
+    lines = capsys.readouterr().err.strip().splitlines()
+    searched = [line for line in lines if "starts searched" in line]
+    assert len(searched) == result.starts == 4
+    assert searched[-1].startswith(f"pincal: design test-pose: {result.starts} of {result.starts} starts")
+    assert all(" mm, " in line for line in searched)  # ρ0 with its unit
+    polished = [line for line in lines if "polished" in line]
+    assert len(polished) == 1 and "(the best 1 of 4)" in polished[0]  # keep = 0.25 of the starts

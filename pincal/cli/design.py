@@ -128,7 +128,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="exchange: refine the best plans with the continuous search (default: on, off with --pool)",
     )
-    p.add_argument("--starts", type=count("--starts"), default=32, help="number of starts (default 32)")
+    p.add_argument("--starts", type=count("--starts"), default=16, help="number of starts (default 16)")
     p.add_argument(
         "--workers",
         type=count("--workers"),

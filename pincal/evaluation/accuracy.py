@@ -21,7 +21,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from pincal.arguments import angle, generator, positive_int, positive_sigma
 from pincal.evaluation.information import factor
@@ -29,6 +28,7 @@ from pincal.evaluation.plans import blas_for, engine_for, plan_batch
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import Neighbourhood, ResolvedRegion, resolve_test_poses, width_text
 from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.lapack import trtrs
 from pincal.model.parameters import ParameterSet
 
 NEIGHBOURHOODS = (math.radians(10), math.radians(20))
@@ -85,7 +85,7 @@ class PredictedError:
     def squared_at(self, J: np.ndarray) -> np.ndarray:
         """(n,) ρ² [m²] at configurations of tip-frame Jacobians J (n, r, P), computed once for
         every plan compared on them."""
-        X, _ = _trtrs(self.L, np.ascontiguousarray(J.reshape(-1, J.shape[-1]).T), lower=1)
+        X = trtrs(self.L, np.ascontiguousarray(J.reshape(-1, J.shape[-1]).T))
         return self.sigma**2 * np.einsum("ij,ij->j", X, X).reshape(len(J), -1).sum(axis=1)
 
     def __call__(self, qs: np.ndarray) -> np.ndarray:

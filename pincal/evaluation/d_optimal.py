@@ -8,10 +8,10 @@ After a swap of configurations, det M'/det M is the determinant of the Woodbury 
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from pincal.evaluation.criterion import Criterion, scaled_eigh
 from pincal.evaluation.information import factor
+from pincal.lapack import trtrs
 
 
 class DOptimal(Criterion):
@@ -31,7 +31,7 @@ class DOptimal(Criterion):
 
     def value_and_gradient(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
         L = factor(self.posterior(M), self.rows, m)
-        Linv, _ = _trtrs(L, np.eye(len(M)), lower=1)
+        Linv = trtrs(L, np.eye(len(M)))
         return float(-2.0 * np.log(L.diagonal()).sum()), -(Linv.T @ Linv)
 
     def report(self, F):

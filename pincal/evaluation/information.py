@@ -17,9 +17,9 @@ model never imports this later stage.)
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg.lapack import dpotrf as _potrf
 
 from pincal.errors import SingularPlan
+from pincal.lapack import potrf
 from pincal.model.jacobian import ZERO_COLUMN
 
 RCOND = 1e-14
@@ -44,7 +44,7 @@ def factor(M: np.ndarray, rows: int, m: int) -> np.ndarray:
 
     Raises SingularPlan when M is singular or numerically so.
     """
-    L, info = _potrf(M, lower=1, clean=1, overwrite_a=0)
+    L, info = potrf(M)
     if info == 0:
         diag = M.diagonal()
         pivots = L.diagonal() ** 2 / diag
@@ -131,7 +131,7 @@ def covariance_diagonal(M: np.ndarray) -> np.ndarray | None:
     if norms.size == 0 or norms.min() <= ZERO_COLUMN * norms.max():
         return None
     d, scaled = jacobi_scaled(M)
-    L, info = _potrf(scaled, lower=1, clean=1, overwrite_a=0)
+    L, info = potrf(scaled)
     if info != 0 or L.diagonal().min() ** 2 < RCOND * L.diagonal().max() ** 2:
         return None
     Linv = np.linalg.inv(np.tril(L))

@@ -26,9 +26,9 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy.linalg import cho_solve
 
 from pincal.evaluation.information import factor
+from pincal.lapack import cho_solve
 
 LOG_MIN_RATIO = np.log(1e-12)
 """Swaps that shrink det M by more than this factor are taken as singular."""
@@ -37,7 +37,7 @@ LOG_MIN_RATIO = np.log(1e-12)
 def inverse(M: np.ndarray, rows: int, m: int) -> np.ndarray:
     """M⁻¹ by a Cholesky factor (raises SingularPlan)."""
     L = factor(M, rows, m)
-    return cho_solve((L, True), np.eye(len(M)))
+    return cho_solve(L, np.eye(len(M)))
 
 
 def capacitance(S_cc: np.ndarray, A: np.ndarray, Ji: np.ndarray, Ai: np.ndarray) -> np.ndarray:

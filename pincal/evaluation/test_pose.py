@@ -26,7 +26,6 @@ A plan whose M is singular (too few configurations, or degenerate ones) has no f
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.errors import BadArgument
@@ -36,6 +35,7 @@ from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import resolve_test_poses
 from pincal.evaluation.test_pose_worst import TestPoseWorst
 from pincal.evaluation.weighted_trace import WeightedTrace
+from pincal.lapack import trtrs
 from pincal.model.parameters import ParameterSet
 
 AGGREGATES = ("mean", "worst", "each")
@@ -80,7 +80,7 @@ class TestPoseMean(WeightedTrace):
 
     def rho0(self, M: np.ndarray, m: int) -> float:
         """ρ0 [m], the root of the mean ρ0² over the test poses, for information M of m configurations."""
-        X, _ = _trtrs(factor(self.posterior(M), self.rows, m), self.J0T, lower=1)
+        X = trtrs(factor(self.posterior(M), self.rows, m), self.J0T)
         return self.scale * np.sqrt(np.einsum("ij,ij", X, X))
 
 

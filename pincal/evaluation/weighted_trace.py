@@ -11,10 +11,10 @@ of configurations is the Woodbury update tr(Wk M'⁻¹) = t_k − ⟨Q, H⁻¹Q�
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg.lapack import dtrtrs as _trtrs
 
 from pincal.evaluation.criterion import Criterion, scaled_eigh
 from pincal.evaluation.information import factor
+from pincal.lapack import trtrs
 
 
 class WeightedTrace(Criterion):
@@ -52,7 +52,7 @@ class WeightedTrace(Criterion):
     # -------------------------------------------------------------------- the value
     def _solve(self, M: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
         L = factor(self.posterior(M), self.rows, m)
-        X, _ = _trtrs(L, self.J0T, lower=1)
+        X = trtrs(L, self.J0T)
         return L, X
 
     def traces(self, M: np.ndarray, m: int) -> np.ndarray:
@@ -71,7 +71,7 @@ class WeightedTrace(Criterion):
 
     def value_and_gradient(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
         L, X = self._solve(M, m)
-        Y, _ = _trtrs(L, X, lower=1, trans=1)  # (M + Λ)⁻¹ J0ᵀ
+        Y = trtrs(L, X, trans=1)  # (M + Λ)⁻¹ J0ᵀ
         t = np.einsum("ij,ij->j", X, X).reshape(self.k, -1).sum(axis=1)
         F, w = self.gradient_weights(t)
         cols = np.repeat(w, Y.shape[1] // self.k)
@@ -88,8 +88,8 @@ class WeightedTrace(Criterion):
         the prior the plan leaves uncorrected, scale²·t_k[CΛC]; they add up to scale²·t_k (the
         second is 0 without a prior)."""
         L = factor(self.posterior(M), self.rows, m)
-        X, _ = _trtrs(L, self.J0T, lower=1)
-        Y, _ = _trtrs(L, X, lower=1, trans=1)  # (M + Λ)⁻¹ J0ᵀ
+        X = trtrs(L, self.J0T)
+        Y = trtrs(L, X, trans=1)  # (M + Λ)⁻¹ J0ᵀ
         s2 = self.scale**2
         noise = s2 * np.einsum("ij,ij->j", Y, M @ Y).reshape(self.k, -1).sum(axis=1)
         if self.prior is None:

@@ -23,7 +23,6 @@ import re
 import subprocess
 import sys
 import types
-import unittest.mock
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -176,6 +175,8 @@ def _ros_packages(path: Path, package_dirs: Mapping[str, str] | None) -> Iterato
     packages.get_package_share_directory = share  # type: ignore[attr-defined]
     packages.PackageNotFoundError = LookupError  # type: ignore[attr-defined]
     index.packages = packages  # type: ignore[attr-defined]
+    import unittest.mock  # in the child only: it brings asyncio, slow for every import of pincal
+
     with unittest.mock.patch.dict(
         sys.modules, {"ament_index_python": index, "ament_index_python.packages": packages}
     ):

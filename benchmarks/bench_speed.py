@@ -1,0 +1,289 @@
+"""Speed of the README's design and of the public evaluations (issue 17), run by hand:
+
+    python benchmarks/bench_speed.py --before /tmp/pincal-before      # print the figures
+    python benchmarks/bench_speed.py --before /tmp/pincal-before --write   # and RESULTS.md
+
+``--before`` is a checkout of the code to compare with (e.g. ``git worktree add --detach
+/tmp/pincal-before 0b3eb34``): both trees run in child processes of this one, interleaved, in the
+same run, each importing its own ``pincal`` (PYTHONPATH). Without it, only this tree is measured.
+
+1. The README's main command (``pincal design kr270 -m 12 --test-pose=0,-60,60,0,45,0 --around
+   10deg --deg --marker 0.1,0.05,0.2 --baseline 2000 --out plan.csv``): wall time, best and median
+   of ``--repeat`` runs of each tree, and the ratio.
+2. Quality: the design of that command through the API for 5 seeds, this tree with its default
+   starts against the best of 64 starts of the ``--before`` tree: the ratio of ρ0 (target ≤ 1.01).
+3. Evaluations against their floor, the bare Pinocchio work of the plan's configurations
+   (forward kinematics + kinematic regressor): ``pincal.rho0`` for one plan, and per plan for a
+   batch of k plans; ``pincal.criteria``; with the BLAS threads the process starts with.
+4. Growth: design time (one worker, 4 starts, no polish) against m, the number of parameters, the
+   pool size and the number of test poses, as log-log exponents.
+5. ``import pincal`` and ``pincal --help``: wall time (best of 5, byte-code cached).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from bench_design import load, machine, write  # benchmarks/ is on sys.path when run as a script
+
+ROOT = Path(__file__).resolve().parents[1]
+README = (
+    "design kr270 -m 12 --test-pose=0,-60,60,0,45,0 --around 10deg --deg --marker 0.1,0.05,0.2 "
+    "--baseline 2000 --no-progress --out {out}"
+)
+
+QUALITY = """
+import json, sys, warnings
+import numpy as np
+import pincal
+warnings.simplefilter("ignore")
+robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
+params = robot.parameters("full,offsets").identifiable().identifiable
+region = pincal.around(np.radians([0, -60, 60, 0, 45, 0]), np.radians(10))
+starts = json.loads(sys.argv[1])
+out = {}
+for seed in range(5):
+    kw = {} if starts is None else {"starts": starts}
+    r = pincal.design(params, 12, region, seed=seed, **kw)
+    out[seed] = (r.value, r.time_s, r.starts)
+print(json.dumps(out))
+"""
+
+EVALUATIONS = """
+import json, timeit
+import numpy as np
+import pinocchio as pin
+import pincal
+robot = pincal.load_robot("kr270", tip="tool0", markers=[(0.1, 0.05, 0.2)])
+params = robot.parameters("full").identifiable().identifiable
+rng = np.random.default_rng(0)
+plans = robot.random_configurations(12 * 1000, rng).reshape(1000, 12, -1)
+q0 = robot.random_configurations(1, np.random.default_rng(1))
+model, data = robot.model, robot.model.createData()
+joint = robot.tip_joint
+point = model.frames[robot.tip_frame].placement * pin.SE3(np.eye(3), robot.markers[0])
+fk, regressor, local = pin.forwardKinematics, pin.computeJointKinematicRegressor, pin.LOCAL
+def bare(qs):
+    for q in qs:
+        fk(model, data, q)
+        regressor(model, data, joint, local, point)
+def best(f, number):
+    return min(timeit.timeit(f, number=number) / number for _ in range(5))
+out = {"P": len(params), "m": 12}
+out["bare"] = best(lambda: bare(plans[0]), 500)
+out["bare_1000"] = best(lambda: bare(plans.reshape(-1, plans.shape[-1])), 2) / 1000
+out["rho0_one"] = best(lambda: pincal.rho0(params, plans[0], q0), 500)
+def batch(function, k):
+    try:
+        function(params, plans[:2], q0) if function is pincal.rho0 else function(params, plans[:2])
+    except Exception:  # the code before took one plan at a time: a loop
+        if function is pincal.rho0:
+            return lambda: [function(params, p, q0) for p in plans[:k]]
+        return lambda: [function(params, p) for p in plans[:k]]
+    return (lambda: function(params, plans[:k], q0)) if function is pincal.rho0 else (lambda: function(params, plans[:k]))
+for k in (100, 1000):
+    out[f"rho0_batch_{k}"] = best(batch(pincal.rho0, k), max(1, 2000 // k)) / k
+out["criteria_one"] = best(lambda: pincal.criteria(params, plans[0]), 200)
+out["criteria_batch_1000"] = best(batch(pincal.criteria, 1000), 2) / 1000
+region = pincal.around(q0[0], np.radians(10))
+out["rho0_region_one"] = best(lambda: pincal.rho0(params, plans[0], region), 20)
+print(json.dumps(out))
+"""
+
+GROWTH = """
+import json, sys, time, warnings
+import numpy as np
+import pincal
+warnings.simplefilter("ignore")
+robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
+q0 = np.radians([0, -60, 60, 0, 45, 0])
+sweep = np.radians([30, 10, -10, 20, 15, 30])
+def path(n):
+    return pincal.TestPath(q0 + np.linspace(-1, 1, n)[:, None] * sweep)
+def timed(params, m=12, pool=2000, test=q0):
+    t = time.perf_counter()
+    pincal.design(params, m, test, starts=4, seed=0, workers=1, pool=pool, polish=False)
+    return time.perf_counter() - t
+full = robot.parameters("full,offsets").identifiable().identifiable
+small = robot.parameters("lengths,offsets").identifiable().identifiable
+out = {
+    "m": [(m, timed(full, m=m)) for m in (10, 20, 40)],
+    "P": [(len(p), timed(p)) for p in (small, full)],
+    "pool": [(n, timed(full, pool=n)) for n in (500, 1000, 2000, 4000)],
+    "poses": [(n, timed(full, test=path(n))) for n in (1, 100, 10000)],
+}
+print(json.dumps(out))
+"""
+
+
+def run_python(tree: Path, code: str, *args: str) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    out = subprocess.run(
+        [sys.executable, "-c", code, *args], env=env, capture_output=True, text=True, cwd=tree
+    )
+    if out.returncode:
+        raise RuntimeError(f"{tree}: {out.stderr[-2000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def readme_wall(tree: Path) -> float:
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    with tempfile.TemporaryDirectory() as tmp:
+        argv = README.format(out=Path(tmp) / "plan.csv").split()
+        t0 = time.perf_counter()
+        subprocess.run(
+            [sys.executable, "-m", "pincal", *argv], env=env, capture_output=True, check=True, cwd=tmp
+        )
+        return time.perf_counter() - t0
+
+
+def best_wall(tree: Path, argv: list[str], repeat: int = 5) -> float:
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, *argv], env=env, capture_output=True, check=True, cwd=tree)
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def exponent(points: list) -> float:
+    x, y = np.log([p[0] for p in points]), np.log([p[1] for p in points])
+    return float(np.polyfit(x, y, 1)[0])
+
+
+def main() -> list[str]:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--before", type=Path, help="a checkout of the code to compare with")
+    parser.add_argument("--repeat", type=int, default=3, help="runs of the README command per tree")
+    parser.add_argument("--write", action="store_true", help="replace the bench_speed section of RESULTS.md")
+    parser.add_argument(
+        "--skip", default="", help="comma-separated parts to skip: readme,quality,eval,growth,import"
+    )
+    args = parser.parse_args()
+    skip = set(args.skip.split(","))
+    trees = {"this": ROOT} | ({"before": args.before.resolve()} if args.before else {})
+    lines: list[str] = []
+
+    def say(text: str = "") -> None:
+        print(text, flush=True)
+        lines.append(text)
+
+    say(f"- Machine: {machine()}; load average at start {load()} (1/5/15 min).")
+    say(
+        f"- Command: `python benchmarks/bench_speed.py{' --before TREE' if args.before else ''}`"
+        f"{' (TREE: the code before, a detached worktree)' if args.before else ''}; date {datetime.date.today()}."
+    )
+    say()
+    if "readme" not in skip:
+        say("### The README's design command")
+        say()
+        say(
+            f"`pincal {README.format(out='plan.csv').replace(' --no-progress', '')}`, wall time of the whole command"
+        )
+        say(f"(import, design, baseline, accuracy report), {args.repeat} runs per tree, interleaved:")
+        say()
+        walls: dict[str, list[float]] = {name: [] for name in trees}
+        for _ in range(args.repeat):
+            for name, tree in trees.items():
+                walls[name].append(readme_wall(tree))
+        say("| code | best | median | runs |")
+        say("| --- | ---: | ---: | --- |")
+        for name, w in walls.items():
+            say(
+                f"| {name} | {min(w):.2f} s | {statistics.median(w):.2f} s | {', '.join(f'{x:.2f}' for x in w)} |"
+            )
+        if "before" in walls:
+            say()
+            say(
+                f"- Ratio this / before: {min(walls['this']) / min(walls['before']):.2f} (best), "
+                f"{statistics.median(walls['this']) / statistics.median(walls['before']):.2f} (median)."
+            )
+        say(f"- Load average after: {load()}.")
+        say()
+    if "quality" not in skip:
+        say("### Quality: ρ0 of the design, 5 seeds")
+        say()
+        this = run_python(ROOT, QUALITY, "null")
+        before = run_python(args.before, QUALITY, "64") if args.before else None
+        say("| seed | this (default starts) | design time | before, 64 starts | ratio |")
+        say("| ---: | ---: | ---: | ---: | ---: |")
+        for seed, (value, t, starts) in this.items():
+            ref = before[seed][0] if before else float("nan")
+            say(
+                f"| {seed} | {value * 1e3:.5f} mm ({starts} starts) | {t:.2f} s | {ref * 1e3:.5f} mm | {value / ref:.4f} |"
+            )
+        say()
+    if "eval" not in skip:
+        say("### Public evaluations against the bare Pinocchio work (KR 270, 27 parameters, m = 12)")
+        say()
+        say(
+            f"BLAS threads as the process starts (OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')})."
+        )
+        say()
+        results = {name: run_python(tree, EVALUATIONS) for name, tree in trees.items()}
+        say("| evaluation | " + " | ".join(f"{n} [µs per plan]" for n in results) + " | this / bare |")
+        say("| --- |" + " ---: |" * (len(results) + 1))
+        rows = [
+            ("bare: FK + regressor, 12 configurations", "bare"),
+            ("bare, per 12 of 12 000 configurations", "bare_1000"),
+            ("rho0, one plan", "rho0_one"),
+            ("rho0, batch of 100 plans (before: a loop)", "rho0_batch_100"),
+            ("rho0, batch of 1000 plans (before: a loop)", "rho0_batch_1000"),
+            ("criteria, one plan", "criteria_one"),
+            ("criteria, batch of 1000 plans (before: a loop)", "criteria_batch_1000"),
+            ("rho0 over a ±10° region, one plan", "rho0_region_one"),
+        ]
+        for label, key in rows:
+            cells = [("—" if r.get(key) is None else f"{r[key] * 1e6:.1f}") for r in results.values()]
+            ratio = (
+                results["this"][key] / results["this"]["bare"] if results["this"].get(key) else float("nan")
+            )
+            say(f"| {label} | " + " | ".join(cells) + f" | {ratio:.2f} |")
+        say()
+    if "growth" not in skip:
+        say("### Growth of the design time (this code; one worker, 4 starts, no polish)")
+        say()
+        g = run_python(ROOT, GROWTH)
+        for key, what in (
+            ("m", "m"),
+            ("P", "parameters"),
+            ("pool", "pool size"),
+            ("poses", "test poses (path points)"),
+        ):
+            pts = ", ".join(f"{n}: {t:.2f} s" for n, t in g[key])
+            say(f"- {what}: {pts}; exponent {exponent(g[key]):.2f}.")
+        say()
+    if "import" not in skip:
+        say("### Import and help (best of 5, byte-code cached)")
+        say()
+        for name, tree in trees.items():
+            imp = best_wall(tree, ["-c", "import pincal"])
+            helped = best_wall(tree, ["-m", "pincal", "--help"])
+            bare = best_wall(tree, ["-c", "import numpy, pinocchio"])
+            say(
+                f"- {name}: `import pincal` {imp:.3f} s, `pincal --help` {helped:.3f} s "
+                f"(of which `import numpy, pinocchio` alone: {bare:.3f} s)."
+            )
+        say()
+    say(f"- Load average at the end: {load()}.")
+    if args.write:
+        write(lines, "bench_speed")
+    return lines
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,39 @@
+"""The few LAPACK routines pincal calls directly, loaded on first use.
+
+scipy.linalg takes longer to import than the rest of pincal together; ``import pincal`` and
+``pincal --help`` do not need it. Each function here resolves its routine once, then costs one
+call more than calling LAPACK through scipy directly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_ROUTINES: dict[str, object] = {}
+
+
+def _routine(name: str):
+    found = _ROUTINES.get(name)
+    if found is None:
+        from scipy.linalg import lapack
+
+        found = _ROUTINES[name] = getattr(lapack, name)
+    return found
+
+
+def potrf(a: np.ndarray) -> tuple[np.ndarray, int]:
+    """(L, info): the lower Cholesky factor of ``a`` (not modified), info ≠ 0 if it is not
+    positive definite."""
+    return _routine("dpotrf")(a, lower=1, clean=1, overwrite_a=0)
+
+
+def trtrs(L: np.ndarray, b: np.ndarray, trans: int = 0) -> np.ndarray:
+    """L⁻¹b (``trans`` 0) or L⁻ᵀb (1) for a lower-triangular L."""
+    x, _ = _routine("dtrtrs")(L, b, lower=1, trans=trans)
+    return x
+
+
+def cho_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """M⁻¹b from the lower Cholesky factor L of M."""
+    x, _ = _routine("dpotrs")(L, b, lower=1)
+    return x
