@@ -78,11 +78,11 @@ def bare(qs):
         fk(model, data, q)
         regressor(model, data, joint, local, point)
 def best(f, number):
-    return min(timeit.timeit(f, number=number) / number for _ in range(5))
+    return min(timeit.timeit(f, number=number) / number for _ in range(3))
 out = {"P": len(params), "m": 12}
-out["bare"] = best(lambda: bare(plans[0]), 500)
-out["bare_1000"] = best(lambda: bare(plans.reshape(-1, plans.shape[-1])), 2) / 1000
-out["rho0_one"] = best(lambda: pincal.rho0(params, plans[0], q0), 500)
+out["bare"] = best(lambda: bare(plans[0]), 200)
+out["bare_1000"] = best(lambda: bare(plans.reshape(-1, plans.shape[-1])), 1) / 1000
+out["rho0_one"] = best(lambda: pincal.rho0(params, plans[0], q0), 100)
 def batch(function, k):
     try:
         function(params, plans[:2], q0) if function is pincal.rho0 else function(params, plans[:2])
@@ -92,11 +92,11 @@ def batch(function, k):
         return lambda: [function(params, p) for p in plans[:k]]
     return (lambda: function(params, plans[:k], q0)) if function is pincal.rho0 else (lambda: function(params, plans[:k]))
 for k in (100, 1000):
-    out[f"rho0_batch_{k}"] = best(batch(pincal.rho0, k), max(1, 2000 // k)) / k
-out["criteria_one"] = best(lambda: pincal.criteria(params, plans[0]), 200)
-out["criteria_batch_1000"] = best(batch(pincal.criteria, 1000), 2) / 1000
+    out[f"rho0_batch_{k}"] = best(batch(pincal.rho0, k), max(1, 200 // k)) / k
+out["criteria_one"] = best(lambda: pincal.criteria(params, plans[0]), 50)
+out["criteria_batch_1000"] = best(batch(pincal.criteria, 1000), 1) / 1000
 region = pincal.around(q0[0], np.radians(10))
-out["rho0_region_one"] = best(lambda: pincal.rho0(params, plans[0], region), 20)
+out["rho0_region_one"] = best(lambda: pincal.rho0(params, plans[0], region), 5)
 print(json.dumps(out))
 """
 
