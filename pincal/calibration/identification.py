@@ -44,7 +44,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from pincal.arguments import positive_int, positive_sigma, ratio
+from pincal.arguments import Seed, positive_int, positive_sigma, ratio
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.noise import Noise
 from pincal.calibration.problem import Problem, initial_values
@@ -56,6 +56,7 @@ from pincal.errors import BadArgument, BadMeasurementData, SingularPlan
 from pincal.evaluation.data_check import DataCheck, check_parameters
 from pincal.evaluation.prior import Prior
 from pincal.model.parameters import ParameterSet
+from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
 
 __all__ = [
@@ -92,6 +93,7 @@ def identify(
     method: str = "trf",
     reject: float | None = None,
     sanity: bool = True,
+    residual_model: str | None = None,
 ) -> IdentificationResult:
     """Identify the errors ``params`` from measurements (see the module doc).
 
@@ -115,6 +117,10 @@ def identify(
         reject: drop the rows beyond this many robust σ and refit, until none is left.
         sanity: judge the result's plausibility (``False`` for simulations whose true errors are
             known to be what they are, e.g. Monte-Carlo with huge errors).
+        residual_model: ``"gp"``: after a converged fit, model what it leaves as a Gaussian
+            process over joint space (:mod:`pincal.model.residual`, docs/method.md §11.5),
+            hyperparameters by marginal likelihood on these data only (the rows kept); the
+            result's :meth:`~IdentificationResult.predict` adds its mean. None: no residual model.
 
     Returns:
         the result; its ``status`` says whether it converged, and ``message`` (and ``causes``)
@@ -131,6 +137,13 @@ def identify(
     settings = _settings(
         sigma, maxiter, tol, prior=prior, loss=loss, method=method, reject=reject, sanity=sanity
     )
+    if residual_model is not None and residual_model not in RESIDUAL_MODELS:
+        raise BadArgument(
+            f"unknown residual model {residual_model!r}; valid: {', '.join(RESIDUAL_MODELS)} (or None)",
+            argument="residual_model",
+            value=residual_model,
+            valid=RESIDUAL_MODELS,
+        )
     m, per_row = sum(d.m for d in sessions), 3 * params.robot.n_markers
     if m * per_row < len(params):
         raise SingularPlan(len(params), per_row, m)
@@ -145,7 +158,29 @@ def identify(
             setup, solution, chosen, Verdict("failed", f"identification {solution.note}")
         )
     chosen = replace(chosen, outliers=_outliers(setup, solution.z, chosen.used))
-    return identification_result(setup, solution, chosen, _verdict(setup, solution, chosen))
+    result = identification_result(setup, solution, chosen, _verdict(setup, solution, chosen))
+    if residual_model is None or not result.success:
+        return result
+    return replace(result, residual_model=fit_residual_model(result))
+
+
+RESIDUAL_MODELS = ("gp",)
+"""The residual models ``identify(residual_model=...)`` fits."""
+
+
+def fit_residual_model(result: IdentificationResult, seed: Seed = 0) -> ResidualModel:
+    """The Gaussian process of ``result``'s residuals at the rows it kept, each session's residual
+    rotated into the robot's base frame (so that one model serves every instrument placement)."""
+    used = np.ones(result.data.m, dtype=bool)
+    used[[o.row for o in result.rejected]] = False
+    starts = np.cumsum([0] + [d.m for d in result.sessions])
+    rotations = [b.rotation for b in result.bases] or [result.robot.base.rotation] * len(result.sessions)
+    residuals = np.concatenate(
+        [result.residuals[a:b] @ R for a, b, R in zip(starts[:-1], starts[1:], rotations)]
+    )
+    return ResidualModel.fit(
+        result.data.q[used], residuals[used].reshape(int(used.sum()), -1), result.robot.revolute, seed=seed
+    )
 
 
 def _sessions(data: object, robot: Robot) -> list[MeasurementData]:

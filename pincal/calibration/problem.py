@@ -4,7 +4,8 @@ Unknowns z = (x, b₂, ..., b_S): x the values of a :class:`~pincal.ParameterSet
 relative to the nominal robot, docs/method.md §2) shared by every session, and, when the set holds
 ``base.*``, one more base for each extra session (data file measured from another instrument
 placement): session s uses x with its base components replaced by b_s. The points of session s are
-``params.apply(x_s).points(q_s)``.
+``params.apply(x_s).points(q_s, payload=w_s)``, w_s the payload of each row (none when the data
+have no payload columns).
 
 Rotation errors compose on the right, R·exp3(ω): the Jacobian with respect to ω is the Jacobian of
 a perturbation on top of the current robot (:meth:`ParameterSet.on`, Pinocchio's kinematic
@@ -93,15 +94,20 @@ class Problem:
     def model(self, z: np.ndarray) -> np.ndarray:
         """(N,) model coordinates, sessions stacked."""
         return np.concatenate(
-            [self.robot(z, s).points(d.q, check=False).reshape(-1) for s, d in enumerate(self.sessions)]
+            [
+                self.robot(z, s).points(d.q, check=False, payload=d.payload).reshape(-1)
+                for s, d in enumerate(self.sessions)
+            ]
         )
 
     def residual(self, z: np.ndarray) -> np.ndarray:
         """(N,) measured − model [m]."""
         return self.measured - self.model(z)
 
-    def _jacobian_x(self, x: np.ndarray, qs: np.ndarray) -> np.ndarray:
-        J = JacobianEngine(self.augmented.on(self.params.apply(x))).jacobian(qs, frame="world")
+    def _jacobian_x(self, x: np.ndarray, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
+        J = JacobianEngine(self.augmented.on(self.params.apply(x))).jacobian(
+            qs, frame="world", payload=payload
+        )
         D = self.D0.copy()
         for aug, cols, comps in self.rotations:
             omega = np.zeros(3)
@@ -117,7 +123,7 @@ class Problem:
         out = np.zeros((self.measured.size, len(self)))
         for s, data in enumerate(self.sessions):
             rows = slice(self._rows[s], self._rows[s + 1])
-            Jx = self._jacobian_x(self.session_values(z, s), data.q)
+            Jx = self._jacobian_x(self.session_values(z, s), data.q, data.payload)
             if s == 0 or not nb:
                 out[rows, :P] = Jx
             else:

@@ -14,6 +14,7 @@ from pincal.calibration.state import Rows, Setup, Solution, Verdict
 from pincal.evaluation.data_check import DataCheck
 from pincal.evaluation.prior import Prior
 from pincal.model.parameters import ParameterSet
+from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
 
 
@@ -54,6 +55,9 @@ class IdentificationResult:
             frame; the identity when ``base.*`` is not identified).
         initial_robot: the robot the "before" residuals are of (nominal, rigid-fit base).
         initial_bases: each session's base of the "before" residuals (the rigid fits).
+        residual_model: the Gaussian process of what the fitted model leaves (``identify(...,
+            residual_model="gp")``; its mean corrects :meth:`predict`, its variance is part of
+            the predicted error), or None.
     """
 
     params: ParameterSet
@@ -81,6 +85,19 @@ class IdentificationResult:
     bases: tuple[pin.SE3, ...] = ()
     initial_robot: Robot | None = None
     initial_bases: tuple[pin.SE3, ...] = ()
+    residual_model: ResidualModel | None = None
+
+    def predict(self, q: object, *, payload: object = None, session: int = 0) -> np.ndarray:
+        """(m, K, 3) the points the calibration predicts at joint readings ``q`` [m], in session
+        ``session``'s instrument frame: the calibrated robot's (under ``payload``), plus the residual
+        model's mean when there is one (it models the residual in the robot's base frame)."""
+        robot = self.robot.replace(base=self.bases[session]) if self.bases else self.robot
+        points = robot.points(q, payload=payload)
+        if self.residual_model is None:
+            return points
+        qs = robot.configurations(q)
+        mean = self.residual_model.mean(qs).reshape(points.shape)
+        return points + mean @ robot.base.rotation.T
 
     @property
     def success(self) -> bool:
@@ -154,6 +171,7 @@ class IdentificationResult:
             "rejected": [o.as_dict() for o in self.rejected],
             "causes": list(self.causes),
             "prior": self.prior.as_dict() if self.prior is not None else None,
+            "residual_model": self.residual_model.summary() if self.residual_model is not None else None,
         }
 
     def _sigma_line(self) -> str:
@@ -179,13 +197,15 @@ class IdentificationResult:
             lines.append(self.check.report())
         width = max(len(n) for n in self.names)
         for name, v, s, unit in zip(self.names, self.values, self.std, self.params.units, strict=True):
-            shown = "mm" if unit == "m" else "mrad"
+            scale, shown = SHOWN[unit]
             if name in self.dropped:
                 lines.append(f"  {name:{width}s} not identified (nominal)")
             elif np.isfinite(s):
-                lines.append(f"  {name:{width}s} {v * 1e3:+11.5f} ± {s * 1e3:.5f} {shown}")
+                lines.append(f"  {name:{width}s} {v * scale:+11.5f} ± {s * scale:.5f} {shown}")
             else:  # no degrees of freedom left to estimate σ from (e.g. after --reject)
-                lines.append(f"  {name:{width}s} {v * 1e3:+11.5f} (standard error undetermined) {shown}")
+                lines.append(f"  {name:{width}s} {v * scale:+11.5f} (standard error undetermined) {shown}")
+        if self.residual_model is not None:
+            lines.append(self.residual_model.describe())
         if self.rejected:
             lines.append(f"rejected {len(self.rejected)} row(s) and refitted:")
             lines += [f"  {o}" for o in self.rejected]
@@ -193,6 +213,16 @@ class IdentificationResult:
             lines.append(f"suspicious rows (over {OUTLIER_SCORE:g} robust sigma):")
             lines += [f"  {o}" for o in self.outliers]
         return "\n".join(lines)
+
+
+SHOWN = {
+    "m": (1e3, "mm"),
+    "rad": (1e3, "mrad"),
+    "1": (1e6, "ppm"),
+    "rad/(N·m)": (1e6, "µrad/(N·m)"),
+    "m/N": (1e6, "µm/N"),
+}
+"""How the report shows a value of each unit: (factor, unit shown)."""
 
 
 def _pose(placement: pin.SE3) -> dict:
@@ -314,4 +344,12 @@ def _stacked(sessions: list[MeasurementData]) -> MeasurementData:
         sessions[0].joint_names,
         sigma=None if sigma is None or np.isnan(sigma).any() else sigma,
         source=" + ".join(str(d.source) for d in sessions),
+        payload=_stacked_payload(sessions),
     )
+
+
+def _stacked_payload(sessions: list[MeasurementData]) -> np.ndarray | None:
+    """The sessions' payload rows stacked (no payload columns: none), or None if no session has any."""
+    if all(d.payload is None for d in sessions):
+        return None
+    return np.concatenate([d.payload if d.payload is not None else np.zeros((d.m, 4)) for d in sessions])

@@ -191,7 +191,7 @@ def _marker_offset(problem: Problem, z: np.ndarray) -> float | None:
         return None
     data = problem.sessions[0]
     robot = problem.robot(z, 0)
-    r = (data.points - robot.points(data.q, check=False)).reshape(-1)
+    r = (data.points - robot.points(data.q, check=False, payload=data.payload)).reshape(-1)
     J = np.hstack(
         [
             problem.jacobian(z)[: r.size, : len(problem.params)],

@@ -1,7 +1,10 @@
 """Synthetic data: "real" robots with known errors, and what an instrument would measure on them.
 
-* :func:`random_errors` draws geometric errors for a parameter set and gives the perturbed robot.
-* :func:`simulate_measurements` measures a robot at a plan, with Gaussian noise per coordinate.
+* :func:`random_errors` draws errors for a parameter set (geometric, gains, compliances) and gives
+  the perturbed robot.
+* :func:`simulate_measurements` measures a robot at a plan, with Gaussian noise per coordinate,
+  under a payload per configuration, optionally with a smooth error no parameter models
+  (:class:`SmoothField`: what a residual model is for).
 * :func:`monte_carlo` repeats {random true robot → noisy measurements → identification} and
   compares the position error at the test pose(s) after compensation with the predicted ρ0
   (docs/method.md §6.8). For small errors the two agree within the Monte-Carlo statistical error; for large
@@ -21,9 +24,19 @@ from pincal.calibration.measurements import MeasurementData
 from pincal.errors import BadArgument
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
+from pincal.model.statics import payload_rows
 
 DEFAULT_ERROR_STD = {"length": 1e-3, "angle": 1e-3}
 """Standard deviation of random geometric errors: 1 mm for lengths [m], 1 mrad for angles [rad]."""
+
+GAIN_STD = 5e-4
+"""Standard deviation of random joint gains (dimensionless): published gear-ratio errors are 1e-4 to
+1e-3."""
+
+COMPLIANCE_DEFLECTION = 1e-3
+"""Random joint compliances deflect their joint by about this much at its reference torque [rad]
+(|N(0, 1)| times this over :attr:`ParameterSet.scales`): 2e-7 rad/(N·m) on a KR 270's A2, 1e-5 on a
+UR10's wrist, the published magnitudes."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,7 +86,8 @@ def random_errors(
     Args:
         params: the parameters to perturb (errors elsewhere stay zero).
         error_std: ``{"length": s [m], "angle": s [rad]}``; default 1 mm and 1 mrad. Prismatic
-            joint offsets count as lengths.
+            joint offsets count as lengths. Gains get :data:`GAIN_STD`; compliances are positive,
+            of the size of :data:`COMPLIANCE_DEFLECTION` at each joint's reference torque.
         seed: an int, a numpy Generator, or None for fresh entropy.
 
     Returns:
@@ -81,10 +95,55 @@ def random_errors(
     """
     length, angle = error_std_pair(error_std)
     rng = generator(seed)
-    scale = np.array([length if unit == "m" else angle for unit in params.units])
+    kinds = [p.kind for p in params]
+    scale = np.array(
+        [
+            GAIN_STD if kind == "gain" else COMPLIANCE_DEFLECTION / s if kind == "compliance" else length
+            if unit == "m" else angle
+            for kind, unit, s in zip(kinds, params.units, params.scales)
+        ]
+    )  # fmt: skip
     values = scale * rng.standard_normal(len(params))
+    compliant = np.array([kind == "compliance" for kind in kinds], dtype=bool)
+    values[compliant] = np.abs(values[compliant])  # a joint yields to its load, never against it
     values.flags.writeable = False
     return RandomErrors(params, values, params.apply(values))
+
+
+@dataclass(frozen=True, eq=False)
+class SmoothField:
+    """A smooth position error over joint space that no parameter models (gear eccentricity,
+    thermal drift): per coordinate, a sum of ``terms`` sinusoids, each of one or two joints turning
+    once or twice per revolution, in the robot's base frame.
+
+    Attributes:
+        amplitude: its root-mean-square size per coordinate over random configurations [m].
+        frequencies: (terms, nq) integer frequencies of each term.
+        phases: (terms, 3) phases [rad].
+        weights: (terms, 3) weights.
+    """
+
+    amplitude: float
+    frequencies: np.ndarray
+    phases: np.ndarray
+    weights: np.ndarray
+
+    @classmethod
+    def random(cls, robot: Robot, amplitude: float, seed: Seed = None, terms: int = 6) -> SmoothField:
+        """A field of RMS ``amplitude`` [m] per coordinate over ``robot``'s joints."""
+        rng = generator(seed)
+        frequencies = np.zeros((terms, robot.nq), dtype=int)
+        for term in frequencies:  # one or two joints each, once or twice per turn (gear errors)
+            joints = rng.choice(robot.nq, size=int(rng.integers(1, 3)), replace=False)
+            term[joints] = rng.choice([-2, -1, 1, 2], size=len(joints))
+        weights = rng.standard_normal((terms, 3))
+        weights *= amplitude * np.sqrt(2.0 / np.sum(weights**2, axis=0))  # RMS of Σ w sin(.) = amplitude
+        return cls(float(amplitude), frequencies, rng.uniform(0, 2 * np.pi, (terms, 3)), weights)
+
+    def __call__(self, q: np.ndarray) -> np.ndarray:
+        """(m, 3) the error at joint readings ``q`` [m], in the robot's base frame."""
+        angles = np.atleast_2d(q) @ self.frequencies.T  # (m, terms)
+        return np.sum(np.sin(angles[:, :, None] + self.phases[None]) * self.weights[None], axis=1)
 
 
 def simulate_measurements(
@@ -92,6 +151,9 @@ def simulate_measurements(
     plan: object,
     sigma: float = DEFAULT_SIGMA,
     seed: Seed = None,
+    *,
+    payload: object = None,
+    unmodelled: SmoothField | None = None,
 ) -> MeasurementData:
     """What an instrument with i.i.d. Gaussian noise ``sigma`` per coordinate would measure.
 
@@ -100,6 +162,10 @@ def simulate_measurements(
         plan: (m, nq) configurations [rad or m] or a :class:`~pincal.Plan`, within the limits.
         sigma: noise standard deviation per coordinate [m] (0: exact points).
         seed: an int, a numpy Generator, or None for fresh entropy.
+        payload: the payload at each configuration (:func:`~pincal.model.statics.payload_rows`);
+            the data then carry it (the payload columns), and a compliant robot bends under it.
+        unmodelled: a smooth error added to every measured point (rotated into the instrument's
+            frame), as real robots have.
 
     Returns:
         the measurements (points in the true robot's base frame, i.e. the instrument's frame
@@ -110,7 +176,10 @@ def simulate_measurements(
         raise BadArgument(f"simulate_measurements needs a Robot, got {type(true_robot).__name__}")
     sigma = positive_sigma(sigma, zero=True)
     qs = robot.configurations(plan)
-    points = robot.points(qs)
+    loads = None if payload is None else payload_rows(payload, len(qs))
+    points = robot.points(qs, payload=loads)
+    if unmodelled is not None:
+        points = points + (unmodelled(qs) @ robot.base.rotation.T)[:, None, :]
     if sigma > 0:
         points = points + sigma * generator(seed).standard_normal(points.shape)
-    return MeasurementData(qs, points, robot.joint_names)
+    return MeasurementData(qs, points, robot.joint_names, payload=loads)

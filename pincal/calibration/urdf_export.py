@@ -23,7 +23,10 @@ What :func:`export_urdf` writes, precisely:
   ``cal.calibration.json``) holds what a program needs to predict instrument coordinates from the
   URDF without parsing the comment: the tip frame, the markers in it [m], the base in the
   instrument frame (xyz [m], rpy [rad] and the 4×4 matrix), σ, the data's conditioning and the
-  residuals::
+  residuals, and what is not geometry: gravity in the robot's base frame [m/s²], the joint gains
+  and compliances (``{joint: value}``, when the calibration has any) and the residual model (its
+  hyperparameters and training data): everything ``pincal compensate`` needs
+  (:mod:`pincal.compensation.calibration_file`)::
 
       p = base · oMf[tip] · marker,   oMf from pin.framesForwardKinematics on the URDF's model
 
@@ -85,7 +88,12 @@ def sidecar(calibrated: IdentificationResult | Robot, urdf: str | os.PathLike) -
             "matrix": base.homogeneous.tolist(),
         },
         "units": "metres and radians; points p = base * oMf[tip] * marker",
+        "gravity": robot.gravity.tolist(),
     }
+    if robot.is_elastic:
+        out["joint_gains"] = dict(zip(robot.joint_names, robot.joint_gains.tolist()))
+        out["joint_compliances"] = dict(zip(robot.joint_names, robot.joint_compliances.tolist()))
+        out["units"] += "; joint gains dimensionless, compliances rad/(N·m) or m/N (prismatic)"
     if result is not None:
         summary = result.as_dict()
         out.update(
@@ -102,6 +110,8 @@ def sidecar(calibrated: IdentificationResult | Robot, urdf: str | os.PathLike) -
                 "bases": summary["bases"],
             }
         )
+        if result.residual_model is not None:
+            out["residual_model"] = result.residual_model.as_dict()
     return out
 
 
@@ -347,7 +357,10 @@ def _verify(text: str, robot: Robot, origins: dict[str, pin.SE3], source: Path) 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PincalWarning)  # told when the source was loaded
         exported = load_robot(model, tip=robot.tip, markers=robot.markers, root=robot.root)
-    exported = exported.replace(base=robot.base)
+    # The sidecar's terms on top of the URDF's geometry: the exported pair must be the calibrated robot.
+    exported = exported.replace(
+        base=robot.base, joint_gains=robot.joint_gains, joint_compliances=robot.joint_compliances
+    ).with_gravity(robot.gravity)
     if exported.joint_names != robot.joint_names:
         raise UrdfError(
             f"URDF {str(source)!r} does not match the robot: its chain to {robot.tip!r} has joints "

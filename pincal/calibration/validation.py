@@ -106,12 +106,12 @@ def _errors(
     result: IdentificationResult, data: MeasurementData, session: int
 ) -> tuple[np.ndarray, np.ndarray]:
     data = data.for_robot(result.params.robot)
-    after_robot, before_robot = result.robot, result.initial_robot or result.params.robot
+    before_robot = result.initial_robot or result.params.robot
     if result.bases:
-        after_robot = after_robot.replace(base=result.bases[session])
         before_robot = before_robot.replace(base=result.initial_bases[session])
     before = np.linalg.norm(data.points - before_robot.points(data.q, check=False), axis=-1).reshape(-1)
-    after = np.linalg.norm(data.points - after_robot.points(data.q, check=False), axis=-1).reshape(-1)
+    predicted = result.predict(data.q, payload=data.payload, session=session if result.bases else 0)
+    after = np.linalg.norm(data.points - predicted, axis=-1).reshape(-1)
     return before, after
 
 

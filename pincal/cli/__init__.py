@@ -15,6 +15,7 @@ from typing import NoReturn
 
 from pincal.cli import (
     baseline,
+    compensate,
     design,
     evaluate,
     from_dh,
@@ -36,7 +37,19 @@ from pincal.files import all_or_nothing, guard_inputs
 from pincal.version import __version__
 
 # One module per subcommand, each with add_parser(subparsers); the order is the --help order.
-COMMANDS = [params, evaluate, design, baseline, simulate, measure_sim, identify, show, robots, from_dh]
+COMMANDS = [
+    params,
+    evaluate,
+    design,
+    baseline,
+    simulate,
+    measure_sim,
+    identify,
+    compensate,
+    show,
+    robots,
+    from_dh,
+]
 
 DESCRIPTION = """\
 pincal chooses the measurement configurations of a robot calibration so that the robot is most
@@ -56,6 +69,8 @@ a whole calibration, rehearsed on the shipped KUKA KR 270 (joint values in degre
       --sigma 3e-5 --out meas.csv
   pincal identify kr270 --data meas.csv --deg --marker 0.1,0.05,0.2 --holdout 0.2 --seed 0 \\
       --out kr270_calibrated.urdf
+  pincal compensate kr270 --calibration kr270_calibrated.urdf --targets program.csv --deg --payload 120 \\
+      --marker 0.1,0.05,0.2 --out corrected.csv       # the program's corrected joint targets
   pincal robots
   pincal urdf-from-dh docs/dh/ur5_dh.yaml --out ur5_dh.urdf     # a robot given by a DH table
 

@@ -215,12 +215,18 @@ def add_robot_arguments(parser: argparse.ArgumentParser, params: bool = True) ->
         metavar="X,Y,Z",
         help="measured point in the tip frame, metres; repeat for several (default: the tip origin)",
     )
+    parser.add_argument(
+        "--gravity",
+        metavar="GX,GY,GZ",
+        help="gravity in the robot's base frame [m/s^2], for joint compliance (default 0,0,-9.81: the "
+        "base's -z; give it for a tilted, wall or ceiling mount)",
+    )
     if params:
         parser.add_argument(
             "--params",
             metavar="SPEC",
-            help="parameters: groups (offsets, lengths, full, base, markers) and/or names, "
-            f"comma-separated (default: the identifiable base set of {DEFAULT_PARAMS})",
+            help="parameters: groups (offsets, lengths, full, base, markers, gains, compliance) and/or "
+            f"names, comma-separated (default: the identifiable base set of {DEFAULT_PARAMS})",
         )
 
 
@@ -255,7 +261,7 @@ def robot_from_args(args: argparse.Namespace) -> Robot:
             if len(xyz) != 3:
                 raise BadConfiguration(f"--marker {text!r}: expected X,Y,Z (three numbers, metres)")
             markers.append(xyz)
-    return load_robot(
+    robot = load_robot(
         args.robot,
         tip=args.tip,
         markers=markers,
@@ -263,6 +269,8 @@ def robot_from_args(args: argparse.Namespace) -> Robot:
         joint_ranges=joint_ranges_from_args(args),
         package_dirs=dict(_name_value(text, "--package-dir", "NAME=PATH") for text in args.package_dir or ()),
     )
+    gravity = getattr(args, "gravity", None)
+    return robot if gravity is None else robot.with_gravity(parse_floats(gravity, "--gravity"))
 
 
 def _name_value(text: str, option: str, form: str) -> tuple[str, str]:

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from pincal.arguments import DEFAULT_SIGMA, fraction, positive_int, positive_sigma, ratio
-from pincal.calibration.identification import LOSSES, METHODS, identify
+from pincal.calibration.identification import LOSSES, METHODS, RESIDUAL_MODELS, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.urdf_export import export_urdf, sidecar_path
 from pincal.calibration.validation import holdout, kfold, validate
@@ -41,6 +41,8 @@ examples:
       --plot validation.png
   pincal identify kr270 --data grid.csv --marker 0.1,0.05,0.2 --prior 1mm,1mrad --kfold 5
   pincal identify planar_2r --data meas.csv --params joint2.tx,tip.tx --loss soft_l1
+  pincal identify kr270 --data loaded.csv --marker 0.1,0.05,0.2 --params full,offsets,gains,compliance \
+      --residual-model gp --holdout 0.3 --out cal.urdf        # beyond geometry
 
 MEAS.csv: a header row, then one configuration per row: one column per joint, named as in the URDF
 (radians; degrees with --deg), and the measured point(s): x,y,z for one marker or x0,y0,z0,x1,y1,z1,...
@@ -72,6 +74,14 @@ implausible (then no URDF, unless --force: the URDF is written, with a warning, 
 and after calibration on held-out points (text, JSON 'validation', --plot FILE.png). A holdout or a
 k-fold fold whose fit keeps fewer than twice as many measured coordinates as parameters is warned
 about (its held-out error overstates the calibration's), with what to do.
+Beyond geometry: --params gains,compliance adds each joint's gain (it moves by q(1+gain)) and
+compliance (it yields by compliance x the gravity torque on it; the URDF must give the links'
+masses; --gravity if the base is not level); optional columns payload_kg and payload_x,payload_y,
+payload_z say what the robot carried at each row (a payload change is what separates compliance from
+the link lengths). --residual-model gp then models what the fit leaves as a Gaussian process over
+joint space (hyperparameters from these data only), whose mean corrects the predictions (and the
+--holdout/--kfold errors). The sidecar holds gains, compliances, gravity and the residual model:
+'pincal compensate' uses them to correct a program's joint targets.
 """
 EXAMPLES += "\n" + CONDITIONING_HELP + "\n"
 
@@ -106,6 +116,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         type=checked("--reject", ratio),
         metavar="K",
         help="drop rows beyond K robust sigma and refit",
+    )
+    p.add_argument(
+        "--residual-model",
+        choices=RESIDUAL_MODELS,
+        help="gp: model what the fit leaves as a Gaussian process over joint space (needs pincal[gp])",
     )
     p.add_argument(
         "--maxiter",
@@ -160,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
     sessions = [MeasurementData.from_csv(d, robot, degrees=args.deg, millimetres=args.mm) for d in args.data]
     options = dict(
         sigma=sigma, maxiter=args.maxiter, prior=prior, loss=args.loss, method=args.method,
-        reject=args.reject,
+        reject=args.reject, residual_model=args.residual_model,
     )  # fmt: skip
     validation = None
     if args.holdout is not None:

@@ -16,8 +16,8 @@ below any instrument's noise.
 
 Everything is in the robot's base frame: the instrument's placement (the base identified by the
 calibration) is not part of a joint command. The residual model predicts the error of the measured
-point (marker 0), in the instrument's frame; it corrects the tool's position by that error rotated
-into the base frame, which holds where the marker is near the tool.
+point (marker 0) in the robot's base frame; it corrects the tool's position by that error, which
+holds where the marker is near the tool.
 """
 
 from __future__ import annotations
@@ -88,7 +88,6 @@ class _Tool:
         self.frame = robot.tip_frame
         self.gravity = robot.gravity_model() if robot.joint_compliances.any() else None
         self.residual = residual
-        self.to_base = robot.base.rotation.T  # instrument → robot base, for the residual's correction
 
     def pose(self, q: np.ndarray, load: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(position, rotation, 6×nq world-aligned Jacobian with respect to the command) at command q
@@ -100,7 +99,7 @@ class _Tool:
         J = pin.getFrameJacobian(self.model, self.data, self.frame, pin.LOCAL_WORLD_ALIGNED)
         position = placement.translation.copy()
         if self.residual is not None:
-            position += self.to_base @ self.residual.mean(q[None])[0, :3]
+            position += self.residual.mean(q[None])[0, :3]
         # dθ/dq = (I - C ∂τ/∂θ)⁻¹ (I + K): the gains scale the reading, the compliance yields to it.
         dtheta = np.diag(1.0 + self.robot.joint_gains)
         if self.gravity is not None:

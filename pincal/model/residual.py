@@ -2,7 +2,8 @@ r"""A residual model: what no physical term explains, as a Gaussian process over
 (docs/method.md §11.5).
 
 After the physical fit, the residuals at the measured configurations (gear eccentricity, thermal
-drift, the instrument's own errors) are smooth in the joint values. They are modelled as a
+drift, the instrument's own errors), expressed in the robot's base frame so that one model serves
+every instrument placement, are smooth in the joint values. They are modelled as a
 zero-mean Gaussian process f(q) ∈ R^{3K} (the K markers' x, y, z, independent with one shared
 covariance)
 
@@ -183,6 +184,25 @@ class ResidualModel:
         k = self.kernel(q, self.inputs)
         v = solve_triangular(self._factor[0], k.T, lower=True)
         return np.maximum(self.amplitude**2 - np.sum(v**2, axis=0), 0.0)
+
+    def summary(self) -> dict[str, object]:
+        """JSON-ready hyperparameters (without the training data)."""
+        return {
+            "kind": "gp",
+            "amplitude": self.amplitude,
+            "noise": self.noise,
+            "lengthscales": self.lengthscales.tolist(),
+            "configurations": len(self.inputs),
+            "log_marginal_likelihood": self.log_marginal_likelihood,
+        }
+
+    def describe(self) -> str:
+        """One line for a report."""
+        return (
+            f"residual model: Gaussian process over joint space, {len(self.inputs)} configurations, "
+            f"amplitude {self.amplitude * 1e3:.3g} mm, noise {self.noise * 1e3:.3g} mm per coordinate "
+            f"(hyperparameters by marginal likelihood)"
+        )
 
     @property
     def rows(self) -> int:
