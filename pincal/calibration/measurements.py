@@ -44,12 +44,10 @@ from pincal.arguments import MAX_LENGTH, SIGMA_RANGE, check_lengths
 from pincal.errors import BadArgument, BadMeasurementData
 from pincal.files import atomic_write_text, column_mismatch, csv_header, read_numeric_csv
 from pincal.model.robot import Robot
-from pincal.model.statics import MAX_PAYLOAD
+from pincal.model.statics import MAX_PAYLOAD, PAYLOAD_COLUMNS, payload_columns
 
 _MEASURED = re.compile(r"^([xyz])(\d*)$")
 _SIGMA = re.compile(r"^s([xyz]?)(\d*)$")
-PAYLOAD_COLUMNS = ("payload_kg", "payload_x", "payload_y", "payload_z")
-"""The payload columns of a measurement (or plan) file: mass [kg], centre in the tip frame."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -225,7 +223,7 @@ class MeasurementData:
             q = robot.to_radians(q)
         points = rows[:, [header.index(c) for c in columns]].reshape(len(rows), K, 3)
         sigma = _sigma_columns(header, rows, uncertain, K, where)
-        payload = _payload_columns(header, rows, loads, where)
+        payload = payload_columns(header, rows, where, BadMeasurementData)
         if millimetres:
             points = points / 1000.0
             sigma = None if sigma is None else sigma / 1000.0
@@ -352,24 +350,6 @@ def _sigma_columns(
                     f"{where}: uncertainty columns {','.join(columns)} leave {axis}{k if K > 1 else ''} "
                     f"without one; valid: {valid}"
                 )
-    return out
-
-
-def _payload_columns(
-    header: list[str], rows: np.ndarray, columns: list[str], where: str
-) -> np.ndarray | None:
-    """(m, 4) payload rows [kg, x, y, z] from the payload_* columns, or None without them."""
-    if not columns:
-        return None
-    valid = "payload_kg, with payload_x,payload_y,payload_z (all three) or none of them"
-    unknown = [c for c in columns if c not in PAYLOAD_COLUMNS]
-    centre = [c for c in PAYLOAD_COLUMNS[1:] if c in columns]
-    if unknown or "payload_kg" not in columns or len(centre) not in (0, 3):
-        raise BadMeasurementData(f"{where}: payload columns {','.join(columns)}; valid: {valid}")
-    out = np.zeros((len(rows), 4))
-    for c, name in enumerate(PAYLOAD_COLUMNS):
-        if name in columns:
-            out[:, c] = rows[:, header.index(name)]
     return out
 
 

@@ -162,8 +162,9 @@ def simulate_measurements(
         plan: (m, nq) configurations [rad or m] or a :class:`~pincal.Plan`, within the limits.
         sigma: noise standard deviation per coordinate [m] (0: exact points).
         seed: an int, a numpy Generator, or None for fresh entropy.
-        payload: the payload at each configuration (:func:`~pincal.model.statics.payload_rows`);
-            the data then carry it (the payload columns), and a compliant robot bends under it.
+        payload: the payload at each configuration (:func:`~pincal.model.statics.payload_rows`;
+            default a Plan's own); the data then carry it (the payload columns), and a compliant
+            robot bends under it.
         unmodelled: a smooth error added to every measured point (rotated into the instrument's
             frame), as real robots have.
 
@@ -176,6 +177,7 @@ def simulate_measurements(
         raise BadArgument(f"simulate_measurements needs a Robot, got {type(true_robot).__name__}")
     sigma = positive_sigma(sigma, zero=True)
     qs = robot.configurations(plan)
+    payload = getattr(plan, "payload", None) if payload is None else payload  # a Plan's own payloads
     loads = None if payload is None else payload_rows(payload, len(qs))
     points = robot.points(qs, payload=loads)
     if unmodelled is not None:

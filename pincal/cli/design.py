@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+import numpy as np
+
 from pincal.arguments import number
 from pincal.cli._accuracy import (
     REGION_HELP,
@@ -29,6 +31,7 @@ from pincal.cli._common import (
     fmt_length,
     joint_units,
     params_from_args,
+    parse_floats,
     read_plan,
     recorded_warnings,
     robot_from_args,
@@ -37,7 +40,10 @@ from pincal.cli._common import (
     sigma_type,
 )
 from pincal.cli._plot import add_plot_argument, save_design_plot
+from pincal.compensation.calibration_file import load_calibration
 from pincal.errors import BadArgument
+from pincal.evaluation.test_pose import rho0_split
+from pincal.model.statics import Payload
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
 from pincal.planning.objectives import CRITERIA
@@ -56,6 +62,9 @@ examples:
       --sigma 3e-5 --out plan.csv                   # accurate over ±10°, not only at the test pose
   pincal design kr270 -m 12 --test-path weld.csv --deg --marker 0.1,0.05,0.2 --sigma 3e-5
   pincal design kr270 -m 6 --test-pose=0,-60,60,0,45,0 --deg --prior 1mm,1mrad --sigma 3e-5
+  pincal design kr270 -m 15 --test-pose=0,-60,60,0,45,0 --deg --marker 0.1,0.05,0.2 \
+      --params lengths,offsets,gains,compliance --payloads 0,135,270 --task-payload 270 \
+      --payload-centre 0,0,0.25 --out plan.csv      # choose a payload per configuration
 
 Criteria (--criterion): test-pose (rho0, root mean square over several --test-pose), test-pose-worst
 (the worst test pose; --worst is the same), D, A, E, cond. Methods: exchange (the default: best m of
@@ -155,6 +164,26 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="no progress on stderr (a bar on a terminal, else a line every few seconds)",
     )
+    p.add_argument(
+        "--payloads",
+        metavar="KG,KG,...",
+        help="the payloads you can mount: a payload is chosen for each configuration (the plan CSV carries "
+        "payload columns); an exchange over (configuration, payload) pairs",
+    )
+    p.add_argument(
+        "--task-payload", type=float, metavar="KG", help="the task's payload at the test pose(s) (compliance)"
+    )
+    p.add_argument(
+        "--payload-centre",
+        metavar="X,Y,Z",
+        help="the payloads' centre of mass in the tip frame [m] (default 0)",
+    )
+    p.add_argument(
+        "--residual-model",
+        metavar="CAL.urdf",
+        help="a top-up plan: the residual model of an earlier calibration (its sidecar) values measuring "
+        "where the residual is correlated with the test pose's",
+    )
     add_plot_argument(p)
     add_report_arguments(p)
     add_output_arguments(p)
@@ -194,6 +223,18 @@ def run(args: argparse.Namespace) -> int:
         workers=args.workers,
         progress=progress,
     )
+    loads = _payload_options(args)
+    if args.residual_model:
+        loads["residual_model"] = _residual_model(robot, args.residual_model)
+    if loads:
+        if args.baseline is not None or args.accuracy_plot or taught is not None:
+            raise BadArgument(
+                "--payloads/--task-payload design over a generated pool: no --baseline, --pool or "
+                "--accuracy-plot with them"
+            )
+        options = {k: v for k, v in options.items() if k not in ("method", "polish", "workers", "progress")}
+        options.update(loads)
+        args.no_accuracy = True  # the accuracy report away from the test pose is for payload-free plans
     with recorded_warnings() as records:
         result = design(params, args.m, q0, criterion, **options)
         baseline = None
@@ -204,6 +245,36 @@ def run(args: argparse.Namespace) -> int:
     _write_and_print(args, robot, params, source, result, baseline, report, sigma_text)
     print_warnings(records)  # last, where they are seen
     return 0
+
+
+def _residual_model(robot, urdf: str):
+    """The residual model in the sidecar of calibration ``urdf`` (one line if it has none)."""
+    deployed = load_calibration(urdf, robot)
+    if deployed.residual_model is None:
+        raise BadArgument(
+            f"--residual-model {urdf}: its calibration has no residual model (identify it with "
+            "--residual-model gp)"
+        )
+    return deployed.residual_model
+
+
+def _payload_options(args: argparse.Namespace) -> dict:
+    """design()'s payloads and task_payload from --payloads, --task-payload, --payload-centre."""
+    if args.payloads is None and args.task_payload is None:
+        if args.payload_centre is not None:
+            raise BadArgument("--payload-centre needs --payloads or --task-payload")
+        return {}
+    centre = (0.0, 0.0, 0.0)
+    if args.payload_centre is not None:
+        values = parse_floats(args.payload_centre, "--payload-centre")
+        if len(values) != 3:
+            raise BadArgument(
+                f"--payload-centre {args.payload_centre!r}: expected X,Y,Z (three numbers, metres)"
+            )
+        centre = tuple(values)
+    masses = [0.0] if args.payloads is None else parse_floats(args.payloads, "--payloads")
+    task = 0.0 if args.task_payload is None else args.task_payload
+    return {"payloads": [Payload(kg, centre) for kg in masses], "task_payload": Payload(task, centre)}
 
 
 def _baseline(params, args: argparse.Namespace, q0, criterion: str, taught, options: dict) -> tuple:
@@ -235,9 +306,10 @@ def _write_and_print(
     if args.json:
         payload = design_json(robot, params, result, baseline, args.out)
         payload["accuracy"] = None if report is None else report.as_dict()
+        payload["rho0_split"] = _split(params, result, args)
         emit_json(payload)
     else:
-        print_design(robot, params, source, result, args.deg, sigma_text)
+        print_design(robot, params, source, result, args.deg, sigma_text, _split(params, result, args))
         if baseline is not None:
             print_baseline(*baseline, pool=args.pool)
         if report is not None:
@@ -245,6 +317,14 @@ def _write_and_print(
         if args.out:
             print(f"wrote {args.out} ({joint_units(robot, args.deg)})")
     sys.stdout.flush()
+
+
+def _split(params, result: DesignResult, args: argparse.Namespace) -> dict | None:
+    """ρ0² split into geometric and elastic parts (with gain or compliance parameters), or None."""
+    if result.rho0 is None or not any(p.kind in ("gain", "compliance") for p in params):
+        return None
+    task = _payload_options(args).get("task_payload")
+    return rho0_split(params, result.plan, test_region_from_args(params.robot, args), result.sigma, task)
 
 
 def _rho0_criterion(criterion: str) -> str:
@@ -277,6 +357,9 @@ def format_plan(robot, plan: Plan, degrees: bool) -> list[str]:
     values = robot.to_degrees(plan.q) if degrees else plan.q
     names = plan.joint_names
     units = [f"[{('deg' if degrees else 'rad') if r else 'm'}]" for r in robot.revolute]
+    if plan.payload is not None:
+        values, names = np.column_stack([values, plan.payload[:, 0]]), (*names, "payload")
+        units.append("[kg]")
     width = max(10, *(len(n) for n in names))
     lines = ["  " + " ".join(f"{n:>{width}}" for n in names)]
     lines.append("  " + " ".join(f"{u:>{width}}" for u in units))
@@ -284,7 +367,15 @@ def format_plan(robot, plan: Plan, degrees: bool) -> list[str]:
     return lines
 
 
-def print_design(robot, params, source: str, result: DesignResult, degrees: bool, sigma_text: str) -> None:
+def print_design(
+    robot,
+    params,
+    source: str,
+    result: DesignResult,
+    degrees: bool,
+    sigma_text: str,
+    split: dict | None = None,
+) -> None:
     print(
         f"{robot.name}: {result.m} configurations designed for {result.criterion} ({result.method}, "
         f"{result.starts} starts, {result.continued} run to convergence, {result.time_s:.3g} s)"
@@ -302,9 +393,20 @@ def print_design(robot, params, source: str, result: DesignResult, degrees: bool
             print(f"  ... ({len(result.rho0_each)} test poses in all; --json lists each)")
     elif result.rho0 is not None:
         print(f"rho0 at the test pose: {fmt_length(result.rho0)}  ({result.rho0:.6g} m)")
-    if result.criterion not in ("test-pose", "test-pose-worst"):
+    if result.plan.payload is not None:
+        print(result.message)
+    if result.criterion == "test-pose-gp":
+        print(f"expected error at the test pose with the residual model: {fmt_length(result.value)}")
+    elif result.criterion not in ("test-pose", "test-pose-worst"):
         print(f"{result.criterion} = {result.value:.6g}")
     print(f"conditioning {result.conditioning:.3g}")
+    if split is not None:
+        parts = {k: v * 1e6 for k, v in split.items()}
+        print(
+            f"rho0^2 under the task's payload, by cause [mm^2]: geometric {parts['geometric']:.3g}, elastic "
+            f"(gains, compliance) {parts['elastic']:.3g}, their correlation {parts['cross']:+.3g}; "
+            f"sum {parts['total']:.3g}"
+        )
     print("plan:")
     for line in format_plan(robot, result.plan, degrees):
         print(line)

@@ -22,7 +22,7 @@ from pincal.evaluation.condition import Condition
 from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.e_optimal import EOptimal
 from pincal.evaluation.information import factor, factor_batch
-from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch
+from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch, plan_payloads
 from pincal.model.parameters import ParameterSet
 
 
@@ -94,7 +94,7 @@ def criteria(params: ParameterSet, plan: object) -> Criteria | tuple[Criteria, .
     k, m, _ = qs.shape
     engine = engine_for(params)
     with blas_for(k * m):
-        J = jacobians(engine, qs)
+        J = jacobians(engine, qs, plan_payloads(plan, qs.shape))  # a Plan's own payloads
         if not batched:
             return criteria_from_jacobian(J[0], m)
         factor_batch(informations(J), engine.rows, m)

@@ -317,7 +317,10 @@ def check_plan(params: ParameterSet, plan: object, sigma: float) -> DataCheck:
     (:func:`check_parameters`)."""
     sigma = positive_sigma(sigma)
     qs = params.robot.configurations(plan)
-    M = information_matrix(params.jacobian(qs, frame="tip")) / sigma**2
+    M = (
+        information_matrix(params.jacobian(qs, frame="tip", payload=getattr(plan, "payload", None)))
+        / sigma**2
+    )
     return check_parameters(params, M, len(qs), sigma)
 
 

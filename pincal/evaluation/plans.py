@@ -71,10 +71,25 @@ def plan_batch(params: ParameterSet, plan: object) -> tuple[np.ndarray, bool]:
     return flat.reshape(k, m, nq), True
 
 
-def jacobians(engine: JacobianEngine, qs: np.ndarray) -> np.ndarray:
-    """(k, m·r, P) tip-frame Jacobians of k plans (k, m, nq), in one pass."""
+def plan_payloads(plan: object, shape: tuple[int, int, int]) -> np.ndarray | None:
+    """(k·m, 4) the payload rows of a plan or a sequence of Plans (:attr:`~pincal.Plan.payload`;
+    none for a plan without), or None when no plan carries any; ``shape`` is (k, m, nq)."""
+    plans = (
+        list(plan)
+        if isinstance(plan, (list, tuple)) and plan and all(hasattr(p, "q") for p in plan)
+        else [plan]
+    )
+    loads = [getattr(p, "payload", None) for p in plans]
+    if all(w is None for w in loads) or len(plans) != shape[0]:
+        return None
+    return np.vstack([np.zeros((shape[1], 4)) if w is None else w for w in loads])
+
+
+def jacobians(engine: JacobianEngine, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
+    """(k, m·r, P) tip-frame Jacobians of k plans (k, m, nq), in one pass (under the payload rows
+    (k·m, 4) of their configurations, if any)."""
     k, m, nq = qs.shape
-    J = engine.jacobian(qs.reshape(-1, nq), frame="tip")
+    J = engine.jacobian(qs.reshape(-1, nq), frame="tip", payload=payload)
     return J.reshape(k, -1, engine.n_params)
 
 

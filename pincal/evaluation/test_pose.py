@@ -19,6 +19,12 @@ The criterion a design minimises is :class:`TestPoseMean` (``test-pose``; the wo
 :class:`~pincal.evaluation.test_pose_worst.TestPoseWorst`): F = log mean_k tr(J0k (M + Λ)⁻¹ J0kᵀ),
 reported as ρ0 = σ·sqrt(exp F). :class:`TestPoseCriterion` and :func:`rho0` evaluate both on plans.
 
+With joint compliances among the parameters, the test pose is taken under the task's load w₀
+(``task_payload``): J₀ holds τ(θ₀, w₀), so ρ0 counts what the compliance estimate's uncertainty does
+at the working load; a plan's own payloads (:attr:`Plan.payload`) enter its Jacobian likewise.
+:func:`rho0_split` splits ρ0² into its geometric and elastic (gains and compliances) parts by the
+blocks of the parameter covariance projected through J₀, and their cross term (docs/method.md §11.3).
+
 A plan whose M is singular (too few configurations, or degenerate ones) has no finite criterion:
 :class:`~pincal.errors.SingularPlan` is raised, naming the minimum number of configurations.
 """
@@ -30,13 +36,14 @@ import numpy as np
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.errors import BadArgument
 from pincal.evaluation.information import factor, factor_batch, information_matrix
-from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch
+from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch, plan_payloads
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import resolve_test_poses
 from pincal.evaluation.test_pose_worst import TestPoseWorst
 from pincal.evaluation.weighted_trace import WeightedTrace
 from pincal.lapack import trtrs
 from pincal.model.parameters import ParameterSet
+from pincal.model.statics import payload_rows
 
 AGGREGATES = ("mean", "worst", "each")
 
@@ -99,6 +106,8 @@ class TestPoseCriterion:
         aggregate: ``"mean"`` (root of the mean ρ0² over test poses), ``"worst"`` (largest ρ0)
             or ``"each"`` (one ρ0 per test pose).
         prior: the errors' prior (Bayesian criterion), or None.
+        task_payload: the payload at the test pose(s) (a mass [kg], a :class:`~pincal.Payload`,
+            or one per test pose); default none.
     """
 
     __test__ = False  # not a pytest class
@@ -110,6 +119,7 @@ class TestPoseCriterion:
         sigma: float = DEFAULT_SIGMA,
         aggregate: str = "mean",
         prior: Prior | None = None,
+        task_payload: object = None,
     ) -> None:
         if aggregate not in AGGREGATES:
             raise BadArgument(f"unknown aggregate {aggregate!r}; valid: {', '.join(AGGREGATES)}")
@@ -119,7 +129,8 @@ class TestPoseCriterion:
         self.test_poses, self.region = resolve_test_poses(params.robot, test_poses)
         self.sigma = float(sigma)
         self.aggregate = aggregate
-        J0 = self.engine.jacobian(self.test_poses, frame="tip")
+        self.task_payload = payload_rows(task_payload, len(self.test_poses))
+        J0 = self.engine.jacobian(self.test_poses, frame="tip", payload=self.task_payload)
         self.k = len(self.test_poses)
         self.prior = prior
         self.prior_information = None if prior is None else prior.information(params, self.sigma)
@@ -156,19 +167,20 @@ class TestPoseCriterion:
             return float(np.sqrt(r2.max()))
         return np.sqrt(r2)
 
-    def __call__(self, qs: np.ndarray):
-        """ρ0 [m] of the plan ``qs`` ((m, nq), trusted: not checked against limits)."""
-        J = self.engine.jacobian(qs, frame="tip").reshape(-1, self.J0T.shape[0])
+    def __call__(self, qs: np.ndarray, payload: object = None):
+        """ρ0 [m] of the plan ``qs`` ((m, nq), trusted: not checked against limits) measured
+        under ``payload`` (one per configuration, see :func:`~pincal.model.statics.payload_rows`)."""
+        J = self.engine.jacobian(qs, frame="tip", payload=payload).reshape(-1, self.J0T.shape[0])
         return self.from_information(J.T @ J, len(qs))
 
-    def plans(self, qs: np.ndarray) -> np.ndarray:
+    def plans(self, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
         """ρ0 [m] of k plans ``qs`` ((k, m, nq), trusted): (k,), or (k, test poses) for ``"each"``.
         One Jacobian pass for every configuration, batched factorisations (see
-        :mod:`pincal.evaluation.plans`)."""
+        :mod:`pincal.evaluation.plans`); ``payload``: (k·m, 4) rows of their payloads, or None."""
         k, m, _ = qs.shape
         if k == 1:
-            return np.asarray(self(qs[0]), dtype=float)[None]
-        Ms = informations(jacobians(self.engine, qs))
+            return np.asarray(self(qs[0], payload), dtype=float)[None]
+        Ms = informations(jacobians(self.engine, qs, payload))
         L = factor_batch(self.posterior(Ms), self.rows, m)
         weights = self.weight_factor if self.aggregate == "mean" else self.J0T
         X = np.linalg.solve(L, weights)
@@ -186,6 +198,7 @@ def rho0(
     sigma: float = DEFAULT_SIGMA,
     aggregate: str = "mean",
     prior: Prior | None = None,
+    task_payload: object = None,
 ) -> float:
     """Expected position error at the test pose(s) after calibrating with ``plan``.
 
@@ -204,6 +217,8 @@ def rho0(
             :func:`rho0_each` gives one ρ0 per test pose.
         prior: the errors' prior (:class:`pincal.Prior`): ρ0 from the posterior covariance
             σ²(M + σ²Σp⁻¹)⁻¹, finite for every plan (σ must then be the real noise in metres).
+        task_payload: the payload at the test pose(s) (matters with compliance parameters); the
+            plan's own payloads are its :attr:`~pincal.Plan.payload`.
 
     Returns:
         ρ0 [m], a Python float; (k,) for a batch of plans.
@@ -220,7 +235,7 @@ def rho0(
             value=aggregate,
             valid=("mean", "worst"),
         )
-    return _evaluate(params, plan, test_pose, sigma, aggregate, prior)
+    return _evaluate(params, plan, test_pose, sigma, aggregate, prior, task_payload)
 
 
 def rho0_each(
@@ -229,19 +244,56 @@ def rho0_each(
     test_pose: object,
     sigma: float = DEFAULT_SIGMA,
     prior: Prior | None = None,
+    task_payload: object = None,
 ) -> np.ndarray:
     """(n,) ρ0 [m] at each of n test poses, or (k, n) for a batch of k plans (arguments as
     :func:`rho0`)."""
-    return _evaluate(params, plan, test_pose, sigma, "each", prior)
+    return _evaluate(params, plan, test_pose, sigma, "each", prior, task_payload)
 
 
-def _evaluate(params, plan, test_pose, sigma, aggregate, prior):
+def _evaluate(params, plan, test_pose, sigma, aggregate, prior, task_payload=None):
     qs, batched = plan_batch(params, plan)
     with blas_for(qs.shape[0] * qs.shape[1] + len(np.atleast_2d(getattr(test_pose, "q", test_pose)))):
-        values = TestPoseCriterion(params, test_pose, sigma, aggregate, prior).plans(qs)
+        criterion = TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
+        values = criterion.plans(qs, plan_payloads(plan, qs.shape))
     if batched:
         return values
     return np.asarray(values[0], dtype=float) if aggregate == "each" else float(values[0])
+
+
+def rho0_split(
+    params: ParameterSet,
+    plan: object,
+    test_pose: object,
+    sigma: float = DEFAULT_SIGMA,
+    task_payload: object = None,
+) -> dict[str, float]:
+    """ρ0² at the test pose(s) split by the kind of parameter whose uncertainty causes it.
+
+    With C = σ²M⁻¹ in blocks g (geometric) and e (gains and compliances) and J₀ = [J₀g J₀e]:
+    ρ0² = tr(J₀g Cgg J₀gᵀ) + tr(J₀e Cee J₀eᵀ) + 2 tr(J₀g Cge J₀eᵀ) (mean over the test poses).
+
+    Returns:
+        ``{"geometric", "elastic", "cross", "total"}`` [m²] (they add up to the total, ρ0²; the
+        cross term may be negative).
+    """
+    qs = params.robot.configurations(plan)
+    q0 = params.robot.configurations(test_pose, what="test pose")
+    J = params.jacobian(qs, frame="tip", payload=getattr(plan, "payload", None))
+    J0 = params.jacobian(q0, frame="tip", payload=task_payload).reshape(-1, len(params)) / np.sqrt(len(q0))
+    L = factor(information_matrix(J), J.shape[1], len(qs))
+    C = sigma**2 * np.linalg.solve(L.T, np.linalg.solve(L, np.eye(len(params))))
+    elastic = np.array([p.kind in ("gain", "compliance") for p in params], dtype=bool)
+    g, e = J0[:, ~elastic], J0[:, elastic]
+    geometric = float(np.einsum("ij,jk,ik", g, C[np.ix_(~elastic, ~elastic)], g))
+    flexible = float(np.einsum("ij,jk,ik", e, C[np.ix_(elastic, elastic)], e))
+    cross = float(2 * np.einsum("ij,jk,ik", g, C[np.ix_(~elastic, elastic)], e))
+    return {
+        "geometric": geometric,
+        "elastic": flexible,
+        "cross": cross,
+        "total": geometric + flexible + cross,
+    }
 
 
 def position_covariance(

@@ -30,6 +30,9 @@ import pinocchio as pin
 from pincal.arguments import MAX_LENGTH
 from pincal.errors import BadArgument, NoInertias
 
+PAYLOAD_COLUMNS = ("payload_kg", "payload_x", "payload_y", "payload_z")
+"""The payload columns of a plan or measurement file: mass [kg], centre of mass in the tip frame."""
+
 MAX_PAYLOAD = 1e5
 """Heaviest payload pincal accepts [kg] (100 t): beyond any robot's, a unit or number error."""
 
@@ -131,6 +134,32 @@ def payload_rows(payload: object, m: int) -> np.ndarray:
             argument="payload",
         )
     return arr
+
+
+def payload_columns(
+    header: list[str], rows: np.ndarray, where: str, error: type[BadArgument] = BadArgument
+) -> np.ndarray | None:
+    """(m, 4) payload rows [kg, x, y, z] from a file's ``payload_*`` columns, or None without them:
+    ``payload_kg``, with the centre ``payload_x,payload_y,payload_z`` (all three) or none of them.
+
+    Raises:
+        ``error`` naming ``where`` and the valid columns.
+    """
+    columns = [h for h in header if h.startswith("payload_")]
+    if not columns:
+        return None
+    unknown = [c for c in columns if c not in PAYLOAD_COLUMNS]
+    centre = [c for c in PAYLOAD_COLUMNS[1:] if c in columns]
+    if unknown or "payload_kg" not in columns or len(centre) not in (0, 3):
+        raise error(
+            f"{where}: payload columns {','.join(columns)}; valid: payload_kg, with "
+            f"payload_x,payload_y,payload_z (all three) or none of them"
+        )
+    out = np.zeros((len(rows), 4))
+    for c, name in enumerate(PAYLOAD_COLUMNS):
+        if name in columns:
+            out[:, c] = rows[:, header.index(name)]
+    return out
 
 
 def mounted(model: pin.Model, gravity: object) -> pin.Model:

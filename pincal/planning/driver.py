@@ -50,7 +50,9 @@ from pincal.evaluation.data_check import MIN_DATA_CONDITIONING
 from pincal.evaluation.prior import Prior
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
+from pincal.model.residual import ResidualModel
 from pincal.planning import multistart as _multistart
+from pincal.planning import payloads as _payloads
 from pincal.planning.choice import SINGULAR_WARNING, choose, design_result
 from pincal.planning.constraints import AnyConstraint
 from pincal.planning.feasibility import Feasibility
@@ -106,6 +108,9 @@ def design(
     min_conditioning: float | None = None,
     prior: Prior | None = None,
     progress: bool = False,
+    payloads: Sequence[object] | None = None,
+    task_payload: object = None,
+    residual_model: ResidualModel | None = None,
 ) -> DesignResult:
     """Find the m measurement configurations that minimise a criterion, within the constraints.
 
@@ -157,6 +162,16 @@ def design(
             be below the number of parameters. ``sigma`` must then be the real noise [m].
         progress: report progress on stderr, stage by stage (starts searched, then polished; the
             best value so far in its units): a bar on a terminal, else a line every few seconds.
+        payloads: the payloads the experiment can mount (masses [kg] or :class:`~pincal.Payload`,
+            e.g. ``[0, 50, 100]``): each configuration is chosen with one of them, the plan carries
+            them (:mod:`pincal.planning.payloads`: an exchange over (configuration, payload) pairs
+            of a generated pool; no polish, init or user pool).
+        task_payload: the payload at the test pose(s), the task's load (with compliance
+            parameters, ρ0 is then at that load); designs through the same exchange.
+        residual_model: a residual model from an earlier campaign (``result.residual_model``): the
+            plan minimises the expected error at the test pose(s) with it (tr Σ₀,
+            :mod:`pincal.evaluation.residual_criterion`), through the same exchange; ``value`` is
+            that error [m], ``rho0`` the plain ρ0 of the plan.
 
     Returns:
         the best plan found, with its criterion value, ρ0 and the history of every start.
@@ -176,6 +191,24 @@ def design(
         >>> round(result.rho0**2 / ((1 + math.sin(1.0)) / 2), 9)  # docs/method.md §9.3, σ = 1
         1.0
     """
+    if payloads is not None or task_payload is not None or residual_model is not None:
+        if (
+            method != "exchange"
+            or init
+            or polish
+            or not (pool is None or isinstance(pool, (int, np.integer)))
+        ):
+            raise BadArgument(
+                "a design with payloads or a residual model is an exchange over a generated pool: "
+                "leave method, pool (a size at most), init and polish at their defaults"
+            )
+        with _multistart.single_threaded_blas():
+            return _payloads.design_with_payloads(
+                params, m, test_pose, [0.0] if payloads is None else payloads, task_payload=task_payload,
+                criterion=criterion, constraints=constraints, pool=1000 if pool is None else pool,
+                starts=starts, seed=seed, sigma=sigma, prior=prior, min_conditioning=min_conditioning,
+                residual_model=residual_model,
+            )  # fmt: skip
     with _multistart.single_threaded_blas():  # small matrices: BLAS threads only contend
         t_start = time.perf_counter()
         settings = _validate(

@@ -1,7 +1,8 @@
 """Measurement plans: the configurations at which the robot is measured.
 
 A :class:`Plan` is an immutable (m, nq) array of joint values [rad or m] with the joint names of
-its columns. Permuting a plan changes no criterion; repeating it k times divides ρ0² by k.
+its columns, and, when the design chose them, the payload to mount at each configuration. Permuting
+a plan changes no criterion; repeating it k times divides ρ0² by k.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy as np
 from pincal.arguments import MAX_COUNT, positive_int
 from pincal.errors import BadArgument, BadPlanFile
 from pincal.files import atomic_write_text, column_mismatch, csv_header, read_numeric_csv
+from pincal.model.statics import PAYLOAD_COLUMNS, payload_columns, payload_rows
 
 
 @dataclass(frozen=True, eq=False)
@@ -28,11 +30,15 @@ class Plan:
         revolute: for each column, True if its joint is revolute (its values are angles), False
             if prismatic (lengths); None when unknown (a plan not made for a robot). Writing or
             reading degrees converts the revolute columns only, so it needs to know them.
+        payload: (m, 4) the payload to mount at each configuration, rows [kg, x, y, z] (centre of
+            mass in the tip frame [m]), read-only; None: no payload (the plan's CSV then has no
+            payload columns).
     """
 
     q: np.ndarray
     joint_names: tuple[str, ...]
     revolute: tuple[bool, ...] | None = None
+    payload: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         q = np.array(self.q, dtype=float, copy=True)
@@ -50,14 +56,19 @@ class Plan:
                 f"a plan's revolute flags need one per joint ({len(names)}), got {len(revolute)}"
             )
         q.flags.writeable = False
+        if self.payload is not None:
+            payload = payload_rows(self.payload, len(q))
+            payload.flags.writeable = False
+            object.__setattr__(self, "payload", payload)
         object.__setattr__(self, "q", q)
         object.__setattr__(self, "joint_names", names)
         object.__setattr__(self, "revolute", revolute)
 
     @classmethod
-    def for_robot(cls, robot, q: object) -> Plan:
-        """A plan for ``robot`` from (m, nq) joint values, checked against its limits."""
-        return cls(robot.configurations(q), robot.joint_names, tuple(robot.revolute))
+    def for_robot(cls, robot, q: object, payload: object = None) -> Plan:
+        """A plan for ``robot`` from (m, nq) joint values, checked against its limits (and the
+        payload of each configuration, see :func:`~pincal.model.statics.payload_rows`)."""
+        return cls(robot.configurations(q), robot.joint_names, tuple(robot.revolute), payload)
 
     def __len__(self) -> int:
         return len(self.q)
@@ -73,7 +84,8 @@ class Plan:
     def repeat(self, k: int) -> Plan:
         """The whole plan measured ``k`` times (ρ0² is divided by k exactly)."""
         k = positive_int(k, "repeat count", high=MAX_COUNT // max(len(self.q), 1))
-        return Plan(np.tile(self.q, (k, 1)), self.joint_names, self.revolute)
+        payload = None if self.payload is None else np.tile(self.payload, (k, 1))
+        return Plan(np.tile(self.q, (k, 1)), self.joint_names, self.revolute, payload)
 
     def concat(self, *others: Plan) -> Plan:
         """This plan followed by ``others`` (same joints)."""
@@ -84,8 +96,15 @@ class Plan:
                     f"and {list(other.joint_names)}"
                 )
         known = [p.revolute for p in (self, *others) if p.revolute is not None]
+        plans = (self, *others)
+        payload = None
+        if any(p.payload is not None for p in plans):
+            payload = np.vstack([p.payload if p.payload is not None else np.zeros((p.m, 4)) for p in plans])
         return Plan(
-            np.vstack([self.q, *(o.q for o in others)]), self.joint_names, known[0] if known else None
+            np.vstack([self.q, *(o.q for o in others)]),
+            self.joint_names,
+            known[0] if known else None,
+            payload,
         )
 
     __add__ = concat
@@ -104,8 +123,12 @@ class Plan:
                 a robot.
         """
         values = np.where(self._revolute(robot, "write"), np.degrees(self.q), self.q) if degrees else self.q
+        header = list(self.joint_names)
+        if self.payload is not None:
+            values = np.hstack([values, self.payload])
+            header += list(PAYLOAD_COLUMNS)
         out = io.StringIO()
-        out.write(csv_header(self.joint_names))
+        out.write(csv_header(header))
         for row in values:
             out.write(",".join(repr(float(v)) for v in row) + "\n")
         return out.getvalue()
@@ -137,6 +160,9 @@ class Plan:
             degrees: the file holds degrees (converted to radians; prismatic joints untouched).
         """
         header, rows, lines = read_numeric_csv(path, what=what)
+        payload = payload_columns(header, rows, f"{what} file {str(path)!r}", BadPlanFile)
+        keep = [i for i, h in enumerate(header) if not h.startswith("payload_")]
+        header, rows = [header[i] for i in keep], rows[:, keep]
         if robot is None:
             if degrees:
                 raise BadArgument(
@@ -145,7 +171,7 @@ class Plan:
                     argument="degrees",
                     file=str(path),
                 )
-            return cls(rows, tuple(header))
+            return cls(rows, tuple(header), payload=payload)
         names = robot.joint_names
         mismatch = column_mismatch(names, header)
         if mismatch:
@@ -156,11 +182,17 @@ class Plan:
         if degrees:
             q = robot.to_radians(q)
         robot.check_limits(q, [f"{what} file {str(path)!r}, line {n}" for n in lines], degrees)
-        return cls.for_robot(robot, q)
+        try:
+            return cls.for_robot(robot, q, payload)
+        except BadArgument as exc:  # a payload row out of range: name the file
+            raise BadPlanFile(f"{what} file {str(path)!r}: {exc}") from None
 
     def to_json(self) -> dict:
         """A JSON-ready dict: ``{"joint_names": [...], "q": [[...], ...]}`` (radians)."""
-        return {"joint_names": list(self.joint_names), "q": self.q.tolist()}
+        out = {"joint_names": list(self.joint_names), "q": self.q.tolist()}
+        if self.payload is not None:
+            out["payload"] = self.payload.tolist()
+        return out
 
     @classmethod
     def from_json(cls, data: dict | str) -> Plan:
@@ -168,6 +200,8 @@ class Plan:
         if isinstance(data, str):
             data = json.loads(data)
         try:
-            return cls(np.asarray(data["q"], dtype=float), tuple(data["joint_names"]))
+            return cls(
+                np.asarray(data["q"], dtype=float), tuple(data["joint_names"]), payload=data.get("payload")
+            )
         except (KeyError, TypeError, ValueError) as exc:
             raise BadPlanFile(f"not a plan: expected keys joint_names and q ({exc})") from None

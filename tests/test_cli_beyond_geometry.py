@@ -1,0 +1,84 @@
+"""The beyond-geometry workflow on the command line: design with payloads, measure, identify gains and
+compliance, compensate a program under the task's payload."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+import pincal
+
+ROBOT = ["kr270", "--marker", "0.1,0.05,0.2"]
+PARAMS = (
+    "lengths,offsets,gains,joint_a2.compliance,joint_a3.compliance,joint_a4.compliance,joint_a5.compliance"
+)
+
+
+def test_design_measure_identify_compensate(cli, tmp_path):
+    plan, meas, cal = tmp_path / "plan.csv", tmp_path / "meas.csv", tmp_path / "cal.urdf"
+    design = cli.json(
+        "design", *ROBOT, "-m", 24, "--test-pose=0,-60,60,0,45,0", "--deg", "--params", PARAMS,
+        "--payloads", "0,135,270", "--task-payload", 270, "--payload-centre", "0,0,0.25",
+        "--pool-size", 200, "--starts", 2, "--out", plan,
+    )  # fmt: skip
+    split = design["rho0_split"]
+    assert abs(split["total"] - design["rho0"] ** 2) < 1e-6 * split["total"]
+    header = plan.read_text().splitlines()[0]
+    assert header.endswith("payload_kg,payload_x,payload_y,payload_z")
+    code, out, err = cli.run(
+        "measure-sim", *ROBOT, "--plan", plan, "--deg", "--params", PARAMS, "--error-std", "5e-4,5e-4",
+        "--sigma", 3e-5, "--seed", 3, "--out", meas,
+    )  # fmt: skip
+    assert code == 0, err
+    assert "payload_kg" in meas.read_text().splitlines()[0]  # the data carry the payloads
+    result = cli.json(
+        "identify", *ROBOT, "--data", meas, "--deg", "--params", PARAMS, "--sigma", 3e-5, "--out", cal
+    )
+    assert result["status"] == "converged"
+    assert result["residual_rms_after"] < 2 * 3e-5 * np.sqrt(3)
+    side = json.loads(cal.with_suffix(".calibration.json").read_text())
+    assert set(side["joint_compliances"]) == set(pincal.load_robot("kr270").joint_names)
+    program = tmp_path / "program.csv"
+    program.write_text(
+        "joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6\n10,-60,70,20,40,-30\n-30,-80,100,-40,60,10\n"
+    )
+    summary = cli.json(
+        "compensate", *ROBOT, "--calibration", cal, "--targets", program, "--deg", "--payload", 270,
+        "--payload-centre", "0,0,0.25", "--out", tmp_path / "corrected.csv",
+    )  # fmt: skip
+    assert summary["not_reached"] == [] and summary["terms"]["compliance"]
+
+
+def test_params_reports_compliance_separation(cli):
+    code, out, _ = cli.run("params", *ROBOT, "--params", "lengths,offsets,compliance")
+    assert code == 0
+    assert "gravity applies no torque on this joint" in out and "compliance separation" in out
+
+
+def test_residual_model_from_identify_to_a_top_up_design(cli, tmp_path):
+    plan, meas, cal = tmp_path / "plan.csv", tmp_path / "meas.csv", tmp_path / "cal.urdf"
+    robot = pincal.load_robot("ur10", markers=[(0.03, -0.02, 0.1)])
+    params = robot.parameters("full,offsets").identifiable().identifiable
+    truth = pincal.random_errors(params, seed=1)
+    field = pincal.calibration.synthetic.SmoothField.random(robot, 3e-4, seed=2)
+    data = pincal.simulate_measurements(
+        truth, robot.random_configurations(60, 3), 1e-5, seed=4, unmodelled=field
+    )
+    data.to_csv(meas)
+    result = cli.json(
+        "identify", "ur10", "--marker", "0.03,-0.02,0.1", "--data", meas, "--residual-model", "gp",
+        "--out", cal, "--holdout", 0.25,
+    )  # fmt: skip
+    assert result["residual_model"]["kind"] == "gp" and result["residual_model"]["configurations"] == 45
+    side = json.loads(cal.with_suffix(".calibration.json").read_text())
+    assert len(side["residual_model"]["inputs"]) == 45
+    design = cli.json(
+        "design", "ur10", "--marker", "0.03,-0.02,0.1", "-m", 12, "--test-pose=0.3,-1.2,1.4,-1,-1.4,0.2",
+        "--residual-model", cal, "--pool-size", 150, "--starts", 2, "--out", plan,
+    )  # fmt: skip
+    assert design["criterion"] == "test-pose-gp" and design["value"] > 0
+    code, out, _ = cli.run(
+        "design", "ur10", "-m", 12, "--test-pose=0.3,-1.2,1.4,-1,-1.4,0.2", "--residual-model", meas
+    )
+    assert code == 2

@@ -1,0 +1,101 @@
+"""Designs that choose a payload per configuration, and the test pose under the task's load."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import pincal
+from pincal.evaluation.test_pose import rho0_split
+
+SIGMA = 3e-5
+PAYLOADS = [0.0, 135.0, 270.0]
+TASK = pincal.Payload(270.0, (0.0, 0.0, 0.25))
+Q0 = np.radians([0, -60, 60, 0, 45, 0])
+
+
+@pytest.fixture(scope="module")
+def params():
+    robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
+    return robot.parameters("lengths,offsets,gains,compliance").identifiable(payloads=PAYLOADS).identifiable
+
+
+@pytest.fixture(scope="module")
+def designs(params):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
+        loaded = pincal.design(
+            params, 15, Q0, payloads=PAYLOADS, task_payload=TASK, pool=300, starts=2, seed=0
+        )
+        bare = pincal.design(params, 15, Q0, payloads=[0.0], task_payload=TASK, pool=300, starts=2, seed=0)
+    return loaded, bare
+
+
+def test_a_payload_design_beats_a_payload_free_one_at_the_loaded_test_pose(params, designs):
+    loaded, bare = designs
+    assert set(loaded.plan.payload[:, 0]) > {0.0}  # it mounts payloads
+    assert np.all(bare.plan.payload[:, 0] == 0.0)
+    assert loaded.rho0 < bare.rho0 / 3  # measured: about 20 times on this robot
+    # ρ0 is the core function's, under the task's payload and the plan's own payloads.
+    assert loaded.rho0 == pytest.approx(
+        pincal.rho0(params, loaded.plan, Q0, SIGMA, task_payload=TASK), rel=1e-9
+    )
+    # Without its payloads the same configurations separate compliance far worse.
+    blind = pincal.Plan.for_robot(params.robot, loaded.plan.q)
+    assert pincal.rho0(params, blind, Q0, SIGMA, task_payload=TASK) > 2 * loaded.rho0
+
+
+def test_the_split_adds_up_and_says_what_the_payloads_bought(params, designs):
+    loaded, bare = designs
+    for design in designs:
+        parts = rho0_split(params, design.plan, Q0, SIGMA, TASK)
+        assert parts["geometric"] + parts["elastic"] + parts["cross"] == pytest.approx(
+            parts["total"], rel=1e-9
+        )
+        assert parts["total"] == pytest.approx(design.rho0**2, rel=1e-6)
+    assert (
+        rho0_split(params, bare.plan, Q0, SIGMA, TASK)["elastic"]
+        > 10 * rho0_split(params, loaded.plan, Q0, SIGMA, TASK)["elastic"]
+    )
+
+
+def test_the_plan_file_carries_the_payloads(params, designs, tmp_path):
+    loaded, _ = designs
+    path = tmp_path / "plan.csv"
+    loaded.plan.to_csv(path, degrees=True, robot=params.robot)
+    assert path.read_text().splitlines()[0].endswith("payload_kg,payload_x,payload_y,payload_z")
+    again = pincal.Plan.from_csv(path, params.robot, degrees=True)
+    np.testing.assert_allclose(again.payload, loaded.plan.payload)
+    np.testing.assert_allclose(again.q, loaded.plan.q, atol=1e-12)
+    assert again.repeat(2).payload.shape == (30, 4)
+    assert pincal.Plan.from_json(loaded.plan.to_json()).payload.tolist() == loaded.plan.payload.tolist()
+
+
+def test_monte_carlo_at_the_loaded_test_pose_matches_the_prediction(params, designs):
+    # Draw true robots (geometry, gains, compliances), measure the plan under its payloads, identify,
+    # and compare the calibrated with the true robot at the test pose under the task's payload.
+    loaded, _ = designs
+    errors = []
+    for trial in range(40):
+        truth = pincal.random_errors(params, seed=100 + trial)
+        data = pincal.simulate_measurements(
+            truth, loaded.plan, SIGMA, seed=200 + trial, payload=loaded.plan.payload
+        )
+        result = pincal.identify(params, data, sigma=SIGMA)
+        assert result.success
+        error = result.robot.points(Q0, payload=TASK) - truth.robot.points(Q0, payload=TASK)
+        errors.append(np.sum(error**2))
+    measured = np.sqrt(np.mean(errors))
+    # 40 trials of a 3-coordinate error: the RMS is within ±25 % of ρ0 at 2 standard deviations.
+    assert 0.75 * loaded.rho0 < measured < 1.3 * loaded.rho0
+
+
+def test_bad_payload_designs_are_refused(params):
+    with pytest.raises(pincal.BadArgument, match="payloads must be"):
+        pincal.design(params, 15, Q0, payloads=[])
+    with pytest.raises(pincal.BadArgument, match="exchange over a generated pool"):
+        pincal.design(params, 15, Q0, payloads=PAYLOADS, method="continuous")
+    with pytest.raises(pincal.BadArgument, match="mass"):
+        pincal.design(params, 15, Q0, payloads=[-5.0])
