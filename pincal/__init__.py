@@ -19,6 +19,7 @@ from pincal.calibration.sanity import Outlier
 from pincal.calibration.synthetic import RandomErrors, random_errors, simulate_measurements
 from pincal.calibration.urdf_export import export_urdf
 from pincal.calibration.validation import Validation, holdout, kfold, validate
+from pincal.compensation.compensate import Compensation, compensate
 from pincal.errors import (
     AmbiguousTip,
     BadArgument,
@@ -96,6 +97,7 @@ __all__ = [
     "BadPlanFile",
     "CannotWrite",
     "CartesianBox",
+    "Compensation",
     "Criteria",
     "DEFAULT_SIGMA",
     "DHTable",
@@ -153,6 +155,7 @@ __all__ = [
     "around",
     "cartesian_box",
     "check_plan",
+    "compensate",
     "criteria",
     "design",
     "error_profile",

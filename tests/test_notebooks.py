@@ -34,8 +34,13 @@ def _tree(root) -> set[str]:
     return out
 
 
-def test_the_three_notebooks_are_there():
-    assert [p.name for p in NOTEBOOKS] == ["01_planar_2link.ipynb", "02_kr270.ipynb", "03_your_robot.ipynb"]
+def test_the_four_notebooks_are_there():
+    assert [p.name for p in NOTEBOOKS] == [
+        "01_planar_2link.ipynb",
+        "02_kr270.ipynb",
+        "03_your_robot.ipynb",
+        "04_beyond_geometry.ipynb",
+    ]
 
 
 def _text(output) -> str:
