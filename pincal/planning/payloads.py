@@ -42,7 +42,7 @@ from pincal.planning.feasibility import Feasibility
 from pincal.planning.objectives import checked_test_poses
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, StartRecord
-from pincal.planning.search import _pick
+from pincal.planning.starts import pick
 
 MIN_CONDITIONING = 1e-2
 """The conditioning floor tried first (as :func:`~pincal.design`'s); it adapts down to half what a
@@ -137,7 +137,7 @@ def design_with_payloads(
         t = time.perf_counter()
         while True:
             try:
-                start = _pick(J_pool, q_pool, m, 0.0, np.random.default_rng(child), floor, information)
+                start = pick(J_pool, q_pool, m, 0.0, np.random.default_rng(child), floor, information)
                 break
             except FloorUnreachable as error:
                 if min_conditioning is not None or floor <= MIN_DATA_CONDITIONING:
