@@ -59,7 +59,8 @@ joint_value = st.floats(-3.1, 3.1).map(lambda v: f"{v:.6g}")
 int_text = st.one_of(
     st.integers(-3, 6).map(str),
     st.sampled_from(["0", "-1", str(2**63), str(10**30), "1e3", "abc", "", "2.5", "-" + "9" * 30]),
-    st.sampled_from([str(10**7), str(10**7 + 1), str(2**31), str(2**64), "9" * 400, "1e308"]),
+    # beyond the 10**7 a count may be (10**7 itself is valid: a run that long is no test)
+    st.sampled_from([str(10**7 + 1), str(2**31), str(2**64), "9" * 400, "1e308"]),
 )
 # Names as users' files may hold them: long, with commas, quotes, '#', spaces, non-ASCII, empty.
 ODD_NAMES = ("a,b", "#j", 'j"1', " j1", "j1 ", "é", "j" * 300, "x", "s", "1", "", "joint1,joint2", "a;b")

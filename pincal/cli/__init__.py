@@ -76,7 +76,9 @@ a whole calibration, rehearsed on the shipped KUKA KR 270 (joint values in degre
 
 Units: metres and radians; --deg reads and writes joint values in degrees. σ (--sigma, the
 instrument's noise per coordinate) defaults to a laser tracker's 3e-5 m and every report states it.
-Exit codes: 0 done, 2 bad input (one 'pincal: error:' line), 130 interrupted.
+Exit codes: 0 done, 2 bad input (one 'pincal: error:' line), 130 interrupted, 1 a bug in pincal.
+A command writes all of its outputs or none. Figures (--plot, --accuracy-plot) need matplotlib:
+pip install "pincal[plot]"; xacro sources need the xacro package: pip install "pincal[xacro]".
 'pincal COMMAND --help' describes each command; --json prints one JSON object for scripts.
 """
 
