@@ -57,7 +57,7 @@ def quiet_design(*args, **kwargs):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = design(*args, **kwargs)
-    return result, any(issubclass(w.category, pincal.DegenerateOptimumWarning) for w in caught)
+    return result, any(issubclass(w.category, pincal.errors.DegenerateOptimumWarning) for w in caught)
 
 
 def mm(x: float) -> str:

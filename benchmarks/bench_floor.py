@@ -46,7 +46,9 @@ def run_one(params, q0, **kw):
     elapsed = time.perf_counter() - t0
     report = pincal.accuracy(params, result.plan, q0, SIGMA, prior=kw.get("prior"), samples=512)
     rows = {r.where: r for r in report.plans[0].rows}
-    warned = "yes" if any(issubclass(w.category, pincal.DegenerateOptimumWarning) for w in caught) else ""
+    warned = (
+        "yes" if any(issubclass(w.category, pincal.errors.DegenerateOptimumWarning) for w in caught) else ""
+    )
     return (
         f"{rows['test pose'].rms * 1e3:.4f} | {rows['±10°'].rms * 1e3:.4f} | {rows['±20°'].rms * 1e3:.4f} | "
         f"{rows['workspace'].median * 1e3:.4f} | {result.conditioning:.3g} | {warned} | {elapsed:.1f}"

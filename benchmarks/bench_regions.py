@@ -49,7 +49,7 @@ def path(q0: np.ndarray, n: int) -> np.ndarray:
 def quiet(function, *args, **kwargs):
     """Call ``function`` with the degenerate-optimum warning silenced (it is what is compared)."""
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
+        warnings.simplefilter("ignore", pincal.errors.DegenerateOptimumWarning)
         return function(*args, **kwargs)
 
 
@@ -118,7 +118,7 @@ def main() -> list[str]:
         setup, call = {}, {}
         for n in (10, 10_000):
             t0 = time.perf_counter()
-            criterion = pincal.TestPoseCriterion(params, pincal.TestPath(path(q0, n)), SIGMA)
+            criterion = pincal.evaluation.TestPoseCriterion(params, pincal.TestPath(path(q0, n)), SIGMA)
             setup[n] = time.perf_counter() - t0
             call[n] = min(timeit.repeat(lambda c=criterion, q=plan: c(q), number=200, repeat=5)) / 200
         say(

@@ -2,182 +2,247 @@
 then calibrate.
 
 Data flows one way: robot → parameters → Jacobians → criteria → design → (simulate | identify) →
-export / visualise.
+compensate / export / show.
 
     >>> import pincal
     >>> robot = pincal.load_robot("kr270", tip="tool0", markers=[(0.1, 0.05, 0.2)])
     >>> params = robot.parameters("full,offsets").identifiable().identifiable
     >>> len(params)
     27
+
+The names here are the workflow; each stage is a public subpackage holding the rest, with its own
+``__all__``: :mod:`pincal.model` (robots, parameters, identifiability, DH tables, payloads),
+:mod:`pincal.evaluation` (criteria, regions, accuracy, the data check), :mod:`pincal.planning`
+(design, plans, constraints in :mod:`pincal.planning.constraints`), :mod:`pincal.calibration`
+(measurements, identification, validation, simulation, export), :mod:`pincal.compensation`,
+:mod:`pincal.viewing`, :mod:`pincal.errors` (every exception and warning) and
+:mod:`pincal.typing` (the types of pincal's arguments).
+
+``import pincal`` imports none of them: each name is imported from its stage on first use, so
+that ``import pincal`` and ``pincal --help`` take milliseconds, not the second NumPy, Pinocchio
+and SciPy take (PEP 562; type checkers and editors read the imports below).
 """
 
-from pincal.arguments import DEFAULT_SIGMA
-from pincal.calibration.identification import IdentificationResult, identify
-from pincal.calibration.measurements import MeasurementData
-from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
-from pincal.calibration.sanity import Outlier
-from pincal.calibration.synthetic import RandomErrors, random_errors, simulate_measurements
-from pincal.calibration.urdf_export import export_urdf
-from pincal.calibration.validation import Validation, holdout, kfold, validate
-from pincal.compensation.compensate import Compensation, compensate
-from pincal.errors import (
-    AmbiguousTip,
-    BadArgument,
-    BadConfiguration,
-    BadConstraint,
-    BadDHTable,
-    BadMeasurementData,
-    BadPlanFile,
-    CannotWrite,
-    DataCheckWarning,
-    DegenerateOptimum,
-    DegenerateOptimumWarning,
-    FloorUnreachable,
-    FrameNotFound,
-    IdentificationFailed,
-    Infeasible,
-    MissingDependency,
-    NoInertias,
-    OverwriteRefused,
-    PincalError,
-    PincalWarning,
-    RobotNotFound,
-    SingularPlan,
-    UnknownName,
-    UnknownParameter,
-    UnsupportedJoint,
-    UrdfError,
-)
-from pincal.evaluation.accuracy import (
-    AccuracyReport,
-    ErrorProfile,
-    PredictedError,
-    WorstFound,
-    accuracy,
-    error_profile,
-    worst_found,
-)
-from pincal.evaluation.classic import Criteria, criteria
-from pincal.evaluation.data_check import DataCheck, check_plan
-from pincal.evaluation.information import information_matrix
-from pincal.evaluation.prior import Prior
-from pincal.evaluation.region import CartesianBox, Neighbourhood, TestPath, TestRegion, around, cartesian_box
-from pincal.evaluation.test_pose import TestPoseCriterion, position_covariance, rho0, rho0_each
-from pincal.model.base_parameters import Identifiability, identifiability
-from pincal.model.catalogue import Parameter
-from pincal.model.dh import DHTable, urdf_from_dh
-from pincal.model.loading import load_robot, shipped_robots
-from pincal.model.parameters import ParameterSet
-from pincal.model.robot import Robot
-from pincal.model.statics import Payload
-from pincal.planning.baselines import random_plans
-from pincal.planning.constraints import (
-    HalfSpace,
-    JointLimits,
-    MinSpacing,
-    SelfCollision,
-    Visibility,
-    WorkspaceBox,
-    load_constraints,
-)
-from pincal.planning.driver import design
-from pincal.planning.plan import Plan
-from pincal.planning.results import DesignResult, RandomPlans, StartRecord
+from __future__ import annotations
+
+import importlib
+import sys
+import warnings
+from typing import TYPE_CHECKING, Any
+
 from pincal.version import __version__
-from pincal.viewing.scene import Scene, scene, show
+
+if TYPE_CHECKING:
+    from pincal.calibration.identification import identify
+    from pincal.calibration.measurements import MeasurementData
+    from pincal.calibration.monte_carlo import monte_carlo
+    from pincal.calibration.result import IdentificationResult
+    from pincal.calibration.synthetic import random_errors, simulate_measurements
+    from pincal.calibration.urdf_export import export_urdf
+    from pincal.calibration.validation import validate
+    from pincal.compensation.compensate import compensate
+    from pincal.errors import PincalError, PincalWarning
+    from pincal.evaluation.accuracy import accuracy
+    from pincal.evaluation.classic import criteria
+    from pincal.evaluation.prior import Prior
+    from pincal.evaluation.region import TestPath, around, cartesian_box
+    from pincal.evaluation.test_pose import rho0
+    from pincal.model.loading import load_robot, shipped_robots
+    from pincal.model.parameters import ParameterSet
+    from pincal.model.robot import Robot
+    from pincal.model.statics import Payload
+    from pincal.planning.baselines import random_plans
+    from pincal.planning.driver import design
+    from pincal.planning.plan import Plan
+    from pincal.planning.results import DesignResult
+    from pincal.viewing.scene import scene, show
 
 __all__ = [
-    "AccuracyReport",
-    "AmbiguousTip",
-    "BadArgument",
-    "BadConfiguration",
-    "BadConstraint",
-    "BadDHTable",
-    "BadMeasurementData",
-    "BadPlanFile",
-    "CannotWrite",
-    "CartesianBox",
-    "Compensation",
-    "Criteria",
-    "DEFAULT_SIGMA",
-    "DHTable",
-    "DataCheck",
-    "DataCheckWarning",
-    "DegenerateOptimum",
-    "DegenerateOptimumWarning",
     "DesignResult",
-    "ErrorProfile",
-    "FloorUnreachable",
-    "FrameNotFound",
-    "HalfSpace",
-    "Identifiability",
-    "IdentificationFailed",
     "IdentificationResult",
-    "Infeasible",
-    "JointLimits",
     "MeasurementData",
-    "MinSpacing",
-    "MissingDependency",
-    "MonteCarloResult",
-    "Neighbourhood",
-    "NoInertias",
-    "Outlier",
-    "OverwriteRefused",
-    "Parameter",
     "ParameterSet",
     "Payload",
     "PincalError",
     "PincalWarning",
     "Plan",
-    "PredictedError",
     "Prior",
-    "RandomErrors",
-    "RandomPlans",
     "Robot",
-    "RobotNotFound",
-    "Scene",
-    "SelfCollision",
-    "SingularPlan",
-    "StartRecord",
     "TestPath",
-    "TestPoseCriterion",
-    "TestRegion",
-    "UnknownName",
-    "UnknownParameter",
-    "UnsupportedJoint",
-    "UrdfError",
-    "Validation",
-    "Visibility",
-    "WorkspaceBox",
-    "WorstFound",
     "__version__",
     "accuracy",
     "around",
     "cartesian_box",
-    "check_plan",
     "compensate",
     "criteria",
     "design",
-    "error_profile",
     "export_urdf",
-    "holdout",
-    "identifiability",
     "identify",
-    "information_matrix",
-    "kfold",
-    "load_constraints",
     "load_robot",
     "monte_carlo",
-    "position_covariance",
     "random_errors",
     "random_plans",
     "rho0",
-    "rho0_each",
     "scene",
     "shipped_robots",
     "show",
     "simulate_measurements",
-    "urdf_from_dh",
     "validate",
-    "worst_found",
 ]
+
+_HOMES = {
+    "pincal.calibration.identification": ("identify",),
+    "pincal.calibration.measurements": ("MeasurementData",),
+    "pincal.calibration.monte_carlo": ("monte_carlo",),
+    "pincal.calibration.result": ("IdentificationResult",),
+    "pincal.calibration.synthetic": (
+        "random_errors",
+        "simulate_measurements",
+    ),
+    "pincal.calibration.urdf_export": ("export_urdf",),
+    "pincal.calibration.validation": ("validate",),
+    "pincal.compensation.compensate": ("compensate",),
+    "pincal.errors": (
+        "PincalError",
+        "PincalWarning",
+    ),
+    "pincal.evaluation.accuracy": ("accuracy",),
+    "pincal.evaluation.classic": ("criteria",),
+    "pincal.evaluation.prior": ("Prior",),
+    "pincal.evaluation.region": (
+        "TestPath",
+        "around",
+        "cartesian_box",
+    ),
+    "pincal.evaluation.test_pose": ("rho0",),
+    "pincal.model.loading": (
+        "load_robot",
+        "shipped_robots",
+    ),
+    "pincal.model.parameters": ("ParameterSet",),
+    "pincal.model.robot": ("Robot",),
+    "pincal.model.statics": ("Payload",),
+    "pincal.planning.baselines": ("random_plans",),
+    "pincal.planning.driver": ("design",),
+    "pincal.planning.plan": ("Plan",),
+    "pincal.planning.results": ("DesignResult",),
+    "pincal.viewing.scene": (
+        "scene",
+        "show",
+    ),
+}
+"""The module defining each public name, imported on first use (the imports above). Each name is
+also public in its stage (``pincal.model``, ...)."""
+
+_MOVED = {
+    "pincal.arguments": ("DEFAULT_SIGMA",),
+    "pincal.model": ("DHTable", "Identifiability", "Parameter", "identifiability", "urdf_from_dh"),
+    "pincal.evaluation": (
+        "AccuracyReport",
+        "CartesianBox",
+        "Criteria",
+        "DataCheck",
+        "ErrorProfile",
+        "Neighbourhood",
+        "PredictedError",
+        "TestPoseCriterion",
+        "TestRegion",
+        "WorstFound",
+        "check_plan",
+        "error_profile",
+        "information_matrix",
+        "position_covariance",
+        "rho0_each",
+        "worst_found",
+    ),
+    "pincal.planning": ("RandomPlans", "StartRecord"),
+    "pincal.planning.constraints": (
+        "HalfSpace",
+        "JointLimits",
+        "MinSpacing",
+        "SelfCollision",
+        "Visibility",
+        "WorkspaceBox",
+        "load_constraints",
+    ),
+    "pincal.calibration": ("MonteCarloResult", "Outlier", "RandomErrors", "Validation", "holdout", "kfold"),
+    "pincal.viewing": ("Scene",),
+    "pincal.errors": (
+        "AmbiguousTip",
+        "BadArgument",
+        "BadConfiguration",
+        "BadConstraint",
+        "BadDHTable",
+        "BadMeasurementData",
+        "BadPlanFile",
+        "CannotWrite",
+        "DataCheckWarning",
+        "DegenerateOptimum",
+        "DegenerateOptimumWarning",
+        "FloorUnreachable",
+        "FrameNotFound",
+        "IdentificationFailed",
+        "Infeasible",
+        "MissingDependency",
+        "NoInertias",
+        "OverwriteRefused",
+        "RobotNotFound",
+        "SingularPlan",
+        "UnknownName",
+        "UnknownParameter",
+        "UnsupportedJoint",
+        "UrdfError",
+    ),
+}
+"""Names that were top-level in pincal 0.1 and now live only in their stage: they still work here,
+with a DeprecationWarning naming the new home, until pincal 0.3."""
+
+_REMOVAL = "0.3"
+"""The release that removes the moved names from the top level."""
+
+_STAGES = (
+    "model",
+    "evaluation",
+    "planning",
+    "calibration",
+    "compensation",
+    "viewing",
+    "errors",
+    "typing",
+    "arguments",
+    "cli",
+)
+"""The public subpackages and modules, imported on first use as attributes (``pincal.model``)."""
+
+_HOME = {name: home for home, names in _HOMES.items() for name in names}
+_MOVED_TO = {name: home for home, names in _MOVED.items() for name in names}
+
+
+if not TYPE_CHECKING:  # type checkers see the imports above; an unknown name stays an error there
+
+    def __getattr__(name: str) -> Any:
+        """A public name, imported from its stage on first use (then a plain attribute); a name
+        moved to a stage in 0.2, with a DeprecationWarning; a stage subpackage."""
+        if name in _HOME:
+            value = getattr(importlib.import_module(_HOME[name]), name)
+            globals()[name] = value
+            return value
+        if name in _MOVED_TO:
+            home = _MOVED_TO[name]
+            if sys._getframe(1).f_code.co_filename.startswith("<frozen importlib"):
+                # 'from pincal import X' looks X up twice: warn once, at the user's line
+                return getattr(importlib.import_module(home), name)
+            warnings.warn(
+                f"pincal.{name} is deprecated: use {home}.{name} (the top level keeps the workflow's "
+                f"names; pincal.{name} will be removed in pincal {_REMOVAL})",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            return getattr(importlib.import_module(home), name)
+        if name in _STAGES:
+            return importlib.import_module(f"pincal.{name}")
+        raise AttributeError(f"module 'pincal' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*__all__, *_STAGES})

@@ -8,7 +8,7 @@ Kinds and their bounds:
   (zero too where exact points make sense: ``zero=True``);
 * counts (configurations, plans, starts, trials, samples, iterations, folds):
   :func:`positive_int`, up to :data:`MAX_COUNT`;
-* seeds: :func:`checked_seed`, :func:`generator`, :func:`seed_entropy` (see :data:`Seed`);
+* seeds: :func:`checked_seed`, :func:`generator`, :func:`seed_entropy` (see :data:`~pincal.typing.SeedLike`);
 * lengths [m]: :func:`length`, :func:`check_lengths`, up to :data:`MAX_LENGTH` in size;
 * angles [rad] and joint values [rad or m]: :func:`angle`, :func:`joint_range`, up to
   :data:`MAX_ANGLE` in size;
@@ -30,6 +30,7 @@ import re
 import numpy as np
 
 from pincal.errors import BadArgument
+from pincal.typing import SeedLike
 
 DEFAULT_SIGMA = 3e-5
 """The measurement noise σ per coordinate [m] assumed when none is given, everywhere (API and
@@ -337,10 +338,8 @@ def checked_name(value: object, what: str, error: type[BadArgument] = BadArgumen
     return value
 
 
-Seed = int | np.integer | np.random.Generator | np.random.SeedSequence | None
-"""What every ``seed`` argument accepts: an int ≥ 0 or a ``numpy.random.SeedSequence`` (the same
-draws each time), a ``numpy.random.Generator`` (its stream continues; the caller's generator
-advances), or None (fresh entropy)."""
+Seed = SeedLike
+"""The former name of :data:`pincal.typing.SeedLike` (code written against it keeps working)."""
 
 
 def _check_seed(seed: object) -> None:
@@ -354,8 +353,8 @@ def _check_seed(seed: object) -> None:
         )
 
 
-def checked_seed(value: Seed) -> Seed:
-    """``value`` if it is a valid seed (see :data:`Seed`), for storing before it is used.
+def checked_seed(value: SeedLike) -> SeedLike:
+    """``value`` if it is a valid seed (see :data:`~pincal.typing.SeedLike`), for storing before it is used.
 
     Raises:
         PincalError: a seed of another kind (a negative or non-integer number, a bool).
@@ -364,8 +363,9 @@ def checked_seed(value: Seed) -> Seed:
     return value
 
 
-def generator(seed: Seed) -> np.random.Generator:
-    """The random generator of a ``seed`` argument (see :data:`Seed`): a Generator is used as is.
+def generator(seed: SeedLike) -> np.random.Generator:
+    """The random generator of a ``seed`` argument (see :data:`~pincal.typing.SeedLike`): a
+    Generator is used as is.
 
     Raises:
         PincalError: a seed of another kind (a negative or non-integer number, a bool).
@@ -374,7 +374,7 @@ def generator(seed: Seed) -> np.random.Generator:
     return np.random.default_rng(seed)
 
 
-def seed_entropy(seed: Seed) -> int:
+def seed_entropy(seed: SeedLike) -> int:
     """An int that repeats a run seeded by ``seed`` when passed as its seed: the int itself, the
     entropy of a SeedSequence, one draw from a Generator, or fresh entropy for None.
 

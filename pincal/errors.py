@@ -22,6 +22,35 @@ import sys
 import warnings
 from collections.abc import Iterable
 
+__all__ = [
+    "AmbiguousTip",
+    "BadArgument",
+    "BadConfiguration",
+    "BadConstraint",
+    "BadDHTable",
+    "BadMeasurementData",
+    "BadPlanFile",
+    "CannotWrite",
+    "DataCheckWarning",
+    "DegenerateOptimum",
+    "DegenerateOptimumWarning",
+    "FloorUnreachable",
+    "FrameNotFound",
+    "IdentificationFailed",
+    "Infeasible",
+    "MissingDependency",
+    "NoInertias",
+    "OverwriteRefused",
+    "PincalError",
+    "PincalWarning",
+    "RobotNotFound",
+    "SingularPlan",
+    "UnknownName",
+    "UnknownParameter",
+    "UnsupportedJoint",
+    "UrdfError",
+]
+
 
 def _choices(valid: Iterable[str], limit: int = 30) -> str:
     valid = list(valid)

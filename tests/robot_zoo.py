@@ -39,7 +39,7 @@ def chain_of(name: str) -> Chain:
         warnings.simplefilter("ignore", pincal.PincalWarning)
         try:
             return Chain(pincal.load_robot(name, markers=MARKER))
-        except pincal.AmbiguousTip as exc:
+        except pincal.errors.AmbiguousTip as exc:
             ends = chain_ends(name)
             arms = [c for c in ends.candidates if not c.finger] or list(ends.candidates)
             if not arms:  # nothing moves: the refusal says so
@@ -78,7 +78,7 @@ def rehearse(robot: pincal.Robot, seed: int = 0, starts: int = 2, extra: int = 2
     q0 = robot.random_configurations(1, seed)
     start = time.perf_counter()
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
+        warnings.simplefilter("ignore", pincal.errors.DegenerateOptimumWarning)
         design = pincal.design(params, m, test_pose=q0, starts=starts, seed=seed, sigma=SIGMA)
     seconds = time.perf_counter() - start
     truth = pincal.random_errors(params, seed=seed + 1)

@@ -1,9 +1,15 @@
-"""The public surface: every name in __all__ imports, and the README's Python example runs."""
+"""The public surface: the workflow's names at the top level and each stage's in its subpackage,
+every name in every ``__all__`` imports, the names moved in 0.2 still work with a warning naming
+their new home, ``import pincal`` imports no stage, and the README's Python example runs."""
 
 from __future__ import annotations
 
 import ast
+import importlib
 import re
+import subprocess
+import sys
+import warnings
 from pathlib import Path
 
 import pytest
@@ -13,6 +19,20 @@ from tests.conftest import ROOT
 
 PACKAGE = Path(pincal.__file__).resolve().parent
 """The package under test (the checkout's pincal/, or the installed wheel's under .ci/run)."""
+
+PUBLIC_MODULES = (
+    "pincal.model",
+    "pincal.evaluation",
+    "pincal.planning",
+    "pincal.planning.constraints",
+    "pincal.calibration",
+    "pincal.compensation",
+    "pincal.viewing",
+    "pincal.errors",
+    "pincal.typing",
+)
+"""The stages' public faces: each has its own ``__all__``, sorted (constants first, as ruff and
+isort sort them)."""
 
 
 def test_all_names_import():
@@ -24,12 +44,83 @@ def test_all_names_import():
     assert declared and declared.group(1) == pincal.__version__
 
 
+def test_the_top_level_is_the_workflow():
+    """About 30 names (pink has 11, mink 15): each also public in its stage, and the imports type
+    checkers read (under TYPE_CHECKING) are the names imported at run time."""
+    assert 20 <= len(pincal.__all__) <= 35, len(pincal.__all__)
+    homes = {name: home for home, names in pincal._HOMES.items() for name in names}
+    assert sorted(homes) == sorted(set(pincal.__all__) - {"__version__"})
+    for name, home in homes.items():
+        stage = importlib.import_module(".".join(home.split(".")[:2]))  # pincal.model, pincal.errors
+        assert name in stage.__all__, f"{name} is not in {stage.__name__}.__all__"
+        assert getattr(pincal, name) is getattr(stage, name) is getattr(importlib.import_module(home), name)
+    tree = ast.parse((PACKAGE / "__init__.py").read_text())
+    checked = {
+        (node.module, alias.name)
+        for block in tree.body
+        if isinstance(block, ast.If) and ast.unparse(block.test) == "TYPE_CHECKING"
+        for node in ast.walk(block)
+        if isinstance(node, ast.ImportFrom)
+        for alias in node.names
+    }
+    assert checked == {(home, name) for name, home in homes.items()}
+
+
+@pytest.mark.parametrize("module", PUBLIC_MODULES)
+def test_every_stage_has_a_public_face(module):
+    stage = importlib.import_module(module)
+    assert stage.__all__ == sorted(stage.__all__, key=lambda n: (not n.isupper(), n)), module
+    for name in stage.__all__:
+        assert hasattr(stage, name), f"{module}.{name}"
+        assert not name.startswith("_"), f"{module}.{name}"
+
+
+def test_moved_names_warn_and_name_their_new_home():
+    """Every name that was top-level in 0.1 still works, as the same object, with a
+    DeprecationWarning naming its new home (once, at the caller's line, for a from-import too)."""
+    for home, names in pincal._MOVED.items():
+        module = importlib.import_module(home)
+        for name in names:
+            assert home == "pincal.arguments" or name in module.__all__, f"{home}.{name}"
+            with pytest.warns(DeprecationWarning, match=rf"pincal\.{name} is deprecated: use {home}\.{name}"):
+                value = getattr(pincal, name)
+            assert value is getattr(module, name)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        from pincal import rho0_each  # noqa: F401
+    assert [w.filename for w in caught] == [__file__]
+    assert set(pincal._MOVED_TO).isdisjoint(pincal.__all__)
+    with pytest.raises(AttributeError, match="no attribute 'no_such_name'"):
+        pincal.no_such_name  # noqa: B018
+
+
+def test_import_pincal_imports_no_stage():
+    """``import pincal`` and ``pincal --help`` import neither NumPy nor Pinocchio (nor SciPy,
+    matplotlib, meshcat, scikit-learn): each public name is imported from its stage when used."""
+    heavy = ("numpy", "pinocchio", "scipy", "matplotlib", "meshcat", "sklearn", "pincal.model")
+    script = (
+        "import sys, pincal, pincal.cli\n"
+        "import contextlib, io\n"
+        "with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):\n"
+        "    pincal.cli.main(['--help'])\n"
+        f"print(sorted(m for m in {heavy!r} if m in sys.modules))\n"
+        "pincal.load_robot\n"
+        "print('pincal.model' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True).stdout
+    assert out.split("\n")[:2] == ["[]", "True"], out
+
+
 def test_no_import_inside_a_function_but_optional_ones():
     """Import cycles are not broken by imports inside functions: only the optional viewer
-    (meshcat, through pincal.viewing.scene and its static page) is imported late."""
+    (meshcat, through pincal.viewing.scene and its static page) is imported late, and the CLI's
+    helpers once a subcommand is parsed (so that ``pincal --help`` imports neither NumPy nor
+    Pinocchio)."""
     allowed = {
         ("pincal/cli/show.py", "pincal.viewing.scene"),
         ("pincal/viewing/scene.py", "pincal.viewing.static_page"),
+        ("pincal/cli/__init__.py", "pincal.cli._common"),
+        ("pincal/cli/__init__.py", "pincal.files"),
     }
     for path in sorted(PACKAGE.rglob("*.py")):
         name = path.relative_to(PACKAGE.parent).as_posix()
@@ -49,13 +140,25 @@ STAGES = ("model", "evaluation", "planning", "calibration", "compensation", "vie
 
 def test_data_flows_one_way():
     """Each stage imports only the stages before it (robot → parameters → Jacobians → criteria →
-    design → identify → view → CLI); the foundation modules (errors, files, arguments, ...) none."""
+    design → identify → view → CLI); the foundation modules (errors, files, arguments, ...) none.
+    pincal.typing names stage classes in its aliases, for type checkers only (under TYPE_CHECKING)."""
     for path in sorted(PACKAGE.rglob("*.py")):
         parts = path.relative_to(PACKAGE).parts
         stage = parts[0] if len(parts) > 1 else None
         if stage is None and parts[0] in ("__init__.py", "__main__.py"):
             continue  # the public surface gathers every stage
-        for node in ast.walk(ast.parse(path.read_text())):
+        tree = ast.parse(path.read_text())
+        annotations_only = {
+            id(node)
+            for block in tree.body
+            if parts == ("typing.py",)
+            and isinstance(block, ast.If)
+            and ast.unparse(block.test) == "TYPE_CHECKING"
+            for node in ast.walk(block)
+        }
+        for node in ast.walk(tree):
+            if id(node) in annotations_only:
+                continue
             if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("pincal."):
                 target = node.module.split(".")[1]
                 if target not in STAGES:
@@ -66,13 +169,16 @@ def test_data_flows_one_way():
 
 
 def test_errors_share_one_root():
-    for name in pincal.__all__:
-        obj = getattr(pincal, name)
-        if isinstance(obj, type) and issubclass(obj, Exception):
-            assert issubclass(obj, pincal.PincalError), name
+    for module in PUBLIC_MODULES:
+        stage = importlib.import_module(module)
+        for name in stage.__all__:
+            obj = getattr(stage, name)
+            if isinstance(obj, type) and issubclass(obj, Exception):
+                assert issubclass(obj, pincal.PincalError), f"{module}.{name}"
+                assert obj.__module__ == "pincal.errors" and name in pincal.errors.__all__
 
 
-@pytest.mark.filterwarnings("ignore::pincal.DegenerateOptimumWarning")  # the README explains it
+@pytest.mark.filterwarnings("ignore::pincal.errors.DegenerateOptimumWarning")  # the README explains it
 def test_readme_python_blocks_run(tmp_path, monkeypatch):
     readme = (ROOT / "README.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", readme, flags=re.S)
@@ -90,3 +196,20 @@ def test_docstring_examples_run():
     for module in (pincal, pincal.model.loading):
         result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
         assert result.attempted > 0 and result.failed == 0, module.__name__
+
+
+def test_every_subcommand_is_listed():
+    """``pincal --help`` lists the subcommands from pincal.cli.COMMANDS without importing them: every
+    module with an ``add_parser`` is there, under the name its parser takes."""
+    from pincal.cli import COMMANDS, build_parser
+
+    modules = {
+        f"pincal.cli.{path.stem}"
+        for path in (PACKAGE / "cli").glob("*.py")
+        if "\ndef add_parser(" in path.read_text()
+    }
+    assert modules == {command.module for command in COMMANDS.values()}
+    parser = build_parser()
+    assert list(parser.commands) == list(COMMANDS)
+    for name, command in COMMANDS.items():
+        assert parser.commands[name].description == command.help + "."

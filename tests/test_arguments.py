@@ -54,7 +54,7 @@ def test_bad_arguments_are_value_errors_carrying_what_they_name(tmp_path, kr270)
     # Ordinary Python code catches them as ValueError.
     with pytest.raises(ValueError):
         pincal.load_robot("planar_2r").parameters("no_such_parameter")
-    with pytest.raises(pincal.BadConfiguration) as caught:
+    with pytest.raises(pincal.errors.BadConfiguration) as caught:
         kr270.configurations([0, 0, 0, 0, 0, 0])  # A2's limits are [-140°, -5°]
     error = caught.value
     assert isinstance(error, ValueError)
@@ -62,13 +62,13 @@ def test_bad_arguments_are_value_errors_carrying_what_they_name(tmp_path, kr270)
     assert error.valid == pytest.approx((-np.radians(140), -np.radians(5)))
     plan = tmp_path / "plan.csv"
     plan.write_text("joint1,joint2\n0.1,0.2\n0.3,x\n")
-    with pytest.raises(pincal.BadPlanFile) as caught:
+    with pytest.raises(pincal.errors.BadPlanFile) as caught:
         pincal.Plan.from_csv(plan)
     assert (caught.value.file, caught.value.line) == (str(plan), 3)
-    with pytest.raises(pincal.BadArgument) as caught:
+    with pytest.raises(pincal.errors.BadArgument) as caught:
         pincal.design(pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx"), 0, test_pose=[0, 1])
     assert caught.value.argument == "m (number of configurations)" and caught.value.value == 0
-    with pytest.raises(pincal.UnknownParameter) as caught:
+    with pytest.raises(pincal.errors.UnknownParameter) as caught:
         kr270.parameters("joint_a9.tx")
     assert caught.value.name == "joint_a9.tx" and "joint_a2.tx" in caught.value.valid
 
@@ -80,9 +80,9 @@ def test_every_exception_is_a_pincal_error_and_input_errors_are_value_errors():
         cls = getattr(errors, name)
         if isinstance(cls, type) and issubclass(cls, Exception):
             assert issubclass(cls, pincal.PincalError), name
-    for cls in (pincal.UnknownName, pincal.BadConfiguration, pincal.BadConstraint, pincal.BadMeasurementData,
-                pincal.BadPlanFile, pincal.RobotNotFound, pincal.UnsupportedJoint):  # fmt: skip
-        assert issubclass(cls, pincal.BadArgument) and issubclass(cls, ValueError), cls
+    for cls in (errors.UnknownName, errors.BadConfiguration, errors.BadConstraint, errors.BadMeasurementData,
+                errors.BadPlanFile, errors.RobotNotFound, errors.UnsupportedJoint):  # fmt: skip
+        assert issubclass(cls, errors.BadArgument) and issubclass(cls, ValueError), cls
 
 
 @pytest.mark.parametrize("command", ["design", "evaluate", "baseline", "simulate", "show"])
@@ -104,7 +104,7 @@ def test_every_report_in_metres_names_its_sigma(command, tmp_path, capsys):
     assert main([command, *common, *extra, "--sigma", "1e-4"]) == 0
     out = capsys.readouterr().out
     assert "σ = 0.100 mm" in out and "default" not in out.split("σ = 0.100 mm")[1].splitlines()[0]
-    assert pincal.DEFAULT_SIGMA == 3e-5
+    assert pincal.arguments.DEFAULT_SIGMA == 3e-5
 
 
 # ------------------------------------------------- one answer for the same value, everywhere
@@ -117,13 +117,13 @@ def _sigma_calls(planar):
     plan, q0 = [[0.1, 1.0], [0.5, -1.0], [1.0, 2.0]], [0.3, 1.2]
     return {
         "rho0": lambda s: pincal.rho0(params, plan, q0, sigma=s),
-        "rho0_each": lambda s: pincal.rho0_each(params, plan, q0, sigma=s),
-        "position_covariance": lambda s: pincal.position_covariance(params, plan, q0, sigma=s),
-        "TestPoseCriterion": lambda s: pincal.TestPoseCriterion(params, q0, sigma=s),
-        "PredictedError": lambda s: pincal.PredictedError(params, plan, s),
+        "rho0_each": lambda s: pincal.evaluation.rho0_each(params, plan, q0, sigma=s),
+        "position_covariance": lambda s: pincal.evaluation.position_covariance(params, plan, q0, sigma=s),
+        "TestPoseCriterion": lambda s: pincal.evaluation.TestPoseCriterion(params, q0, sigma=s),
+        "PredictedError": lambda s: pincal.evaluation.PredictedError(params, plan, s),
         "accuracy": lambda s: pincal.accuracy(params, plan, q0, s, samples=8, workspace=8),
-        "error_profile": lambda s: pincal.error_profile(params, {"p": plan}, q0, s, samples=8),
-        "check_plan": lambda s: pincal.check_plan(params, plan, s),
+        "error_profile": lambda s: pincal.evaluation.error_profile(params, {"p": plan}, q0, s, samples=8),
+        "check_plan": lambda s: pincal.evaluation.check_plan(params, plan, s),
         "design": lambda s: pincal.design(params, 3, q0, sigma=s, starts=1, workers=1, pool=50),
         "random_plans": lambda s: pincal.random_plans(params, 3, 5, q0, sigma=s),
         "monte_carlo": lambda s: pincal.monte_carlo(params, plan, q0, sigma=s, trials=2),
@@ -145,7 +145,7 @@ def test_sigma_has_one_answer_everywhere(planar, sigma):
             continue
         if name == "identify" and sigma is None:  # identify's None: estimated from the residuals
             continue
-        with pytest.raises(pincal.BadArgument, match=SIGMA_REFUSED) as caught:
+        with pytest.raises(pincal.errors.BadArgument, match=SIGMA_REFUSED) as caught:
             call(sigma)
         assert caught.value.argument == "sigma", name
 
@@ -180,11 +180,11 @@ def test_counts_angles_lengths_fractions_have_one_rule(planar):
         "monte_carlo trials": lambda n: pincal.monte_carlo(params, [[0, 1], [1, 1], [1, 2]], q0, trials=n),
         "random_configurations": lambda n: planar.random_configurations(n),
         "Plan.repeat": lambda n: pincal.Plan.for_robot(planar, [[0, 1]]).repeat(n),
-        "identifiability": lambda n: pincal.identifiability(params, n_configurations=n),
+        "identifiability": lambda n: pincal.model.identifiability(params, n_configurations=n),
     }
     for name, call in counts.items():
         for bad in (True, 1.5, -1, 10**8):
-            with pytest.raises(pincal.BadArgument, match="must be an integer") as caught:
+            with pytest.raises(pincal.errors.BadArgument, match="must be an integer") as caught:
                 call(bad)
             assert caught.value.value is bad, name
     for call in (
@@ -193,13 +193,15 @@ def test_counts_angles_lengths_fractions_have_one_rule(planar):
         lambda a: planar.random_configurations(3, margin=a),
     ):
         for bad in (-0.1, float("inf"), 1e7, True):
-            with pytest.raises(pincal.BadArgument, match="number of radians"):
+            with pytest.raises(pincal.errors.BadArgument, match="number of radians"):
                 call(bad)
     for bad in ([0, 0, 1e7], [0, 0, True], [0, 0, float("nan")]):
-        with pytest.raises(pincal.BadArgument, match="must be a number of metres in"):
+        with pytest.raises(pincal.errors.BadArgument, match="must be a number of metres in"):
             pincal.cartesian_box([0, 0, 0], bad, q0)
     for bad in (0, 1, 1.5, True):
-        with pytest.raises(pincal.BadArgument, match=r"must be a fraction in \(0, 1\)"):
-            pincal.holdout(params, pincal.simulate_measurements(planar, [[0, 1], [1, 1], [1, 2]], 0.0), bad)
-    with pytest.raises(pincal.BadArgument, match=r"keep must be a fraction in \(0, 1\]"):
+        with pytest.raises(pincal.errors.BadArgument, match=r"must be a fraction in \(0, 1\)"):
+            pincal.calibration.holdout(
+                params, pincal.simulate_measurements(planar, [[0, 1], [1, 1], [1, 2]], 0.0), bad
+            )
+    with pytest.raises(pincal.errors.BadArgument, match=r"keep must be a fraction in \(0, 1\]"):
         pincal.design(params, 3, q0, keep=0, workers=1)

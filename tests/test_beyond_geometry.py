@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal.calibration import holdout
 from pincal.calibration.synthetic import COMPLIANCE_DEFLECTION, SmoothField
 
 SIGMA = 3e-5
@@ -76,8 +77,8 @@ def test_the_residual_model_lowers_held_out_error(spec):
     data = pincal.simulate_measurements(
         truth, robot.random_configurations(200, 8), 1e-5, seed=9, unmodelled=field
     )
-    plain, without = pincal.holdout(params, data, 0.3, seed=1, sigma=1e-5)
-    modelled, with_gp = pincal.holdout(params, data, 0.3, seed=1, sigma=1e-5, residual_model="gp")
+    plain, without = holdout(params, data, 0.3, seed=1, sigma=1e-5)
+    modelled, with_gp = holdout(params, data, 0.3, seed=1, sigma=1e-5, residual_model="gp")
     assert modelled.residual_model is not None and plain.residual_model is None
     assert with_gp.stats_after["rms"] < 0.7 * without.stats_after["rms"]  # on data the model did not see
     assert "residual model: Gaussian process" in modelled.report()

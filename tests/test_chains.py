@@ -201,7 +201,7 @@ def test_continuous_joint_has_a_one_turn_range_that_can_be_set(tree):
     assert (robot.lower[j], robot.upper[j]) == (-np.pi, np.pi)
     robot = pincal.load_robot(tree(), joint_ranges={"a2": (-1.0, 3.0)})
     assert (robot.lower[j], robot.upper[j]) == (-1.0, 3.0)
-    with pytest.raises(pincal.UnknownName, match="a9"):
+    with pytest.raises(pincal.errors.UnknownName, match="a9"):
         pincal.load_robot(tree(), joint_ranges={"a9": (0, 1)})
 
 

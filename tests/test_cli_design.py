@@ -76,7 +76,7 @@ def test_design_with_constraints_file(cli, tmp_path, kr270_marker):
         "workspace_box: {lower: [0.8, -2, 0.4], upper: [3, 2, 2.6]}\nmin_spacing: {distance_deg: 15}\n"
     )
     data = cli.json("design", *KR, "-m", "4", "--starts", "3", "--constraints", cell)
-    cons = pincal.load_constraints(cell)
+    cons = pincal.planning.constraints.load_constraints(cell)
     assert pincal.planning.constraints.satisfied(kr270_marker, data["plan"], cons).all()
 
 

@@ -100,7 +100,7 @@ def test_commands_beyond_the_limits_are_named(kr270, calibrated):
 
 
 def test_bad_programs_are_refused(kr270, calibrated):
-    with pytest.raises(pincal.BadConfiguration, match="target 0"):
+    with pytest.raises(pincal.errors.BadConfiguration, match="target 0"):
         compensate(calibrated, kr270, np.full(6, 10.0))
     with pytest.raises(BadArgument, match="same chain"):
         compensate(calibrated, pincal.load_robot("ur10"), np.zeros(6))

@@ -89,7 +89,7 @@ def test_several_test_poses(kr270_marker):
     params = kr270_marker.parameters("lengths,offsets")
     plan = kr270_marker.random_configurations(10, 4)
     q0 = kr270_marker.random_configurations(3, 5)
-    each = pincal.rho0_each(params, plan, q0, sigma=SIGMA)
+    each = pincal.evaluation.rho0_each(params, plan, q0, sigma=SIGMA)
     singles = [pincal.rho0(params, plan, q, sigma=SIGMA) for q in q0]
     np.testing.assert_allclose(each, singles, rtol=1e-12)
     assert pincal.rho0(params, plan, q0, sigma=SIGMA) == pytest.approx(np.sqrt(np.mean(each**2)), rel=1e-12)
@@ -104,8 +104,8 @@ def test_position_covariance_trace_is_rho0_squared(kr270_marker):
     params = kr270_marker.parameters("full,offsets,base").identifiable().identifiable
     plan = kr270_marker.random_configurations(12, 6)
     q0 = kr270_marker.random_configurations(2, 7)
-    cov = pincal.position_covariance(params, plan, q0, sigma=SIGMA)
-    each = pincal.rho0_each(params, plan, q0, sigma=SIGMA)
+    cov = pincal.evaluation.position_covariance(params, plan, q0, sigma=SIGMA)
+    each = pincal.evaluation.rho0_each(params, plan, q0, sigma=SIGMA)
     np.testing.assert_allclose(np.trace(cov, axis1=1, axis2=2), each**2, rtol=1e-10)
     np.testing.assert_allclose(cov, cov.transpose(0, 2, 1), atol=1e-20)
 
@@ -155,7 +155,7 @@ def test_bad_sigma_and_test_pose(kr270):
     params = kr270.parameters("lengths")
     with pytest.raises(PincalError, match="sigma"):
         TestPoseCriterion(params, kr270.random_configurations(1, 0), sigma=0)
-    with pytest.raises(pincal.BadConfiguration, match="test pose"):
+    with pytest.raises(pincal.errors.BadConfiguration, match="test pose"):
         TestPoseCriterion(params, np.zeros(5))
 
 
@@ -236,8 +236,10 @@ def test_batches_of_plans_give_each_plans_value(kr270_marker):
     for kw in ({}, {"aggregate": "worst"}, {"prior": prior}):
         one = [pincal.rho0(params, p, poses, sigma=SIGMA, **kw) for p in plans]
         np.testing.assert_allclose(pincal.rho0(params, plans, poses, sigma=SIGMA, **kw), one, rtol=1e-12)
-    each = np.array([pincal.rho0_each(params, p, poses, sigma=SIGMA) for p in plans])
-    np.testing.assert_allclose(pincal.rho0_each(params, plans, poses, sigma=SIGMA), each, rtol=1e-12)
+    each = np.array([pincal.evaluation.rho0_each(params, p, poses, sigma=SIGMA) for p in plans])
+    np.testing.assert_allclose(
+        pincal.evaluation.rho0_each(params, plans, poses, sigma=SIGMA), each, rtol=1e-12
+    )
     as_plans = [pincal.Plan.for_robot(kr270_marker, p) for p in plans]
     assert pincal.rho0(params, as_plans, poses, sigma=SIGMA).shape == (4,)
     for c, p in zip(pincal.criteria(params, plans), plans, strict=True):

@@ -25,7 +25,7 @@ from pincal.planning.driver import design
 
 KR_Q0 = np.radians([0, -90, 90, 0, 45, 0])
 # Plans at the conditioning floor warn (asserted where it matters, with pytest.warns).
-pytestmark = pytest.mark.filterwarnings("ignore::pincal.DegenerateOptimumWarning")
+pytestmark = pytest.mark.filterwarnings("ignore::pincal.errors.DegenerateOptimumWarning")
 FAST = dict(workers=1, starts=4)
 UNIT_SIGMA = dict(FAST, sigma=1.0)  # closed forms in units of σ: ρ0/σ
 
@@ -205,7 +205,7 @@ def test_exchange_updates_are_exact_and_locally_optimal(kr_params, kr270_marker,
         J = J_pool[list(index)].reshape(-1, len(kr_params))
         try:
             return obj.value(J.T @ J, len(index))
-        except pincal.SingularPlan:
+        except pincal.errors.SingularPlan:
             return math.inf
 
     assert out.F == pytest.approx(value(out.index), rel=1e-9, abs=1e-9)
@@ -241,7 +241,7 @@ def test_repeating_a_plan_divides_rho0_squared(kr_params):
 # ------------------------------------------------------------------- constraints
 def test_every_returned_configuration_satisfies_every_constraint(kr_params, kr270_marker):
     constraints = (
-        pincal.JointLimits(math.radians(5)),
+        pincal.planning.constraints.JointLimits(math.radians(5)),
         WorkspaceBox((0.8, -1.5, 0.3), (3.0, 1.5, 2.5)),
         HalfSpace((0, 0, 1), 0.5),
         Visibility(
@@ -307,9 +307,9 @@ def test_random_plans_respect_constraints_and_count_singular(planar):
 
 # ------------------------------------------------------------------- bad input
 def test_bad_input_is_named(lengths, kr_params):
-    with pytest.raises(pincal.SingularPlan, match="at least 4 configurations"):
+    with pytest.raises(pincal.errors.SingularPlan, match="at least 4 configurations"):
         design(kr_params, 3, test_pose=KR_Q0, **FAST)
-    with pytest.raises(pincal.UnknownName, match="valid: test-pose, test-pose-worst, D, A, E, cond"):
+    with pytest.raises(pincal.errors.UnknownName, match="valid: test-pose, test-pose-worst, D, A, E, cond"):
         design(lengths, 2, test_pose=[0, 1], criterion="best", **FAST)
     with pytest.raises(pincal.PincalError, match="method"):
         design(lengths, 2, test_pose=[0, 1], method="genetic", **FAST)
@@ -319,9 +319,9 @@ def test_bad_input_is_named(lengths, kr_params):
         design(lengths, 2, test_pose=[0, 1], pool=np.zeros((5, 2)), method="continuous", **FAST)
     with pytest.raises(pincal.PincalError, match="taught poses|off the given pool"):
         design(lengths, 2, test_pose=[0, 1], pool=np.zeros((5, 2)), polish=True, **FAST)
-    with pytest.raises(pincal.Infeasible, match="workspace_box"):
+    with pytest.raises(pincal.errors.Infeasible, match="workspace_box"):
         design(lengths, 2, test_pose=[0, 1], constraints=[WorkspaceBox((5, 5, 5), (6, 6, 6))], **FAST)
-    with pytest.raises(pincal.BadConfiguration):
+    with pytest.raises(pincal.errors.BadConfiguration):
         design(lengths, 2, test_pose=[0, 7], **FAST)
 
 
@@ -333,7 +333,7 @@ def test_every_start_below_the_floor_is_a_degenerate_optimum(lengths):
     its gradient zero), and any plan above the default floor 1e-2 has ρ0² ≥ 2σ²/3.98 = 0.5025σ², so
     the screening keeps the init start and drops the drawn one, whatever path the search takes."""
     near_singular = np.array([[0.0, 0.01], [0.5, -0.01]])
-    assert conditioning(pincal.information_matrix(lengths.jacobian(near_singular))) < 1e-4
+    assert conditioning(pincal.evaluation.information_matrix(lengths.jacobian(near_singular))) < 1e-4
     with pytest.raises(DegenerateOptimum) as raised:
         design(
             lengths, 2, test_pose=[0.0, 0.0], method="continuous", init=[near_singular], starts=1, keep=0.5,
@@ -376,11 +376,13 @@ def test_design_and_identification_agree_on_what_a_plan_separates():
     params = robot.parameters("full,offsets").identifiable(tol=1e-3).identifiable
     assert "arm_left_7_joint.tz" in params.names
     q0 = robot.random_configurations(1, 0)
-    with pytest.raises(pincal.FloorUnreachable, match="identification needs to separate every parameter"):
+    with pytest.raises(
+        pincal.errors.FloorUnreachable, match="identification needs to separate every parameter"
+    ):
         design(params, 13, test_pose=q0, seed=0, **FAST)
-    with pytest.warns(pincal.DataCheckWarning) as record:
+    with pytest.warns(pincal.errors.DataCheckWarning) as record:
         plan = design(params, 13, test_pose=q0, seed=0, min_conditioning=1e-8, **FAST).plan
-    (warning,) = [w for w in record if w.category is pincal.DataCheckWarning]
+    (warning,) = [w for w in record if w.category is pincal.errors.DataCheckWarning]
     truth = pincal.random_errors(params, seed=1)
     fit = pincal.identify(params, pincal.simulate_measurements(truth, plan, sigma=3e-5, seed=2), sigma=3e-5)
     assert fit.success and fit.dropped

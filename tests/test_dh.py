@@ -106,7 +106,7 @@ def test_urdf_forward_kinematics_is_the_dh_product(tmp_path, convention, seed):
     rng = np.random.default_rng(seed)
     content = random_table(rng, convention)
     out = tmp_path / "robot.urdf"
-    pincal.urdf_from_dh(write_yaml(tmp_path / "table.yaml", content), out)
+    pincal.model.urdf_from_dh(write_yaml(tmp_path / "table.yaml", content), out)
     robot = pincal.load_robot(out, tip="tcp", markers=content["markers"])
     assert robot.joint_names == tuple(r["name"] for r in content["joints"])
     assert robot.nq == 6
@@ -131,7 +131,7 @@ def test_ur5_table_matches_the_ur5_urdf(tmp_path):
     content = yaml.safe_load(UR5_TABLE.read_text())
     content["base"] = {"rpy": [0, 0, 180]}  # degrees: the table's units
     out = tmp_path / "ur5_dh.urdf"
-    pincal.urdf_from_dh(content, out)
+    pincal.model.urdf_from_dh(content, out)
     from_dh = pincal.load_robot(out)
     urdf = pincal.load_robot("ur5")
     assert from_dh.joint_names == urdf.joint_names
@@ -163,13 +163,13 @@ def test_units_of_the_table(tmp_path):
         "tool": {"xyz": [0, 0, 120], "rpy": [0, 90, 0]},
         "markers": [[50, 0, 100]],
     }
-    a = pincal.load_robot(pincal.urdf_from_dh(metric, tmp_path / "a.urdf") and tmp_path / "a.urdf")
-    b = pincal.load_robot(pincal.urdf_from_dh(scaled, tmp_path / "b.urdf") and tmp_path / "b.urdf")
+    a = pincal.load_robot(pincal.model.urdf_from_dh(metric, tmp_path / "a.urdf") and tmp_path / "a.urdf")
+    b = pincal.load_robot(pincal.model.urdf_from_dh(scaled, tmp_path / "b.urdf") and tmp_path / "b.urdf")
     np.testing.assert_allclose(a.lower, b.lower, atol=1e-12)
     np.testing.assert_allclose(a.upper, b.upper, atol=1e-12)
     qs = a.random_configurations(20, 1)
     np.testing.assert_allclose(a.points(qs), b.points(qs), rtol=0, atol=1e-12)
-    table = pincal.DHTable.from_dict(scaled)
+    table = pincal.model.DHTable.from_dict(scaled)
     np.testing.assert_allclose(table.markers, [[0.05, 0.0, 0.1]])
     for q in qs:
         np.testing.assert_allclose(table.forward_kinematics(q), dh_product_of(metric, q), atol=1e-12)
@@ -198,7 +198,7 @@ def test_dh_robot_round_trip_recovers_known_errors(tmp_path):
         "markers": [[0.1, 0.05, 0.2]],
     }
     out = tmp_path / "rrprrr.urdf"
-    pincal.urdf_from_dh(content, out)
+    pincal.model.urdf_from_dh(content, out)
     robot = pincal.load_robot(out, markers=content["markers"])
     params = robot.parameters("full,offsets").identifiable().identifiable
     assert any(p.name == "joint3.offset" and p.unit == "m" for p in params)  # the prismatic joint's zero
@@ -276,8 +276,8 @@ def test_bad_tables_one_line_exit_2(tmp_path, cli, text, match):
     assert code == 2 and len(lines) == 1 and lines[0].startswith("pincal: error: "), err
     assert match in lines[0] and "Traceback" not in err
     assert not out.exists()
-    with pytest.raises(pincal.BadDHTable, match="DH table"):
-        pincal.urdf_from_dh(table)
+    with pytest.raises(pincal.errors.BadDHTable, match="DH table"):
+        pincal.model.urdf_from_dh(table)
 
 
 def test_cli_never_writes_over_the_table(tmp_path, cli):
@@ -296,7 +296,7 @@ def test_help_shows_the_table_layout(capsys):
     assert "examples:" in out and "convention: standard" in out and "prismatic" in out
     # The layout in --help is a table pincal reads.
     layout = out.split("TABLE.yaml (lengths")[1].split("\n\n")[0].split("\n", 1)[1]
-    table = pincal.DHTable.from_dict(yaml.safe_load(layout))
+    table = pincal.model.DHTable.from_dict(yaml.safe_load(layout))
     assert (
         table.nq == 3 and table.joints[2].type == "prismatic" and table.joints[2].upper == pytest.approx(0.3)
     )
@@ -306,11 +306,11 @@ def test_readme_table_is_the_help_table(capsys):
     """The README's example table reads, and is the one --help shows."""
     readme = (ROOT / "README.md").read_text()
     block = next(b for b in readme.split("```yaml\n")[1:] if "convention:" in b).split("```")[0]
-    from_readme = pincal.DHTable.from_dict(yaml.safe_load(block))
+    from_readme = pincal.model.DHTable.from_dict(yaml.safe_load(block))
     with pytest.raises(SystemExit):
         main(["urdf-from-dh", "--help"])
     layout = capsys.readouterr().out.split("TABLE.yaml (lengths")[1].split("\n\n")[0].split("\n", 1)[1]
-    from_help = pincal.DHTable.from_dict(yaml.safe_load(layout))
+    from_help = pincal.model.DHTable.from_dict(yaml.safe_load(layout))
     q = [0.3, -0.4, 0.1]
     np.testing.assert_allclose(from_readme.forward_kinematics(q), from_help.forward_kinematics(q), atol=1e-15)
     assert from_readme.joints == from_help.joints
@@ -378,11 +378,11 @@ def test_dh_robot_round_trip_on_the_command_line(tmp_path, cli):
 
 def test_dh_table_constructor_validates_and_is_read_only():
     joint = pincal.model.dh.DHJoint("j", "revolute", 0.5, 0.0, 0.0, 0.0, -1.0, 1.0)
-    table = pincal.DHTable("arm", "standard", (joint,), np.eye(4), "tool0", np.eye(4), np.zeros((0, 3)))
+    table = pincal.model.DHTable("arm", "standard", (joint,), np.eye(4), "tool0", np.eye(4), np.zeros((0, 3)))
     with pytest.raises(ValueError):
         table.base[0, 3] = 1.0  # read-only: a table never changes
-    with pytest.raises(pincal.BadDHTable, match="convention 'craig'"):
-        pincal.DHTable("arm", "craig", (joint,), np.eye(4), "tool0", np.eye(4), np.zeros((0, 3)))
-    with pytest.raises(pincal.BadDHTable, match=r"\(4, 4\) placement"):
-        pincal.DHTable("arm", "standard", (joint,), np.eye(3), "tool0", np.eye(4), np.zeros((0, 3)))
+    with pytest.raises(pincal.errors.BadDHTable, match="convention 'craig'"):
+        pincal.model.DHTable("arm", "craig", (joint,), np.eye(4), "tool0", np.eye(4), np.zeros((0, 3)))
+    with pytest.raises(pincal.errors.BadDHTable, match=r"\(4, 4\) placement"):
+        pincal.model.DHTable("arm", "standard", (joint,), np.eye(3), "tool0", np.eye(4), np.zeros((0, 3)))
     np.testing.assert_allclose(table.forward_kinematics([0.0])[:3, 3], [0.5, 0, 0], atol=1e-15)

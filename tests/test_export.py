@@ -11,7 +11,8 @@ import pytest
 from lxml import etree
 
 import pincal
-from pincal import OverwriteRefused, UrdfError, export_urdf, identify, random_errors, simulate_measurements
+from pincal import export_urdf, identify, random_errors, simulate_measurements
+from pincal.errors import OverwriteRefused, UrdfError
 
 MARKERS = [(0.1, 0.05, 0.2), (-0.05, 0.1, 0.15)]
 

@@ -12,17 +12,14 @@ import pytest
 
 import pincal
 from pincal import (
-    BadConfiguration,
-    BadMeasurementData,
-    IdentificationFailed,
     MeasurementData,
-    SingularPlan,
     identify,
     random_errors,
     simulate_measurements,
 )
 from pincal.calibration.noise import Noise
 from pincal.calibration.problem import Problem
+from pincal.errors import BadConfiguration, BadMeasurementData, IdentificationFailed, SingularPlan
 
 MARKER = [(0.1, 0.05, 0.2)]
 

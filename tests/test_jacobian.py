@@ -53,8 +53,8 @@ def test_tip_frame_rows_give_the_same_information(kr270_marker):
     q = kr270_marker.random_configurations(8, 5)
     Jw = params.jacobian(q, frame="world")
     Jt = params.jacobian(q, frame="tip")
-    Mw = pincal.information_matrix(Jw)
-    Mt = pincal.information_matrix(Jt)
+    Mw = pincal.evaluation.information_matrix(Jw)
+    Mt = pincal.evaluation.information_matrix(Jt)
     np.testing.assert_allclose(Mt, Mw, atol=1e-12 * np.abs(Mw).max())
     np.testing.assert_allclose(np.linalg.norm(Jw, axis=1), np.linalg.norm(Jt, axis=1), atol=1e-12)
 

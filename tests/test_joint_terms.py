@@ -67,8 +67,8 @@ def test_tip_rows_carry_the_same_information(robots):
     params = robots["kr270"].parameters("lengths,offsets,gains,compliance")
     q = robots["kr270"].random_configurations(6, 13)
     payload = _payloads(6, 14)
-    Mw = pincal.information_matrix(params.jacobian(q, frame="world", payload=payload))
-    Mt = pincal.information_matrix(params.jacobian(q, frame="tip", payload=payload))
+    Mw = pincal.evaluation.information_matrix(params.jacobian(q, frame="world", payload=payload))
+    Mt = pincal.evaluation.information_matrix(params.jacobian(q, frame="tip", payload=payload))
     np.testing.assert_allclose(Mt, Mw, atol=1e-12 * np.abs(Mw).max())
 
 

@@ -6,6 +6,7 @@ it the meshes are named missing in one warning line, and nothing crashes. CI tim
 from __future__ import annotations
 
 import base64
+import importlib
 import re
 import struct
 import warnings
@@ -19,7 +20,8 @@ import pincal
 from pincal.cli import main
 from pincal.errors import BadArgument, BadConstraint, PincalWarning
 from pincal.planning.constraints import Kinematics, SelfCollision
-from pincal.viewing import scene as visualize
+
+visualize = importlib.import_module("pincal.viewing.scene")  # the module (pincal.viewing.scene: the function)
 
 CUBE = "package://mypkg/meshes/cube.stl"
 FOLDED = np.array([0.0, np.pi / 2, 0.0])  # the last link's cube on the base's cube

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.evaluation.test_pose import rho0_split
+from pincal.errors import BadArgument, DegenerateOptimumWarning
+from pincal.evaluation import rho0_split
 
 SIGMA = 3e-5
 PAYLOADS = [0.0, 135.0, 270.0]
@@ -25,7 +26,7 @@ def params():
 @pytest.fixture(scope="module")
 def designs(params):
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
+        warnings.simplefilter("ignore", DegenerateOptimumWarning)
         loaded = pincal.design(
             params, 15, Q0, payloads=PAYLOADS, task_payload=TASK, pool=300, starts=2, seed=0
         )
@@ -93,9 +94,9 @@ def test_monte_carlo_at_the_loaded_test_pose_matches_the_prediction(params, desi
 
 
 def test_bad_payload_designs_are_refused(params):
-    with pytest.raises(pincal.BadArgument, match="payloads must be"):
+    with pytest.raises(BadArgument, match="payloads must be"):
         pincal.design(params, 15, Q0, payloads=[])
-    with pytest.raises(pincal.BadArgument, match="exchange over a generated pool"):
+    with pytest.raises(BadArgument, match="exchange over a generated pool"):
         pincal.design(params, 15, Q0, payloads=PAYLOADS, method="continuous")
-    with pytest.raises(pincal.BadArgument, match="mass"):
+    with pytest.raises(BadArgument, match="mass"):
         pincal.design(params, 15, Q0, payloads=[-5.0])

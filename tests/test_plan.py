@@ -81,7 +81,7 @@ def test_algebra_and_json(planar):
     assert back.joint_names == a.joint_names
     with pytest.raises(BadPlanFile):
         a.concat(pincal.Plan([[0.1]], ("joint1",)))
-    with pytest.raises(pincal.BadArgument, match="repeat count must be an integer"):
+    with pytest.raises(pincal.errors.BadArgument, match="repeat count must be an integer"):
         a.repeat(0)
     with pytest.raises(BadPlanFile):
         pincal.Plan.from_json({"q": [[1, 2]]})

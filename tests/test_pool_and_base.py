@@ -55,7 +55,7 @@ def test_random_plans_from_a_pool_are_its_plans(planar):
 
 def test_random_plans_pool_too_small_is_named(planar):
     params = planar.parameters("joint2.tx,tip.tx")
-    with pytest.raises(pincal.Infeasible, match="only 1 of the 1 pool configurations"):
+    with pytest.raises(pincal.errors.Infeasible, match="only 1 of the 1 pool configurations"):
         pincal.random_plans(params, 2, 10, Q0, pool=[[0.0, 1.0]])
 
 

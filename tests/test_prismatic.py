@@ -58,9 +58,9 @@ def test_degrees_convert_the_revolute_columns_only(rail, tmp_path):
     back = pincal.Plan.from_csv(tmp_path / "p.csv", robot=rail, degrees=True)
     np.testing.assert_allclose(back.q, q, rtol=0, atol=1e-15)
     # A plan that does not know its joints cannot guess: it says so instead of converting metres.
-    with pytest.raises(pincal.BadArgument, match="which joints are revolute"):
+    with pytest.raises(pincal.errors.BadArgument, match="which joints are revolute"):
         pincal.Plan(q, rail.joint_names).to_csv_text(degrees=True)
-    with pytest.raises(pincal.BadArgument, match="needs the robot"):
+    with pytest.raises(pincal.errors.BadArgument, match="needs the robot"):
         pincal.Plan.from_csv(tmp_path / "p.csv", degrees=True)
     assert pincal.Plan(q, rail.joint_names).to_csv_text(degrees=True, robot=rail) == plan.to_csv_text(
         degrees=True
@@ -69,13 +69,13 @@ def test_degrees_convert_the_revolute_columns_only(rail, tmp_path):
 
 def test_limits_are_reported_in_the_joint_s_unit(rail, tmp_path):
     with pytest.raises(
-        pincal.BadConfiguration, match=r"joint rail = 1.7 is outside its limits \[0, 1.5\] \(metres\)"
+        pincal.errors.BadConfiguration, match=r"joint rail = 1.7 is outside its limits \[0, 1.5\] \(metres\)"
     ):
         rail.configurations([1.7, 0, 0, 0])
     path = tmp_path / "p.csv"
     path.write_text("rail,waist,shoulder,elbow\n0.5,10,20,200\n")
     with pytest.raises(
-        pincal.BadConfiguration,
+        pincal.errors.BadConfiguration,
         match=r"joint elbow = 200 is outside its limits \[-137.51, 137.51\] \(degrees\)",
     ) as caught:
         pincal.Plan.from_csv(path, robot=rail, degrees=True)

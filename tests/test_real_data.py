@@ -60,7 +60,7 @@ def test_small_region_is_reduced_to_what_the_data_identify_and_predicts_the_regi
     what the region cannot separate (named, with the reason), the fit converges, and held-out
     points of the region are predicted close to the instrument's noise."""
     data = simulate_measurements(truth.robot, _region(40, 0), SIGMA, seed=1)
-    result, validation = pincal.holdout(params, data, 0.25, seed=3)
+    result, validation = pincal.calibration.holdout(params, data, 0.25, seed=3)
     assert result.success, result.message
     assert result.check.condition_number > 1e3 and result.dropped
     assert all(("determine" in why or "inseparable" in why) for why in result.dropped.values())
@@ -161,10 +161,10 @@ def test_sigma_columns_in_a_file(tmp_path, robot):
         MeasurementData.from_csv(path, robot, millimetres=True).sigma, [[[1e-3, 2e-3, 3e-3]]]
     )
     path.write_text(",".join(robot.joint_names) + ",x,y,z,sx,sz\n0,-1.5,1.5,0,0.5,0,1,2,3,1,2\n")
-    with pytest.raises(pincal.BadMeasurementData, match="without one"):
+    with pytest.raises(pincal.errors.BadMeasurementData, match="without one"):
         MeasurementData.from_csv(path, robot)
     path.write_text(",".join(robot.joint_names) + ",x,y,z,s\n0,-1.5,1.5,0,0.5,0,1,2,3,0\n")
-    with pytest.raises(pincal.BadMeasurementData, match="line 2.*positive"):
+    with pytest.raises(pincal.errors.BadMeasurementData, match="line 2.*positive"):
         MeasurementData.from_csv(path, robot)
 
 
@@ -193,7 +193,7 @@ def test_a_millimetre_file_read_as_metres_is_implausible(tmp_path, robot, params
     wrong = identify(params, MeasurementData.from_csv(path, robot))
     assert wrong.status == "implausible" and not wrong.success
     assert "--mm" in wrong.causes[0] and f"likely cause: {wrong.causes[0]}" in wrong.message
-    with pytest.raises(pincal.IdentificationFailed, match="likely cause: units"):
+    with pytest.raises(pincal.errors.IdentificationFailed, match="likely cause: units"):
         pincal.export_urdf(wrong, tmp_path / "x.urdf")
     right = identify(params, MeasurementData.from_csv(path, robot, millimetres=True))
     assert right.success and np.abs(right.values - truth.values).max() < 1e-4
@@ -224,29 +224,29 @@ def test_validation_warns_when_a_fit_has_fewer_than_two_coordinates_per_paramete
     with pytest.warns(
         pincal.PincalWarning, match="the fit on 15 of 30 configurations has 45 measured"
     ) as caught:
-        pincal.holdout(params, data, 0.5, seed=1)
+        pincal.calibration.holdout(params, data, 0.5, seed=1)
     assert "hold out at most 12 of the 30 configurations, measure more" in str(caught[0].message)
     twenty = data.subset(range(20))
     with pytest.warns(pincal.PincalWarning, match="a fold's fit on 13 of 20 configurations has 39") as caught:
-        pincal.kfold(params, twenty, 3, seed=1)
+        pincal.calibration.kfold(params, twenty, 3, seed=1)
     assert "use 10 folds or more" in str(caught[0].message)  # each fit then has 18 configurations
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        pincal.holdout(params, data, 0.2, seed=1)  # 24 configurations, 72 coordinates: enough
-        pincal.kfold(params, twenty, 10, seed=1)
+        pincal.calibration.holdout(params, data, 0.2, seed=1)  # 24 configurations, 72 coordinates: enough
+        pincal.calibration.kfold(params, twenty, 10, seed=1)
 
 
 def test_kfold_holds_every_point_out_once(robot, params, truth):
     data = simulate_measurements(truth.robot, robot.random_configurations(40, 8), SIGMA, seed=3)
-    check = pincal.kfold(params, data, 4, seed=1)
+    check = pincal.calibration.kfold(params, data, 4, seed=1)
     assert check.before.size == 40 and sorted(set(check.labels)) == sorted(data.labels())
     assert check.statuses == ("converged",) * 4
     assert check.stats_after["rms"] < 3 * SIGMA * np.sqrt(3) < check.stats_before["rms"]
     assert check.stats_after["p95"] <= check.stats_after["max"]
     with pytest.raises(pincal.PincalError, match="k"):
-        pincal.kfold(params, data, 1)
+        pincal.calibration.kfold(params, data, 1)
     with pytest.raises(pincal.PincalError, match="fraction"):
-        pincal.holdout(params, data, 1.5)
+        pincal.calibration.holdout(params, data, 1.5)
 
 
 def test_data_check_matches_the_planar_closed_form():
@@ -256,13 +256,13 @@ def test_data_check_matches_the_planar_closed_form():
     params = robot.parameters("joint2.tx,tip.tx")
     plan = robot.random_configurations(7, 11)
     m, S = len(plan), np.cos(plan[:, 1]).sum()
-    check = pincal.check_plan(params, plan, 1e-4)
+    check = pincal.evaluation.check_plan(params, plan, 1e-4)
     assert check.identifiable and check.rank == 2 and check.kept_names == params.names
     np.testing.assert_allclose(check.std, 1e-4 * np.sqrt(m / (m**2 - S**2)), rtol=1e-9)
     r = abs(S) / m
     assert check.condition_number == pytest.approx(np.sqrt((1 + r) / (1 - r)), rel=1e-9)
     straight = plan.copy()
     straight[:, 1] = 0.0  # an outstretched arm: both translations move the tip alike
-    same = pincal.check_plan(params, straight, 1e-4)
+    same = pincal.evaluation.check_plan(params, straight, 1e-4)
     assert not np.isfinite(same.condition_number) and same.rank == 1
     assert list(same.dropped) == ["tip.tx"] and "inseparable" in same.dropped["tip.tx"]

@@ -126,9 +126,9 @@ def test_neighbourhood_samples(kr270_marker):
 
 def test_worst_found_is_at_least_every_sample(kr):
     params, q0 = kr
-    predicted = pincal.PredictedError(params, params.robot.random_configurations(8, 2), SIGMA)
+    predicted = pincal.evaluation.PredictedError(params, params.robot.random_configurations(8, 2), SIGMA)
     region = pincal.around(q0, np.radians(20), samples=64).resolve(params.robot)
-    worst = pincal.worst_found(predicted, region)
+    worst = pincal.evaluation.worst_found(predicted, region)
     sampled = predicted(region.poses)
     assert worst.searched and worst.sampled == pytest.approx(sampled.max(), rel=1e-12)
     assert worst.rho >= sampled.max()
@@ -150,12 +150,12 @@ def test_cartesian_box_by_inverse_kinematics(kr270_marker):
     R = two.points(region.poses)[:, 1] - two.points(region.poses)[:, 0]  # R·(−marker0)
     R0 = two.points(q0)[0, 1] - two.points(q0)[0, 0]
     assert np.allclose(R, R0, atol=1e-8)
-    predicted = pincal.PredictedError(
+    predicted = pincal.evaluation.PredictedError(
         pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)]).parameters("lengths"),
         robot.random_configurations(8, 2),
         SIGMA,
     )
-    worst = pincal.worst_found(predicted, region)
+    worst = pincal.evaluation.worst_found(predicted, region)
     assert worst.rho >= predicted(region.poses).max()
     assert np.all(robot.points(worst.pose)[0, 0] <= p0 + 0.1 + 1e-8)
 
@@ -248,11 +248,11 @@ def test_design_for_a_neighbourhood_reports_its_mean(kr):
 def test_design_with_a_prior_below_the_parameter_count(kr):
     params, q0 = kr
     prior = pincal.Prior(1e-3, 1e-3)
-    with pytest.warns(pincal.DegenerateOptimumWarning, match="effectively singular.*MAP"):
+    with pytest.warns(pincal.errors.DegenerateOptimumWarning, match="effectively singular.*MAP"):
         result = pincal.design(params, 3, q0, sigma=SIGMA, prior=prior, starts=2, workers=1, polish=False)
     brute = _brute_rho0_squared(params, result.plan.q, q0[None], SIGMA, prior.covariance(params))[0]
     assert 3 * 3 < len(params) and result.rho0**2 == pytest.approx(brute, rel=1e-9)
-    with pytest.raises(pincal.SingularPlan):
+    with pytest.raises(pincal.errors.SingularPlan):
         pincal.design(params, 3, q0, sigma=SIGMA, starts=2, workers=1)
 
 
@@ -283,7 +283,7 @@ def test_a_floor_a_d_optimal_plan_meets_is_not_refused(kr):
     assert result.conditioning > 1e-2
     # A low floor that binds is warned about, and the advice is never to lower it.
     lengths = pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")  # q20 = 0: singular limit
-    with pytest.warns(pincal.DegenerateOptimumWarning) as caught:
+    with pytest.warns(pincal.errors.DegenerateOptimumWarning) as caught:
         pincal.design(lengths, 2, [0.2, 0.0], sigma=SIGMA, min_conditioning=1e-4, starts=2, workers=1)
     advice = " ".join(str(w.message) for w in caught)
     assert "raise min_conditioning" in advice and "lower" not in advice

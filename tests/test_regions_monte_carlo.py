@@ -63,7 +63,7 @@ def calibrations(request):
     def plans(seed):
         options = dict(sigma=SIGMA, starts=2, seed=seed, workers=1)
         with warnings.catch_warnings():
-            warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
+            warnings.simplefilter("ignore", pincal.errors.DegenerateOptimumWarning)
             return {
                 # At the former default floor 1e-4 (issue 9's case): the default 1e-2 already keeps
                 # a single-pose plan far more regular (benchmarks/RESULTS.md, bench_floor).

@@ -88,7 +88,7 @@ def test_writes_refuse_files_read_in_the_same_run(cell):
     # The CLI guard covers inputs named indirectly (a shipped robot by name, a mesh folder...).
     with guard_inputs():
         pincal.Plan.from_csv(cell / "plan.csv", robot=pincal.load_robot(cell / "robot.urdf", tip="tip"))
-        with pytest.raises(pincal.OverwriteRefused, match="never overwrites an input"):
+        with pytest.raises(pincal.errors.OverwriteRefused, match="never overwrites an input"):
             atomic_write_text(cell / "robot.urdf", "x")
     assert atomic_write_text(cell / "robot.urdf", "x").read_text() == "x"  # outside: the API's choice
 

@@ -68,7 +68,7 @@ def test_a_missing_xacro_package_names_the_extra_not_ros(tmp_path, monkeypatch):
     monkeypatch.setattr(
         xacro_expansion, "expand", lambda *a, **k: xacro_expansion.Expansion(None, "no xacro")
     )
-    with pytest.raises(pincal.UrdfError, match=r'without ROS.*pip install "pincal\[xacro\]"'):
+    with pytest.raises(pincal.errors.UrdfError, match=r'without ROS.*pip install "pincal\[xacro\]"'):
         pincal.load_robot(path)
 
 
@@ -86,7 +86,7 @@ def test_export_finds_the_urdf_a_robot_wrapper_carries(tmp_path):
     qs = robot.random_configurations(5, 1)
     np.testing.assert_allclose(back.points(qs), moved.points(qs), atol=1e-9)
     bare = pincal.load_robot(wrapper.model, tip="tool0")  # a pin.Model carries no file
-    with pytest.raises(pincal.UrdfError, match="give source_urdf"):
+    with pytest.raises(pincal.errors.UrdfError, match="give source_urdf"):
         pincal.export_urdf(bare, tmp_path / "x.urdf")
 
 
@@ -151,7 +151,7 @@ def test_the_plots_module_without_matplotlib_names_the_extra():
         "import pincal.viewing.plots\n"
         "try:\n"
         "    pincal.viewing.plots.rho0_histogram([1e-4, 2e-4], 1e-4)\n"
-        "except pincal.MissingDependency as exc:\n"
+        "except pincal.errors.MissingDependency as exc:\n"
         "    print(exc)\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
@@ -163,7 +163,7 @@ def test_around_takes_a_length_for_prismatic_joints(cli):
     rail = pincal.load_robot("rail_arm")
     q0 = [0.8, 0.3, 0.4, -0.6]
     with pytest.raises(
-        pincal.BadArgument, match=r"no half-width for the prismatic joint\(s\) rail.*10deg,2cm"
+        pincal.errors.BadArgument, match=r"no half-width for the prismatic joint\(s\) rail.*10deg,2cm"
     ):
         pincal.around(q0, math.radians(10)).resolve(rail)
     region = pincal.around(q0, math.radians(10), length=0.02, samples=200).resolve(rail)
@@ -304,7 +304,7 @@ def test_a_command_that_fails_leaves_none_of_its_outputs(cell, cli, monkeypatch)
     import pincal.cli.measure_sim as measure_sim
 
     def failing_export(*args, **kwargs):
-        raise pincal.CannotWrite("cannot write the output 'true.urdf': No space left on device")
+        raise pincal.errors.CannotWrite("cannot write the output 'true.urdf': No space left on device")
 
     monkeypatch.setattr(measure_sim, "export_urdf", failing_export)
     cli.fails(*argv, match="No space left on device")

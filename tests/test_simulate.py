@@ -130,5 +130,5 @@ def test_monte_carlo_validates_its_arguments(kr270):
         monte_carlo(params, plan, plan[0], 0.0)
     with pytest.raises(PincalError, match="trials"):
         monte_carlo(params, plan, plan[0], 1e-5, trials=1)
-    with pytest.raises(pincal.BadConfiguration, match="test pose"):
+    with pytest.raises(pincal.errors.BadConfiguration, match="test pose"):
         monte_carlo(params, plan, [0, 0, 0, 0, 0, 0], 1e-5)  # A2 = 0 is outside [-140°, -5°]

@@ -61,7 +61,7 @@ def test_design_and_identify_match_the_exact_robot_to_one_percent(pair):
     rounded_params = rounded.parameters("full,offsets").identifiable().identifiable
     m = -(-len(exact_params) // 3) + 2
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
+        warnings.simplefilter("ignore", pincal.errors.DegenerateOptimumWarning)
         design = pincal.design(exact_params, m, test_pose=q0, starts=2, seed=1, sigma=SIGMA)
         # The exact robot's optimum is (to 1 %) as good a plan of the rounded robot: ρ0 of a given
         # plan moves by micrometres' worth, whatever the search did.
@@ -176,7 +176,7 @@ def test_gen3_designs_and_identifies_like_the_exact_arm(gen3):
     m = -(-len(params) // 3) + 2
     q0 = np.array([0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0])
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pincal.DegenerateOptimumWarning)
+        warnings.simplefilter("ignore", pincal.errors.DegenerateOptimumWarning)
         design = pincal.design(params, m, test_pose=q0, starts=2, seed=1, sigma=SIGMA)
     assert design.conditioning >= 1e-3
     assert pincal.rho0(exact_params, design.plan, q0, SIGMA) == pytest.approx(design.value, rel=0.01)

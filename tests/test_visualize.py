@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import re
@@ -21,8 +22,9 @@ import umsgpack
 
 import pincal
 from pincal.cli import main
-from pincal.viewing import scene as visualize  # noqa: E402
 from pincal.viewing.static_page import StaticWindow  # noqa: E402
+
+visualize = importlib.import_module("pincal.viewing.scene")  # the module (pincal.viewing.scene: the function)
 
 KR_Q0 = np.radians([0, -60, 60, 0, 45, 0])
 SIGMA = 3e-5
@@ -101,7 +103,7 @@ def test_kinematic_only_robot_is_drawn_as_cylinders(kr_scene, kr270_marker):
 
 def test_ellipsoid_is_the_3_sigma_ellipsoid_of_the_predicted_covariance(kr_scene, kr270_marker):
     params, plan, built = kr_scene
-    cov = pincal.position_covariance(params, plan, KR_Q0, sigma=SIGMA)[0]
+    cov = pincal.evaluation.position_covariance(params, plan, KR_Q0, sigma=SIGMA)[0]
     w, v = np.linalg.eigh(cov)
     radii = 3.0 * np.sqrt(w[::-1])
     assert np.allclose(built.ellipsoid_radii[0, 0], radii, rtol=1e-10)
@@ -131,7 +133,7 @@ def test_explicit_scale_and_instrument(kr_scene, kr270_marker):
     box = node(built, "instrument/body")
     assert np.allclose(matrix(box)[:3, 3], [2.0, -1.5, 0.5])
     assert len(node(built, "instrument/sight_lines")) == len(plan)
-    with pytest.raises(pincal.BadConfiguration, match="instrument"):
+    with pytest.raises(pincal.errors.BadConfiguration, match="instrument"):
         visualize.scene(params, plan, KR_Q0, instrument=(1.0, 2.0))
 
 
@@ -167,7 +169,7 @@ def test_show_takes_a_robot_and_a_viewer(planar):
     out = visualize.show(planar, plan, test_pose=[0.3, 1.2], viewer=vis)
     assert out is vis
     assert len(vis.window.node("/meshcat/pincal/ghosts")) == 5
-    with pytest.raises(pincal.BadConfiguration, match="outside its limits"):
+    with pytest.raises(pincal.errors.BadConfiguration, match="outside its limits"):
         visualize.show(planar, [[0.1, 9.0]], viewer=vis)
 
 

@@ -4,14 +4,16 @@ Jupyter show the caller's code, never a pincal source line or an install path.""
 
 from __future__ import annotations
 
+import importlib
 import sys
 import warnings
 from pathlib import Path
 
 import pincal
 from pincal.errors import PincalWarning, warn
-from pincal.viewing import scene as visualize
 from tests.test_chains import tree_urdf
+
+visualize = importlib.import_module("pincal.viewing.scene")  # the module (pincal.viewing.scene: the function)
 
 HERE = str(Path(__file__))
 
@@ -82,7 +84,7 @@ def test_design_and_scene_warnings_name_the_callers_line(tmp_path):
         warnings.simplefilter("always")
         line = _next_line()
         pincal.design(lengths, 2, test_pose=[0.2, 0.0], min_conditioning=1e-4, starts=2, seed=1)
-    degenerate = [w for w in caught if issubclass(w.category, pincal.DegenerateOptimumWarning)]
+    degenerate = [w for w in caught if issubclass(w.category, pincal.errors.DegenerateOptimumWarning)]
     assert degenerate and all((w.filename, w.lineno) == (HERE, line) for w in degenerate)
     few = robot.random_configurations(2, 0)  # too few configurations: no ellipsoid
     with warnings.catch_warnings(record=True) as caught:

@@ -44,7 +44,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from pincal.arguments import Seed, positive_int, positive_sigma, ratio
+from pincal.arguments import positive_int, positive_sigma, ratio
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.noise import Noise
 from pincal.calibration.problem import Problem, initial_values
@@ -58,6 +58,7 @@ from pincal.evaluation.prior import Prior
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
+from pincal.typing import SeedLike
 
 __all__ = [
     "ERROR_SCALE",
@@ -168,7 +169,7 @@ RESIDUAL_MODELS = ("gp",)
 """The residual models ``identify(residual_model=...)`` fits."""
 
 
-def fit_residual_model(result: IdentificationResult, seed: Seed = 0) -> ResidualModel:
+def fit_residual_model(result: IdentificationResult, seed: SeedLike = 0) -> ResidualModel:
     """The Gaussian process of ``result``'s residuals at the rows it kept, each session's residual
     rotated into the robot's base frame (so that one model serves every instrument placement)."""
     used = np.ones(result.data.m, dtype=bool)

@@ -14,12 +14,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, Seed, generator, positive_int, positive_sigma
+from pincal.arguments import DEFAULT_SIGMA, generator, positive_int, positive_sigma
 from pincal.calibration.identification import identify
 from pincal.calibration.synthetic import error_std_pair, random_errors, simulate_measurements
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0
 from pincal.model.parameters import ParameterSet
+from pincal.typing import SeedLike
 
 QUANTILES = (0.5, 0.9, 0.95, 0.99)
 """Quantiles of the error at the test pose(s) reported by :func:`monte_carlo`."""
@@ -107,7 +108,7 @@ def monte_carlo(
     test_pose: object,
     sigma: float = DEFAULT_SIGMA,
     trials: int = 200,
-    seed: Seed = None,
+    seed: SeedLike = None,
     error_std: Mapping[str, float] | None = None,
 ) -> MonteCarloResult:
     """Check a plan by simulation: does calibration deliver the predicted ρ0 at the test pose(s)?

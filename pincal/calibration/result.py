@@ -117,7 +117,7 @@ class IdentificationResult:
     @property
     def conditioning(self) -> float:
         """Conditioning of the data for the parameters asked for (the number every report gives:
-        :attr:`pincal.DataCheck.conditioning`)."""
+        :attr:`pincal.evaluation.DataCheck.conditioning`)."""
         return self.check.conditioning if self.check is not None else float("nan")
 
     @property

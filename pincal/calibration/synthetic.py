@@ -19,12 +19,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, Seed, angle, generator, length, positive_sigma
+from pincal.arguments import DEFAULT_SIGMA, angle, generator, length, positive_sigma
 from pincal.calibration.measurements import MeasurementData
 from pincal.errors import BadArgument
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.model.statics import payload_rows
+from pincal.typing import PayloadLike, SeedLike
 
 DEFAULT_ERROR_STD = {"length": 1e-3, "angle": 1e-3}
 """Standard deviation of random geometric errors: 1 mm for lengths [m], 1 mrad for angles [rad]."""
@@ -79,7 +80,7 @@ def error_std_pair(error_std: Mapping[str, float] | None) -> tuple[float, float]
 def random_errors(
     params: ParameterSet,
     error_std: Mapping[str, float] | None = None,
-    seed: Seed = None,
+    seed: SeedLike = None,
 ) -> RandomErrors:
     """Draw independent Gaussian errors for every parameter of ``params``.
 
@@ -129,7 +130,7 @@ class SmoothField:
     weights: np.ndarray
 
     @classmethod
-    def random(cls, robot: Robot, amplitude: float, seed: Seed = None, terms: int = 6) -> SmoothField:
+    def random(cls, robot: Robot, amplitude: float, seed: SeedLike = None, terms: int = 6) -> SmoothField:
         """A field of RMS ``amplitude`` [m] per coordinate over ``robot``'s joints."""
         rng = generator(seed)
         frequencies = np.zeros((terms, robot.nq), dtype=int)
@@ -150,9 +151,9 @@ def simulate_measurements(
     true_robot: Robot | RandomErrors,
     plan: object,
     sigma: float = DEFAULT_SIGMA,
-    seed: Seed = None,
+    seed: SeedLike = None,
     *,
-    payload: object = None,
+    payload: PayloadLike = None,
     unmodelled: SmoothField | None = None,
 ) -> MeasurementData:
     """What an instrument with i.i.d. Gaussian noise ``sigma`` per coordinate would measure.

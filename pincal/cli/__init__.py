@@ -7,49 +7,85 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 import traceback
 import warnings
-from typing import NoReturn
+from typing import NamedTuple, NoReturn
 
-from pincal.cli import (
-    baseline,
-    compensate,
-    design,
-    evaluate,
-    from_dh,
-    identify,
-    measure_sim,
-    params,
-    robots,
-    show,
-    simulate,
-)
-from pincal.cli._common import (
-    argument_names,
-    check_outputs,
-    join_negative_values,
-    trap_floating_point_warnings,
-)
 from pincal.errors import PincalError
-from pincal.files import all_or_nothing, guard_inputs
 from pincal.version import __version__
 
-# One module per subcommand, each with add_parser(subparsers); the order is the --help order.
-COMMANDS = [
-    params,
-    evaluate,
-    design,
-    baseline,
-    simulate,
-    measure_sim,
-    identify,
-    compensate,
-    show,
-    robots,
-    from_dh,
-]
+
+class Command(NamedTuple):
+    """A subcommand: the module that adds its parser and runs it, and its one line in --help."""
+
+    module: str
+    """The module, with ``add_parser(subparsers)`` (whose parser sets ``run``)."""
+    help: str
+    """What ``pincal --help`` says of it (the module's HELP)."""
+
+
+COMMANDS: dict[str, Command] = {
+    "params": Command(
+        "pincal.cli.params",
+        "list geometric parameters and report which are identifiable, and why not",
+    ),
+    "evaluate": Command(
+        "pincal.cli.evaluate",
+        "criteria of a measurement plan: rho0 at the test pose(s), D, A, E, cond, O1-O4",
+    ),
+    "design": Command(
+        "pincal.cli.design",
+        (
+            "design a measurement plan: the m configurations that make the robot most accurate at the "
+            "test pose(s)"
+        ),
+    ),
+    "baseline": Command(
+        "pincal.cli.baseline",
+        (
+            "rho0 at the test pose(s) over random feasible plans (min, median, mean, max), and the "
+            "D-optimal plan's"
+        ),
+    ),
+    "simulate": Command(
+        "pincal.cli.simulate",
+        "Monte-Carlo simulation of a calibration with a plan: empirical vs predicted rho0",
+    ),
+    "measure-sim": Command(
+        "pincal.cli.measure_sim",
+        "simulate the measurements of a plan on a 'true' robot, to rehearse a calibration",
+    ),
+    "identify": Command(
+        "pincal.cli.identify",
+        "identify the geometric errors from measurements and write the calibrated URDF",
+    ),
+    "compensate": Command(
+        "pincal.cli.compensate",
+        (
+            "corrected joint targets of a program, through a calibration (geometry, gains, compliance, "
+            "residuals)"
+        ),
+    ),
+    "show": Command(
+        "pincal.cli.show",
+        "see a plan: meshcat scene of the measurement poses and the test pose's error ellipsoid",
+    ),
+    "robots": Command(
+        "pincal.cli.robots",
+        "list the robots loadable by name (shipped URDFs and example-robot-data) and the chains each offers",
+    ),
+    "urdf-from-dh": Command(
+        "pincal.cli.from_dh",
+        "write the URDF of a robot given by a DH table (standard or modified convention)",
+    ),
+}
+"""Every subcommand, in --help order. A subcommand's module (and what it imports: NumPy, Pinocchio,
+SciPy) is imported only when that subcommand is parsed, so that ``pincal --help`` lists them all
+in milliseconds. A new subcommand: a module with ``HELP = COMMANDS[name].help``, ``EXAMPLES`` and
+``add_parser(subparsers)``, and its line here."""
 
 DESCRIPTION = """\
 pincal chooses the measurement configurations of a robot calibration so that the robot is most
@@ -90,7 +126,10 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"pincal: error: {message} (see '{self.prog} --help')\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(commands: list[str] | None = None) -> argparse.ArgumentParser:
+    """The parser of ``pincal``, with every subcommand listed; the options of those in ``commands``
+    (default: all of them, importing every subcommand's module) are added, the others are parsed
+    as their bare name only (``main`` adds the one it runs)."""
     parser = Parser(
         prog="pincal",
         description=DESCRIPTION,
@@ -100,10 +139,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser.add_argument("--version", action="version", version=f"pincal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for command in COMMANDS:
-        command.add_parser(sub)
+    for name, command in COMMANDS.items():
+        if commands is None or name in commands:
+            importlib.import_module(command.module).add_parser(sub)
+        else:
+            sub.add_parser(name, help=command.help)
     parser.commands = sub.choices  # {name: its parser}
     return parser
+
+
+def command_named(argv: list[str]) -> str | None:
+    """The subcommand ``argv`` runs: its first word that is not an option (pincal's own options,
+    --help and --version, take no value)."""
+    return next((arg for arg in argv if not arg.startswith("-")), None)
 
 
 # What a NumPy floating-point warning raises in the CLI (trap_floating_point_warnings), or
@@ -135,11 +183,22 @@ def main(argv: list[str] | None = None) -> int:
     printed as ``pincal: warning: ...`` lines.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser()
-    # --help, --version and usage errors exit here through SystemExit (0, or 2 after one line).
-    args = parser.parse_args(join_negative_values(argv))
-    if not getattr(args, "run", None):
+    name = command_named(argv)
+    parser = build_parser([name] if name in COMMANDS else [])
+    if name not in COMMANDS:  # --help, --version, or a usage error: argparse exits
+        parser.parse_args(argv)
         parser.error("give a COMMAND")
+    # The subcommand's modules are imported now (by build_parser): so are the CLI's helpers.
+    from pincal.cli._common import (
+        argument_names,
+        check_outputs,
+        join_negative_values,
+        trap_floating_point_warnings,
+    )
+    from pincal.files import all_or_nothing, guard_inputs
+
+    # --help and usage errors exit here through SystemExit (0, or 2 after one line).
+    args = parser.parse_args(join_negative_values(argv))
     try:
         with guard_inputs(), all_or_nothing(), warnings.catch_warnings():
             warnings.showwarning = _show_warning

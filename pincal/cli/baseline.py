@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from pincal.cli import COMMANDS
 from pincal.cli._accuracy import prior_from_args, test_region_from_args
 from pincal.cli._common import (
     add_command,
@@ -21,9 +22,7 @@ from pincal.cli.design import add_design_arguments, print_baseline, print_warnin
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, design
 
-HELP = (
-    "rho0 at the test pose(s) over random feasible plans (min, median, mean, max), and the D-optimal plan's"
-)
+HELP = COMMANDS["baseline"].help
 EXAMPLES = """\
 examples:
   pincal baseline kr270 -m 12 --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --random 10000 \\

@@ -6,6 +6,7 @@ import argparse
 
 import numpy as np
 
+from pincal.cli import COMMANDS
 from pincal.cli._common import (
     add_command,
     add_robot_arguments,
@@ -20,7 +21,7 @@ from pincal.errors import BadArgument, BadPlanFile, warn
 from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
 from pincal.model.statics import Payload
 
-HELP = "corrected joint targets of a program, through a calibration (geometry, gains, compliance, residuals)"
+HELP = COMMANDS["compensate"].help
 EXAMPLES = """\
 examples:
   pincal compensate kr270 --calibration kr270_cal.urdf --targets program.csv --deg --out corrected.csv

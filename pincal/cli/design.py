@@ -8,6 +8,7 @@ import sys
 import numpy as np
 
 from pincal.arguments import number
+from pincal.cli import COMMANDS
 from pincal.cli._accuracy import (
     REGION_HELP,
     add_region_arguments,
@@ -50,7 +51,7 @@ from pincal.planning.objectives import CRITERIA
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans
 
-HELP = "design a measurement plan: the m configurations that make the robot most accurate at the test pose(s)"
+HELP = COMMANDS["design"].help
 EXAMPLES = """\
 examples:
   pincal design kr270 -m 12 --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --sigma 3e-5 \\

@@ -6,6 +6,7 @@ import argparse
 
 import numpy as np
 
+from pincal.cli import COMMANDS
 from pincal.cli._accuracy import (
     REGION_HELP,
     add_region_arguments,
@@ -34,7 +35,7 @@ from pincal.evaluation.classic import criteria
 from pincal.evaluation.data_check import check_plan
 from pincal.evaluation.test_pose import rho0_each
 
-HELP = "criteria of a measurement plan: rho0 at the test pose(s), D, A, E, cond, O1-O4"
+HELP = COMMANDS["evaluate"].help
 EXAMPLES = """\
 examples:
   pincal evaluate kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 --sigma 3e-5

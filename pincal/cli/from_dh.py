@@ -5,10 +5,11 @@ from __future__ import annotations
 import argparse
 import sys
 
+from pincal.cli import COMMANDS
 from pincal.cli._common import add_command, add_output_arguments, emit_json
 from pincal.model.dh import DHTable, self_check, urdf_from_dh
 
-HELP = "write the URDF of a robot given by a DH table (standard or modified convention)"
+HELP = COMMANDS["urdf-from-dh"].help
 EXAMPLES = """\
 examples:
   pincal urdf-from-dh docs/dh/ur5_dh.yaml --out ur5_dh.urdf

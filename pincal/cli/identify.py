@@ -11,6 +11,7 @@ from pincal.calibration.identification import LOSSES, METHODS, RESIDUAL_MODELS, 
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.urdf_export import export_urdf, sidecar_path
 from pincal.calibration.validation import holdout, kfold, validate
+from pincal.cli import COMMANDS
 from pincal.cli._common import (
     CONDITIONING_HELP,
     FIGURE_NOTE,
@@ -30,7 +31,7 @@ from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused
 from pincal.evaluation.prior import Prior
 from pincal.viewing.plots import save_figure, validation_errors
 
-HELP = "identify the geometric errors from measurements and write the calibrated URDF"
+HELP = COMMANDS["identify"].help
 EXAMPLES = f"""\
 examples:
   pincal identify kr270 --data meas.csv --marker 0.1,0.05,0.2 --out kr270_calibrated.urdf

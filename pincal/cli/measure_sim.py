@@ -10,6 +10,7 @@ import pinocchio as pin
 from pincal.arguments import DEFAULT_SIGMA, MAX_ANGLE, check_lengths, generator, number
 from pincal.calibration.synthetic import random_errors, simulate_measurements
 from pincal.calibration.urdf_export import export_urdf
+from pincal.cli import COMMANDS
 from pincal.cli._common import (
     SIGMA_HELP,
     add_command,
@@ -27,7 +28,7 @@ from pincal.cli.simulate import parse_error_std
 from pincal.errors import BadArgument, BadConfiguration, UrdfError
 from pincal.model.loading import load_robot
 
-HELP = "simulate the measurements of a plan on a 'true' robot, to rehearse a calibration"
+HELP = COMMANDS["measure-sim"].help
 EXAMPLES = """\
 examples:
   pincal measure-sim kr270 --plan plan.csv --true kr270_true.urdf --sigma 3e-5 --out meas.csv \\

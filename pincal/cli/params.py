@@ -6,6 +6,7 @@ import argparse
 
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.calibration.measurements import MeasurementData
+from pincal.cli import COMMANDS
 from pincal.cli._common import (
     CONDITIONING_HELP,
     DEFAULT_PARAMS,
@@ -22,7 +23,7 @@ from pincal.cli._common import (
 )
 from pincal.evaluation.data_check import check_plan
 
-HELP = "list geometric parameters and report which are identifiable, and why not"
+HELP = COMMANDS["params"].help
 EXAMPLES = """\
 examples:
   pincal params kr270                               # full,offsets on the flange centre

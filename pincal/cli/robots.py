@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 import warnings
 
+from pincal.cli import COMMANDS
 from pincal.cli._common import add_command, add_output_arguments, emit_json, joint_ranges_from_args
 from pincal.errors import PincalError, PincalWarning
 from pincal.model.loading import chain_ends, example_robot_data_names, load_robot, shipped_robots
 
-HELP = "list the robots loadable by name (shipped URDFs and example-robot-data) and the chains each offers"
+HELP = COMMANDS["robots"].help
 EXAMPLES = """\
 examples:
   pincal robots                        # every robot: its default chain, or the tips to choose from

@@ -11,6 +11,7 @@ import time
 import numpy as np
 
 from pincal.arguments import positive_int, ratio
+from pincal.cli import COMMANDS
 from pincal.cli._accuracy import (
     REGION_HELP,
     add_region_arguments,
@@ -47,7 +48,7 @@ from pincal.planning.baselines import random_plans
 from pincal.planning.constraints import Visibility
 from pincal.viewing import plots
 
-HELP = "see a plan: meshcat scene of the measurement poses and the test pose's error ellipsoid"
+HELP = COMMANDS["show"].help
 EXAMPLES = """\
 examples:
   pincal show kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 \\

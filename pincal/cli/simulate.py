@@ -7,6 +7,7 @@ from pathlib import Path
 
 from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
 from pincal.calibration.synthetic import DEFAULT_ERROR_STD, error_std_pair
+from pincal.cli import COMMANDS
 from pincal.cli._common import (
     SIGMA_HELP,
     add_command,
@@ -28,7 +29,7 @@ from pincal.cli._common import (
 from pincal.cli._plot import add_simulation_plot_arguments, save_simulation_plot
 from pincal.errors import BadArgument
 
-HELP = "Monte-Carlo simulation of a calibration with a plan: empirical vs predicted rho0"
+HELP = COMMANDS["simulate"].help
 EXAMPLES = """\
 examples:
   pincal simulate kr270 --plan plan.csv --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2

@@ -1,5 +1,58 @@
 """How good a plan is: the information matrix and its numerical kernel (:mod:`.information`), the
 criterion interface (:mod:`.criterion`) and one module per criterion — the test-pose criterion ρ0
 (:mod:`.test_pose`, :mod:`.test_pose_worst`), D, A, E, cond (:mod:`.d_optimal`, :mod:`.a_optimal`,
-:mod:`.e_optimal`, :mod:`.condition`) — by name in :mod:`.registry`, and the classic criteria of a
-plan together (:mod:`.classic`)."""
+:mod:`.e_optimal`, :mod:`.condition`) — by name in :mod:`.registry`, the classic criteria of a
+plan together (:mod:`.classic`), where the robot works (:mod:`.region`), prior knowledge
+(:mod:`.prior`), the predicted accuracy of a plan (:mod:`.accuracy`) and what a plan's data can
+identify (:mod:`.data_check`)."""
+
+from pincal.evaluation.accuracy import (
+    AccuracyReport,
+    ErrorProfile,
+    PredictedError,
+    WorstFound,
+    accuracy,
+    error_profile,
+    worst_found,
+)
+from pincal.evaluation.classic import Criteria, criteria
+from pincal.evaluation.criterion import Criterion
+from pincal.evaluation.data_check import DataCheck, check_plan
+from pincal.evaluation.information import information_matrix
+from pincal.evaluation.prior import Prior
+from pincal.evaluation.region import CartesianBox, Neighbourhood, TestPath, TestRegion, around, cartesian_box
+from pincal.evaluation.registry import CRITERIA, make_criterion
+from pincal.evaluation.residual_criterion import ResidualCriterion, expected_error
+from pincal.evaluation.test_pose import TestPoseCriterion, position_covariance, rho0, rho0_each, rho0_split
+
+__all__ = [
+    "CRITERIA",
+    "AccuracyReport",
+    "CartesianBox",
+    "Criteria",
+    "Criterion",
+    "DataCheck",
+    "ErrorProfile",
+    "Neighbourhood",
+    "PredictedError",
+    "Prior",
+    "ResidualCriterion",
+    "TestPath",
+    "TestPoseCriterion",
+    "TestRegion",
+    "WorstFound",
+    "accuracy",
+    "around",
+    "cartesian_box",
+    "check_plan",
+    "criteria",
+    "error_profile",
+    "expected_error",
+    "information_matrix",
+    "make_criterion",
+    "position_covariance",
+    "rho0",
+    "rho0_each",
+    "rho0_split",
+    "worst_found",
+]

@@ -230,7 +230,7 @@ def rho0(
     """
     if aggregate == "each":
         raise BadArgument(
-            "rho0 is one number: pincal.rho0_each gives one per test pose",
+            "rho0 is one number: pincal.evaluation.rho0_each gives one per test pose",
             argument="aggregate",
             value=aggregate,
             valid=("mean", "worst"),

@@ -1,4 +1,29 @@
-"""The kinematic model: the robot (:mod:`.robot`), its geometric parameters (:mod:`.parameters`),
-which of them measurements can identify (:mod:`.base_parameters`) and the parameter Jacobians
-(:mod:`.jacobian`). The first stage of robot → parameters → Jacobians → criteria → design →
+"""The kinematic model: the robot (:mod:`.robot`, loaded by :mod:`.loading`), its parameters
+(:mod:`.parameters`, named in :mod:`.catalogue`), which of them measurements can identify
+(:mod:`.base_parameters`), the parameter Jacobians (:mod:`.jacobian`), gravity and payloads
+(:mod:`.statics`), the residual model (:mod:`.residual`) and robots given by DH tables
+(:mod:`.dh`). The first stage of robot → parameters → Jacobians → criteria → design →
 (simulate | identify) → export / view."""
+
+from pincal.model.base_parameters import Identifiability, identifiability
+from pincal.model.catalogue import Parameter
+from pincal.model.dh import DHTable, urdf_from_dh
+from pincal.model.loading import load_robot, shipped_robots
+from pincal.model.parameters import ParameterSet
+from pincal.model.residual import ResidualModel
+from pincal.model.robot import Robot
+from pincal.model.statics import Payload
+
+__all__ = [
+    "DHTable",
+    "Identifiability",
+    "Parameter",
+    "ParameterSet",
+    "Payload",
+    "ResidualModel",
+    "Robot",
+    "identifiability",
+    "load_robot",
+    "shipped_robots",
+    "urdf_from_dh",
+]

@@ -32,11 +32,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pincal.arguments import Seed, fraction, generator, positive_int
+from pincal.arguments import fraction, generator, positive_int
 from pincal.errors import BadArgument
 from pincal.model.catalogue import LENGTH_TOLERANCE, split_spec
 from pincal.model.jacobian import unit_columns
 from pincal.model.statics import payload_rows
+from pincal.typing import SeedLike
 
 if TYPE_CHECKING:  # ParameterSet.identifiable() calls this module: parameters.py imports it
     from pincal.model.parameters import ParameterSet
@@ -188,7 +189,7 @@ def preference_order(params: ParameterSet, prefer: frozenset[str] = frozenset())
 def identifiability(
     params: ParameterSet,
     n_configurations: int = 200,
-    seed: Seed = 0,
+    seed: SeedLike = 0,
     tol: float = NEARLY_REDUNDANT,
     prefer: str | Iterable[str] = (),
     payloads: Sequence[object] | None = None,

@@ -251,7 +251,7 @@ def urdf_from_dh(table: DHTable | Mapping | str | os.PathLike, out: str | os.Pat
     Example:
         >>> import pincal
         >>> rows = [{"a": 0.5, "alpha": 0, "d": 0, "theta": 0, "limits": [-3, 3]}] * 2
-        >>> urdf = pincal.urdf_from_dh({"name": "arm", "joints": rows})
+        >>> urdf = pincal.model.urdf_from_dh({"name": "arm", "joints": rows})
         >>> urdf.count('type="revolute"')
         2
     """

@@ -41,12 +41,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import Seed
 from pincal.errors import BadArgument, UnknownParameter
 from pincal.model.base_parameters import NEARLY_REDUNDANT, identifiability
 from pincal.model.catalogue import GROUPS, Parameter, catalogue, group, split_spec
 from pincal.model.jacobian import analytic_jacobian, finite_difference_jacobian
 from pincal.model.statics import require_masses
+from pincal.typing import SeedLike
 
 if TYPE_CHECKING:  # a Robot builds its ParameterSets (Robot.parameters): robot.py imports this module
     from pincal.model.robot import Robot
@@ -255,7 +255,7 @@ class ParameterSet:
     def identifiable(
         self,
         n_configurations: int = 200,
-        seed: Seed = 0,
+        seed: SeedLike = 0,
         tol: float = NEARLY_REDUNDANT,
         prefer: str | Iterable[str] = (),
         payloads: Sequence[object] | None = None,

@@ -26,12 +26,12 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve, solve_triangular
 from threadpoolctl import threadpool_limits
 
-from pincal.arguments import Seed, generator
+from pincal.arguments import generator
 from pincal.errors import BadArgument
 from pincal.optional import require
+from pincal.typing import SeedLike
 
 LENGTHSCALE_BOUNDS = (1e-2, 1e3)
 """Bounds of each feature's lengthscale [rad for a revolute joint's (cos, sin), m for a prismatic
@@ -105,7 +105,7 @@ class ResidualModel:
         residuals: np.ndarray,
         revolute: np.ndarray,
         *,
-        seed: Seed = 0,
+        seed: SeedLike = 0,
         restarts: int = RESTARTS,
     ) -> ResidualModel:
         """Hyperparameters by maximum marginal likelihood of ``residuals`` at ``q`` (training data only).
@@ -167,11 +167,15 @@ class ResidualModel:
 
     @cached_property
     def _factor(self) -> tuple[np.ndarray, bool]:
+        from scipy.linalg import cho_factor  # on first use: scipy.linalg is slow to import
+
         K = self.kernel(self.inputs, self.inputs) + self.noise**2 * np.eye(len(self.inputs))
         return cho_factor(K, lower=True)
 
     @cached_property
     def _weights(self) -> np.ndarray:
+        from scipy.linalg import cho_solve
+
         return cho_solve(self._factor, self.residuals)
 
     def mean(self, q: np.ndarray) -> np.ndarray:
@@ -181,6 +185,8 @@ class ResidualModel:
     def variance(self, q: np.ndarray) -> np.ndarray:
         """(m,) posterior variance of f per coordinate at ``q`` [m²]: what the residual model still
         cannot say there (s² far from the training data; about n²/(number of nearby points) on it)."""
+        from scipy.linalg import solve_triangular
+
         k = self.kernel(q, self.inputs)
         v = solve_triangular(self._factor[0], k.T, lower=True)
         return np.maximum(self.amplitude**2 - np.sum(v**2, axis=0), 0.0)

@@ -24,11 +24,12 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import Seed, angle, generator, positive_int
+from pincal.arguments import angle, generator, positive_int
 from pincal.errors import BadConfiguration
 from pincal.model.chain import frame_id
 from pincal.model.parameters import ParameterSet
 from pincal.model.statics import Gravity, chain_mass, mounted, payload_rows
+from pincal.typing import SeedLike
 
 LIMIT_TOLERANCE = 1e-9
 """Slack [rad or m] allowed when checking configurations against joint limits."""
@@ -295,7 +296,7 @@ class Robot:
             valid=(float(shown(lo[j])), float(shown(hi[j]))),
         )
 
-    def random_configurations(self, n: int, rng: Seed = None, margin: float = 0.0) -> np.ndarray:
+    def random_configurations(self, n: int, rng: SeedLike = None, margin: float = 0.0) -> np.ndarray:
         """Draw (n, nq) configurations uniformly within the joint limits shrunk by ``margin``.
 
         Args:

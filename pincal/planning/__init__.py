@@ -3,4 +3,18 @@
 criteria are :mod:`pincal.evaluation`'s), the search methods (:mod:`.exchange`,
 :mod:`.continuous`, run by :mod:`.multistart`), the search stage (:mod:`.search`), the driver
 :func:`~pincal.planning.driver.design`, what it returns (:mod:`.results`) and the random-plan
-baseline (:mod:`.baselines`)."""
+baseline (:mod:`.baselines`). The constraints' names are public in :mod:`pincal.planning.constraints`."""
+
+from pincal.planning.baselines import random_plans
+from pincal.planning.driver import design
+from pincal.planning.plan import Plan
+from pincal.planning.results import DesignResult, RandomPlans, StartRecord
+
+__all__ = [
+    "DesignResult",
+    "Plan",
+    "RandomPlans",
+    "StartRecord",
+    "design",
+    "random_plans",
+]

@@ -7,7 +7,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, Seed, generator, positive_int, positive_sigma
+from pincal.arguments import DEFAULT_SIGMA, generator, positive_int, positive_sigma
 from pincal.errors import Infeasible
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.registry import make_criterion
@@ -18,6 +18,7 @@ from pincal.planning.feasibility import Feasibility
 from pincal.planning.multistart import single_threaded_blas
 from pincal.planning.objectives import TEST_POSE_CRITERIA, checked_test_poses, criterion_name
 from pincal.planning.results import RandomPlans
+from pincal.typing import SeedLike
 
 __all__ = ["random_plans"]
 
@@ -32,7 +33,7 @@ def random_plans(
     sigma: float = DEFAULT_SIGMA,
     prior: Prior | None = None,
     constraints: Iterable[AnyConstraint] = (),
-    seed: Seed = 0,
+    seed: SeedLike = 0,
     pool: object = None,
 ) -> RandomPlans:
     """The distribution of a criterion over ``n`` random feasible plans of m configurations.

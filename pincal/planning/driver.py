@@ -39,7 +39,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, Seed, fraction, number, positive_int, positive_sigma, seed_entropy
+from pincal.arguments import DEFAULT_SIGMA, fraction, number, positive_int, positive_sigma, seed_entropy
 from pincal.errors import (
     BadArgument,
     FloorUnreachable,
@@ -62,6 +62,7 @@ from pincal.planning.objectives import (
 )
 from pincal.planning.results import DesignResult
 from pincal.planning.search import Pool, Settings, draw_starts, search
+from pincal.typing import SeedLike
 
 METHODS = ("continuous", "exchange")
 """Names of the search methods."""
@@ -96,7 +97,7 @@ def design(
     constraints: Iterable[AnyConstraint] = (),
     pool: object = None,
     starts: int = 16,
-    seed: Seed = 0,
+    seed: SeedLike = 0,
     sigma: float = DEFAULT_SIGMA,
     executor: Executor | None = None,
     workers: int | None = None,

@@ -23,7 +23,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, Seed, positive_int, positive_sigma, seed_entropy
+from pincal.arguments import DEFAULT_SIGMA, positive_int, positive_sigma, seed_entropy
 from pincal.errors import BadArgument, FloorUnreachable, SingularPlan
 from pincal.evaluation.classic import criteria_from_jacobian
 from pincal.evaluation.data_check import MIN_DATA_CONDITIONING
@@ -43,6 +43,7 @@ from pincal.planning.objectives import checked_test_poses
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, StartRecord
 from pincal.planning.starts import pick
+from pincal.typing import SeedLike
 
 MIN_CONDITIONING = 1e-2
 """The conditioning floor tried first (as :func:`~pincal.design`'s); it adapts down to half what a
@@ -70,7 +71,7 @@ def design_with_payloads(
     constraints: Iterable[AnyConstraint] = (),
     pool: int = 1000,
     starts: int = 8,
-    seed: Seed = 0,
+    seed: SeedLike = 0,
     sigma: float = DEFAULT_SIGMA,
     prior: Prior | None = None,
     min_conditioning: float | None = None,

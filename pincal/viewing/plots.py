@@ -293,8 +293,9 @@ def error_vs_distance(profiles, unit: str = "mm", title: str | None = None) -> F
     """Predicted error after calibration against the joint-space distance from the test pose.
 
     Args:
-        profiles: :class:`pincal.ErrorProfile` values (from :func:`pincal.error_profile`), one per
-            plan: each drawn as its median (solid) and 95th percentile (dashed).
+        profiles: :class:`pincal.evaluation.ErrorProfile` values (from
+            :func:`pincal.evaluation.error_profile`), one per plan: each drawn as its median (solid)
+            and 95th percentile (dashed).
         unit: length unit of the axis.
         title: the figure's title (default: a description).
 
@@ -326,7 +327,7 @@ def validation_errors(validation: Any, unit: str = "mm", bins: int = 30, title: 
     (right), with RMS, 95th percentile and max in the legend.
 
     Args:
-        validation: a :class:`pincal.Validation` (or anything with ``before`` and ``after``, (n,)
+        validation: a :class:`pincal.calibration.Validation` (or anything with ``before`` and ``after``, (n,)
             errors [m]).
         unit: length unit of the axes.
         bins: number of histogram bins.

@@ -4,7 +4,7 @@ The scene holds, under ``/meshcat/pincal``:
 
 * ``test_poses/test_<k>``: the robot at each test pose, opaque and highlighted (dark, among the
   pastel ghosts); the measured point(s) there; and the **ellipsoid of the predicted
-  post-calibration error** (amber) — the 3σ ellipsoid of ``pincal.position_covariance``
+  post-calibration error** (amber) — the 3σ ellipsoid of ``pincal.evaluation.position_covariance``
   (σ² J₀ M⁻¹ J₀ᵀ), drawn ``ellipsoid_scale`` times larger than life so that it can be seen (the
   factor is written next to it: "q0 3σ ×2000").
 * ``ghosts/pose_<i>``: one translucent "ghost" of the robot per measurement configuration, each
