@@ -99,6 +99,54 @@ class IdentificationResult:
         mean = self.residual_model.mean(qs).reshape(points.shape)
         return points + mean @ robot.base.rotation.T
 
+    def point_variances(self, q: object, *, payload: object = None) -> tuple[np.ndarray, np.ndarray]:
+        """((m, K), (m, K)) the variance [m²] of each predicted point (:meth:`predict`) at joint
+        readings ``q``, summed over its three coordinates, from each source: the parameters'
+        uncertainty, tr(J C Jᵀ) over the point's rows (J the parameter Jacobian under ``payload``,
+        C :attr:`covariance`; a dropped parameter, held nominal, adds nothing), and the residual
+        model's posterior variance, 3·v(q) (zero without a residual model). NaN without an estimate."""
+        robot = self.params.robot
+        qs = robot.configurations(q)
+        K = robot.n_markers
+        C = np.nan_to_num(self.covariance, nan=0.0)
+        if not np.any(np.isfinite(self.std)):
+            C = np.full_like(C, np.nan)
+        J = self.params.jacobian(qs, frame="tip", payload=payload).reshape(len(qs), K, 3, -1)
+        parameters = np.einsum("mkip,pr,mkir->mk", J, C, J)
+        gp = np.zeros((len(qs), K))
+        if self.residual_model is not None:
+            gp += 3.0 * self.residual_model.variance(qs)[:, None]
+        return parameters, gp
+
+    def expected_error(self, q: object, *, payload: object = None) -> np.ndarray:
+        """(m,) the expected distance [m] between the points :meth:`predict` gives at joint readings
+        ``q`` (all markers) and the robot's true ones: sqrt(tr(J C Jᵀ) + 3K·v(q)), the parameters'
+        standard errors propagated to the points (the ρ of docs/method.md §8.3 with this fit's
+        covariance) and, with a residual model, its posterior variance v per coordinate (what it
+        cannot say there: small near the data it was fitted on, its amplitude s² far from them).
+        Without a residual model it assumes the fitted model explains the robot: the residuals say
+        how far it does not."""
+        parameters, gp = self.point_variances(q, payload=payload)
+        return np.sqrt(parameters.sum(axis=1) + gp.sum(axis=1))
+
+    def _expected_at_data(self) -> dict[str, float]:
+        """RMS over the kept configurations of the expected error and its two parts [m]."""
+        data = self.data
+        used = self._used
+        parameters, gp = self.point_variances(
+            data.q[used], payload=None if data.payload is None else data.payload[used]
+        )
+        out = {
+            "rms": float(np.sqrt(np.mean(parameters.sum(axis=1) + gp.sum(axis=1)))),
+            "parameters": float(np.sqrt(np.mean(parameters.sum(axis=1)))),
+            "residual_model": float(np.sqrt(np.mean(gp.sum(axis=1)))),
+        }
+        if self.residual_model is not None:
+            out["residual_model_far"] = float(
+                np.sqrt(3 * self.robot.n_markers) * self.residual_model.amplitude
+            )
+        return out
+
     @property
     def success(self) -> bool:
         """True when the estimate converged (the calibrated robot can be used and exported)."""
@@ -172,6 +220,7 @@ class IdentificationResult:
             "causes": list(self.causes),
             "prior": self.prior.as_dict() if self.prior is not None else None,
             "residual_model": self.residual_model.summary() if self.residual_model is not None else None,
+            "expected_error": {k: _num(v) for k, v in self._expected_at_data().items()},
         }
 
     def _sigma_line(self) -> str:
@@ -179,6 +228,23 @@ class IdentificationResult:
             return "sigma: undetermined (no residual degrees of freedom to estimate it from)"
         how = " (estimated from the residuals)" if self.sigma_estimated else " (given)"
         return f"sigma: {self.sigma * 1e3:.4g} mm per coordinate{how}"
+
+    def _expected_line(self) -> str:
+        """The expected error of the calibration's predictions, saying what it is made of."""
+        e = self._expected_at_data()
+        if not np.isfinite(e["rms"]):
+            return "expected error of a prediction: undetermined (no standard errors)"
+        head = f"expected error of a prediction at the measured configurations: {e['rms'] * 1e3:.4g} mm RMS"
+        if self.residual_model is None:
+            return (
+                f"{head} (the parameters' standard errors alone: it assumes the model explains the "
+                "robot; the residual RMS says how far it does not)"
+            )
+        return (
+            f"{head} (the parameters' standard errors {e['parameters'] * 1e3:.4g} mm and the residual "
+            f"model's variance {e['residual_model'] * 1e3:.4g} mm; far from the measured configurations "
+            f"the residual model's part grows to {e['residual_model_far'] * 1e3:.4g} mm)"
+        )
 
     def report(self) -> str:
         """A human-readable report: status, residuals, data identifiability, estimates ± standard
@@ -206,6 +272,7 @@ class IdentificationResult:
                 lines.append(f"  {name:{width}s} {v * scale:+11.5f} (standard error undetermined) {shown}")
         if self.residual_model is not None:
             lines.append(self.residual_model.describe())
+        lines.append(self._expected_line())
         if self.rejected:
             lines.append(f"rejected {len(self.rejected)} row(s) and refitted:")
             lines += [f"  {o}" for o in self.rejected]

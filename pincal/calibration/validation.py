@@ -45,6 +45,15 @@ class Validation:
         how: how the points were held out, in words.
         statuses: the status of each fit behind the errors (one for a file or a holdout, k for
             k-fold).
+        expected: (n,) the error each fit predicts for each held-out point [m]: the root of the
+            variance of its prediction (the parameters' standard errors propagated, plus the
+            residual model's posterior variance when the fit has one,
+            :meth:`~pincal.IdentificationResult.point_variances`) plus the measurement's own
+            noise, 3n² (n the residual model's noise per coordinate, else the fit's σ); None when
+            not computed. Its RMS against that of ``after`` says whether the calibration is
+            honest about what it cannot explain.
+        residual_model: True when the fits had a residual model (its mean corrects ``after``, its
+            variance is in ``expected``).
     """
 
     before: np.ndarray
@@ -52,6 +61,8 @@ class Validation:
     labels: tuple[str, ...]
     how: str
     statuses: tuple[str, ...] = ("converged",)
+    expected: np.ndarray | None = None
+    residual_model: bool = False
 
     @staticmethod
     def _stats(errors: np.ndarray) -> dict[str, float]:
@@ -71,15 +82,26 @@ class Validation:
         """``{"rms", "max", "p95"}`` of the errors after calibration [m]."""
         return self._stats(self.after)
 
+    @property
+    def expected_rms(self) -> float:
+        """RMS of :attr:`expected` [m] (NaN when not computed): what the fits predicted ``after``'s
+        RMS to be."""
+        if self.expected is None:
+            return float("nan")
+        return float(np.sqrt(np.mean(self.expected**2)))
+
     def as_dict(self) -> dict:
         return {
             "how": self.how,
             "n_points": int(self.before.size),
             "before": self.stats_before,
             "after": self.stats_after,
+            "expected_rms": self.expected_rms if np.isfinite(self.expected_rms) else None,
+            "residual_model": self.residual_model,
             "statuses": list(self.statuses),
             "errors_before": self.before.tolist(),
             "errors_after": self.after.tolist(),
+            "errors_expected": None if self.expected is None else self.expected.tolist(),
         }
 
     def report(self) -> str:
@@ -94,6 +116,14 @@ class Validation:
             row("before", b),
             row("after", a),
         ]
+        if np.isfinite(self.expected_rms):
+            what = (
+                "the parameters' standard errors, the residual model's variance and the noise"
+                if self.residual_model
+                else "the parameters' standard errors and the noise; no residual model: it assumes the "
+                "fitted model explains the robot"
+            )
+            lines.append(f"  predicted RMS after {self.expected_rms * 1e3:8.4g} mm ({what})")
         failed = [s for s in self.statuses if s != "converged"]
         if failed:
             lines.append(
@@ -104,7 +134,7 @@ class Validation:
 
 def _errors(
     result: IdentificationResult, data: MeasurementData, session: int
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     data = data.for_robot(result.params.robot)
     before_robot = result.initial_robot or result.params.robot
     if result.bases:
@@ -112,7 +142,16 @@ def _errors(
     before = np.linalg.norm(data.points - before_robot.points(data.q, check=False), axis=-1).reshape(-1)
     predicted = result.predict(data.q, payload=data.payload, session=session if result.bases else 0)
     after = np.linalg.norm(data.points - predicted, axis=-1).reshape(-1)
-    return before, after
+    return before, after, _expected(result, data)
+
+
+def _expected(result: IdentificationResult, data: MeasurementData) -> np.ndarray:
+    """(m·K,) the error ``result`` predicts for each of ``data``'s points [m]: its prediction's
+    variance (parameters and residual model) plus the noise of a measurement, 3n² per point."""
+    parameters, gp = result.point_variances(data.q, payload=data.payload)
+    model = result.residual_model
+    noise = model.noise if model is not None else result.sigma if np.isfinite(result.sigma) else 0.0
+    return np.sqrt(parameters + gp + 3 * noise**2).reshape(-1)
 
 
 def _point_labels(data: MeasurementData) -> list[str]:
@@ -126,9 +165,17 @@ def validate(result: IdentificationResult, data: MeasurementData, session: int =
         raise BadArgument(f"validate needs a MeasurementData, got {type(data).__name__}")
     if not 0 <= session < max(len(result.sessions), 1):
         raise BadArgument(f"session must be between 0 and {len(result.sessions) - 1}, got {session}")
-    before, after = _errors(result, data, session)
+    before, after, expected = _errors(result, data, session)
     source = data.source or "other data"
-    return Validation(before, after, tuple(_point_labels(data)), f"file {source}", (result.status,))
+    return Validation(
+        before,
+        after,
+        tuple(_point_labels(data)),
+        f"file {source}",
+        (result.status,),
+        expected,
+        result.residual_model is not None,
+    )
 
 
 def _as_sessions(data: MeasurementData | Sequence[MeasurementData]) -> list[MeasurementData]:
@@ -194,21 +241,22 @@ def _folds(sessions: list[MeasurementData], needed: int) -> int | None:
 
 def _fit_and_test(
     params: ParameterSet, sessions: list[MeasurementData], test_rows: list[np.ndarray], kwargs: dict
-) -> tuple[IdentificationResult, np.ndarray, np.ndarray, list[str]]:
+) -> tuple[IdentificationResult, np.ndarray, np.ndarray, np.ndarray, list[str]]:
     train = [
         d.subset(np.setdiff1d(np.arange(d.m), rows)) for d, rows in zip(sessions, test_rows, strict=True)
     ]
     result = identify(params, train, **kwargs)
-    before, after, labels = [], [], []
+    before, after, expected, labels = [], [], [], []
     for s, (d, rows) in enumerate(zip(sessions, test_rows, strict=True)):
         if len(rows) == 0:
             continue
         held = d.subset(rows)
-        b, a = _errors(result, held, s)
+        b, a, e = _errors(result, held, s)
         before.append(b)
         after.append(a)
+        expected.append(e)
         labels += _point_labels(held)
-    return result, np.concatenate(before), np.concatenate(after), labels
+    return result, np.concatenate(before), np.concatenate(after), np.concatenate(expected), labels
 
 
 def holdout(
@@ -232,11 +280,12 @@ def holdout(
     rng = generator(seed)
     sessions = _as_sessions(data)
     rows = [np.sort(rng.permutation(d.m)[: max(1, round(fraction * d.m))]) for d in sessions]
-    result, before, after, labels = _fit_and_test(params, sessions, rows, kwargs)
+    result, before, after, expected, labels = _fit_and_test(params, sessions, rows, kwargs)
     _warn_if_thin([result], sessions, fraction)
     trained = sum(d.m for d in sessions) - sum(map(len, rows))
     how = f"{fraction:.0%} held out (seed {seed}), fitted on the other {trained} configurations"
-    return result, Validation(before, after, tuple(labels), how, (result.status,))
+    gp = result.residual_model is not None
+    return result, Validation(before, after, tuple(labels), how, (result.status,), expected, gp)
 
 
 def kfold(
@@ -259,15 +308,24 @@ def kfold(
         raise BadArgument(f"k-fold: {k} folds need at least {k} configurations in each data file")
     rng = generator(seed)
     orders = [rng.permutation(d.m) for d in sessions]
-    before, after, labels, fits = [], [], [], []
+    before, after, expected, labels, fits = [], [], [], [], []
     for fold in range(k):
         rows = [np.sort(order[fold::k]) for order in orders]
-        result, b, a, lab = _fit_and_test(params, sessions, rows, kwargs)
+        result, b, a, e, lab = _fit_and_test(params, sessions, rows, kwargs)
         before.append(b)
         after.append(a)
+        expected.append(e)
         labels += lab
         fits.append(result)
     _warn_if_thin(fits, sessions, None)
     statuses = [fit.status for fit in fits]
     how = f"{k}-fold cross-validation (seed {seed})"
-    return Validation(np.concatenate(before), np.concatenate(after), tuple(labels), how, tuple(statuses))
+    return Validation(
+        np.concatenate(before),
+        np.concatenate(after),
+        tuple(labels),
+        how,
+        tuple(statuses),
+        np.concatenate(expected),
+        any(fit.residual_model is not None for fit in fits),
+    )
