@@ -68,9 +68,17 @@ def test_residual_model_from_identify_to_a_top_up_design(cli, tmp_path):
     data.to_csv(meas)
     result = cli.json(
         "identify", "ur10", "--marker", "0.03,-0.02,0.1", "--data", meas, "--residual-model", "gp",
-        "--out", cal, "--holdout", 0.25,
+        "--out", cal, "--holdout", 0.25, "--test-pose=0.3,-1.2,1.4,-1,-1.4,0.2",
     )  # fmt: skip
     assert result["residual_model"]["kind"] == "gp" and result["residual_model"]["configurations"] == 45
+    # The predicted errors count the residual model's variance: held out and at the test pose.
+    assert result["validation"]["residual_model"] and result["validation"]["expected_rms"] > 0
+    calibrated = result["accuracy"]["plans"][0]
+    test_pose = calibrated["rows"][0]["rms"]
+    assert abs(
+        calibrated["from_measurements"] ** 2 + calibrated["from_residual_model"] ** 2 - test_pose**2
+    ) < (1e-9 * test_pose**2)
+    assert result["expected_error"]["residual_model"] > 0
     side = json.loads(cal.with_suffix(".calibration.json").read_text())
     assert len(side["residual_model"]["inputs"]) == 45
     design = cli.json(
@@ -82,3 +90,22 @@ def test_residual_model_from_identify_to_a_top_up_design(cli, tmp_path):
         "design", "ur10", "-m", 12, "--test-pose=0.3,-1.2,1.4,-1,-1.4,0.2", "--residual-model", meas
     )
     assert code == 2
+
+
+def test_identify_reports_the_predicted_error_at_the_test_pose(cli, tmp_path):
+    meas = tmp_path / "meas.csv"
+    robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
+    params = robot.parameters("lengths,offsets").identifiable().identifiable
+    data = pincal.simulate_measurements(
+        pincal.random_errors(params, seed=1), robot.random_configurations(30, 2), 3e-5, seed=3
+    )
+    data.to_csv(meas)
+    code, out, err = cli.run(
+        "identify", *ROBOT, "--data", meas, "--params", "lengths,offsets", "--sigma", 3e-5,
+        "--test-pose=0,-1.05,1.05,0,0.8,0", "--kfold", 3,
+    )  # fmt: skip
+    assert code == 0, err
+    assert "predicted RMS after" in out and "calibrated" in out
+    assert "standard errors alone (no residual model" in out
+    code, _, err = cli.run("identify", *ROBOT, "--data", meas, "--task-payload", 100)
+    assert code == 2 and "--task-payload" in err

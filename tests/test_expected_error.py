@@ -125,3 +125,19 @@ def test_kfold_and_validate_predict_each_point(params, ur10):
     assert 0.8 < folds.expected_rms / folds.stats_after["rms"] < 1.25
     checked = pincal.validate(pincal.identify(params, data, sigma=SIGMA), other)
     assert 0.75 < checked.expected_rms / checked.stats_after["rms"] < 1.33
+
+
+def test_the_accuracy_report_after_calibration_counts_the_residual_model(with_gp, field_data):
+    result, _ = with_gp
+    q0 = result.residual_model.inputs[0]  # a measured configuration: the residual model knows it best
+    report = result.accuracy(q0, samples=64, workspace=200)
+    calibrated = report.plans[0]
+    at_test_pose = calibrated.row("test pose")
+    assert at_test_pose.rms == pytest.approx(result.expected_error(q0)[0], rel=1e-12)
+    assert calibrated.from_measurements**2 + calibrated.from_residual_model**2 == pytest.approx(
+        at_test_pose.rms**2, rel=1e-9
+    )
+    # Away from the data the residual model knows less: the workspace is worse than the test pose.
+    assert calibrated.row("workspace").median > at_test_pose.rms
+    assert "from the residual model's variance" in "\n".join(report.lines())
+    assert report.as_dict()["plans"][0]["from_residual_model"] == calibrated.from_residual_model

@@ -11,11 +11,22 @@ import pinocchio as pin
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.sanity import OUTLIER_SCORE, Outlier
 from pincal.calibration.state import Rows, Setup, Solution, Verdict
+from pincal.evaluation.accuracy import (
+    NEIGHBOURHOOD_SAMPLES,
+    NEIGHBOURHOODS,
+    WORKSPACE_SAMPLES,
+    AccuracyReport,
+    ErrorSummary,
+    PlanAccuracy,
+    sample_sets,
+    worst_found,
+)
 from pincal.evaluation.data_check import DataCheck
 from pincal.evaluation.prior import Prior
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
+from pincal.model.statics import Payload, payload_rows
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,6 +157,52 @@ class IdentificationResult:
                 np.sqrt(3 * self.robot.n_markers) * self.residual_model.amplitude
             )
         return out
+
+    def accuracy(
+        self,
+        test_pose: object,
+        *,
+        payload: object = None,
+        neighbourhoods: tuple[float, ...] = NEIGHBOURHOODS,
+        samples: int = NEIGHBOURHOOD_SAMPLES,
+        workspace: int = WORKSPACE_SAMPLES,
+        seed: int = 0,
+    ) -> AccuracyReport:
+        """The accuracy report of this calibration: the error of its predictions
+        (:meth:`expected_error`: the parameters' standard errors and the residual model's variance)
+        at the test pose(s) or region ``test_pose``, over ±10° and ±20° around them and over the
+        workspace, with the task's ``payload`` (one load for every configuration) — the report
+        :func:`pincal.accuracy` gives a plan before it is measured, now for what was measured.
+
+        Args:
+            test_pose: test pose(s) or a region/path (see :func:`pincal.rho0`).
+            payload: the task's payload (a mass [kg] or a :class:`~pincal.Payload`), or None.
+            neighbourhoods, samples, workspace, seed: as for :func:`pincal.accuracy`.
+        """
+        robot = self.params.robot
+        load = None if payload is None else payload_rows(payload, 1)
+        if load is not None and not isinstance(payload, Payload):
+            payload = Payload(float(load[0, 0]), load[0, 1:])
+        sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
+        rows = tuple(ErrorSummary.of(where, self.expected_error(qs, payload=payload)) for where, qs in sets)
+        worst = None if region is None else worst_found(_SquaredError(self, payload), region)
+        parameters, gp = (v.sum(axis=1) for v in self.point_variances(poses, payload=payload))
+        calibrated = PlanAccuracy(
+            "calibrated",
+            rows,
+            worst,
+            float(np.sqrt(np.mean(parameters))),
+            0.0,
+            float(np.sqrt(np.mean(gp))),
+        )
+        return AccuracyReport(
+            (calibrated,),
+            float(self.sigma),
+            None,
+            None,
+            "test pose" if region is None else region.description,
+            tuple(bool(r) for r in robot.revolute),
+        )
 
     @property
     def success(self) -> bool:
@@ -280,6 +337,17 @@ class IdentificationResult:
             lines.append(f"suspicious rows (over {OUTLIER_SCORE:g} robust sigma):")
             lines += [f"  {o}" for o in self.outliers]
         return "\n".join(lines)
+
+
+class _SquaredError:
+    """A calibration's squared expected error as :func:`~pincal.evaluation.accuracy.worst_found`
+    searches it."""
+
+    def __init__(self, result: IdentificationResult, payload: object) -> None:
+        self.result, self.payload = result, payload
+
+    def squared(self, qs: np.ndarray) -> np.ndarray:
+        return self.result.expected_error(np.atleast_2d(qs), payload=self.payload) ** 2
 
 
 SHOWN = {

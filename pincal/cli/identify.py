@@ -6,12 +6,15 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from pincal.arguments import DEFAULT_SIGMA, fraction, positive_int, positive_sigma, ratio
 from pincal.calibration.identification import LOSSES, METHODS, RESIDUAL_MODELS, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.urdf_export import export_urdf, sidecar_path
 from pincal.calibration.validation import holdout, kfold, validate
 from pincal.cli import COMMANDS
+from pincal.cli._accuracy import test_region_from_args
 from pincal.cli._common import (
     CONDITIONING_HELP,
     FIGURE_NOTE,
@@ -19,6 +22,7 @@ from pincal.cli._common import (
     add_command,
     add_output_arguments,
     add_robot_arguments,
+    add_test_pose_argument,
     checked,
     count,
     emit_json,
@@ -74,7 +78,12 @@ implausible (then no URDF, unless --force: the URDF is written, with a warning, 
 --validate, --holdout FRACTION --seed S, --kfold K: RMS, 95th percentile and max position error before
 and after calibration on held-out points (text, JSON 'validation', --plot FILE.png). A holdout or a
 k-fold fold whose fit keeps fewer than twice as many measured coordinates as parameters is warned
-about (its held-out error overstates the calibration's), with what to do.
+about (its held-out error overstates the calibration's), with what to do; each also gives the RMS the
+fit predicted for those errors (its standard errors, the residual model's variance, the noise).
+--test-pose Q0 (repeatable; --around ANGLE, or --test-path PATH.csv; --task-payload KG): the predicted
+error of the calibrated robot there, over +-10/20 degrees around and over the workspace, from the
+parameters' standard errors and, with --residual-model, the residual model's variance (large far
+from the measured configurations: measure near where the robot works).
 Beyond geometry: --params gains,compliance adds each joint's gain (it moves by q(1+gain)) and
 compliance (it yields by compliance x the gravity torque on it; the URDF must give the links'
 masses; --gravity if the base is not level); optional columns payload_kg and payload_x,payload_y,
@@ -149,6 +158,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--out", metavar="CALIBRATED.urdf", help="write the calibrated URDF (and its sidecar) here"
     )
     p.add_argument("--force", action="store_true", help="write the URDF of an implausible result anyway")
+    add_test_pose_argument(p, required=False)
+    p.add_argument(
+        "--around",
+        metavar="ANGLE[,LENGTH]",
+        help="with --test-pose: report over its neighbourhood (e.g. 10deg; 10deg,2cm with prismatic joints)",
+    )
+    p.add_argument("--test-path", metavar="PATH.csv", help="report over a path (plan CSV format)")
+    p.add_argument(
+        "--task-payload", type=float, metavar="KG", help="the task's payload at the test pose(s) (compliance)"
+    )
+    p.set_defaults(test_box=None)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -173,6 +193,9 @@ def run(args: argparse.Namespace) -> int:
     if args.plot and not (args.validate or args.holdout or args.kfold):
         raise BadArgument("--plot draws the validation errors: give --validate, --holdout or --kfold")
     _check_outputs(args, robot)
+    if args.task_payload is not None and not args.test_pose and not args.test_path:
+        raise BadArgument("--task-payload is the load at the test pose(s): give --test-pose or --test-path")
+    test_region = test_region_from_args(robot, args, required=False)
     sessions = [MeasurementData.from_csv(d, robot, degrees=args.deg, millimetres=args.mm) for d in args.data]
     options = dict(
         sigma=sigma, maxiter=args.maxiter, prior=prior, loss=args.loss, method=args.method,
@@ -192,10 +215,14 @@ def run(args: argparse.Namespace) -> int:
     out = export_urdf(result, args.out, force=args.force) if args.out and writable else None
     if args.plot and validation is not None:
         save_figure(validation_errors(validation), args.plot)
+    accuracy = None
+    if test_region is not None and np.any(np.isfinite(result.std)):  # else no standard errors
+        accuracy = result.accuracy(test_region, payload=args.task_payload, seed=args.seed)
     if args.json:
         payload = {"robot": robot.name, "tip": robot.tip, "params_source": source, **result.as_dict()}
         payload["dropped_for_base"] = dropped
         payload["validation"] = validation.as_dict() if validation is not None else None
+        payload["accuracy"] = accuracy.as_dict() if accuracy is not None else None
         payload["out"] = str(out) if out else None
         payload["sidecar"] = str(sidecar_path(out)) if out else None
         emit_json(payload)
@@ -217,6 +244,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"robot base in the instrument frame{which}: xyz {base['xyz']} m, rpy {base['rpy']} rad")
     if validation is not None:
         print(validation.report())
+    if accuracy is not None:
+        print("\n".join(accuracy.lines(degrees=args.deg)))
     if args.plot:
         print(f"validation figure written to {args.plot}")
     if out:

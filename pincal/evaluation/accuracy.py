@@ -207,6 +207,10 @@ class PlanAccuracy:
         from_measurements, from_prior: rms ρ0 at the test pose(s) due to the measurement noise and
             due to the prior errors the plan leaves uncorrected [m] (their squares add up to the
             test-pose row's rms²); ``from_prior`` is 0 without a prior.
+        from_residual_model: for a calibration's report
+            (:meth:`~pincal.IdentificationResult.accuracy`), the rms at the test pose(s) of its
+            residual model's posterior variance [m] (0 without a residual model;
+            ``from_measurements`` is then its parameters' standard errors' part); None for a plan.
     """
 
     name: str
@@ -214,6 +218,7 @@ class PlanAccuracy:
     worst: WorstFound | None
     from_measurements: float
     from_prior: float
+    from_residual_model: float | None = None
 
     def row(self, where: str) -> ErrorSummary:
         return next(r for r in self.rows if r.where == where)
@@ -225,6 +230,7 @@ class PlanAccuracy:
             "worst_found": None if self.worst is None else self.worst.as_dict(),
             "from_measurements": self.from_measurements,
             "from_prior": self.from_prior,
+            "from_residual_model": self.from_residual_model,
         }
 
 
@@ -292,6 +298,20 @@ class AccuracyReport:
                     f"  {p.name}: worst {'found' if p.worst.searched else 'of the test poses'} "
                     f"{p.worst.rho * scale:.4g} {unit} at q = {self._pose_text(p.worst.pose, degrees)}"
                 )
+        for p in self.plans:
+            if p.from_residual_model is None:
+                continue
+            if p.from_residual_model > 0:
+                out.append(
+                    f"  {p.name}: at the test pose(s), {p.from_measurements * scale:.4g} {unit} rms from "
+                    f"the parameters' standard errors and {p.from_residual_model * scale:.4g} {unit} "
+                    "from the residual model's variance (what it cannot explain there)"
+                )
+            else:
+                out.append(
+                    f"  {p.name}: from the parameters' standard errors alone (no residual model: it "
+                    "assumes the fitted model explains the robot)"
+                )
         if self.prior is not None:
             p = self.plans[0]
             out.append(
@@ -318,6 +338,36 @@ def _neighbourhood(
     sample), clipped to the joint limits."""
     c = centers[rng.integers(len(centers), size=n)]
     return np.clip(c + rng.uniform(-delta, delta, c.shape), robot.lower, robot.upper)
+
+
+def sample_sets(
+    robot,
+    test_pose: object,
+    neighbourhoods: tuple[float, ...] = NEIGHBOURHOODS,
+    samples: int = NEIGHBOURHOOD_SAMPLES,
+    workspace: int = WORKSPACE_SAMPLES,
+    seed: int = 0,
+) -> tuple[list[tuple[str, np.ndarray]], np.ndarray, ResolvedRegion | None]:
+    """The configurations an accuracy report covers (see :func:`accuracy`): ([(where, (n, nq)), ...]
+    for the test pose(s), each neighbourhood and the workspace, the test poses, the resolved region
+    or None)."""
+    neighbourhoods = tuple(angle(d, "neighbourhoods (half-width)") for d in neighbourhoods)
+    samples = positive_int(samples, "samples")
+    workspace = positive_int(workspace, "workspace")
+    poses, region = resolve_test_poses(robot, test_pose)
+    rng = generator(seed)
+    first = "test region" if region is not None else "test pose" if len(poses) == 1 else "test poses"
+    sets = [(first, poses)]
+    per_radian = _prismatic_per_radian(test_pose)
+    prismatic = not np.all(robot.revolute)
+    for delta in neighbourhoods:
+        # around each test pose: beyond a region's edge
+        width = width_text(delta, delta * per_radian if prismatic else None)
+        label = f"region {width}" if region is not None else width
+        delta_q = np.where(robot.revolute, delta, delta * per_radian)
+        sets.append((label, _neighbourhood(robot, poses, delta_q, samples, rng)))
+    sets.append(("workspace", robot.random_configurations(workspace, rng)))
+    return sets, poses, region
 
 
 def accuracy(
@@ -356,24 +406,9 @@ def accuracy(
         seed: seed of the draws.
     """
     sigma = positive_sigma(sigma)
-    neighbourhoods = tuple(angle(d, "neighbourhoods (half-width)") for d in neighbourhoods)
-    samples = positive_int(samples, "samples")
-    workspace = positive_int(workspace, "workspace")
     robot = params.robot
     batch, batched = plan_batch(params, plan)
-    poses, region = resolve_test_poses(robot, test_pose)
-    rng = generator(seed)
-    first = "test region" if region is not None else "test pose" if len(poses) == 1 else "test poses"
-    sets = [(first, poses)]
-    per_radian = _prismatic_per_radian(test_pose)
-    prismatic = not np.all(robot.revolute)
-    for delta in neighbourhoods:
-        # around each test pose: beyond a region's edge
-        width = width_text(delta, delta * per_radian if prismatic else None)
-        label = f"region {width}" if region is not None else width
-        delta_q = np.where(robot.revolute, delta, delta * per_radian)
-        sets.append((label, _neighbourhood(robot, poses, delta_q, samples, rng)))
-    sets.append(("workspace", robot.random_configurations(workspace, rng)))
+    sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
     engine = engine_for(params)
     with blas_for(sum(len(qs) for _, qs in sets)):
         jacobians = [(where, engine.jacobian(qs, frame="tip").copy()) for where, qs in sets]
