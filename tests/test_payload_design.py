@@ -77,8 +77,13 @@ def test_the_plan_file_carries_the_payloads(params, designs, tmp_path):
 def test_monte_carlo_at_the_loaded_test_pose_matches_the_prediction(params, designs):
     # Draw true robots (geometry, gains, compliances), measure the plan under its payloads, identify,
     # and compare the calibrated with the true robot at the test pose under the task's payload.
+    # Then deploy each calibration as a user does (issue 20 item 6): compensate the test pose's joint
+    # target under the task's payload and run the command on the true robot: the tool misses the
+    # nominal target by the calibration's error, whose RMS is predicted by ρ0.
     loaded, _ = designs
-    errors = []
+    nominal = params.robot
+    target = nominal.points(Q0)
+    errors, compensated = [], []
     for trial in range(40):
         truth = pincal.random_errors(params, seed=100 + trial)
         data = pincal.simulate_measurements(
@@ -88,9 +93,14 @@ def test_monte_carlo_at_the_loaded_test_pose_matches_the_prediction(params, desi
         assert result.success
         error = result.robot.points(Q0, payload=TASK) - truth.robot.points(Q0, payload=TASK)
         errors.append(np.sum(error**2))
-    measured = np.sqrt(np.mean(errors))
+        command = pincal.compensate(result.robot, nominal, Q0[None], payload=TASK).commands
+        compensated.append(np.sum((truth.robot.points(command, payload=TASK) - target) ** 2))
+    measured, deployed = np.sqrt(np.mean(errors)), np.sqrt(np.mean(compensated))
     # 40 trials of a 3-coordinate error: the RMS is within ±25 % of ρ0 at 2 standard deviations.
     assert 0.75 * loaded.rho0 < measured < 1.3 * loaded.rho0
+    assert 0.75 * loaded.rho0 < deployed < 1.3 * loaded.rho0
+    # Uncompensated, the same command misses by the robot's own errors: millimetres, not ρ0.
+    assert np.linalg.norm(truth.robot.points(Q0, payload=TASK) - target) > 20 * loaded.rho0
 
 
 def test_bad_payload_designs_are_refused(params):
