@@ -26,6 +26,23 @@ def test_design_measure_identify_compensate(cli, tmp_path):
     assert abs(split["total"] - design["rho0"] ** 2) < 1e-6 * split["total"]
     header = plan.read_text().splitlines()[0]
     assert header.endswith("payload_kg,payload_x,payload_y,payload_z")
+    # The accuracy report is under the task's payload: its test-pose row is the design's rho0.
+    assert abs(design["accuracy"]["plans"][0]["rows"][0]["rms"] - design["rho0"]) < 1e-9 * design["rho0"]
+    # evaluate reads the plan's payloads and takes the task's: the design's numbers again.
+    evaluated = cli.json(
+        "evaluate", *ROBOT, "--plan", plan, "--test-pose=0,-60,60,0,45,0", "--deg", "--params", PARAMS,
+        "--task-payload", 270, "--payload-centre", "0,0,0.25", "--no-accuracy",
+    )  # fmt: skip
+    assert abs(evaluated["rho0"] - design["rho0"]) < 1e-9 * design["rho0"]
+    assert abs(evaluated["rho0_split"]["elastic"] - split["elastic"]) < 1e-9 * split["total"]
+    bare = cli.json(
+        "evaluate", *ROBOT, "--plan", plan, "--test-pose=0,-60,60,0,45,0", "--deg", "--params", PARAMS,
+        "--no-accuracy",
+    )  # fmt: skip
+    assert bare["rho0"] != evaluated["rho0"] and bare["task_payload"] is None
+    code, _, err = cli.run("design", *ROBOT, "-m", 24, "--test-pose=0,-60,60,0,45,0", "--deg", "--params",
+                           PARAMS, "--payloads", "0,135", "--baseline", 10)  # fmt: skip
+    assert code == 2 and "--baseline (random plans carry no payloads)" in err
     code, out, err = cli.run(
         "measure-sim", *ROBOT, "--plan", plan, "--deg", "--params", PARAMS, "--error-std", "5e-4,5e-4",
         "--sigma", 3e-5, "--seed", 3, "--out", meas,

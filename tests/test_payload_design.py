@@ -62,6 +62,32 @@ def test_the_split_adds_up_and_says_what_the_payloads_bought(params, designs):
     )
 
 
+def test_the_accuracy_report_is_under_the_plans_payloads_and_the_tasks(params, designs):
+    loaded, bare = designs
+    report = pincal.accuracy(
+        params, loaded.plan, Q0, SIGMA, compare={"payload-free": bare.plan}, samples=32, workspace=64,
+        task_payload=TASK,
+    )  # fmt: skip
+    assert report.plans[0].row("test pose").rms == pytest.approx(loaded.rho0, rel=1e-9)
+    assert report.plans[1].row("test pose").rms == pytest.approx(bare.rho0, rel=1e-9)
+    # Unloaded the same test pose is another number: the task's payload is what the report is under.
+    unloaded = pincal.accuracy(params, loaded.plan, Q0, SIGMA, samples=32, workspace=64)
+    assert unloaded.plans[0].row("test pose").rms == pytest.approx(
+        pincal.rho0(params, loaded.plan, Q0, SIGMA), rel=1e-9
+    )
+    assert unloaded.plans[0].row("test pose").rms != pytest.approx(loaded.rho0, rel=1e-3)
+
+
+def test_a_taught_pool_with_payloads(params):
+    taught = params.robot.random_configurations(60, 4, margin=0.1)
+    result = pincal.design(
+        params, 15, Q0, payloads=PAYLOADS, task_payload=TASK, pool=taught, starts=1, seed=0
+    )
+    rows = {tuple(q) for q in np.round(taught, 12)}
+    assert all(tuple(q) in rows for q in np.round(result.plan.q, 12))  # the plan is made of the pool's
+    assert set(result.plan.payload[:, 0]) <= set(PAYLOADS)
+
+
 def test_the_plan_file_carries_the_payloads(params, designs, tmp_path):
     loaded, _ = designs
     path = tmp_path / "plan.csv"
@@ -106,7 +132,7 @@ def test_monte_carlo_at_the_loaded_test_pose_matches_the_prediction(params, desi
 def test_bad_payload_designs_are_refused(params):
     with pytest.raises(BadArgument, match="payloads must be"):
         pincal.design(params, 15, Q0, payloads=[])
-    with pytest.raises(BadArgument, match="exchange over a generated pool"):
+    with pytest.raises(BadArgument, match="exchange over a pool"):
         pincal.design(params, 15, Q0, payloads=PAYLOADS, method="continuous")
     with pytest.raises(BadArgument, match="mass"):
         pincal.design(params, 15, Q0, payloads=[-5.0])

@@ -23,6 +23,7 @@ from pincal.errors import BadArgument, PincalError, SingularPlan
 from pincal.evaluation.accuracy import AccuracyReport, accuracy, error_profile
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestPath, around, cartesian_box, resolve_test_poses
+from pincal.model.statics import Payload
 from pincal.planning.driver import design
 from pincal.viewing.plots import error_vs_distance, save_figure
 
@@ -85,10 +86,21 @@ def add_report_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def report_accuracy(
-    args, params, plan, test_pose, sigma: float, prior, reference=None, constraints=(), pool=None
+    args,
+    params,
+    plan,
+    test_pose,
+    sigma: float,
+    prior,
+    reference=None,
+    constraints=(),
+    pool=None,
+    task_payload=None,
 ):
     """The accuracy report the command prints (None with --no-accuracy or without a test pose), and
-    the --accuracy-plot saved; ``reference`` defaults to a D-optimal plan of the same size."""
+    the --accuracy-plot saved; ``reference`` defaults to a D-optimal plan of the same size (without
+    payloads); every plan is evaluated under its own payloads, the configurations reported on under
+    ``task_payload``."""
     if test_pose is None or args.no_accuracy:
         if args.accuracy_plot:
             raise BadArgument("--accuracy-plot needs a test pose or region, and no --no-accuracy")
@@ -96,14 +108,14 @@ def report_accuracy(
     if reference is None:
         reference = d_optimal_plan(params, len(plan), constraints, pool, getattr(args, "seed", 0))
     try:
-        report = accuracy_report(params, plan, test_pose, sigma, prior, reference)
+        report = accuracy_report(params, plan, test_pose, sigma, prior, reference, task_payload=task_payload)
     except SingularPlan:
         if args.accuracy_plot:
             raise
         return None  # the command says the plan is singular its own way
     if args.accuracy_plot:
         plans = {"plan": plan} if reference is None else {"plan": plan, "D-optimal": reference}
-        save_accuracy_plot(args.accuracy_plot, params, plans, test_pose, sigma, prior)
+        save_accuracy_plot(args.accuracy_plot, params, plans, test_pose, sigma, prior, task_payload)
     return report
 
 
@@ -165,6 +177,47 @@ def test_region_from_args(robot, args: argparse.Namespace, required: bool = True
     return np.array(poses)
 
 
+def add_task_payload_arguments(parser: argparse.ArgumentParser) -> None:
+    """--task-payload, --payload-centre."""
+    parser.add_argument(
+        "--task-payload", type=float, metavar="KG", help="the task's payload at the test pose(s) (compliance)"
+    )
+    parser.add_argument(
+        "--payload-centre",
+        metavar="X,Y,Z",
+        help="the payloads' centre of mass in the tip frame [m] (default 0)",
+    )
+
+
+def payload_centre_from_args(args: argparse.Namespace) -> tuple[float, float, float]:
+    """--payload-centre as (x, y, z) [m] (the tip origin when not given)."""
+    if args.payload_centre is None:
+        return (0.0, 0.0, 0.0)
+    values = parse_floats(args.payload_centre, "--payload-centre")
+    if len(values) != 3:
+        raise BadArgument(f"--payload-centre {args.payload_centre!r}: expected X,Y,Z (three numbers, metres)")
+    return tuple(values)
+
+
+def task_payload_from_args(args: argparse.Namespace) -> Payload | None:
+    """The --task-payload at --payload-centre, or None."""
+    if args.task_payload is None:
+        if args.payload_centre is not None and getattr(args, "payloads", None) is None:
+            raise BadArgument("--payload-centre needs --task-payload (or --payloads)")
+        return None
+    return Payload(args.task_payload, payload_centre_from_args(args))
+
+
+def split_line(split: dict) -> str:
+    """ρ0² split into its causes (:func:`~pincal.evaluation.test_pose.rho0_split`), one line."""
+    parts = {k: v * 1e6 for k, v in split.items()}
+    return (
+        f"rho0^2 under the task's payload, by cause [mm^2]: geometric {parts['geometric']:.3g}, elastic "
+        f"(gains, compliance) {parts['elastic']:.3g}, their correlation {parts['cross']:+.3g}; "
+        f"sum {parts['total']:.3g}"
+    )
+
+
 def prior_from_args(args: argparse.Namespace) -> Prior | None:
     """The --prior, or None."""
     return Prior.parse(args.prior) if args.prior else None
@@ -197,13 +250,19 @@ def d_optimal_plan(params, m: int, constraints=(), pool=None, seed: int = 0):
             return None
 
 
-def accuracy_report(params, plan, test_pose, sigma: float, prior, reference, seed: int = 0) -> AccuracyReport:
+def accuracy_report(
+    params, plan, test_pose, sigma: float, prior, reference, seed: int = 0, task_payload=None
+) -> AccuracyReport:
     """The accuracy report of ``plan`` next to ``reference`` (the D-optimal plan, if any)."""
     compare = {} if reference is None else {"D-optimal": reference}
-    return accuracy(params, plan, test_pose, sigma, prior=prior, compare=compare, seed=seed)
+    return accuracy(
+        params, plan, test_pose, sigma, prior=prior, compare=compare, seed=seed, task_payload=task_payload
+    )
 
 
-def save_accuracy_plot(path: str, params, plans: dict, test_pose, sigma: float, prior) -> None:
+def save_accuracy_plot(
+    path: str, params, plans: dict, test_pose, sigma: float, prior, task_payload=None
+) -> None:
     """The predicted error against the distance from the test pose, for each plan, saved."""
-    profiles = error_profile(params, plans, test_pose, sigma, prior)
+    profiles = error_profile(params, plans, test_pose, sigma, prior, task_payload=task_payload)
     save_figure(error_vs_distance(profiles), path)

@@ -13,8 +13,12 @@ from pincal.cli._accuracy import (
     REGION_HELP,
     add_region_arguments,
     add_report_arguments,
+    add_task_payload_arguments,
+    payload_centre_from_args,
     prior_from_args,
     report_accuracy,
+    split_line,
+    task_payload_from_args,
     test_region_from_args,
 )
 from pincal.cli._common import (
@@ -67,6 +71,14 @@ examples:
       --params lengths,offsets,gains,compliance --payloads 0,135,270 --task-payload 270 \
       --payload-centre 0,0,0.25 --out plan.csv      # choose a payload per configuration
 
+Payloads (--payloads KG,KG,...; --task-payload KG; --payload-centre X,Y,Z): the exchange chooses a
+payload for each configuration of a generated pool (--pool-size) or of your --pool; the plan CSV
+carries payload columns, rho0 is under the task's payload, split into its geometric and elastic
+parts, and the accuracy report (and --accuracy-plot) is under the task's payload too, next to a
+payload-free D-optimal plan. {limits}.
+--residual-model CAL.urdf: a top-up plan for the residual model of an earlier calibration; the
+report gives its expected error at the test pose(s) (no accuracy table, no --pool or --accuracy-plot).
+
 Criteria (--criterion): test-pose (rho0, root mean square over several --test-pose), test-pose-worst
 (the worst test pose; --worst is the same), D, A, E, cond. Methods: exchange (the default: best m of
 a pool of feasible configurations, then refined by the continuous search unless --no-polish; --pool
@@ -87,7 +99,15 @@ Units: metres and radians; --deg reads test poses and --pool, and writes --out a
 in degrees. The JSON plan is always in radians; rho0 is in metres for --sigma
 (default 3e-5 m, a laser tracker; the report says which sigma it used).
 """
-EXAMPLES = EXAMPLES.replace("{region}", REGION_HELP.rstrip()).replace("{conditioning}", CONDITIONING_HELP)
+PAYLOAD_LIMITS = (
+    "not supported with them: --baseline (random plans carry no payloads), --method continuous and "
+    "--polish (the continuous search cannot choose among discrete payloads)"
+)
+EXAMPLES = (
+    EXAMPLES.replace("{region}", REGION_HELP.rstrip())
+    .replace("{conditioning}", CONDITIONING_HELP)
+    .replace("{limits}", PAYLOAD_LIMITS[0].upper() + PAYLOAD_LIMITS[1:])
+)
 
 
 def add_design_arguments(p: argparse.ArgumentParser) -> None:
@@ -171,14 +191,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="the payloads you can mount: a payload is chosen for each configuration (the plan CSV carries "
         "payload columns); an exchange over (configuration, payload) pairs",
     )
-    p.add_argument(
-        "--task-payload", type=float, metavar="KG", help="the task's payload at the test pose(s) (compliance)"
-    )
-    p.add_argument(
-        "--payload-centre",
-        metavar="X,Y,Z",
-        help="the payloads' centre of mass in the tip frame [m] (default 0)",
-    )
+    add_task_payload_arguments(p)
     p.add_argument(
         "--residual-model",
         metavar="CAL.urdf",
@@ -228,24 +241,50 @@ def run(args: argparse.Namespace) -> int:
     if args.residual_model:
         loads["residual_model"] = _residual_model(robot, args.residual_model)
     if loads:
-        if args.baseline is not None or args.accuracy_plot or taught is not None:
-            raise BadArgument(
-                "--payloads/--task-payload design over a generated pool: no --baseline, --pool or "
-                "--accuracy-plot with them"
-            )
+        _check_payload_design(args, loads)
         options = {k: v for k, v in options.items() if k not in ("method", "polish", "workers", "progress")}
         options.update(loads)
-        args.no_accuracy = True  # the accuracy report away from the test pose is for payload-free plans
+        if "residual_model" in loads:
+            args.no_accuracy = True  # its expected error is the criterion's, printed instead
     with recorded_warnings() as records:
         result = design(params, args.m, q0, criterion, **options)
         baseline = None
         if args.baseline is not None:
             baseline = _baseline(params, args, q0, criterion, taught, options)
         reference = None if baseline is None else baseline[1].plan
-        report = report_accuracy(args, params, result.plan, q0, sigma, prior, reference, constraints, pool)
+        report = report_accuracy(
+            args,
+            params,
+            result.plan,
+            q0,
+            sigma,
+            prior,
+            reference,
+            constraints,
+            pool,
+            loads.get("task_payload"),
+        )
     _write_and_print(args, robot, params, source, result, baseline, report, sigma_text)
     print_warnings(records)  # last, where they are seen
     return 0
+
+
+def _check_payload_design(args: argparse.Namespace, loads: dict) -> None:
+    """What a design with --payloads/--task-payload/--residual-model does not take, said."""
+    what = "--residual-model" if "residual_model" in loads else "--payloads/--task-payload"
+    refused = {
+        "--baseline": args.baseline is not None,
+        "--method continuous": args.method != "exchange",
+        "--polish": bool(args.polish),
+    }
+    if "residual_model" in loads:
+        refused.update({"--pool": bool(args.pool), "--accuracy-plot": bool(args.accuracy_plot)})
+    given = [name for name, on in refused.items() if on]
+    if given:
+        raise BadArgument(
+            f"{what}: the design is an exchange over (configuration, payload) pairs of a pool; it does "
+            f"not take {', '.join(given)} ({PAYLOAD_LIMITS})"
+        )
 
 
 def _residual_model(robot, urdf: str):
@@ -261,21 +300,15 @@ def _residual_model(robot, urdf: str):
 
 def _payload_options(args: argparse.Namespace) -> dict:
     """design()'s payloads and task_payload from --payloads, --task-payload, --payload-centre."""
-    if args.payloads is None and args.task_payload is None:
-        if args.payload_centre is not None:
-            raise BadArgument("--payload-centre needs --payloads or --task-payload")
+    task = task_payload_from_args(args)
+    if args.payloads is None and task is None:
         return {}
-    centre = (0.0, 0.0, 0.0)
-    if args.payload_centre is not None:
-        values = parse_floats(args.payload_centre, "--payload-centre")
-        if len(values) != 3:
-            raise BadArgument(
-                f"--payload-centre {args.payload_centre!r}: expected X,Y,Z (three numbers, metres)"
-            )
-        centre = tuple(values)
+    centre = payload_centre_from_args(args)
     masses = [0.0] if args.payloads is None else parse_floats(args.payloads, "--payloads")
-    task = 0.0 if args.task_payload is None else args.task_payload
-    return {"payloads": [Payload(kg, centre) for kg in masses], "task_payload": Payload(task, centre)}
+    return {
+        "payloads": [Payload(kg, centre) for kg in masses],
+        "task_payload": task if task is not None else Payload(0.0, centre),
+    }
 
 
 def _baseline(params, args: argparse.Namespace, q0, criterion: str, taught, options: dict) -> tuple:
@@ -402,12 +435,7 @@ def print_design(
         print(f"{result.criterion} = {result.value:.6g}")
     print(f"conditioning {result.conditioning:.3g}")
     if split is not None:
-        parts = {k: v * 1e6 for k, v in split.items()}
-        print(
-            f"rho0^2 under the task's payload, by cause [mm^2]: geometric {parts['geometric']:.3g}, elastic "
-            f"(gains, compliance) {parts['elastic']:.3g}, their correlation {parts['cross']:+.3g}; "
-            f"sum {parts['total']:.3g}"
-        )
+        print(split_line(split))
     print("plan:")
     for line in format_plan(robot, result.plan, degrees):
         print(line)

@@ -11,8 +11,11 @@ from pincal.cli._accuracy import (
     REGION_HELP,
     add_region_arguments,
     add_report_arguments,
+    add_task_payload_arguments,
     prior_from_args,
     report_accuracy,
+    split_line,
+    task_payload_from_args,
     test_region_from_args,
 )
 from pincal.cli._common import (
@@ -33,7 +36,7 @@ from pincal.cli._common import (
 from pincal.errors import SingularPlan
 from pincal.evaluation.classic import criteria
 from pincal.evaluation.data_check import check_plan
-from pincal.evaluation.test_pose import rho0_each
+from pincal.evaluation.test_pose import rho0_each, rho0_split
 
 HELP = COMMANDS["evaluate"].help
 EXAMPLES = """\
@@ -45,6 +48,8 @@ examples:
       --test-pose=0.5,-1.2,1.0,0,0.8,0 --worst
   pincal evaluate kr270 --plan plan.csv --deg --test-path weld.csv --marker 0.1,0.05,0.2 --sigma 3e-5 \\
       --prior 1mm,1mrad --accuracy-plot accuracy.png
+  pincal evaluate kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 \
+      --params lengths,offsets,gains,compliance --task-payload 270 --payload-centre 0,0,0.25
 
 PLAN.csv: a header row of joint names, one configuration per row, radians (degrees with --deg).
 rho0 is in metres for --sigma (noise per coordinate, metres; default 3e-5, a laser tracker).
@@ -52,6 +57,9 @@ The report also checks the parameters on the plan's configurations: rank and con
 weakest combinations, and those the plan cannot determine to 1 cm / 10 mrad for the noise --sigma.
 The design criteria (D: log_det, A: trace, E: max_eig, cond: σ_max/σ_min of the unscaled Jacobian,
 unit-dependent, for --criterion cond; O1-O4 higher is better) are listed for comparison.
+A plan with payload columns (from 'design --payloads') is evaluated under its payloads, and the test
+pose(s) under --task-payload KG (centre --payload-centre, tip frame; default none), as design does:
+with gains or compliances among --params, rho0^2 is split into its geometric and elastic parts.
 """
 EXAMPLES += "\n" + CONDITIONING_HELP + "\n\n" + REGION_HELP
 
@@ -68,6 +76,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--sigma", type=float, default=None, help=SIGMA_HELP)
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
+    add_task_payload_arguments(p)
     add_report_arguments(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
@@ -80,7 +89,8 @@ def run(args: argparse.Namespace) -> int:
     plan = read_plan(robot, args.plan, args.deg)
     q0 = test_region_from_args(robot, args)
     prior = prior_from_args(args)
-    each = rho0_each(params, plan, q0, sigma=sigma, prior=prior)
+    task = task_payload_from_args(args)
+    each = rho0_each(params, plan, q0, sigma=sigma, prior=prior, task_payload=task)
     value = float(each.max()) if args.worst else float(np.sqrt(np.mean(each**2)))
     try:
         crit = criteria(params, plan)
@@ -88,7 +98,10 @@ def run(args: argparse.Namespace) -> int:
         if prior is None:
             raise
         crit = None  # the prior makes ρ0 finite; the classic criteria of M alone are not
-    report = report_accuracy(args, params, plan, q0, sigma, prior)
+    report = report_accuracy(args, params, plan, q0, sigma, prior, task_payload=task)
+    split = None
+    if prior is None and any(p.kind in ("gain", "compliance") for p in params):
+        split = rho0_split(params, plan, q0, sigma, task)
     check = check_plan(params, plan, sigma)
     if args.json:
         emit_json(
@@ -106,6 +119,8 @@ def run(args: argparse.Namespace) -> int:
                 "criteria": None if crit is None else crit.as_dict(),
                 "prior": None if prior is None else prior.as_dict(),
                 "accuracy": None if report is None else report.as_dict(),
+                "task_payload": None if task is None else task.row.tolist(),
+                "rho0_split": split,
                 "data_check": check.as_dict(),
             }
         )
@@ -129,6 +144,8 @@ def run(args: argparse.Namespace) -> int:
         )
         for name, v in crit.as_dict().items():
             print(f"  {name:8s} {v:.6g}")
+    if split is not None:
+        print(split_line(split))
     print(check.report())
     if report is not None:
         print("\n".join(report.lines(degrees=args.deg)))

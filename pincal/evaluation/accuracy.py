@@ -24,12 +24,13 @@ import numpy as np
 
 from pincal.arguments import angle, generator, positive_int, positive_sigma
 from pincal.evaluation.information import factor
-from pincal.evaluation.plans import blas_for, engine_for, plan_batch
+from pincal.evaluation.plans import blas_for, engine_for, plan_batch, plan_payloads
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import Neighbourhood, ResolvedRegion, resolve_test_poses, width_text
 from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.lapack import trtrs
 from pincal.model.parameters import ParameterSet
+from pincal.model.statics import payload_rows
 
 NEIGHBOURHOODS = (math.radians(10), math.radians(20))
 """Half-widths of the neighbourhoods every report covers [rad]."""
@@ -54,18 +55,33 @@ class PredictedError:
         plan: (m, nq) configurations or a Plan.
         sigma: measurement noise per coordinate [m].
         prior: the errors' prior, or None.
+        task_payload: the load under which ρ(q) is asked (one for every q: a mass [kg] or a
+            :class:`~pincal.Payload`), or None; the plan's own payloads (:attr:`Plan.payload`)
+            enter its information.
+        payload: the plan's payload rows (m, 4), instead of its own.
 
     Raises:
         SingularPlan: the plan cannot identify ``params`` (never with a prior on every parameter).
     """
 
-    def __init__(self, params: ParameterSet, plan: object, sigma: float, prior: Prior | None = None) -> None:
+    def __init__(
+        self,
+        params: ParameterSet,
+        plan: object,
+        sigma: float,
+        prior: Prior | None = None,
+        task_payload: object = None,
+        payload: object = None,
+    ) -> None:
         self.params = params
         self.sigma = positive_sigma(sigma)
         self.prior = prior
+        self.task_payload = task_payload
         self.engine = engine_for(params)
         qs = params.robot.configurations(plan)
-        J = self.engine.jacobian(qs, frame="tip").reshape(-1, len(params))
+        if payload is None:
+            payload = getattr(plan, "payload", None)
+        J = self.engine.jacobian(qs, frame="tip", payload=payload).reshape(-1, len(params))
         self.information = J.T @ J  # M, of the measurements alone
         self.m = len(qs)
         posterior = (
@@ -78,7 +94,9 @@ class PredictedError:
         qs = np.atleast_2d(qs)
         out = np.empty(len(qs))
         for a in range(0, len(qs), chunk):
-            J = self.engine.jacobian(qs[a : a + chunk], frame="tip")
+            n = len(qs[a : a + chunk])
+            load = None if self.task_payload is None else payload_rows(self.task_payload, n)
+            J = self.engine.jacobian(qs[a : a + chunk], frame="tip", payload=load)
             out[a : a + len(J)] = self.squared_at(J)
         return out
 
@@ -381,6 +399,7 @@ def accuracy(
     samples: int = NEIGHBOURHOOD_SAMPLES,
     workspace: int = WORKSPACE_SAMPLES,
     seed: int = 0,
+    task_payload: object = None,
 ) -> AccuracyReport | tuple[AccuracyReport, ...]:
     """Predicted error after calibrating with ``plan`` (and each plan of ``compare``), at the
     test pose(s), over neighbourhoods of them, and over the workspace; for a batch of plans
@@ -404,6 +423,9 @@ def accuracy(
         samples: configurations per neighbourhood.
         workspace: configurations over the workspace.
         seed: seed of the draws.
+        task_payload: the task's load at every configuration reported on (with compliance
+            parameters: ρ is asked under it, as :func:`pincal.rho0`'s ``task_payload``); each
+            plan's own payloads (:attr:`Plan.payload`) enter its information.
     """
     sigma = positive_sigma(sigma)
     robot = params.robot
@@ -411,19 +433,33 @@ def accuracy(
     sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
     engine = engine_for(params)
     with blas_for(sum(len(qs) for _, qs in sets)):
-        jacobians = [(where, engine.jacobian(qs, frame="tip").copy()) for where, qs in sets]
-        at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior)
+        jacobians = [
+            (where, engine.jacobian(qs, frame="tip", payload=_loads(task_payload, len(qs))).copy())
+            for where, qs in sets
+        ]
+        at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior, task_payload)
+        loads = plan_payloads(plan, batch.shape)
+        plans = [
+            (q, None if loads is None else loads[i * len(q) : (i + 1) * len(q)]) for i, q in enumerate(batch)
+        ]
         before = None
         if prior is not None and np.all(np.isfinite(prior.std(params))):
             J0 = jacobians[0][1]  # ρ² is unchanged by each pose's rotation to the tip frame
             before = float(np.sqrt(np.einsum("kip,p,kip->", J0, prior.std(params) ** 2, J0) / len(poses)))
         compared = [
-            (name, _plan_accuracy(name, q, params, sigma, prior, jacobians, region, at_test_poses))
+            (
+                name,
+                _plan_accuracy(name, q, params, sigma, prior, jacobians, region, at_test_poses, task_payload),
+            )
             for name, q in (compare or {}).items()
         ]
         reports = tuple(
             AccuracyReport(
-                (_plan_accuracy("plan", q, params, sigma, prior, jacobians, region, at_test_poses),)
+                (
+                    _plan_accuracy(
+                        "plan", q, params, sigma, prior, jacobians, region, at_test_poses, task_payload, load
+                    ),
+                )
                 + tuple(c for _, c in compared),
                 float(sigma),
                 prior,
@@ -431,14 +467,22 @@ def accuracy(
                 "test pose" if region is None else region.description,
                 tuple(bool(r) for r in robot.revolute),
             )
-            for q in batch
+            for q, load in plans
         )
     return reports if batched else reports[0]
 
 
-def _plan_accuracy(name, q, params, sigma, prior, jacobians, region, at_test_poses) -> PlanAccuracy:
-    """One plan's accuracy on the sets of configurations (their Jacobians given)."""
-    predicted = PredictedError(params, q, sigma, prior)
+def _loads(task_payload: object, n: int) -> np.ndarray | None:
+    """(n, 4) rows of the task's load at n configurations, or None."""
+    return None if task_payload is None else payload_rows(task_payload, n)
+
+
+def _plan_accuracy(
+    name, q, params, sigma, prior, jacobians, region, at_test_poses, task_payload=None, load=None
+) -> PlanAccuracy:
+    """One plan's accuracy on the sets of configurations (their Jacobians given); ``load`` the
+    plan's payload rows (default its own, if it is a Plan)."""
+    predicted = PredictedError(params, q, sigma, prior, task_payload, load)
     rows = tuple(ErrorSummary.of(where, np.sqrt(predicted.squared_at(J))) for where, J in jacobians)
     worst = None if region is None else worst_found(predicted, region)
     noise, bias = at_test_poses.split(predicted.information, predicted.m)
@@ -475,6 +519,7 @@ def error_profile(
     steps: int = 13,
     samples: int = 128,
     seed: int = 0,
+    task_payload: object = None,
 ) -> tuple[ErrorProfile, ...]:
     """Median and 95th percentile of ρ on shells at distance d = max_j |q_j − q0_j| from the test
     pose(s), for d in [0, max_distance] (``samples`` configurations per shell, the same for every
@@ -496,7 +541,7 @@ def error_profile(
         shells.append(np.clip(centres + step * u, robot.lower, robot.upper))
     out = []
     for name, plan in plans.items():
-        predicted = PredictedError(params, plan, sigma, prior)
+        predicted = PredictedError(params, plan, sigma, prior, task_payload)
         rho = np.array([np.sqrt(predicted.squared(s)) for s in shells])
         out.append(ErrorProfile(name, distance, np.median(rho, axis=1), np.percentile(rho, 95, axis=1)))
     return tuple(out)

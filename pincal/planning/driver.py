@@ -166,7 +166,8 @@ def design(
         payloads: the payloads the experiment can mount (masses [kg] or :class:`~pincal.Payload`,
             e.g. ``[0, 50, 100]``): each configuration is chosen with one of them, the plan carries
             them (:mod:`pincal.planning.payloads`: an exchange over (configuration, payload) pairs
-            of a generated pool; no polish, init or user pool).
+            of a generated pool, or of ``pool`` if given; no polish or init: the continuous
+            search cannot choose among discrete payloads).
         task_payload: the payload at the test pose(s), the task's load (with compliance
             parameters, ρ0 is then at that load); designs through the same exchange.
         residual_model: a residual model from an earlier campaign (``result.residual_model``): the
@@ -193,15 +194,11 @@ def design(
         1.0
     """
     if payloads is not None or task_payload is not None or residual_model is not None:
-        if (
-            method != "exchange"
-            or init
-            or polish
-            or not (pool is None or isinstance(pool, (int, np.integer)))
-        ):
+        if method != "exchange" or init or polish:
             raise BadArgument(
-                "a design with payloads or a residual model is an exchange over a generated pool: "
-                "leave method, pool (a size at most), init and polish at their defaults"
+                "a design with payloads or a residual model is an exchange over a pool of candidate "
+                "configurations (generated, or yours: pool=): leave method, init and polish at their "
+                "defaults (the continuous polish cannot choose among discrete payloads)"
             )
         with _multistart.single_threaded_blas():
             return _payloads.design_with_payloads(

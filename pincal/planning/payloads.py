@@ -69,7 +69,7 @@ def design_with_payloads(
     task_payload: object = None,
     criterion: str = "test-pose",
     constraints: Iterable[AnyConstraint] = (),
-    pool: int = 1000,
+    pool: int | np.ndarray = 1000,
     starts: int = 8,
     seed: SeedLike = 0,
     sigma: float = DEFAULT_SIGMA,
@@ -88,7 +88,8 @@ def design_with_payloads(
             none).
         task_payload: the payload at the test pose(s) (the task's load).
         criterion, constraints, starts, seed, sigma, prior, min_conditioning: as :func:`~pincal.design`.
-        pool: number of random feasible configurations, each paired with every payload.
+        pool: number of random feasible configurations, each paired with every payload; or your
+            own (n, nq) configurations (e.g. taught poses), the infeasible ones left out.
         residual_model: a residual model from an earlier campaign: the criterion is then the
             expected error with it (tr Σ₀, test-pose criterion only, no prior).
 
@@ -106,12 +107,17 @@ def design_with_payloads(
     if information is None and m * per_row < len(params):
         raise SingularPlan(len(params), per_row, m)
     test_poses = checked_test_poses(params, test_pose, criterion)
-    size, starts = positive_int(pool, "pool size", m), positive_int(starts, "starts")
+    starts = positive_int(starts, "starts")
     entropy = seed_entropy(seed)
     sequence = np.random.SeedSequence(entropy)
     feasibility = Feasibility(params.robot, tuple(constraints))
     rng = np.random.default_rng(sequence.spawn(1)[0])
-    candidates = feasibility.sample(size, rng, minimum=m)
+    if isinstance(pool, (int, np.integer)):
+        size = positive_int(pool, "pool size", m)
+        candidates = feasibility.sample(size, rng, minimum=m)
+    else:
+        candidates, _ = feasibility.feasible_pool(pool, m)
+        size = len(candidates)
     if residual_model is not None and test_poses is not None:  # where the residual is correlated
         candidates = np.vstack([candidates, _near(params.robot, feasibility, test_poses, size // 4, rng)])
     q_pool = np.repeat(candidates, len(rows), axis=0)
