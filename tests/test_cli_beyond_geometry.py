@@ -71,6 +71,10 @@ def test_params_reports_compliance_separation(cli):
     code, out, _ = cli.run("params", *ROBOT, "--params", "lengths,offsets,compliance")
     assert code == 0
     assert "gravity applies no torque on this joint" in out and "compliance separation" in out
+    assert "--payloads 0,50,100" in out  # how to see what a payload change buys, on the command line
+    loaded = cli.json("params", *ROBOT, "--params", "lengths,offsets,compliance", "--payloads", "0,135,270")
+    assert set(loaded["compliance_separation_with_payloads"]) == set(loaded["compliance_separation"])
+    assert all(0 < v <= 1 for v in loaded["compliance_separation_with_payloads"].values())
 
 
 def test_residual_model_from_identify_to_a_top_up_design(cli, tmp_path):

@@ -129,6 +129,21 @@ def test_monte_carlo_at_the_loaded_test_pose_matches_the_prediction(params, desi
     assert np.linalg.norm(truth.robot.points(Q0, payload=TASK) - target) > 20 * loaded.rho0
 
 
+def test_a_compliance_the_data_cannot_separate_says_what_would(params):
+    # Only the first joint moves: the gravity torque on joints 2-5 never changes, so each compliance
+    # moves the points exactly as its joint's offset does, unless the payload changes.
+    robot = params.robot
+    offsets = robot.parameters("offsets,compliance").identifiable().identifiable
+    plan = robot.random_configurations(30, 1)
+    plan[:, 1:5] = plan[0, 1:5]
+    check = pincal.check_plan(offsets, plan, SIGMA)
+    dropped = [n for n in check.dropped if n.endswith(".compliance")]
+    assert dropped and all("measure under several payloads" in check.dropped[n] for n in dropped)
+    loads = np.column_stack([np.resize(PAYLOADS, 30), np.zeros((30, 3))])
+    loaded = pincal.check_plan(offsets, pincal.Plan.for_robot(robot, plan, loads), SIGMA)
+    assert not [n for n in loaded.dropped if n.endswith(".compliance")]
+
+
 def test_bad_payload_designs_are_refused(params):
     with pytest.raises(BadArgument, match="payloads must be"):
         pincal.design(params, 15, Q0, payloads=[])

@@ -16,12 +16,14 @@ from pincal.cli._common import (
     add_robot_arguments,
     emit_json,
     mentions_base,
+    parse_floats,
     read_plan,
     robot_from_args,
     seed_type,
     sigma_type,
 )
 from pincal.evaluation.data_check import check_plan
+from pincal.planning.plan import Plan
 
 HELP = COMMANDS["params"].help
 EXAMPLES = """\
@@ -32,6 +34,7 @@ examples:
   pincal params kr270 --marker 0.1,0.05,0.2 --base  # the set 'identify --base' uses on tracker data
   pincal params kr270 --marker 0.1,0.05,0.2 --data meas.csv --deg   # can YOUR data identify them?
   pincal params kr270 --marker 0.1,0.05,0.2 --plan plan.csv --deg --sigma 3e-5
+  pincal params kr270 --marker 0.1,0.05,0.2 --params lengths,offsets,gains,compliance --payloads 0,135,270
 
 With --data or --plan, the identifiable set is also checked on those configurations (what identify
 does first): rank and conditioning, the weakest combinations, and the parameters they cannot
@@ -41,7 +44,13 @@ determine to 1 cm / 10 mrad for the noise --sigma (default 3e-5 m).
 
 Names: <joint>.tx|ty|tz (origin xyz error, parent link coordinates, m), <joint>.rx|ry|rz (rotation
 about the joint frame's axes, rad), <joint>.offset, <tip>.tx..rz, marker<k>.x|y|z, base.tx..rz.
-Groups: offsets, lengths, full, base, markers; mix them and names with commas.
+<joint>.gain (the joint moves by q(1+gain)), <joint>.compliance (it yields by compliance x the
+gravity torque on it, rad/(N m) or m/N; the URDF must give the links' masses).
+Groups: offsets, lengths, full, base, markers, gains, compliance; mix them and names with commas.
+Compliance shows only through the gravity torques: a joint gravity never loads (a vertical axis) is
+dropped as invisible, and under the arm's own weight alone a compliance correlates with the link
+lengths; the report gives each compliance's separation (near 0: it cannot be told apart), and with
+--payloads the separation a payload change buys (design --payloads chooses them).
 """
 EXAMPLES = EXAMPLES.replace("{conditioning}", CONDITIONING_HELP)
 
@@ -62,6 +71,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     source = p.add_mutually_exclusive_group()
     source.add_argument("--data", metavar="MEAS.csv", help="check identifiability on these measurements")
     source.add_argument("--plan", metavar="PLAN.csv", help="check identifiability on these configurations")
+    p.add_argument(
+        "--payloads",
+        metavar="KG,KG,...",
+        help="with compliance parameters: the payloads you can mount; the report gives each compliance's "
+        "separation with them",
+    )
     p.add_argument("--deg", action="store_true", help="joint values of --data/--plan are in degrees")
     p.add_argument("--mm", action="store_true", help="coordinates of --data are in millimetres")
     p.add_argument(
@@ -78,15 +93,19 @@ def run(args: argparse.Namespace) -> int:
     spec = args.params + (",base" if args.base and not mentions_base(args.params) else "")
     params = robot.parameters(spec)
     # With the base, it is kept first: the chain parameters it makes redundant are the ones dropped.
-    ident = params.identifiable(seed=args.seed, prefer="base" if mentions_base(spec) else ())
+    payloads = None if args.payloads is None else parse_floats(args.payloads, "--payloads")
+    ident = params.identifiable(
+        seed=args.seed, prefer="base" if mentions_base(spec) else (), payloads=payloads
+    )
     check = None
     if args.data or args.plan:
         sigma = DEFAULT_SIGMA if args.sigma is None else positive_sigma(args.sigma, "--sigma")
         if args.data:
-            qs = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm).q
+            data = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm)
+            configurations = Plan.for_robot(robot, data.q, data.payload)  # under the payloads carried
         else:
-            qs = read_plan(robot, args.plan, args.deg).q
-        check = check_plan(ident.identifiable, qs, sigma)
+            configurations = read_plan(robot, args.plan, args.deg)
+        check = check_plan(ident.identifiable, configurations, sigma)
     if args.json:
         emit_json(
             {
@@ -101,6 +120,8 @@ def run(args: argparse.Namespace) -> int:
                 "dropped": ident.dropped,
                 "combinations": ident.combinations,
                 "data_check": check.as_dict() if check is not None else None,
+                "compliance_separation": ident.separation,
+                "compliance_separation_with_payloads": ident.separation_with_payloads,
             }
         )
         return 0

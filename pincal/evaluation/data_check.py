@@ -241,7 +241,18 @@ def _identifiable_subset(
             dropped[names[i]] = why
             continue
         kept, std = trial, np.sqrt(diag)
+    for i, name in enumerate(names):
+        if name in dropped and columns.units[i] in COMPLIANCE_UNITS:
+            dropped[name] += COMPLIANCE_HINT
     return kept, std, dropped
+
+
+COMPLIANCE_UNITS = ("rad/(N·m)", "m/N")
+COMPLIANCE_HINT = (
+    "; a compliance shows only through how the gravity torque on its joint varies over the data: "
+    "measure under several payloads (the payload_kg column; 'design --payloads' chooses them)"
+)
+"""What the reason a compliance is left out adds: how to make it separable."""
 
 
 def _refusal(columns: _Columns, trial: list[int], diag: np.ndarray | None) -> str | None:

@@ -153,7 +153,8 @@ class Identifiability:
             if self.separation_with_payloads is None:
                 lines.append(
                     "    a payload change breaks the correlation of compliance with the link lengths: "
-                    "give the payloads you can mount (payloads=[0, 50, 100]) to see by how much"
+                    "give the payloads you can mount (--payloads 0,50,100; payloads=[0, 50, 100] in Python) "
+                    "to see by how much"
                 )
         return "\n".join(lines)
 
