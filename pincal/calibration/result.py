@@ -131,9 +131,9 @@ class IdentificationResult:
 
     def expected_error(self, q: object, *, payload: object = None) -> np.ndarray:
         """(m,) the expected distance [m] between the points :meth:`predict` gives at joint readings
-        ``q`` (all markers) and the robot's true ones: sqrt(tr(J C Jᵀ) + 3K·v(q)), the parameters'
-        standard errors propagated to the points (the ρ of docs/method.md §8.3 with this fit's
-        covariance) and, with a residual model, its posterior variance v per coordinate (what it
+        ``q`` (all markers) and the robot's true ones (docs/method.md §11.6): sqrt(tr(J C Jᵀ) +
+        3K·v(q)), the parameters' standard errors propagated to the points (the ρ of §8.3 with this
+        fit's covariance) and, with a residual model, its posterior variance v per coordinate (what it
         cannot say there: small near the data it was fitted on, its amplitude s² far from them).
         Without a residual model it assumes the fitted model explains the robot: the residuals say
         how far it does not."""
