@@ -11,6 +11,8 @@ import pytest
 
 import pincal
 from pincal.calibration.synthetic import SmoothField
+from pincal.calibration.validation import holdout, kfold, validate
+from pincal.evaluation.test_pose import rho0_each
 from pincal.model.residual import ResidualModel, features
 
 SIGMA = 1e-5
@@ -39,7 +41,7 @@ def field_data(ur10, params):
 @pytest.fixture(scope="module")
 def with_gp(params, field_data):
     pytest.importorskip("sklearn")
-    return pincal.holdout(params, field_data, 0.3, seed=1, sigma=SIGMA, residual_model="gp")
+    return holdout(params, field_data, 0.3, seed=1, sigma=SIGMA, residual_model="gp")
 
 
 def test_expected_error_is_the_parameters_and_the_gp_variance_computed_independently(params, with_gp, ur10):
@@ -73,9 +75,7 @@ def test_without_a_residual_model_it_is_the_plans_rho0(params, ur10):
     data = pincal.simulate_measurements(pincal.random_errors(params, seed=4), plan, SIGMA, seed=5)
     result = pincal.identify(params, data, sigma=SIGMA)
     q0 = ur10.random_configurations(3, 11)
-    np.testing.assert_allclose(
-        result.expected_error(q0), pincal.rho0_each(params, plan, q0, sigma=SIGMA), rtol=1e-2
-    )
+    np.testing.assert_allclose(result.expected_error(q0), rho0_each(params, plan, q0, sigma=SIGMA), rtol=1e-2)
     parameters, gp = result.point_variances(q0)
     assert np.all(gp == 0.0)
     assert "the parameters' standard errors alone" in result.report()
@@ -109,7 +109,7 @@ def test_the_held_out_error_is_predicted_with_the_residual_model(params, field_d
     assert summary["residual_model"] > summary["parameters"] > 0
     assert validation.as_dict()["expected_rms"] == pytest.approx(validation.expected_rms)
     # Without the residual model the same fit predicts far less than it delivers, and says why.
-    _, plain = pincal.holdout(params, field_data, 0.3, seed=1, sigma=SIGMA)
+    _, plain = holdout(params, field_data, 0.3, seed=1, sigma=SIGMA)
     assert plain.expected_rms < 0.2 * plain.stats_after["rms"]
     assert not plain.residual_model and "no residual model" in plain.report()
 
@@ -118,12 +118,12 @@ def test_kfold_and_validate_predict_each_point(params, ur10):
     truth = pincal.random_errors(params, seed=12)
     data = pincal.simulate_measurements(truth, ur10.random_configurations(60, 13), SIGMA, seed=14)
     other = pincal.simulate_measurements(truth, ur10.random_configurations(30, 15), SIGMA, seed=16)
-    folds = pincal.kfold(params, data, 3, seed=0, sigma=SIGMA)
+    folds = kfold(params, data, 3, seed=0, sigma=SIGMA)
     assert folds.expected.shape == folds.after.shape
     # Noise-only data: the prediction (parameters and noise) is the errors' RMS, within the scatter
     # of 60 and 30 three-coordinate errors.
     assert 0.8 < folds.expected_rms / folds.stats_after["rms"] < 1.25
-    checked = pincal.validate(pincal.identify(params, data, sigma=SIGMA), other)
+    checked = validate(pincal.identify(params, data, sigma=SIGMA), other)
     assert 0.75 < checked.expected_rms / checked.stats_after["rms"] < 1.33
 
 

@@ -9,7 +9,7 @@ import pytest
 
 import pincal
 from pincal.errors import BadArgument, DegenerateOptimumWarning
-from pincal.evaluation import rho0_split
+from pincal.evaluation import check_plan, rho0_split
 
 SIGMA = 3e-5
 PAYLOADS = [0.0, 135.0, 270.0]
@@ -136,11 +136,11 @@ def test_a_compliance_the_data_cannot_separate_says_what_would(params):
     offsets = robot.parameters("offsets,compliance").identifiable().identifiable
     plan = robot.random_configurations(30, 1)
     plan[:, 1:5] = plan[0, 1:5]
-    check = pincal.check_plan(offsets, plan, SIGMA)
+    check = check_plan(offsets, plan, SIGMA)
     dropped = [n for n in check.dropped if n.endswith(".compliance")]
     assert dropped and all("measure under several payloads" in check.dropped[n] for n in dropped)
     loads = np.column_stack([np.resize(PAYLOADS, 30), np.zeros((30, 3))])
-    loaded = pincal.check_plan(offsets, pincal.Plan.for_robot(robot, plan, loads), SIGMA)
+    loaded = check_plan(offsets, pincal.Plan.for_robot(robot, plan, loads), SIGMA)
     assert not [n for n in loaded.dropped if n.endswith(".compliance")]
 
 
