@@ -1,0 +1,415 @@
+"""Every number the README states is checked: computed here (to a tolerance), compared with the
+constant the code uses, found in the file where it is measured (``benchmarks/RESULTS.md``, a test),
+or declared an input, a name or a definition (``GIVEN``: an example's value, a section number, a
+formula's digit).
+
+:data:`CLAIMS` pairs an excerpt of the README with its check; the checks receive the excerpt's
+numbers, read from the README. ``test_every_readme_number_has_a_claim`` makes the list complete:
+a number added to the README's prose (or to a comment in its code blocks) without a claim fails it,
+and so does a claim whose excerpt the README no longer contains. To add one: quote the sentence's
+words around the number as they read in the README (whitespace is free) and say how it is checked.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+import pincal
+from tests.conftest import ROOT
+
+NUMBER = re.compile(r"(?<![\w.])(?:\d{1,3}(?: \d{3})+(?!\d)|\d+(?:\.\d+)?(?:e-?\d+)?)")
+"""A number as the README writes it ("100 000" is one; the digits of a name such as kr270 or O1 are none)."""
+
+
+def _prose(text: str) -> str:
+    """The README as a reader reads its claims: prose, and the comments of its code blocks (a
+    command's own arguments are inputs), whitespace collapsed so that excerpts may wrap."""
+    lines, fenced = [], False
+    for line in text.splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+            lines.append("")
+        elif fenced:
+            comment = re.search(r"(?:^|\s)#\s(.*)$", line)
+            lines.append(comment.group(1) if comment else "")
+        else:
+            lines.append(line)
+    return re.sub(r"\s+", " ", "\n".join(lines))
+
+
+README = _prose((ROOT / "README.md").read_text(encoding="utf-8"))
+
+
+def _value(number: str) -> float:
+    return float(number.replace(" ", ""))
+
+
+def _numbers(text: str) -> list[float]:
+    return [_value(n) for n in NUMBER.findall(text)]
+
+
+def _section(path: str, heading: str) -> str:
+    """The text of ``path`` from the heading ``heading`` to the next heading of the same level."""
+    text = (ROOT / path).read_text(encoding="utf-8")
+    start = text.index(heading)
+    level = heading.split(" ")[0]
+    end = text.find("\n" + level + " ", start + len(heading))
+    return text[start : end if end > 0 else None]
+
+
+def measured(path: str, heading: str = "") -> Callable[[list[float]], None]:
+    """The claim's numbers are figures of ``path`` (under ``heading``), to the digits the README gives."""
+
+    def check(numbers: list[float], excerpt: str) -> None:
+        source = _section(path, heading) if heading else (ROOT / path).read_text(encoding="utf-8")
+        figures = _numbers(source.replace("\u2009", " "))
+        for printed in NUMBER.findall(excerpt):
+            digits = len(printed.partition(".")[2]) if "e" not in printed else None
+            value = _value(printed)
+            found = any(
+                math.isclose(f, value, rel_tol=1e-9)
+                if digits is None
+                else abs(round(f, digits) - value) < 1e-9
+                for f in figures
+            )
+            assert found, f"the README says {printed} ({excerpt!r}); {path} {heading} measures no such figure"
+
+    return check
+
+
+def asserted_in(path: str, text: str) -> Callable[[list[float], str], None]:
+    """The claim is asserted by a test: ``path`` holds ``text`` (the assertion or the test's name)."""
+
+    def check(numbers: list[float], excerpt: str) -> None:
+        assert text in (ROOT / path).read_text(encoding="utf-8"), f"{path} no longer holds {text!r}"
+
+    return check
+
+
+def equals(*values: float) -> Callable[[list[float], str], None]:
+    """The claim's numbers, in order, are these values of the code (to the digits printed)."""
+
+    def check(numbers: list[float], excerpt: str) -> None:
+        assert len(numbers) == len(values), (excerpt, numbers, values)
+        for stated, actual in zip(numbers, values, strict=True):
+            assert math.isclose(stated, actual, rel_tol=1e-9), (
+                f"the README says {stated} ({excerpt!r}); the code has {actual}"
+            )
+
+    return check
+
+
+def GIVEN(numbers: list[float], excerpt: str) -> None:  # noqa: N802  (reads as a marker)
+    """An input of an example, a name, a unit, a section number or a formula's digit: nothing to measure."""
+
+
+@dataclass(frozen=True)
+class Claim:
+    excerpt: str
+    check: Callable[[list[float], str], None]
+
+    @property
+    def pattern(self) -> re.Pattern[str]:
+        return re.compile(r"\s+".join(re.escape(word) for word in self.excerpt.split()))
+
+
+def computed(test_name: str) -> Callable[[list[float], str], None]:
+    """The claim is computed by ``test_name`` below (which reads its numbers from the README)."""
+
+    def check(numbers: list[float], excerpt: str) -> None:
+        assert callable(globals().get(test_name)), f"no {test_name} in {__name__}"
+
+    return check
+
+
+from pincal.arguments import DEFAULT_SIGMA, MAX_COUNT, MAX_LENGTH, SIGMA_RANGE  # noqa: E402
+from pincal.calibration.sanity import (  # noqa: E402
+    ANGLE_LIMIT,
+    BEFORE_LIMIT,
+    LINK_LIMIT,
+    OUTLIER_SCORE,
+    RESIDUAL_FACTOR,
+    TOOL_LIMIT,
+)
+from pincal.calibration.synthetic import DEFAULT_ERROR_STD  # noqa: E402
+from pincal.calibration.urdf_export import ROUND_TRIP_TOLERANCE  # noqa: E402
+from pincal.evaluation.accuracy import NEIGHBOURHOODS, WORKSPACE_SAMPLES  # noqa: E402
+from pincal.evaluation.data_check import IDENTIFIABLE_STD, MIN_DATA_CONDITIONING  # noqa: E402
+from pincal.evaluation.prior import PRIOR_RANGE  # noqa: E402
+from pincal.evaluation.region import DEFAULT_SAMPLES  # noqa: E402
+from pincal.files import MAX_CELL_CHARS, MAX_FILE_BYTES, MAX_LINE_CHARS, MAX_YAML_DEPTH, MAX_YAML_NODES  # noqa: E402
+from pincal.model.base_parameters import NEARLY_REDUNDANT  # noqa: E402
+from pincal.model.urdf import MAX_URDF_BYTES, MAX_URDF_ELEMENTS, MAX_URDF_JOINTS  # noqa: E402
+from pincal.model.xacro_expansion import XACRO_MEMORY, XACRO_SECONDS  # noqa: E402
+from pincal.planning.choice import SINGULAR_WARNING  # noqa: E402
+from pincal.planning.driver import DEFAULT_POOL, MIN_CONDITIONING  # noqa: E402
+
+MIB, GIB = 2**20, 2**30
+RESULTS = "benchmarks/RESULTS.md"
+AROUND = tuple(math.degrees(d) for d in NEIGHBOURHOODS)  # the accuracy report's ±10° and ±20°
+
+CLAIMS: tuple[Claim, ...] = (
+    # Set up
+    Claim("KR 270", GIVEN),  # the robot's name, wherever it appears
+    Claim("design a 12-pose calibration plan", GIVEN),
+    Claim("the ±10° around it (σ defaults to a laser tracker's 0.03 mm;", equals(10, DEFAULT_SIGMA * 1e3)),
+    Claim("over that region, 10° and 20° beyond it", equals(*AROUND)),
+    # Quick start (its comments)
+    Claim("and at ±10°, ±20°, everywhere", equals(*AROUND)),
+    Claim(
+        '"converged", about sigma*sqrt(3) [m]',
+        computed("test_residuals_after_calibration_are_about_sigma_sqrt3"),
+    ),
+    Claim("exit code 2; outputs are written", asserted_in("tests/conftest.py", "assert code == 2")),
+    # Robots
+    Claim("the planar 2-link arm", GIVEN),
+    Claim(
+        "floating base; 9 chain ends to choose from",
+        computed("test_talos_offers_the_chain_ends_the_readme_counts"),
+    ),
+    Claim(
+        "stopped after 60 s or 2 GiB, its URDF at most 16 MiB",
+        equals(XACRO_SECONDS, XACRO_MEMORY / GIB, MAX_URDF_BYTES / MIB),
+    ),
+    Claim("the 3-D view", GIVEN),
+    Claim("whose base is turned 180° about z", asserted_in("tests/test_dh.py", "turned by 180° about z")),
+    # DH tables: the example's comments, then the prose
+    Claim("(Craig: row i holds a(i-1), alpha(i-1))", GIVEN),
+    Claim("DH frame 0 in base_link", GIVEN),
+    Claim("(revolute default ±180°;", asserted_in("pincal/model/dh.py", "lower, upper = -math.pi, math.pi")),
+    Claim(
+        "(default 0; pincal reads neither)",
+        asserted_in("pincal/model/dh.py", "(0 when not given; pincal reads neither)"),
+    ),
+    Claim("at 50 random configurations", asserted_in("pincal/model/dh.py", "n: int = 50")),
+    Claim("independent DH product to 1e-10 m", asserted_in("tests/test_dh.py", "atol=1e-10")),
+    # Parameters
+    Claim("*nearly redundant*: within 1e-2", equals(NEARLY_REDUNDANT)),
+    Claim("(1.5708 for π/2, 3.14 for π)", GIVEN),
+    Claim("would cost 1/distance times", GIVEN),
+    Claim(
+        "agree with the exact-angle robot's to 1 % (tests/test_vendor_urdfs.py)",
+        asserted_in("tests/test_vendor_urdfs.py", "0.01"),
+    ),
+    Claim("the independent parameters sit at 2.1e-2 and above", measured("docs/method.md", "### 4.3")),
+    Claim("the joint moves by q·(1 + gain) for a reading q | 1 |", GIVEN),  # a formula and its unit
+    Claim("within ‖C ∂τ/∂θ‖ ≈ 1e-3 of exact", measured("docs/method.md", "### 11.2")),
+    Claim("(1 100 kg, KUKA's weight,", computed("test_the_kr270_weighs_what_the_readme_says")),
+    Claim("the public KR 210 R3100 description", GIVEN),
+    Claim(
+        "about 450 waypoints each", computed("test_the_hilti_datasets_have_the_waypoints_the_readme_counts")
+    ),
+    Claim("CC BY-NC-SA 3.0", GIVEN),
+    # Criteria
+    Claim("= 3e-5 m (30 µm, a laser tracker)", equals(DEFAULT_SIGMA, DEFAULT_SIGMA * 1e6)),
+    Claim("O1 = (σ₁⋯σ_P)^(1/P)/√m", GIVEN),
+    # Where the robot works
+    Claim("([method §8.1](docs/method.md#c-optimal))", GIVEN),
+    Claim("q0 and 255 Latin-hypercube samples", equals(DEFAULT_SAMPLES - 1)),
+    Claim("each from 1e-12 to 1e6 m or rad", equals(*PRIOR_RANGE)),
+    Claim("A = (1/n) Σ", GIVEN),
+    Claim("a 10 000-point path is no slower per evaluation than 10 points", GIVEN),  # the benchmark's sizes
+    Claim("(118 µs against 123 µs", measured(RESULTS, "## bench_regions")),
+    Claim("Pinocchio's frame Jacobian and SE(3) log", GIVEN),
+    Claim("over ±10° and ±20° around them (rms, 95th percentile;", lambda n, e: equals(*AROUND, 95)(n, e)),
+    Claim("within 10° of its samples, so up to 10° beyond its edge)", equals(AROUND[0], AROUND[0])),
+    Claim("(median, p95 of 2000 configurations", equals(WORKSPACE_SAMPLES)),
+    Claim("the robot works within ±10° of q0", GIVEN),
+    Claim("both plans at q0, ±10°, ±20°, over the workspace [mm]:", equals(*AROUND)),
+    Claim("(at the former floor 1e-4)", computed("test_the_region_snippet_shows_the_difference_it_claims")),
+    Claim("Measured on the KR 270 and the UR10", GIVEN),
+    Claim(
+        "one test pose at the old floor 1e-4 is 6.6× / 7.3× worse 10° away than at q0 "
+        "and 57× / 94× worse at the workspace median; the default floor 1e-2 costs "
+        "3.6 % / 1.5 % at q0 and cuts the error 10° away 4.8× / "
+        "5.2×; designing for the ±10° neighbourhood costs 6.7 % / 7.7 % at q0",
+        measured(RESULTS, "## bench_floor"),
+    ),
+    Claim(
+        "(Monte-Carlo, errors of 1 mm / 1 mrad)",
+        equals(DEFAULT_ERROR_STD["length"] * 1e3, DEFAULT_ERROR_STD["angle"] * 1e3),
+    ),
+    # Design
+    Claim("a pool of feasible candidates (2000 drawn", equals(DEFAULT_POOL)),
+    Claim("(default 1e-2, measured in", equals(MIN_CONDITIONING)),
+    Claim("effectively singular (conditioning below 1e-3)", equals(SINGULAR_WARNING)),
+    # Calibrate
+    Claim("(conditioning below 1e-6, as in a small sampled region)", equals(MIN_DATA_CONDITIONING)),
+    Claim("worse than 1 cm / 10 mrad", equals(IDENTIFIABLE_STD["m"] * 1e2, IDENTIFIABLE_STD["rad"] * 1e3)),
+    Claim("rows over 5 robust σ", equals(OUTLIER_SCORE)),
+    Claim(
+        "a link origin moving by more than 5 cm, the tool frame or a marker by more than 5 cm, "
+        "an angle by more "
+        "than 0.1 rad, residuals 1000 σ (before calibration: at least 10 cm)",
+        equals(LINK_LIMIT * 1e2, TOOL_LIMIT * 1e2, ANGLE_LIMIT, RESIDUAL_FACTOR, BEFORE_LIMIT * 1e2),
+    ),
+    Claim(
+        "exit code 2 and no URDF unless",
+        asserted_in(
+            "tests/test_cli_real_data.py", 'code == 2 and json.loads(out)["status"] == "implausible"'
+        ),
+    ),
+    Claim("give the RMS, 95th percentile and max", GIVEN),
+    Claim("σ defaults to 3e-5 m per coordinate for these checks", equals(DEFAULT_SIGMA)),
+    Claim("xyz/rpy/4×4 matrix", GIVEN),
+    Claim("(≤ 1e-9 m)", equals(ROUND_TRIP_TOLERANCE)),
+    # See it
+    Claim("![A 6-configuration plan designed for one test pose of the KR 270", GIVEN),
+    Claim("the 3σ ellipsoid", asserted_in("pincal/viewing/scene.py", "ELLIPSOID_SIGMAS = 3.0")),
+    # Data formats and limits
+    Claim("by 1/s²", GIVEN),
+    Claim(
+        "Exit codes: 0 done, 2 bad input or a refused output",
+        computed("test_the_exit_codes_are_the_readme_s"),
+    ),
+    Claim("130 interrupted, 1 a bug in pincal", computed("test_the_exit_codes_are_the_readme_s")),
+    Claim("regular UTF-8 files", GIVEN),
+    Claim(
+        "CSV files up to 64 MiB, 100 000 characters a line, 1 000 a cell; YAML up to 1 MiB, 32 levels deep, "
+        "100 000 values",
+        equals(MAX_FILE_BYTES / MIB, MAX_LINE_CHARS, MAX_CELL_CHARS, 1, MAX_YAML_DEPTH, MAX_YAML_NODES),
+    ),
+    Claim(
+        "URDFs up to 16 MiB, 100 000 elements, 2 000 joints or links",
+        equals(MAX_URDF_BYTES / MIB, MAX_URDF_ELEMENTS, MAX_URDF_JOINTS),
+    ),
+    Claim(
+        "up to 1 000 km; σ (`--sigma`, the `s` columns) from 1 pm to 1 km",
+        equals(MAX_LENGTH / 1e3, SIGMA_RANGE[0] * 1e12, SIGMA_RANGE[1] / 1e3),
+    ),
+    Claim("go up to 10 000 000", equals(MAX_COUNT)),
+    # Speed
+    Claim("27 parameters, 12 configurations,", GIVEN),  # the benchmark's problem
+    Claim(
+        "it takes 2.75× the bare Pinocchio calls it needs (35.7 µs)", measured(RESULTS, "## bench_criterion")
+    ),
+    Claim("How long a 12-configuration KR 270 design takes to get within 1 % of the best known plan", GIVEN),
+    Claim("for 10 000 points as for 10", GIVEN),
+    Claim("building it once takes 0.14 s more", measured(RESULTS, "## bench_floor")),
+    # Development
+    Claim("(about 8 minutes on two cores)", asserted_in(".ci/run", "SECONDS")),  # .ci/run prints its time
+    Claim(
+        "with over 10 000 generated cases",
+        computed("test_the_long_fuzz_profile_runs_the_cases_the_readme_counts"),
+    ),
+    Claim("(the 2-link closed form", GIVEN),
+    Claim("(Klimchik et al., 2013)", GIVEN),
+    Claim("every number of its 2-link section", GIVEN),
+)
+
+
+def test_every_readme_number_has_a_claim():
+    """Each number of the README's prose and code comments lies in the excerpt of a claim, and each
+    claim's excerpt is in the README."""
+    spans = []
+    for claim in CLAIMS:
+        found = [m.span() for m in claim.pattern.finditer(README)]
+        assert found, f"the README no longer says {claim.excerpt!r}: update its claim in {__name__}"
+        spans += found
+    code = [m.span() for m in re.finditer(r"`[^`]*`", README)]  # names and commands, not claims
+    unclaimed = [
+        (m.group(), README[max(m.start() - 50, 0) : m.end() + 30])
+        for m in NUMBER.finditer(README)
+        if not any(a <= m.start() < b for a, b in code + spans)
+    ]
+    assert not unclaimed, "README numbers without a claim in tests/test_readme_claims.py:\n" + "\n".join(
+        f"  {n!r} in …{context}…" for n, context in unclaimed
+    )
+
+
+@pytest.mark.parametrize("claim", CLAIMS, ids=[c.excerpt[:40] for c in CLAIMS])
+def test_readme_claim(claim):
+    match = claim.pattern.search(README)
+    assert match, f"the README no longer says {claim.excerpt!r}"
+    claim.check(_numbers(match.group()), match.group())
+
+
+def _stated(excerpt: str) -> list[float]:
+    """The numbers of a claim's excerpt as the README states them now."""
+    match = next(c for c in CLAIMS if c.excerpt == excerpt).pattern.search(README)
+    assert match, f"the README no longer says {excerpt!r}"
+    return _numbers(match.group())
+
+
+def test_talos_offers_the_chain_ends_the_readme_counts(cli):
+    (count,) = _stated("floating base; 9 chain ends to choose from")
+    summary = cli.json("robots", "talos")
+    assert summary["floating"] and len(summary["tips"]) == count
+
+
+def test_residuals_after_calibration_are_about_sigma_sqrt3(kr270_marker):
+    """The Quick start's identify: the RMS distance between measured and calibrated points is about
+    σ·√3 (three coordinates of noise σ, less the degrees of freedom the fit takes: here √(1 − 12/54))."""
+    (three,) = _stated('"converged", about sigma*sqrt(3) [m]')
+    params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
+    ratios = []
+    for seed in range(5):
+        plan = kr270_marker.random_configurations(6, np.random.default_rng(seed))
+        true = pincal.random_errors(params, error_std={"length": 1e-3, "angle": 1e-3}, seed=seed)
+        data = pincal.simulate_measurements(true, np.tile(plan, (3, 1)), sigma=DEFAULT_SIGMA, seed=seed)
+        result = pincal.identify(params, data)
+        assert result.status == "converged"
+        ratios.append(result.residual_rms_after / (DEFAULT_SIGMA * math.sqrt(three)))
+    assert 0.75 < np.mean(ratios) < 1.05, ratios  # expected √(1 − 12/54) = 0.88
+
+
+def test_the_region_snippet_shows_the_difference_it_claims():
+    """The README's region snippet: the plan for q0 alone is as good as the region's plan at q0 and
+    several times worse away from it (its last comment)."""
+    block = next(
+        b
+        for b in re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
+        if "robust =" in b
+    )
+    namespace: dict = {"__name__": "readme"}
+    with pytest.warns(pincal.DegenerateOptimumWarning):  # the floor 1e-4 binds: what the snippet shows
+        exec(compile(block.replace("print(", "str("), "README.md", "exec"), namespace)
+    rows = {}
+    for row in namespace["report"].lines()[2:6]:  # label, then rms and p95 of each plan [mm]
+        label, *values = row.rsplit(None, 4)
+        rows[label.strip()] = [float(v) for v in values]
+    at_q0, ten = rows["test pose"], rows["±10°"]
+    assert at_q0[2] < 1.1 * at_q0[0]  # rms at q0: the one-pose plan is as good (or better)
+    assert ten[2] > 2 * ten[0]  # rms over ±10°: several times worse
+
+
+def test_the_long_fuzz_profile_runs_the_cases_the_readme_counts():
+    (count,) = _stated("with over 10 000 generated cases")
+    from tests.fuzz_cli import BASE_ARGV
+    from tests.test_fuzz import LONG_EXAMPLES
+
+    assert LONG_EXAMPLES * len(BASE_ARGV) > count
+
+
+def test_the_exit_codes_are_the_readme_s(cli, monkeypatch):
+    done, bad = _stated("Exit codes: 0 done, 2 bad input or a refused output")
+    interrupted, bug = _stated("130 interrupted, 1 a bug in pincal")
+    assert cli.run("params", "planar_2r").code == done
+    assert cli.run("params", "no_such_robot").code == bad
+    import pincal.cli.params as command
+
+    for exception, code in ((KeyboardInterrupt, interrupted), (ZeroDivisionError, bug)):
+
+        def run(args, exception=exception):
+            raise exception()
+
+        monkeypatch.setattr(command, "run", run)
+        assert cli.run("params", "planar_2r").code == code
+
+
+def test_the_kr270_weighs_what_the_readme_says(kr270):
+    (kilograms,) = _stated("(1 100 kg, KUKA's weight,")
+    assert sum(inertia.mass for inertia in kr270.model.inertias) == pytest.approx(kilograms, rel=1e-3)
+
+
+def test_the_hilti_datasets_have_the_waypoints_the_readme_counts():
+    (about,) = _stated("about 450 waypoints each")
+    files = sorted((ROOT / "data" / "hilti_stationing").glob("*.yaml"))
+    counts = [path.read_text(encoding="utf-8").count("- id:") for path in files]
+    assert len(counts) == 3 and all(0.8 * about < n < 1.2 * about for n in counts), counts
