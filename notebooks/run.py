@@ -52,7 +52,11 @@ def execute(path: Path) -> nbformat.NotebookNode:
             cell.outputs, cell.execution_count = [], None
     with tempfile.TemporaryDirectory(prefix="pincal-notebook-") as workdir:
         client = nbclient.NotebookClient(
-            notebook, timeout=TIMEOUT_S, kernel_name="python3", resources={"metadata": {"path": workdir}}
+            notebook,
+            timeout=TIMEOUT_S,
+            kernel_name="python3",
+            record_timing=False,  # no execution times in the stored file: a re-run changes what changed
+            resources={"metadata": {"path": workdir}},
         )
         client.execute()
     notebook.metadata.get("language_info", {}).pop("version", None)  # the Python of whoever ran it last

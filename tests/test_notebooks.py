@@ -17,6 +17,10 @@ Each notebook states its tolerance classes: closed forms, grids and seeded draws
 converges to (or nearly singular linear algebra) to 1e-3; what depends on where a multistart search
 ends to 0.3, because another processor's BLAS kernels take the search elsewhere (measured: the same
 notebook under OpenBLAS's Haswell and Sandybridge kernels moved designed-plan errors by up to 25 %).
+
+Cost: re-executing the three notebooks takes about 100 s of CPU (user + system, on the 2-core
+development machine; `python notebooks/run.py` takes the same), most of it designs and Monte-Carlo
+calibrations; the rest of this file takes under a second.
 """
 
 from __future__ import annotations
