@@ -128,7 +128,7 @@ def computed(test_name: str) -> Callable[[list[float], str], None]:
     return check
 
 
-from pincal.arguments import DEFAULT_SIGMA, MAX_COUNT, MAX_LENGTH, SIGMA_RANGE  # noqa: E402
+from pincal.arguments import DEFAULT_SIGMA, MAX_ANGLE, MAX_COUNT, MAX_LENGTH, MAX_NAME, SIGMA_RANGE  # noqa: E402
 from pincal.calibration.sanity import (  # noqa: E402
     ANGLE_LIMIT,
     BEFORE_LIMIT,
@@ -136,10 +136,11 @@ from pincal.calibration.sanity import (  # noqa: E402
     OUTLIER_SCORE,
     RESIDUAL_FACTOR,
     TOOL_LIMIT,
+    ZERO_SCALE,
 )
 from pincal.calibration.synthetic import DEFAULT_ERROR_STD  # noqa: E402
 from pincal.calibration.urdf_export import ROUND_TRIP_TOLERANCE  # noqa: E402
-from pincal.evaluation.accuracy import NEIGHBOURHOODS, WORKSPACE_SAMPLES  # noqa: E402
+from pincal.evaluation.accuracy import NEIGHBOURHOODS, PRISMATIC_PER_RADIAN, WORKSPACE_SAMPLES  # noqa: E402
 from pincal.evaluation.data_check import IDENTIFIABLE_STD, MIN_DATA_CONDITIONING  # noqa: E402
 from pincal.evaluation.prior import PRIOR_RANGE  # noqa: E402
 from pincal.evaluation.region import DEFAULT_SAMPLES  # noqa: E402
@@ -218,7 +219,15 @@ CLAIMS: tuple[Claim, ...] = (
     Claim("(118 µs against 123 µs", measured(RESULTS, "## bench_regions")),
     Claim("Pinocchio's frame Jacobian and SE(3) log", GIVEN),
     Claim("over ±10° and ±20° around them (rms, 95th percentile;", lambda n, e: equals(*AROUND, 95)(n, e)),
-    Claim("within 10° of its samples, so up to 10° beyond its edge)", equals(AROUND[0], AROUND[0])),
+    Claim("within 10° of its samples, so up to 10° beyond its edge;", equals(AROUND[0], AROUND[0])),
+    Claim(
+        "prismatic joints move 1 cm per 10°",
+        equals(PRISMATIC_PER_RADIAN * math.radians(AROUND[0]) * 1e2, AROUND[0]),
+    ),
+    Claim("± 10° for the revolute joints, ± 2 cm for the prismatic ones", GIVEN),  # the row's example
+    Claim("100 random plans of 12 (100,) ρ0 [m]", GIVEN),  # the batch example's comments
+    Claim("It is 1 when every parameter", GIVEN),  # the conditioning's definition: 1 and 0
+    Claim("0 for a singular plan", GIVEN),
     Claim("(median, p95 of 2000 configurations", equals(WORKSPACE_SAMPLES)),
     Claim("the robot works within ±10° of q0", GIVEN),
     Claim("both plans at q0, ±10°, ±20°, over the workspace [mm]:", equals(*AROUND)),
@@ -238,9 +247,20 @@ CLAIMS: tuple[Claim, ...] = (
     # Design
     Claim("a pool of feasible candidates (2000 drawn", equals(DEFAULT_POOL)),
     Claim("(default 1e-2, measured in", equals(MIN_CONDITIONING)),
-    Claim("effectively singular (conditioning below 1e-3)", equals(SINGULAR_WARNING)),
+    Claim(
+        "a floor below 1e-3 is what stopped the search, and whenever a plan is effectively singular "
+        "(conditioning below 1e-3)",
+        equals(SINGULAR_WARNING, SINGULAR_WARNING),
+    ),
+    Claim("(conditioning below 1e-6, see *Calibrate*)", equals(MIN_DATA_CONDITIONING)),
     # Calibrate
-    Claim("(conditioning below 1e-6, as in a small sampled region)", equals(MIN_DATA_CONDITIONING)),
+    Claim(
+        "(conditioning below 1e-6, a thousand times below where a design is warned about,",
+        lambda n, e: equals(MIN_DATA_CONDITIONING)(n, e) or equals(1e3)([SINGULAR_WARNING / n[0]], e),
+    ),
+    Claim("robust spread below 1e-4 σ", equals(ZERO_SCALE)),
+    Claim("(12 configurations held out by 20 % for 27 parameters)", GIVEN),  # an example of the rule
+    Claim("(a panda's 7 arm joints, not its 2 finger joints)", computed("test_the_panda_chain_and_fingers")),
     Claim("worse than 1 cm / 10 mrad", equals(IDENTIFIABLE_STD["m"] * 1e2, IDENTIFIABLE_STD["rad"] * 1e3)),
     Claim("rows over 5 robust σ", equals(OUTLIER_SCORE)),
     Claim(
@@ -279,19 +299,17 @@ CLAIMS: tuple[Claim, ...] = (
         "URDFs up to 16 MiB, 100 000 elements, 2 000 joints or links",
         equals(MAX_URDF_BYTES / MIB, MAX_URDF_ELEMENTS, MAX_URDF_JOINTS),
     ),
+    Claim("the base pose) up to 1 000 km", equals(MAX_LENGTH / 1e3)),
+    Claim("up to 10⁶ rad (or m)", lambda n, e: equals(MAX_ANGLE)([n[0] ** 6], e)),  # 10, then the exponent ⁶
+    Claim("from 1 pm to 1 km", equals(SIGMA_RANGE[0] * 1e12, SIGMA_RANGE[1] / 1e3)),
     Claim(
-        "up to 1 000 km; σ (`--sigma`, the `s` columns) from 1 pm to 1 km",
-        equals(MAX_LENGTH / 1e3, SIGMA_RANGE[0] * 1e12, SIGMA_RANGE[1] / 1e3),
+        "pool sizes) up to 10 000 000; seeds integers ≥ 0; names up to 200 characters",
+        equals(MAX_COUNT, 0, MAX_NAME),
     ),
-    Claim("go up to 10 000 000", equals(MAX_COUNT)),
     # Speed
-    Claim("27 parameters, 12 configurations,", GIVEN),  # the benchmark's problem
-    Claim(
-        "it takes 2.75× the bare Pinocchio calls it needs (35.7 µs)", measured(RESULTS, "## bench_criterion")
-    ),
-    Claim("How long a 12-configuration KR 270 design takes to get within 1 % of the best known plan", GIVEN),
-    Claim("for 10 000 points as for 10", GIVEN),
-    Claim("building it once takes 0.14 s more", measured(RESULTS, "## bench_floor")),
+    Claim("swap by 3×3 block algebra", GIVEN),  # the three coordinates of a measured point
+    Claim("a design takes 16 starts by default", computed("test_a_design_takes_the_starts_the_readme_says")),
+    Claim("for 10 000 points as for 10", GIVEN),  # bench_regions measures it (the 118/123 µs above)
     # Development
     Claim("(about 8 minutes on two cores)", asserted_in(".ci/run", "SECONDS")),  # .ci/run prints its time
     Claim(
@@ -307,19 +325,20 @@ CLAIMS: tuple[Claim, ...] = (
 def test_every_readme_number_has_a_claim():
     """Each number of the README's prose and code comments lies in the excerpt of a claim, and each
     claim's excerpt is in the README."""
-    spans = []
+    spans, missing = [], []
     for claim in CLAIMS:
         found = [m.span() for m in claim.pattern.finditer(README)]
-        assert found, f"the README no longer says {claim.excerpt!r}: update its claim in {__name__}"
         spans += found
+        missing += [] if found else [claim.excerpt]
     code = [m.span() for m in re.finditer(r"`[^`]*`", README)]  # names and commands, not claims
     unclaimed = [
-        (m.group(), README[max(m.start() - 50, 0) : m.end() + 30])
+        f"  {m.group()!r} in …{README[max(m.start() - 50, 0) : m.end() + 30]}…"
         for m in NUMBER.finditer(README)
         if not any(a <= m.start() < b for a, b in code + spans)
     ]
-    assert not unclaimed, "README numbers without a claim in tests/test_readme_claims.py:\n" + "\n".join(
-        f"  {n!r} in …{context}…" for n, context in unclaimed
+    assert not missing and not unclaimed, "\n".join(
+        [f"{__name__}: claims the README no longer makes:", *(f"  {e!r}" for e in missing)]
+        + ["README numbers without a claim:", *unclaimed]
     )
 
 
@@ -413,3 +432,18 @@ def test_the_hilti_datasets_have_the_waypoints_the_readme_counts():
     files = sorted((ROOT / "data" / "hilti_stationing").glob("*.yaml"))
     counts = [path.read_text(encoding="utf-8").count("- id:") for path in files]
     assert len(counts) == 3 and all(0.8 * about < n < 1.2 * about for n in counts), counts
+
+
+def test_the_panda_chain_and_fingers():
+    arm, fingers = _stated("(a panda's 7 arm joints, not its 2 finger joints)")
+    import pinocchio as pin
+
+    robot = pincal.load_robot("panda")
+    assert robot.nq == arm and pin.buildModelFromUrdf(str(robot.urdf_path)).nq == arm + fingers
+
+
+def test_a_design_takes_the_starts_the_readme_says():
+    import inspect
+
+    (starts,) = _stated("a design takes 16 starts by default")
+    assert inspect.signature(pincal.design).parameters["starts"].default == starts
