@@ -68,17 +68,39 @@ def measured(path: str, heading: str = "") -> Callable[[list[float]], None]:
 
     def check(numbers: list[float], excerpt: str) -> None:
         source = _section(path, heading) if heading else (ROOT / path).read_text(encoding="utf-8")
-        figures = _numbers(source.replace("\u2009", " "))
-        for printed in NUMBER.findall(excerpt):
-            digits = len(printed.partition(".")[2]) if "e" not in printed else None
-            value = _value(printed)
-            found = any(
-                math.isclose(f, value, rel_tol=1e-9)
-                if digits is None
-                else abs(round(f, digits) - value) < 1e-9
-                for f in figures
-            )
-            assert found, f"the README says {printed} ({excerpt!r}); {path} {heading} measures no such figure"
+        _among(_numbers(source.replace("\u2009", " ")), excerpt, f"{path} {heading}")
+
+    return check
+
+
+def _among(figures: list[float], excerpt: str, where: str) -> None:
+    """Each number of ``excerpt`` is one of ``figures`` to the digits it is printed with."""
+    for printed in NUMBER.findall(excerpt):
+        digits = len(printed.partition(".")[2]) if "e" not in printed else None
+        value = _value(printed)
+        found = any(
+            math.isclose(f, value, rel_tol=1e-9) if digits is None else abs(round(f, digits) - value) < 1e-9
+            for f in figures
+        )
+        assert found, f"the README says {printed} ({excerpt!r}); {where} shows no such figure"
+
+
+def shown_in(notebook: str, words: str) -> Callable[[list[float], str], None]:
+    """The claim's numbers are shown by notebook ``notebook``'s stored outputs that contain ``words``
+    (to the digits the README gives); tests/test_notebooks.py checks those outputs are what the
+    notebook computes, to the tolerance each declares."""
+
+    def check(numbers: list[float], excerpt: str) -> None:
+        import nbformat
+
+        cells = nbformat.read(ROOT / "notebooks" / notebook, as_version=4).cells
+        outputs = [o for c in cells if c.cell_type == "code" for o in c.outputs]
+        texts = [
+            "".join(o.get("text", "")) + "".join(o.get("data", {}).get("text/markdown", "")) for o in outputs
+        ]
+        shown = [t for t in texts if words in t]
+        assert shown, f"{notebook} shows no output with {words!r}"
+        _among(_numbers(" ".join(shown)), excerpt, f"{notebook} (outputs with {words!r})")
 
     return check
 
@@ -203,6 +225,15 @@ CLAIMS: tuple[Claim, ...] = (
     Claim("within ‖C ∂τ/∂θ‖ ≈ 1e-3 of exact", measured("docs/method.md", "### 11.2")),
     Claim("(1 100 kg, KUKA's weight,", computed("test_the_kr270_weighs_what_the_readme_says")),
     Claim("the public KR 210 R3100 description", GIVEN),
+    Claim("(15 configurations, task 270 kg) a design with payloads 0/135/270 kg", GIVEN),  # the example
+    Claim(
+        "predicts 0.026 mm at the loaded test pose, a payload-free design 0.54 mm",
+        shown_in("04_beyond_geometry.ipynb", "rho0 at the loaded test pose"),
+    ),
+    Claim(
+        "the residual model takes the held-out error from 3.4 to under 1 mm",
+        measured(RESULTS, "## Real data: the Hilti stationing datasets"),
+    ),
     Claim(
         "about 450 waypoints each", computed("test_the_hilti_datasets_have_the_waypoints_the_readme_counts")
     ),
