@@ -189,7 +189,10 @@ CLAIMS: tuple[Claim, ...] = (
         '"converged", about sigma*sqrt(3) [m]',
         computed("test_residuals_after_calibration_are_about_sigma_sqrt3"),
     ),
-    Claim("exit code 2; outputs are written", asserted_in("tests/conftest.py", "assert code == 2")),
+    Claim(
+        "exit code 2; a command writes all of its outputs",
+        asserted_in("tests/conftest.py", "assert code == 2"),
+    ),
     # Robots
     Claim("the planar 2-link arm", GIVEN),
     Claim(
