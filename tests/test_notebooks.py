@@ -175,6 +175,10 @@ def test_stored_outputs_are_what_the_notebook_computes(path):
     )
     before, original = _tree(ROOT), path.read_bytes()
     fresh = _runner().execute(path)  # raises CellExecutionError (the cell and its traceback) on any error
+    deprecated = [
+        t for c in fresh.cells for o in c.get("outputs", []) if "DeprecationWarning" in (t := _text(o))
+    ]
+    assert not deprecated, f"{path.name} uses a deprecated name (use its stage's): {deprecated[0][:300]}"
     shown = [MACHINE_PATH.search(_text(o)) for c in fresh.cells for o in c.get("outputs", [])]
     assert not any(shown), f"{path.name} shows {next(m.group() for m in shown if m)!r}"
     assert _tree(ROOT) == before, "the notebook wrote files into the repository"

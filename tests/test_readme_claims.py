@@ -340,6 +340,13 @@ CLAIMS: tuple[Claim, ...] = (
         "pool sizes) up to 10 000 000; seeds integers ≥ 0; names up to 200 characters",
         equals(MAX_COUNT, 0, MAX_NAME),
     ),
+    # Python API
+    Claim(
+        "gives the workflow, about 30 names",
+        lambda n, e: equals(n[0])([n[0] if abs(len(pincal.__all__) - n[0]) <= 3 else len(pincal.__all__)], e),
+    ),
+    Claim("The names that were top-level in 0.1", equals(float(".".join(pincal.__version__.split(".")[:2])))),
+    Claim("still work until 0.3", equals(float(pincal._REMOVAL))),
     # Speed
     Claim("swap by 3×3 block algebra", GIVEN),  # the three coordinates of a measured point
     Claim("a design takes 16 starts by default", computed("test_a_design_takes_the_starts_the_readme_says")),
@@ -421,7 +428,7 @@ def test_the_region_snippet_shows_the_difference_it_claims():
         if "robust =" in b
     )
     namespace: dict = {"__name__": "readme"}
-    with pytest.warns(pincal.DegenerateOptimumWarning):  # the floor 1e-4 binds: what the snippet shows
+    with pytest.warns(pincal.errors.DegenerateOptimumWarning):  # the floor 1e-4 binds: what the snippet shows
         exec(compile(block.replace("print(", "str("), "README.md", "exec"), namespace)
     rows = {}
     for row in namespace["report"].lines()[2:6]:  # label, then rms and p95 of each plan [mm]
