@@ -143,7 +143,7 @@ def main() -> list[str]:
     say("| ---: | ---: | ---: | --- | ---: | ---: |")
     for m in (4, 12):
         stats = random_plans(params, m, 10000, Q0, sigma=SIGMA, seed=0)
-        d_opt, _ = quiet_design(params, m, Q0, "D", sigma=SIGMA, starts=32, seed=0)
+        d_opt, _ = quiet_design(params, m, Q0, criterion="D", sigma=SIGMA, starts=32, seed=0)
         r = plans[m]
         say(
             f"| {m} | {mm(r.rho0)} | {r.conditioning:.2g} | {mm(stats.min)} / {mm(stats.median)} / {mm(stats.max)} "
@@ -175,7 +175,7 @@ def main() -> list[str]:
     for name, crit in (("exchange on ρ0 (test-pose)", "test-pose"), ("D-optimal exchange", "D")):
         t0 = time.perf_counter()
         r, floor_hit = quiet_design(
-            full, 12, q0, crit, method="exchange", pool=pool, starts=16, sigma=SIGMA, seed=0
+            full, 12, q0, criterion=crit, method="exchange", pool=pool, starts=16, sigma=SIGMA, seed=0
         )
         say(
             f"| {name} | 16 | {time.perf_counter() - t0:.1f} s | {mm(r.rho0)} | {r.conditioning:.2g}{' (at floor)' if floor_hit else ''} |"

@@ -44,7 +44,7 @@ def run_one(params, q0, **kw):
         warnings.simplefilter("always")
         result = pincal.design(params, M, sigma=SIGMA, starts=16, seed=0, workers=1, **kw)
     elapsed = time.perf_counter() - t0
-    report = pincal.accuracy(params, result.plan, q0, SIGMA, prior=kw.get("prior"), samples=512)
+    report = pincal.accuracy(params, result.plan, q0, sigma=SIGMA, prior=kw.get("prior"), samples=512)
     rows = {r.where: r for r in report.plans[0].rows}
     warned = (
         "yes" if any(issubclass(w.category, pincal.errors.DegenerateOptimumWarning) for w in caught) else ""
@@ -94,7 +94,7 @@ def main() -> list[str]:
         )
         print(lines[-1], flush=True)
         d = pincal.design(params, M, criterion="D", sigma=SIGMA, starts=16, seed=0, workers=1)
-        rep = pincal.accuracy(params, d.plan, q0, SIGMA, samples=512)
+        rep = pincal.accuracy(params, d.plan, q0, sigma=SIGMA, samples=512)
         rows = {r.where: r for r in rep.plans[0].rows}
         lines.append(
             f"| D-optimal | {rows['test pose'].rms * 1e3:.4f} | {rows['±10°'].rms * 1e3:.4f} | {rows['±20°'].rms * 1e3:.4f} | "

@@ -94,7 +94,7 @@ def main() -> list[str]:
         }
         plans = {label: result.plan for label, (result, _) in designs.items()}
         first, *others = plans
-        report = pincal.accuracy(params, plans[first], q0, SIGMA, compare={k: plans[k] for k in others})
+        report = pincal.accuracy(params, plans[first], q0, sigma=SIGMA, compare={k: plans[k] for k in others})
         say()
         say(
             f"### {name}: q0 = ({', '.join(f'{math.degrees(v):.0f}' for v in q0)})°, {len(params)} parameters"

@@ -30,6 +30,7 @@ import sys
 import warnings
 from typing import TYPE_CHECKING, Any
 
+from pincal.deprecation import REMOVAL as _REMOVAL
 from pincal.version import __version__
 
 if TYPE_CHECKING:
@@ -197,8 +198,6 @@ _MOVED = {
 """Names that were top-level in pincal 0.1 and now live only in their stage: they still work here,
 with a DeprecationWarning naming the new home, until pincal 0.3."""
 
-_REMOVAL = "0.3"
-"""The release that removes the moved names from the top level."""
 
 _STAGES = (
     "model",

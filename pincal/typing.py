@@ -24,15 +24,18 @@ import numpy as np
 import numpy.typing as npt
 
 if TYPE_CHECKING:  # annotations only: pincal.typing imports no stage at run time
+    import meshcat
     import pinocchio as pin
 
     from pincal.evaluation.region import TestRegion
     from pincal.model.statics import Payload
+    from pincal.planning.constraints import Visibility
     from pincal.planning.plan import Plan
 
 __all__ = [
     "ArrayLike",
     "ConfigurationsLike",
+    "InstrumentLike",
     "JointValues",
     "PathLike",
     "PayloadLike",
@@ -42,6 +45,7 @@ __all__ = [
     "RobotSource",
     "SeedLike",
     "TestPoseLike",
+    "ViewerLike",
 ]
 
 ArrayLike: TypeAlias = npt.ArrayLike
@@ -86,3 +90,11 @@ PathLike: TypeAlias = str | os.PathLike[str]
 RobotSource: TypeAlias = "str | os.PathLike[str] | pin.Model"
 """A robot to load: a URDF (or xacro) path, the name of a shipped or example-robot-data robot
 (``pincal robots`` lists them), or a ``pinocchio.Model``."""
+
+InstrumentLike: TypeAlias = "npt.ArrayLike | Visibility | None"
+"""Where the instrument stands, for a scene: its position (x, y, z) in the base/instrument frame
+[m], a :class:`~pincal.planning.constraints.Visibility` constraint (its tracker), or None."""
+
+ViewerLike: TypeAlias = "str | meshcat.Visualizer | None"
+"""Where a scene is drawn: a ``meshcat.Visualizer``, ``"static"`` (a serverless one, for an HTML
+page), or None (start a meshcat server)."""

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ast
 import importlib
+import inspect
 import re
 import subprocess
 import sys
@@ -213,3 +214,81 @@ def test_every_subcommand_is_listed():
     assert list(parser.commands) == list(COMMANDS)
     for name, command in COMMANDS.items():
         assert parser.commands[name].description == command.help + "."
+
+
+KEYWORD_ONLY_AFTER = {
+    "pincal.rho0": 3,
+    "pincal.accuracy": 3,
+    "pincal.design": 3,
+    "pincal.identify": 2,
+    "pincal.simulate_measurements": 3,
+    "pincal.random_errors": 1,
+    "pincal.monte_carlo": 3,
+    "pincal.validate": 2,
+    "pincal.export_urdf": 2,
+    "pincal.scene": 3,
+    "pincal.show": 3,
+    "pincal.cartesian_box": 3,
+    "pincal.evaluation.rho0_each": 3,
+    "pincal.evaluation.rho0_split": 3,
+    "pincal.evaluation.position_covariance": 3,
+    "pincal.evaluation.expected_error": 4,
+    "pincal.evaluation.error_profile": 3,
+    "pincal.evaluation.worst_found": 2,
+    "pincal.evaluation.check_plan": 2,
+    "pincal.calibration.holdout": 3,
+    "pincal.calibration.kfold": 3,
+    "pincal.model.identifiability": 1,
+}
+"""The public functions whose arguments after the first few are keyword-only (0.2)."""
+
+
+def _public(path: str):
+    module, _, name = path.rpartition(".")
+    return getattr(importlib.import_module(module), name)
+
+
+@pytest.mark.parametrize("path", sorted(KEYWORD_ONLY_AFTER))
+def test_arguments_after_the_first_few_are_keyword_only(path):
+    """The signature says it (``*``, for type checkers and help()); every public function takes
+    at most four arguments by position."""
+    parameters = inspect.signature(_public(path)).parameters.values()
+    positional = [p.name for p in parameters if p.kind is p.POSITIONAL_OR_KEYWORD]
+    assert len(positional) == KEYWORD_ONLY_AFTER[path], positional
+    assert any(p.kind is p.KEYWORD_ONLY for p in parameters)
+
+
+def test_every_public_function_takes_few_arguments_by_position():
+    for module in PUBLIC_MODULES:
+        stage = importlib.import_module(module)
+        for name in stage.__all__:
+            function = getattr(stage, name)
+            if not inspect.isfunction(function):
+                continue
+            parameters = inspect.signature(function).parameters.values()
+            positional = [p.name for p in parameters if p.kind is p.POSITIONAL_OR_KEYWORD]
+            assert len(positional) <= 4 or name == "make_criterion", f"{module}.{name}: {positional}"
+
+
+def test_arguments_by_position_still_work_with_a_warning(planar):
+    """As pincal 0.1 allowed, until 0.3: the same value, one DeprecationWarning at the caller's
+    line naming the keywords to write; too many, or one given twice, is a TypeError."""
+    params = planar.parameters("full").identifiable().identifiable
+    plan = [[0.3, 1.2], [1.0, -0.8], [-0.6, 1.9], [2.0, 0.4], [0.1, -1.5]]
+    expected = pincal.rho0(params, plan, [0.2, 1.0], sigma=1e-4, aggregate="worst")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        value = pincal.rho0(params, plan, [0.2, 1.0], 1e-4, "worst")
+    assert value == expected
+    assert [(w.category, w.filename) for w in caught] == [(DeprecationWarning, __file__)]
+    message = str(caught[0].message)
+    assert (
+        "rho0(): passing sigma, aggregate by position is deprecated: write sigma=..., aggregate=..."
+        in message
+    )
+    assert "pincal 0.3" in message
+    with pytest.raises(TypeError, match=r"rho0\(\) takes 3 positional arguments, then keywords"):
+        pincal.rho0(params, plan, [0.2, 1.0], 1e-4, "worst", None, None, "extra")
+    with pytest.raises(TypeError, match="multiple values for argument 'sigma'"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        pincal.rho0(params, plan, [0.2, 1.0], 1e-4, sigma=1e-4)

@@ -121,14 +121,18 @@ def _sigma_calls(planar):
         "position_covariance": lambda s: pincal.evaluation.position_covariance(params, plan, q0, sigma=s),
         "TestPoseCriterion": lambda s: pincal.evaluation.TestPoseCriterion(params, q0, sigma=s),
         "PredictedError": lambda s: pincal.evaluation.PredictedError(params, plan, s),
-        "accuracy": lambda s: pincal.accuracy(params, plan, q0, s, samples=8, workspace=8),
-        "error_profile": lambda s: pincal.evaluation.error_profile(params, {"p": plan}, q0, s, samples=8),
-        "check_plan": lambda s: pincal.evaluation.check_plan(params, plan, s),
+        "accuracy": lambda s: pincal.accuracy(params, plan, q0, sigma=s, samples=8, workspace=8),
+        "error_profile": lambda s: pincal.evaluation.error_profile(
+            params, {"p": plan}, q0, sigma=s, samples=8
+        ),
+        "check_plan": lambda s: pincal.evaluation.check_plan(params, plan, sigma=s),
         "design": lambda s: pincal.design(params, 3, q0, sigma=s, starts=1, workers=1, pool=50),
         "random_plans": lambda s: pincal.random_plans(params, 3, 5, q0, sigma=s),
         "monte_carlo": lambda s: pincal.monte_carlo(params, plan, q0, sigma=s, trials=2),
         "simulate_measurements": lambda s: pincal.simulate_measurements(planar, plan, sigma=s),
-        "identify": lambda s: pincal.identify(params, pincal.simulate_measurements(planar, plan, 0.0), s),
+        "identify": lambda s: pincal.identify(
+            params, pincal.simulate_measurements(planar, plan, 0.0), sigma=s
+        ),
         "scene": lambda s: pincal.scene(params, plan, q0, sigma=s),
         "Prior.information": lambda s: pincal.Prior(1e-3, 1e-3).information(params, s),
     }
@@ -174,7 +178,9 @@ def test_counts_angles_lengths_fractions_have_one_rule(planar):
     q0 = [0.3, 1.2]
     counts = {
         "around samples": lambda n: pincal.around(q0, 0.1, samples=n),
-        "cartesian_box samples": lambda n: pincal.cartesian_box([0, 0, 0], [1, 1, 1], q0, samples=n),
+        "cartesian_box samples": lambda n: pincal.cartesian_box(
+            [0, 0, 0], [1, 1, 1], reference=q0, samples=n
+        ),
         "random_plans n": lambda n: pincal.random_plans(params, 3, n, q0),
         "design starts": lambda n: pincal.design(params, 3, q0, starts=n, workers=1),
         "monte_carlo trials": lambda n: pincal.monte_carlo(params, [[0, 1], [1, 1], [1, 2]], q0, trials=n),
@@ -189,7 +195,7 @@ def test_counts_angles_lengths_fractions_have_one_rule(planar):
             assert caught.value.value is bad, name
     for call in (
         lambda a: pincal.around(q0, a),
-        lambda a: pincal.accuracy(params, [[0, 1], [1, 1], [1, 2]], q0, 3e-5, neighbourhoods=(a,)),
+        lambda a: pincal.accuracy(params, [[0, 1], [1, 1], [1, 2]], q0, sigma=3e-5, neighbourhoods=(a,)),
         lambda a: planar.random_configurations(3, margin=a),
     ):
         for bad in (-0.1, float("inf"), 1e7, True):
@@ -197,7 +203,7 @@ def test_counts_angles_lengths_fractions_have_one_rule(planar):
                 call(bad)
     for bad in ([0, 0, 1e7], [0, 0, True], [0, 0, float("nan")]):
         with pytest.raises(pincal.errors.BadArgument, match="must be a number of metres in"):
-            pincal.cartesian_box([0, 0, 0], bad, q0)
+            pincal.cartesian_box([0, 0, 0], bad, reference=q0)
     for bad in (0, 1, 1.5, True):
         with pytest.raises(pincal.errors.BadArgument, match=r"must be a fraction in \(0, 1\)"):
             pincal.calibration.holdout(

@@ -62,7 +62,9 @@ def test_rehearsal_measure_sim_then_identify(tmp_path, cli, kr270):
     assert result["status"] == "converged" and result["iterations"] >= 1 and result["out"] == str(cal)
     assert result["residual_rms_before"] > 1e-3 > 1e-6 > result["residual_rms_after"]
     params = kr270.parameters("full,offsets").identifiable().identifiable
-    truth = pincal.random_errors(params, {"length": 1e-3, "angle": 1e-3}, np.random.default_rng(3))
+    truth = pincal.random_errors(
+        params, error_std={"length": 1e-3, "angle": 1e-3}, seed=np.random.default_rng(3)
+    )
     assert list(result["params"]) == list(params.names)
     for name, value in truth.as_dict().items():
         assert result["params"][name]["value"] == pytest.approx(value, abs=2e-5)

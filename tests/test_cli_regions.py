@@ -23,7 +23,7 @@ def test_design_for_a_path_reports_its_mean_and_the_d_optimal_plan(cli, tmp_path
     pincal.Plan(poses, ("joint1", "joint2")).to_csv(path)
     data = cli.json("design", *PLANAR, "-m", "3", "--test-path", str(path), "--sigma", str(SIGMA))
     plan = np.array(data["plan"])
-    expected = pincal.rho0(planar_params, plan, pincal.TestPath(poses), SIGMA)
+    expected = pincal.rho0(planar_params, plan, pincal.TestPath(poses), sigma=SIGMA)
     assert data["rho0"] == pytest.approx(expected, rel=1e-12)
     plans = data["accuracy"]["plans"]
     assert [p["name"] for p in plans] == ["plan", "D-optimal"]
@@ -45,7 +45,7 @@ def test_evaluate_with_a_prior_and_a_neighbourhood(cli, tmp_path, planar_params)
     prior = pincal.Prior(1e-3, 1e-3)
     region = pincal.around([0.2, 1.0], np.radians(5))
     assert data["rho0"] == pytest.approx(
-        pincal.rho0(planar_params, plan, region, SIGMA, prior=prior), rel=1e-12
+        pincal.rho0(planar_params, plan, region, sigma=SIGMA, prior=prior), rel=1e-12
     )
     assert data["criteria"] is None and png.stat().st_size > 0
     here = data["accuracy"]["plans"][0]
@@ -77,8 +77,8 @@ def test_scene_colours_sampled_poses_by_predicted_error(cli, tmp_path, planar_pa
 
     plan = np.array([[0.1, 0.4], [0.3, -1.0], [1.0, 2.0]])
     samples = np.array([[0.0, 0.2], [0.5, 1.0], [-1.0, 3.0]])
-    built = pincal.scene(planar_params, plan, [0.2, 1.0], SIGMA, error_samples=samples)
-    expected = [pincal.rho0(planar_params, plan, q, SIGMA) for q in samples]  # each as a test pose
+    built = pincal.scene(planar_params, plan, [0.2, 1.0], sigma=SIGMA, error_samples=samples)
+    expected = [pincal.rho0(planar_params, plan, q, sigma=SIGMA) for q in samples]  # each as a test pose
     np.testing.assert_allclose(built.error_values, expected, rtol=1e-12)
     rgb = error_colors(built.error_values)
     lo, hi = np.argmin(built.error_values), np.argmax(built.error_values)
@@ -100,7 +100,7 @@ def test_scene_colours_sampled_poses_by_predicted_error(cli, tmp_path, planar_pa
     )
     assert data["error_cloud"]["n"] == 50 and html.stat().st_size > 0
     assert data["accuracy"]["plans"][0]["rows"][0]["rms"] == pytest.approx(
-        pincal.rho0(planar_params, plan, [0.2, 1.0], SIGMA), rel=1e-12
+        pincal.rho0(planar_params, plan, [0.2, 1.0], sigma=SIGMA), rel=1e-12
     )
 
 
@@ -131,11 +131,11 @@ def test_evaluate_over_a_cartesian_box(cli, tmp_path):
         "--no-accuracy",
     )
     corners = np.array(box.split(","), dtype=float)  # the box as the command reads it
-    region = pincal.cartesian_box(corners[:3], corners[3:], q0).resolve(robot)
+    region = pincal.cartesian_box(corners[:3], corners[3:], reference=q0).resolve(robot)
     points = robot.points(region.poses)[:, 0]
     assert np.all(np.abs(points - p0) <= 0.05 + 1e-6)  # forward kinematics: every pose is in the box
     read = pincal.Plan.from_csv(plan_csv, robot, degrees=True)  # as the command reads it (rounded)
-    expected = pincal.rho0(params, read, pincal.TestPath(region.poses), SIGMA)
+    expected = pincal.rho0(params, read, pincal.TestPath(region.poses), sigma=SIGMA)
     assert data["rho0"] == pytest.approx(expected, rel=1e-9) and len(data["rho0_per_test_pose"]) == len(
         points
     )

@@ -246,9 +246,9 @@ def test_batches_of_plans_give_each_plans_value(kr270_marker):
         expected = pincal.criteria(params, p).as_dict()
         for key, value in c.as_dict().items():
             assert value == pytest.approx(expected[key], rel=1e-9)
-    reports = pincal.accuracy(params, plans[:2], poses, SIGMA, workspace=50, samples=20)
+    reports = pincal.accuracy(params, plans[:2], poses, sigma=SIGMA, workspace=50, samples=20)
     for report, p in zip(reports, plans[:2], strict=True):
-        single = pincal.accuracy(params, p, poses, SIGMA, workspace=50, samples=20)
+        single = pincal.accuracy(params, p, poses, sigma=SIGMA, workspace=50, samples=20)
         for a, b in zip(report.plans[0].rows, single.plans[0].rows, strict=True):
             assert a.rms == pytest.approx(b.rms, rel=1e-12) and a.max == pytest.approx(b.max, rel=1e-12)
     singular = plans.copy()

@@ -22,7 +22,9 @@ def test_kr270_calibration_end_to_end(tmp_path, seed):
     robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
     params = robot.parameters("full,offsets").identifiable().identifiable
     # The real robot has errors in *every* placement and offset, identifiable or not.
-    truth = pincal.random_errors(robot.parameters("full,offsets"), {"length": 1e-3, "angle": 1e-3}, seed=seed)
+    truth = pincal.random_errors(
+        robot.parameters("full,offsets"), error_std={"length": 1e-3, "angle": 1e-3}, seed=seed
+    )
     plan = pincal.Plan.for_robot(robot, robot.random_configurations(30, 100 + seed, margin=0.05))
 
     measured = tmp_path / "meas.csv"

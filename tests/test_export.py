@@ -44,7 +44,9 @@ def test_identified_kr270_round_trips_to_1e_9(tmp_path):
 def test_every_parameter_of_the_chain_round_trips(tmp_path, name, tip):
     """All placement errors (identifiable or not), offsets folded in, large enough to matter."""
     robot = pincal.load_robot(name, tip=tip, markers=MARKERS[:1])
-    truth = random_errors(robot.parameters("full,offsets,markers"), {"length": 1e-2, "angle": 5e-2}, seed=2)
+    truth = random_errors(
+        robot.parameters("full,offsets,markers"), error_std={"length": 1e-2, "angle": 5e-2}, seed=2
+    )
     out = export_urdf(truth.robot, tmp_path / f"{name}.urdf")
     assert _round_trip_error(truth.robot, out) <= 1e-9
     assert _round_trip_error(robot, out) > 1e-3  # the file did change

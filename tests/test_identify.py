@@ -35,7 +35,7 @@ def kr270_params(kr270):
 
 
 def _data(robot, plan, sigma=0.0, seed=0):
-    return simulate_measurements(robot, plan, sigma, seed)
+    return simulate_measurements(robot, plan, sigma, seed=seed)
 
 
 # ----------------------------------------------------------------------------- recovery
@@ -51,7 +51,7 @@ def _data(robot, plan, sigma=0.0, seed=0):
 def test_recovers_known_parameters_from_exact_data(name, tip, markers, spec):
     robot = pincal.load_robot(name, tip=tip, markers=markers)
     params = robot.parameters(spec).identifiable().identifiable
-    truth = random_errors(params, {"length": 2e-3, "angle": 2e-3}, seed=1)
+    truth = random_errors(params, error_std={"length": 2e-3, "angle": 2e-3}, seed=1)
     plan = robot.random_configurations(3 * len(params), 2)
     result = identify(params, _data(truth.robot, plan))
     assert result.success, result.message
@@ -148,7 +148,7 @@ def test_a_failed_or_rank_deficient_result_reports_what_was_asked(kr270, kr270_p
 
 
 def test_non_convergence_is_a_status_not_an_exception(kr270, kr270_params, tmp_path):
-    truth = random_errors(kr270_params, {"length": 1e-2, "angle": 1e-2}, seed=9)
+    truth = random_errors(kr270_params, error_std={"length": 1e-2, "angle": 1e-2}, seed=9)
     result = identify(kr270_params, _data(truth.robot, kr270.random_configurations(30, 1)), maxiter=1)
     assert result.status == "not_converged" and not result.success
     assert "no convergence" in result.message

@@ -41,39 +41,39 @@ def test_a_payload_design_beats_a_payload_free_one_at_the_loaded_test_pose(param
     assert loaded.rho0 < bare.rho0 / 3  # measured: about 20 times on this robot
     # ρ0 is the core function's, under the task's payload and the plan's own payloads.
     assert loaded.rho0 == pytest.approx(
-        pincal.rho0(params, loaded.plan, Q0, SIGMA, task_payload=TASK), rel=1e-9
+        pincal.rho0(params, loaded.plan, Q0, sigma=SIGMA, task_payload=TASK), rel=1e-9
     )
     # Without its payloads the same configurations separate compliance far worse.
     blind = pincal.Plan.for_robot(params.robot, loaded.plan.q)
-    assert pincal.rho0(params, blind, Q0, SIGMA, task_payload=TASK) > 2 * loaded.rho0
+    assert pincal.rho0(params, blind, Q0, sigma=SIGMA, task_payload=TASK) > 2 * loaded.rho0
 
 
 def test_the_split_adds_up_and_says_what_the_payloads_bought(params, designs):
     loaded, bare = designs
     for design in designs:
-        parts = rho0_split(params, design.plan, Q0, SIGMA, TASK)
+        parts = rho0_split(params, design.plan, Q0, sigma=SIGMA, task_payload=TASK)
         assert parts["geometric"] + parts["elastic"] + parts["cross"] == pytest.approx(
             parts["total"], rel=1e-9
         )
         assert parts["total"] == pytest.approx(design.rho0**2, rel=1e-6)
     assert (
-        rho0_split(params, bare.plan, Q0, SIGMA, TASK)["elastic"]
-        > 10 * rho0_split(params, loaded.plan, Q0, SIGMA, TASK)["elastic"]
+        rho0_split(params, bare.plan, Q0, sigma=SIGMA, task_payload=TASK)["elastic"]
+        > 10 * rho0_split(params, loaded.plan, Q0, sigma=SIGMA, task_payload=TASK)["elastic"]
     )
 
 
 def test_the_accuracy_report_is_under_the_plans_payloads_and_the_tasks(params, designs):
     loaded, bare = designs
     report = pincal.accuracy(
-        params, loaded.plan, Q0, SIGMA, compare={"payload-free": bare.plan}, samples=32, workspace=64,
+        params, loaded.plan, Q0, sigma=SIGMA, compare={"payload-free": bare.plan}, samples=32, workspace=64,
         task_payload=TASK,
     )  # fmt: skip
     assert report.plans[0].row("test pose").rms == pytest.approx(loaded.rho0, rel=1e-9)
     assert report.plans[1].row("test pose").rms == pytest.approx(bare.rho0, rel=1e-9)
     # Unloaded the same test pose is another number: the task's payload is what the report is under.
-    unloaded = pincal.accuracy(params, loaded.plan, Q0, SIGMA, samples=32, workspace=64)
+    unloaded = pincal.accuracy(params, loaded.plan, Q0, sigma=SIGMA, samples=32, workspace=64)
     assert unloaded.plans[0].row("test pose").rms == pytest.approx(
-        pincal.rho0(params, loaded.plan, Q0, SIGMA), rel=1e-9
+        pincal.rho0(params, loaded.plan, Q0, sigma=SIGMA), rel=1e-9
     )
     assert unloaded.plans[0].row("test pose").rms != pytest.approx(loaded.rho0, rel=1e-3)
 
@@ -136,11 +136,11 @@ def test_a_compliance_the_data_cannot_separate_says_what_would(params):
     offsets = robot.parameters("offsets,compliance").identifiable().identifiable
     plan = robot.random_configurations(30, 1)
     plan[:, 1:5] = plan[0, 1:5]
-    check = check_plan(offsets, plan, SIGMA)
+    check = check_plan(offsets, plan, sigma=SIGMA)
     dropped = [n for n in check.dropped if n.endswith(".compliance")]
     assert dropped and all("measure under several payloads" in check.dropped[n] for n in dropped)
     loads = np.column_stack([np.resize(PAYLOADS, 30), np.zeros((30, 3))])
-    loaded = check_plan(offsets, pincal.Plan.for_robot(robot, plan, loads), SIGMA)
+    loaded = check_plan(offsets, pincal.Plan.for_robot(robot, plan, loads), sigma=SIGMA)
     assert not [n for n in loaded.dropped if n.endswith(".compliance")]
 
 

@@ -87,7 +87,7 @@ def test_design_simulate_identify_export_recover_the_true_robot(rail, tmp_path):
     result = pincal.design(params, 10, test_pose=Q0, sigma=SIGMA, starts=4, workers=1, pool=400, seed=1)
     assert result.plan.revolute == (False, True, True, True)
     assert result.rho0 == pytest.approx(pincal.rho0(params, result.plan, Q0, sigma=SIGMA), rel=1e-12)
-    truth = pincal.random_errors(params, {"length": 1e-3, "angle": 1e-3}, seed=3)
+    truth = pincal.random_errors(params, error_std={"length": 1e-3, "angle": 1e-3}, seed=3)
     data = pincal.simulate_measurements(truth.robot, result.plan, 1e-7, seed=4)
     fit = pincal.identify(params, data)
     assert fit.success, fit.message

@@ -256,13 +256,13 @@ def test_data_check_matches_the_planar_closed_form():
     params = robot.parameters("joint2.tx,tip.tx")
     plan = robot.random_configurations(7, 11)
     m, S = len(plan), np.cos(plan[:, 1]).sum()
-    check = pincal.evaluation.check_plan(params, plan, 1e-4)
+    check = pincal.evaluation.check_plan(params, plan, sigma=1e-4)
     assert check.identifiable and check.rank == 2 and check.kept_names == params.names
     np.testing.assert_allclose(check.std, 1e-4 * np.sqrt(m / (m**2 - S**2)), rtol=1e-9)
     r = abs(S) / m
     assert check.condition_number == pytest.approx(np.sqrt((1 + r) / (1 - r)), rel=1e-9)
     straight = plan.copy()
     straight[:, 1] = 0.0  # an outstretched arm: both translations move the tip alike
-    same = pincal.evaluation.check_plan(params, straight, 1e-4)
+    same = pincal.evaluation.check_plan(params, straight, sigma=1e-4)
     assert not np.isfinite(same.condition_number) and same.rank == 1
     assert list(same.dropped) == ["tip.tx"] and "inseparable" in same.dropped["tip.tx"]

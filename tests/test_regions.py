@@ -43,7 +43,7 @@ def test_mean_over_path_equals_brute_force_mean(kr, n):
     robot = params.robot
     plan = robot.random_configurations(10, 3)
     path = pincal.TestPath(_path(robot, q0, n))
-    got = pincal.rho0(params, plan, path, SIGMA) ** 2
+    got = pincal.rho0(params, plan, path, sigma=SIGMA) ** 2
     expected = _brute_rho0_squared(params, plan, path.q, SIGMA).mean()
     assert got == pytest.approx(expected, rel=1e-12)
     # The compressed weight has at most P columns, whatever the path's length.
@@ -60,7 +60,7 @@ def test_mean_over_test_poses_planar_closed_form(planar):
         poses = rng.uniform(-np.pi, np.pi, (50, 2))
         m, S = 4, np.cos(plan[:, 1]).sum()
         expected = 2 * SIGMA**2 * (m - np.cos(poses[:, 1]).mean() * S) / (m**2 - S**2)
-        assert pincal.rho0(params, plan, pincal.TestPath(poses), SIGMA) ** 2 == pytest.approx(
+        assert pincal.rho0(params, plan, pincal.TestPath(poses), sigma=SIGMA) ** 2 == pytest.approx(
             expected, rel=1e-10
         )
 
@@ -69,7 +69,7 @@ def test_worst_over_path_is_the_largest(kr):
     params, q0 = kr
     plan = params.robot.random_configurations(10, 3)
     poses = _path(params.robot, q0, 40)
-    worst = pincal.rho0(params, plan, pincal.TestPath(poses), SIGMA, aggregate="worst") ** 2
+    worst = pincal.rho0(params, plan, pincal.TestPath(poses), sigma=SIGMA, aggregate="worst") ** 2
     assert worst == pytest.approx(_brute_rho0_squared(params, plan, poses, SIGMA).max(), rel=1e-12)
 
 
@@ -79,20 +79,20 @@ def test_prior_criterion_equals_brute_force_posterior(kr, m):
     plan = params.robot.random_configurations(m, 7)  # m = 1, 3: singular without the prior
     prior = pincal.Prior(1e-3, 2e-3)
     cov = prior.covariance(params)
-    got = pincal.rho0(params, plan, q0, SIGMA, prior=prior) ** 2
+    got = pincal.rho0(params, plan, q0, sigma=SIGMA, prior=prior) ** 2
     assert got == pytest.approx(_brute_rho0_squared(params, plan, q0[None], SIGMA, cov)[0], rel=1e-9)
 
 
 def test_prior_criterion_tends_to_rho0(kr):
     params, q0 = kr
     plan = params.robot.random_configurations(12, 7)
-    plain = pincal.rho0(params, plan, q0, SIGMA)
+    plain = pincal.rho0(params, plan, q0, sigma=SIGMA)
     gaps = [
-        abs(pincal.rho0(params, plan, q0, SIGMA, prior=pincal.Prior(s, s)) / plain - 1)
+        abs(pincal.rho0(params, plan, q0, sigma=SIGMA, prior=pincal.Prior(s, s)) / plain - 1)
         for s in (1e-2, 1, 1e2)
     ]
     assert gaps[0] > gaps[1] > gaps[2] and gaps[2] < 1e-10
-    assert pincal.rho0(params, plan, q0, SIGMA, prior=pincal.Prior(np.inf, np.inf)) == pytest.approx(
+    assert pincal.rho0(params, plan, q0, sigma=SIGMA, prior=pincal.Prior(np.inf, np.inf)) == pytest.approx(
         plain, rel=1e-14
     )
 
@@ -140,7 +140,7 @@ def test_cartesian_box_by_inverse_kinematics(kr270_marker):
     robot = kr270_marker
     q0 = np.radians([0, -60, 60, 0, 45, 0])
     p0 = robot.points(q0)[0, 0]
-    region = pincal.cartesian_box(p0 - 0.1, p0 + 0.1, q0, samples=32).resolve(robot)
+    region = pincal.cartesian_box(p0 - 0.1, p0 + 0.1, reference=q0, samples=32).resolve(robot)
     points = robot.points(region.poses)[:, 0]
     assert np.all(points >= p0 - 0.1 - 1e-8) and np.all(points <= p0 + 0.1 + 1e-8)
     lower, upper = kr270_marker.lower, kr270_marker.upper
@@ -167,14 +167,14 @@ def test_accuracy_report(kr):
     other = robot.random_configurations(12, 6)
     prior = pincal.Prior(1e-3, 1e-3)
     report = pincal.accuracy(
-        params, plan, q0, SIGMA, prior=prior, compare={"other": other}, samples=64, workspace=200
+        params, plan, q0, sigma=SIGMA, prior=prior, compare={"other": other}, samples=64, workspace=200
     )
     here = report.plans[0]
     assert here.row("test pose").rms == pytest.approx(
-        pincal.rho0(params, plan, q0, SIGMA, prior=prior), rel=1e-12
+        pincal.rho0(params, plan, q0, sigma=SIGMA, prior=prior), rel=1e-12
     )
     assert report.plans[1].row("test pose").rms == pytest.approx(
-        pincal.rho0(params, other, q0, SIGMA, prior=prior), rel=1e-12
+        pincal.rho0(params, other, q0, sigma=SIGMA, prior=prior), rel=1e-12
     )
     assert here.from_measurements**2 + here.from_prior**2 == pytest.approx(
         here.row("test pose").rms ** 2, rel=1e-9
@@ -212,7 +212,9 @@ def test_objectives_with_a_prior_and_a_path(kr, criterion):
     if criterion.startswith("test-pose"):
         J = J_pool[:2].reshape(-1, P)  # 2 configurations: singular without the prior
         agg = "mean" if criterion == "test-pose" else "worst"
-        expected = pincal.rho0(params, pool[:2], pincal.TestPath(poses), SIGMA, aggregate=agg, prior=prior)
+        expected = pincal.rho0(
+            params, pool[:2], pincal.TestPath(poses), sigma=SIGMA, aggregate=agg, prior=prior
+        )
         assert obj.report(obj.value(J.T @ J, 2)) == pytest.approx(expected, rel=1e-10)
     M = J_pool[:8].reshape(-1, P).T @ J_pool[:8].reshape(-1, P)
     F, G = obj.value_and_gradient(M, 8)
@@ -241,7 +243,7 @@ def test_design_for_a_neighbourhood_reports_its_mean(kr):
     params, q0 = kr
     region = pincal.around(q0, np.radians(10), samples=64)
     result = pincal.design(params, 8, region, sigma=SIGMA, starts=2, workers=1, polish=False)
-    assert result.rho0 == pytest.approx(pincal.rho0(params, result.plan, region, SIGMA), rel=1e-12)
+    assert result.rho0 == pytest.approx(pincal.rho0(params, result.plan, region, sigma=SIGMA), rel=1e-12)
     assert len(result.rho0_each) == 64
 
 

@@ -82,7 +82,7 @@ def calibrations(request):
     }
     predicted = {
         seed: {
-            (plan_name, region): pincal.rho0(params, plan, poses, SIGMA)
+            (plan_name, region): pincal.rho0(params, plan, poses, sigma=SIGMA)
             for plan_name, plan in designed[seed].items()
             for region, poses in regions.items()
         }

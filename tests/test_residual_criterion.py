@@ -32,8 +32,8 @@ def test_without_a_residual_it_is_rho0(setup):
     plan = robot.random_configurations(20, 1)
     q0 = robot.random_configurations(2, 2)
     tiny = _model(robot, 1e-15)
-    assert expected_error(params, plan, q0, tiny, SIGMA) == pytest.approx(
-        pincal.rho0(params, plan, q0, SIGMA), rel=1e-7
+    assert expected_error(params, plan, q0, tiny, sigma=SIGMA) == pytest.approx(
+        pincal.rho0(params, plan, q0, sigma=SIGMA), rel=1e-7
     )
 
 
@@ -52,7 +52,9 @@ def test_it_is_the_dense_generalised_least_squares_formula(setup):
     Kinv = np.linalg.inv(K)
     R = J0.T - H.T @ Kinv @ k0
     sigma0 = K00 - k0.T @ Kinv @ k0 + R.T @ np.linalg.inv(H.T @ Kinv @ H) @ R
-    assert expected_error(params, plan, q0, model, SIGMA) ** 2 == pytest.approx(np.trace(sigma0), rel=1e-8)
+    assert expected_error(params, plan, q0, model, sigma=SIGMA) ** 2 == pytest.approx(
+        np.trace(sigma0), rel=1e-8
+    )
 
 
 def test_a_top_up_design_with_a_residual_model_beats_the_plain_design_at_its_own_game(setup):
@@ -62,12 +64,12 @@ def test_a_top_up_design_with_a_residual_model_beats_the_plain_design_at_its_own
     plain = pincal.design(params, 14, q0, sigma=SIGMA, pool=300, starts=2, seed=1, workers=1)
     topup = pincal.design(params, 14, q0, sigma=SIGMA, pool=300, starts=2, seed=1, residual_model=model)
     assert topup.criterion == ResidualCriterion.name
-    assert topup.value == pytest.approx(expected_error(params, topup.plan, q0, model, SIGMA), rel=1e-9)
+    assert topup.value == pytest.approx(expected_error(params, topup.plan, q0, model, sigma=SIGMA), rel=1e-9)
     # It is better, by its own criterion, than the plan designed as if the model were exact ...
-    assert topup.value < 0.8 * expected_error(params, plain.plan, q0, model, SIGMA)
+    assert topup.value < 0.8 * expected_error(params, plain.plan, q0, model, sigma=SIGMA)
     # ... which, valuing what it does not model, the plain design cannot see: its own ρ0 is lower.
     assert plain.rho0 < topup.rho0
-    assert topup.rho0 == pytest.approx(pincal.rho0(params, topup.plan, q0, SIGMA), rel=1e-9)
+    assert topup.rho0 == pytest.approx(pincal.rho0(params, topup.plan, q0, sigma=SIGMA), rel=1e-9)
 
 
 def test_batched_swaps_are_the_plan_values(setup):

@@ -28,28 +28,28 @@ def kr270():
 
 def test_random_errors_are_reproducible_and_scaled(kr270):
     params = kr270.parameters("full,offsets").identifiable().identifiable
-    a = random_errors(params, {"length": 1e-3, "angle": 2e-3}, seed=1)
-    b = random_errors(params, {"length": 1e-3, "angle": 2e-3}, seed=np.random.default_rng(1))
-    c = random_errors(params, {"length": 1e-3, "angle": 2e-3}, seed=2)
+    a = random_errors(params, error_std={"length": 1e-3, "angle": 2e-3}, seed=1)
+    b = random_errors(params, error_std={"length": 1e-3, "angle": 2e-3}, seed=np.random.default_rng(1))
+    c = random_errors(params, error_std={"length": 1e-3, "angle": 2e-3}, seed=2)
     np.testing.assert_array_equal(a.values, b.values)
     assert not np.allclose(a.values, c.values)
-    only_lengths = random_errors(params, {"length": 1e-3, "angle": 0.0}, seed=1)
+    only_lengths = random_errors(params, error_std={"length": 1e-3, "angle": 0.0}, seed=1)
     units = np.array(params.units)
     assert np.all(only_lengths.values[units == "rad"] == 0) and np.all(only_lengths.values[units == "m"] != 0)
     q = kr270.random_configurations(5, 0)
     # The true robot is the nominal one with those errors: joint zero errors shift the joints
     # (oracle: the nominal robot at q + Δq), and the drawn errors have the asked spread.
     offsets = kr270.parameters("offsets")
-    shifted = random_errors(offsets, {"length": 0.0, "angle": 1e-3}, seed=4)
+    shifted = random_errors(offsets, error_std={"length": 0.0, "angle": 1e-3}, seed=4)
     np.testing.assert_allclose(shifted.robot.points(q), kr270.points(q + shifted.values), atol=1e-12)
-    many = random_errors(kr270.parameters("full,offsets"), {"length": 1e-3, "angle": 2e-3}, seed=2)
+    many = random_errors(kr270.parameters("full,offsets"), error_std={"length": 1e-3, "angle": 2e-3}, seed=2)
     spread = {u: np.std(many.values[np.array(many.params.units) == u]) for u in ("m", "rad")}
     assert 0.7e-3 < spread["m"] < 1.3e-3 and 1.4e-3 < spread["rad"] < 2.6e-3  # ~40 draws each
     assert kr270.joint_offsets.sum() == 0  # the nominal robot is untouched
     with pytest.raises(PincalError, match="'length'"):
-        random_errors(params, {"lenght": 1e-3})
+        random_errors(params, error_std={"lenght": 1e-3})
     with pytest.raises(PincalError, match="error std 'length' must be a number of metres from 0"):
-        random_errors(params, {"length": -1.0, "angle": 0.0})
+        random_errors(params, error_std={"length": -1.0, "angle": 0.0})
 
 
 def test_simulated_noise_has_the_requested_sigma(kr270):
@@ -75,7 +75,7 @@ def test_monte_carlo_matches_the_planar_closed_form():
     plan = robot.random_configurations(6, 3)
     q0 = np.array([0.3, 1.2])
     sigma = 3e-5
-    mc = monte_carlo(params, plan, q0, sigma, trials=200, seed=5)
+    mc = monte_carlo(params, plan, q0, sigma=sigma, trials=200, seed=5)
     m, S = len(plan), np.cos(plan[:, 1]).sum()
     exact = np.sqrt(2 * sigma**2 * (m - np.cos(q0[1]) * S) / (m**2 - S**2))
     assert mc.rho0_predicted == pytest.approx(exact, rel=1e-10)
@@ -91,7 +91,7 @@ def test_monte_carlo_matches_rho0_on_kr270(kr270):
     params = kr270.parameters("full,offsets").identifiable().identifiable
     plan = kr270.random_configurations(30, 3)
     q0 = np.radians([0, -90, 90, 0, 45, 0])
-    mc = monte_carlo(params, plan, q0, 3e-5, trials=200, seed=6)
+    mc = monte_carlo(params, plan, q0, sigma=3e-5, trials=200, seed=6)
     assert mc.rho0_predicted == pytest.approx(_rho0_finite_differences(params, plan, q0, 3e-5), rel=1e-5)
     assert mc.rho0_empirical_se < 0.1 * mc.rho0_predicted
     assert abs(mc.rho0_empirical - mc.rho0_predicted) < 3 * mc.rho0_empirical_se
@@ -106,7 +106,7 @@ def test_monte_carlo_with_several_test_poses_uses_the_mean(kr270):
     params = kr270.parameters("offsets,lengths").identifiable().identifiable
     plan = kr270.random_configurations(20, 1)
     q0 = kr270.random_configurations(3, 2)
-    mc = monte_carlo(params, plan, q0, 3e-5, trials=100, seed=1)
+    mc = monte_carlo(params, plan, q0, sigma=3e-5, trials=100, seed=1)
     assert mc.rho0_predicted == pytest.approx(_rho0_finite_differences(params, plan, q0, 3e-5), rel=1e-5)
     assert abs(mc.ratio - 1) < 3 * mc.ratio_se
 
@@ -116,7 +116,7 @@ def test_large_errors_are_reported_as_nonlinearity():
     params = robot.parameters("full,offsets").identifiable().identifiable
     plan = robot.random_configurations(6, 3)
     mc = monte_carlo(
-        params, plan, [0.3, 1.2], 3e-5, trials=60, seed=5, error_std={"length": 0.2, "angle": 1.0}
+        params, plan, [0.3, 1.2], sigma=3e-5, trials=60, seed=5, error_std={"length": 0.2, "angle": 1.0}
     )
     assert mc.nonlinear
     assert mc.failures + mc.local_minima > 0
@@ -127,8 +127,8 @@ def test_monte_carlo_validates_its_arguments(kr270):
     params = kr270.parameters("offsets")
     plan = kr270.random_configurations(10, 1)
     with pytest.raises(PincalError, match="sigma"):
-        monte_carlo(params, plan, plan[0], 0.0)
+        monte_carlo(params, plan, plan[0], sigma=0.0)
     with pytest.raises(PincalError, match="trials"):
-        monte_carlo(params, plan, plan[0], 1e-5, trials=1)
+        monte_carlo(params, plan, plan[0], sigma=1e-5, trials=1)
     with pytest.raises(pincal.errors.BadConfiguration, match="test pose"):
-        monte_carlo(params, plan, [0, 0, 0, 0, 0, 0], 1e-5)  # A2 = 0 is outside [-140°, -5°]
+        monte_carlo(params, plan, [0, 0, 0, 0, 0, 0], sigma=1e-5)  # A2 = 0 is outside [-140°, -5°]

@@ -65,7 +65,7 @@ def test_design_and_identify_match_the_exact_robot_to_one_percent(pair):
         design = pincal.design(exact_params, m, test_pose=q0, starts=2, seed=1, sigma=SIGMA)
         # The exact robot's optimum is (to 1 %) as good a plan of the rounded robot: ρ0 of a given
         # plan moves by micrometres' worth, whatever the search did.
-        start = pincal.rho0(rounded_params, design.plan, q0, SIGMA)
+        start = pincal.rho0(rounded_params, design.plan, q0, sigma=SIGMA)
         assert start == pytest.approx(design.value, rel=0.01)
         # The rounded robot's continuous design from it runs (no singular information matrix, no
         # floor failure) and, a descent from that plan, ends no worse than it. How much further it
@@ -87,7 +87,9 @@ def test_design_and_identify_match_the_exact_robot_to_one_percent(pair):
                 min_conditioning=floor,
             )
             assert again.value <= start * (1 + 1e-9), (seed, again.value / start)
-            assert again.value == pytest.approx(pincal.rho0(rounded_params, again.plan, q0, SIGMA), rel=1e-9)
+            assert again.value == pytest.approx(
+                pincal.rho0(rounded_params, again.plan, q0, sigma=SIGMA), rel=1e-9
+            )
             assert again.conditioning > floor
     fits = []
     for params in (exact_params, rounded_params):
@@ -179,7 +181,7 @@ def test_gen3_designs_and_identifies_like_the_exact_arm(gen3):
         warnings.simplefilter("ignore", pincal.errors.DegenerateOptimumWarning)
         design = pincal.design(params, m, test_pose=q0, starts=2, seed=1, sigma=SIGMA)
     assert design.conditioning >= 1e-3
-    assert pincal.rho0(exact_params, design.plan, q0, SIGMA) == pytest.approx(design.value, rel=0.01)
+    assert pincal.rho0(exact_params, design.plan, q0, sigma=SIGMA) == pytest.approx(design.value, rel=0.01)
     truth = pincal.random_errors(params, seed=3)
     data = pincal.simulate_measurements(truth, design.plan, sigma=SIGMA, seed=4)
     fit = pincal.identify(params, data, sigma=SIGMA)

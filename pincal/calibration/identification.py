@@ -52,6 +52,7 @@ from pincal.calibration.result import IdentificationResult, _rms, identification
 from pincal.calibration.sanity import Outlier, find_outliers, implausible, likely_causes, row_scores
 from pincal.calibration.solver import ERROR_SCALE, ROBUST_SCALE, solve
 from pincal.calibration.state import Rows, Settings, Setup, Solution, Verdict
+from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, BadMeasurementData, SingularPlan
 from pincal.evaluation.data_check import DataCheck, check_parameters
 from pincal.evaluation.prior import Prior
@@ -82,13 +83,14 @@ POOR_FIT = 1e-3
 errors do not explain the data (non-geometric errors, a model that is too small)."""
 
 
+@keywords_after(2)
 def identify(
     params: ParameterSet,
     data: MeasurementData | Sequence[MeasurementData],
+    *,
     sigma: float | None = None,
     maxiter: int = 100,
     tol: float = 1e-10,
-    *,
     prior: Prior | None = None,
     loss: str = "linear",
     method: str = "trf",
@@ -184,7 +186,7 @@ def fit_residual_model(result: IdentificationResult, seed: SeedLike = 0) -> Resi
     )
 
 
-def _sessions(data: object, robot: Robot) -> list[MeasurementData]:
+def _sessions(data: MeasurementData | Sequence[MeasurementData], robot: Robot) -> list[MeasurementData]:
     items = [data] if isinstance(data, MeasurementData) else data
     if not isinstance(items, Sequence) or not items or not all(isinstance(d, MeasurementData) for d in items):
         raise BadMeasurementData(

@@ -41,10 +41,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.arguments import MAX_LENGTH, SIGMA_RANGE, check_lengths
+from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, BadMeasurementData
 from pincal.files import atomic_write_text, column_mismatch, csv_header, read_numeric_csv
 from pincal.model.robot import Robot
 from pincal.model.statics import MAX_PAYLOAD, PAYLOAD_COLUMNS, payload_columns
+from pincal.typing import ArrayLike, PayloadLike
 
 _MEASURED = re.compile(r"^([xyz])(\d*)$")
 _SIGMA = re.compile(r"^s([xyz]?)(\d*)$")
@@ -153,7 +155,7 @@ class MeasurementData:
             return [f"measurement {n}" for n in lines]
         return [f"measurement {i}" for i in range(len(self.q))]
 
-    def subset(self, rows: object) -> MeasurementData:
+    def subset(self, rows: ArrayLike) -> MeasurementData:
         """The data of some rows (indices or a boolean mask); their labels, lines and σ kept."""
         index = np.arange(self.m)[np.asarray(rows)]
         lines = tuple(int(i) for i in index) if self.lines is None else tuple(self.lines[i] for i in index)
@@ -236,8 +238,9 @@ class MeasurementData:
         robot.check_limits(q, data.labels(), degrees)
         return data
 
+    @keywords_after(1)
     def to_csv_text(
-        self, degrees: bool = False, millimetres: bool = False, robot: Robot | None = None
+        self, *, degrees: bool = False, millimetres: bool = False, robot: Robot | None = None
     ) -> str:
         """CSV text of these data (format: see the module doc).
 
@@ -274,9 +277,11 @@ class MeasurementData:
             out.write(",".join(repr(float(v)) for v in row) + "\n")
         return out.getvalue()
 
+    @keywords_after(2)
     def to_csv(
         self,
         path: str | os.PathLike,
+        *,
         degrees: bool = False,
         millimetres: bool = False,
         robot: Robot | None = None,
@@ -353,7 +358,7 @@ def _sigma_columns(
     return out
 
 
-def _checked_payload(payload: object, m: int, labels: list[str]) -> np.ndarray | None:
+def _checked_payload(payload: PayloadLike, m: int, labels: list[str]) -> np.ndarray | None:
     """The (m, 4) payload rows, read-only, checked (masses from 0 to MAX_PAYLOAD kg, centres within
     MAX_LENGTH m), or None."""
     if payload is None:

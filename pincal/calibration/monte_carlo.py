@@ -17,10 +17,11 @@ import numpy as np
 from pincal.arguments import DEFAULT_SIGMA, generator, positive_int, positive_sigma
 from pincal.calibration.identification import identify
 from pincal.calibration.synthetic import error_std_pair, random_errors, simulate_measurements
+from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0
 from pincal.model.parameters import ParameterSet
-from pincal.typing import SeedLike
+from pincal.typing import ConfigurationsLike, SeedLike, TestPoseLike
 
 QUANTILES = (0.5, 0.9, 0.95, 0.99)
 """Quantiles of the error at the test pose(s) reported by :func:`monte_carlo`."""
@@ -102,10 +103,12 @@ class MonteCarloResult:
         }
 
 
+@keywords_after(3)
 def monte_carlo(
     params: ParameterSet,
-    plan: object,
-    test_pose: object,
+    plan: ConfigurationsLike,
+    test_pose: TestPoseLike,
+    *,
     sigma: float = DEFAULT_SIGMA,
     trials: int = 200,
     seed: SeedLike = None,
@@ -207,8 +210,8 @@ def _run_trials(check: _Check, rng: np.random.Generator) -> _Runs:
     errors, before, at_truth = [], [], []
     failures = local_minima = 0
     for _ in range(check.trials):
-        truth = random_errors(params, check.error_std, rng)
-        data = simulate_measurements(truth.robot, qs, sigma, rng)
+        truth = random_errors(params, error_std=check.error_std, seed=rng)
+        data = simulate_measurements(truth.robot, qs, sigma, seed=rng)
         result = identify(params, data, sigma=sigma, sanity=False)
         if not result.success:
             failures += 1

@@ -27,6 +27,7 @@ from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
 from pincal.model.statics import Payload, payload_rows
+from pincal.typing import ConfigurationsLike, PayloadLike, TestPoseLike
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,7 +99,7 @@ class IdentificationResult:
     initial_bases: tuple[pin.SE3, ...] = ()
     residual_model: ResidualModel | None = None
 
-    def predict(self, q: object, *, payload: object = None, session: int = 0) -> np.ndarray:
+    def predict(self, q: ConfigurationsLike, *, payload: PayloadLike = None, session: int = 0) -> np.ndarray:
         """(m, K, 3) the points the calibration predicts at joint readings ``q`` [m], in session
         ``session``'s instrument frame: the calibrated robot's (under ``payload``), plus the residual
         model's mean when there is one (it models the residual in the robot's base frame)."""
@@ -110,7 +111,9 @@ class IdentificationResult:
         mean = self.residual_model.mean(qs).reshape(points.shape)
         return points + mean @ robot.base.rotation.T
 
-    def point_variances(self, q: object, *, payload: object = None) -> tuple[np.ndarray, np.ndarray]:
+    def point_variances(
+        self, q: ConfigurationsLike, *, payload: PayloadLike = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """((m, K), (m, K)) the variance [m²] of each predicted point (:meth:`predict`) at joint
         readings ``q``, summed over its three coordinates, from each source: the parameters'
         uncertainty, tr(J C Jᵀ) over the point's rows (J the parameter Jacobian under ``payload``,
@@ -129,7 +132,7 @@ class IdentificationResult:
             gp += 3.0 * self.residual_model.variance(qs)[:, None]
         return parameters, gp
 
-    def expected_error(self, q: object, *, payload: object = None) -> np.ndarray:
+    def expected_error(self, q: ConfigurationsLike, *, payload: PayloadLike = None) -> np.ndarray:
         """(m,) the expected distance [m] between the points :meth:`predict` gives at joint readings
         ``q`` (all markers) and the robot's true ones (docs/method.md §11.6): sqrt(tr(J C Jᵀ) +
         3K·v(q)), the parameters' standard errors propagated to the points (the ρ of §8.3 with this
@@ -160,9 +163,9 @@ class IdentificationResult:
 
     def accuracy(
         self,
-        test_pose: object,
+        test_pose: TestPoseLike,
         *,
-        payload: object = None,
+        payload: PayloadLike = None,
         neighbourhoods: tuple[float, ...] = NEIGHBOURHOODS,
         samples: int = NEIGHBOURHOOD_SAMPLES,
         workspace: int = WORKSPACE_SAMPLES,
@@ -343,7 +346,7 @@ class _SquaredError:
     """A calibration's squared expected error as :func:`~pincal.evaluation.accuracy.worst_found`
     searches it."""
 
-    def __init__(self, result: IdentificationResult, payload: object) -> None:
+    def __init__(self, result: IdentificationResult, payload: PayloadLike) -> None:
         self.result, self.payload = result, payload
 
     def squared(self, qs: np.ndarray) -> np.ndarray:

@@ -21,11 +21,12 @@ import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, angle, generator, length, positive_sigma
 from pincal.calibration.measurements import MeasurementData
+from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.model.statics import payload_rows
-from pincal.typing import PayloadLike, SeedLike
+from pincal.typing import ConfigurationsLike, PayloadLike, SeedLike
 
 DEFAULT_ERROR_STD = {"length": 1e-3, "angle": 1e-3}
 """Standard deviation of random geometric errors: 1 mm for lengths [m], 1 mrad for angles [rad]."""
@@ -77,8 +78,10 @@ def error_std_pair(error_std: Mapping[str, float] | None) -> tuple[float, float]
     )
 
 
+@keywords_after(1)
 def random_errors(
     params: ParameterSet,
+    *,
     error_std: Mapping[str, float] | None = None,
     seed: SeedLike = None,
 ) -> RandomErrors:
@@ -147,12 +150,13 @@ class SmoothField:
         return np.sum(np.sin(angles[:, :, None] + self.phases[None]) * self.weights[None], axis=1)
 
 
+@keywords_after(3)
 def simulate_measurements(
     true_robot: Robot | RandomErrors,
-    plan: object,
+    plan: ConfigurationsLike,
     sigma: float = DEFAULT_SIGMA,
-    seed: SeedLike = None,
     *,
+    seed: SeedLike = None,
     payload: PayloadLike = None,
     unmodelled: SmoothField | None = None,
 ) -> MeasurementData:

@@ -50,6 +50,7 @@ import pinocchio as pin
 from lxml import etree
 
 from pincal.calibration.identification import IdentificationResult
+from pincal.deprecation import keywords_after
 from pincal.errors import (
     BadArgument,
     IdentificationFailed,
@@ -115,11 +116,12 @@ def sidecar(calibrated: IdentificationResult | Robot, urdf: str | os.PathLike) -
     return out
 
 
+@keywords_after(2)
 def export_urdf(
     calibrated: IdentificationResult | Robot,
     path: str | os.PathLike,
-    source_urdf: str | os.PathLike | None = None,
     *,
+    source_urdf: str | os.PathLike | None = None,
     force: bool = False,
     write_sidecar: bool = True,
 ) -> Path:

@@ -23,6 +23,7 @@ from pincal.arguments import fraction as checked_fraction
 from pincal.arguments import generator, positive_int
 from pincal.calibration.identification import IdentificationResult, identify
 from pincal.calibration.measurements import MeasurementData
+from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, warn
 from pincal.model.parameters import ParameterSet
 
@@ -158,7 +159,8 @@ def _point_labels(data: MeasurementData) -> list[str]:
     return [label for label in data.labels() for _ in range(data.n_markers)]
 
 
-def validate(result: IdentificationResult, data: MeasurementData, session: int = 0) -> Validation:
+@keywords_after(2)
+def validate(result: IdentificationResult, data: MeasurementData, *, session: int = 0) -> Validation:
     """Errors of ``result`` on other measurements ``data`` (in session ``session``'s instrument
     frame: the first data file's by default)."""
     if not isinstance(data, MeasurementData):
@@ -259,10 +261,12 @@ def _fit_and_test(
     return result, np.concatenate(before), np.concatenate(after), np.concatenate(expected), labels
 
 
+@keywords_after(3)
 def holdout(
     params: ParameterSet,
     data: MeasurementData | Sequence[MeasurementData],
     fraction: float,
+    *,
     seed: int | None = 0,
     **kwargs: object,
 ) -> tuple[IdentificationResult, Validation]:
@@ -288,10 +292,12 @@ def holdout(
     return result, Validation(before, after, tuple(labels), how, (result.status,), expected, gp)
 
 
+@keywords_after(3)
 def kfold(
     params: ParameterSet,
     data: MeasurementData | Sequence[MeasurementData],
     k: int,
+    *,
     seed: int | None = 0,
     **kwargs: object,
 ) -> Validation:

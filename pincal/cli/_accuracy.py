@@ -165,7 +165,7 @@ def test_region_from_args(robot, args: argparse.Namespace, required: bool = True
             raise BadArgument(
                 f"--test-box {args.test_box!r}: expected X0,Y0,Z0,X1,Y1,Z1 (six numbers, metres)"
             )
-        return cartesian_box(box[:3], box[3:], poses[0])
+        return cartesian_box(box[:3], box[3:], reference=poses[0])
     if args.around:
         angle, length = parse_around(args.around, args.deg)
         if len(poses) == 1:
@@ -256,7 +256,14 @@ def accuracy_report(
     """The accuracy report of ``plan`` next to ``reference`` (the D-optimal plan, if any)."""
     compare = {} if reference is None else {"D-optimal": reference}
     return accuracy(
-        params, plan, test_pose, sigma, prior=prior, compare=compare, seed=seed, task_payload=task_payload
+        params,
+        plan,
+        test_pose,
+        sigma=sigma,
+        prior=prior,
+        compare=compare,
+        seed=seed,
+        task_payload=task_payload,
     )
 
 
@@ -264,5 +271,5 @@ def save_accuracy_plot(
     path: str, params, plans: dict, test_pose, sigma: float, prior, task_payload=None
 ) -> None:
     """The predicted error against the distance from the test pose, for each plan, saved."""
-    profiles = error_profile(params, plans, test_pose, sigma, prior, task_payload=task_payload)
+    profiles = error_profile(params, plans, test_pose, sigma=sigma, prior=prior, task_payload=task_payload)
     save_figure(error_vs_distance(profiles), path)

@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
                 params,
                 args.m,
                 q0,
-                "D",
+                criterion="D",
                 method=args.method,
                 pool=pool,
                 constraints=constraints,

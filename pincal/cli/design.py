@@ -247,7 +247,7 @@ def run(args: argparse.Namespace) -> int:
         if "residual_model" in loads:
             args.no_accuracy = True  # its expected error is the criterion's, printed instead
     with recorded_warnings() as records:
-        result = design(params, args.m, q0, criterion, **options)
+        result = design(params, args.m, q0, criterion=criterion, **options)
         baseline = None
         if args.baseline is not None:
             baseline = _baseline(params, args, q0, criterion, taught, options)
@@ -326,7 +326,7 @@ def _baseline(params, args: argparse.Namespace, q0, criterion: str, taught, opti
         seed=args.seed,
         pool=taught,
     )
-    return randoms, design(params, args.m, q0, "D", **options)
+    return randoms, design(params, args.m, q0, criterion="D", **options)
 
 
 def _write_and_print(
@@ -358,7 +358,9 @@ def _split(params, result: DesignResult, args: argparse.Namespace) -> dict | Non
     if result.rho0 is None or not any(p.kind in ("gain", "compliance") for p in params):
         return None
     task = _payload_options(args).get("task_payload")
-    return rho0_split(params, result.plan, test_region_from_args(params.robot, args), result.sigma, task)
+    return rho0_split(
+        params, result.plan, test_region_from_args(params.robot, args), sigma=result.sigma, task_payload=task
+    )
 
 
 def _rho0_criterion(criterion: str) -> str:

@@ -101,8 +101,8 @@ def run(args: argparse.Namespace) -> int:
     report = report_accuracy(args, params, plan, q0, sigma, prior, task_payload=task)
     split = None
     if prior is None and any(p.kind in ("gain", "compliance") for p in params):
-        split = rho0_split(params, plan, q0, sigma, task)
-    check = check_plan(params, plan, sigma)
+        split = rho0_split(params, plan, q0, sigma=sigma, task_payload=task)
+    check = check_plan(params, plan, sigma=sigma)
     if args.json:
         emit_json(
             {

@@ -107,13 +107,13 @@ def run(args: argparse.Namespace) -> int:
         description = f"true robot {args.true}"
     else:
         params, source = params_from_args(robot, args)
-        truth = random_errors(params, parse_error_std(args.error_std), rng)
+        truth = random_errors(params, error_std=parse_error_std(args.error_std), seed=rng)
         true_robot = truth.robot
         description = f"random errors of {len(params)} parameters ({source}), seed {args.seed}"
         if args.save_true:
             description += f", saved to {args.save_true}"
     measured = true_robot.replace(base=_base_pose(args.base_pose, args.deg))
-    data = simulate_measurements(measured, plan, args.sigma, rng)
+    data = simulate_measurements(measured, plan, args.sigma, seed=rng)
     data.to_csv(args.out, degrees=args.deg, millimetres=args.mm, robot=robot)
     if args.save_true:
         export_urdf(true_robot, args.save_true)

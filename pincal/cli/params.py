@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
             configurations = Plan.for_robot(robot, data.q, data.payload)  # under the payloads carried
         else:
             configurations = read_plan(robot, args.plan, args.deg)
-        check = check_plan(ident.identifiable, configurations, sigma)
+        check = check_plan(ident.identifiable, configurations, sigma=sigma)
     if args.json:
         emit_json(
             {

@@ -95,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
 
     def simulated(configurations: object) -> MonteCarloResult:  # the same trials, errors and seed
         return monte_carlo(
-            params, configurations, q0, sigma, trials=args.trials, seed=args.seed, error_std=error_std
+            params, configurations, q0, sigma=sigma, trials=args.trials, seed=args.seed, error_std=error_std
         )
 
     mc = simulated(plan)

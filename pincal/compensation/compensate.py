@@ -32,6 +32,7 @@ from pincal.errors import BadArgument
 from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
 from pincal.model.statics import payload_rows
+from pincal.typing import ArrayLike, ConfigurationsLike, PayloadLike
 
 TOLERANCE = 1e-10
 """Newton stops when the tool's position error is below this [m] and its orientation error below
@@ -141,12 +142,12 @@ def _solve(tool: _Tool, start: np.ndarray, goal: tuple, load: np.ndarray, steps:
 def compensate(
     calibrated: Robot,
     nominal: Robot,
-    targets: object,
+    targets: ArrayLike,
     *,
-    payload: object = None,
+    payload: PayloadLike = None,
     residual_model: ResidualModel | None = None,
     cartesian: bool = False,
-    seed: object = None,
+    seed: ConfigurationsLike | None = None,
     max_iterations: int = MAX_ITERATIONS,
 ) -> Compensation:
     """Corrected joint commands for a program (see the module doc).

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.arguments import angle, generator, positive_int, positive_sigma
+from pincal.deprecation import keywords_after
 from pincal.evaluation.information import factor
 from pincal.evaluation.plans import blas_for, engine_for, plan_batch, plan_payloads
 from pincal.evaluation.prior import Prior
@@ -31,6 +32,7 @@ from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.lapack import trtrs
 from pincal.model.parameters import ParameterSet
 from pincal.model.statics import payload_rows
+from pincal.typing import ConfigurationsLike, PayloadLike, PlansLike, TestPoseLike
 
 NEIGHBOURHOODS = (math.radians(10), math.radians(20))
 """Half-widths of the neighbourhoods every report covers [rad]."""
@@ -67,11 +69,11 @@ class PredictedError:
     def __init__(
         self,
         params: ParameterSet,
-        plan: object,
+        plan: ConfigurationsLike,
         sigma: float,
         prior: Prior | None = None,
-        task_payload: object = None,
-        payload: object = None,
+        task_payload: PayloadLike = None,
+        payload: PayloadLike = None,
     ) -> None:
         self.params = params
         self.sigma = positive_sigma(sigma)
@@ -136,7 +138,8 @@ class WorstFound:
         }
 
 
-def worst_found(predicted: PredictedError, region: ResolvedRegion, starts: int = 3) -> WorstFound:
+@keywords_after(2)
+def worst_found(predicted: PredictedError, region: ResolvedRegion, *, starts: int = 3) -> WorstFound:
     """The worst ρ over a region: sampled, then maximised locally from the ``starts`` worst
     samples (continuous regions). See the module doc."""
     starts = positive_int(starts, "starts", 0)
@@ -340,7 +343,7 @@ class AccuracyReport:
         return out
 
 
-def _prismatic_per_radian(test_pose: object) -> float:
+def _prismatic_per_radian(test_pose: TestPoseLike) -> float:
     """[m/rad] the test region's own ratio of length to angle, else :data:`PRISMATIC_PER_RADIAN`."""
     if isinstance(test_pose, Neighbourhood) and test_pose.length is not None:
         angle = test_pose.angle
@@ -360,7 +363,7 @@ def _neighbourhood(
 
 def sample_sets(
     robot,
-    test_pose: object,
+    test_pose: TestPoseLike,
     neighbourhoods: tuple[float, ...] = NEIGHBOURHOODS,
     samples: int = NEIGHBOURHOOD_SAMPLES,
     workspace: int = WORKSPACE_SAMPLES,
@@ -388,10 +391,12 @@ def sample_sets(
     return sets, poses, region
 
 
+@keywords_after(3)
 def accuracy(
     params: ParameterSet,
-    plan: object,
-    test_pose: object,
+    plan: PlansLike,
+    test_pose: TestPoseLike,
+    *,
     sigma: float,
     prior: Prior | None = None,
     compare: dict[str, object] | None = None,
@@ -399,7 +404,7 @@ def accuracy(
     samples: int = NEIGHBOURHOOD_SAMPLES,
     workspace: int = WORKSPACE_SAMPLES,
     seed: int = 0,
-    task_payload: object = None,
+    task_payload: PayloadLike = None,
 ) -> AccuracyReport | tuple[AccuracyReport, ...]:
     """Predicted error after calibrating with ``plan`` (and each plan of ``compare``), at the
     test pose(s), over neighbourhoods of them, and over the workspace; for a batch of plans
@@ -472,7 +477,7 @@ def accuracy(
     return reports if batched else reports[0]
 
 
-def _loads(task_payload: object, n: int) -> np.ndarray | None:
+def _loads(task_payload: PayloadLike, n: int) -> np.ndarray | None:
     """(n, 4) rows of the task's load at n configurations, or None."""
     return None if task_payload is None else payload_rows(task_payload, n)
 
@@ -509,17 +514,19 @@ class ErrorProfile:
         return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()}
 
 
+@keywords_after(3)
 def error_profile(
     params: ParameterSet,
     plans: dict[str, object],
-    test_pose: object,
+    test_pose: TestPoseLike,
+    *,
     sigma: float,
     prior: Prior | None = None,
     max_distance: float = math.radians(30),
     steps: int = 13,
     samples: int = 128,
     seed: int = 0,
-    task_payload: object = None,
+    task_payload: PayloadLike = None,
 ) -> tuple[ErrorProfile, ...]:
     """Median and 95th percentile of ρ on shells at distance d = max_j |q_j − q0_j| from the test
     pose(s), for d in [0, max_distance] (``samples`` configurations per shell, the same for every

@@ -24,6 +24,7 @@ from pincal.evaluation.e_optimal import EOptimal
 from pincal.evaluation.information import factor, factor_batch
 from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch, plan_payloads
 from pincal.model.parameters import ParameterSet
+from pincal.typing import PlansLike
 
 
 @dataclass(frozen=True)
@@ -87,7 +88,7 @@ def criteria_from_singular_values(s: np.ndarray, m: int, rows: int) -> Criteria:
     )
 
 
-def criteria(params: ParameterSet, plan: object) -> Criteria | tuple[Criteria, ...]:
+def criteria(params: ParameterSet, plan: PlansLike) -> Criteria | tuple[Criteria, ...]:
     """The classic criteria (D, A, E, cond, O1–O4) of ``plan`` for ``params``; of each plan of a
     batch ((k, m, nq) or a sequence of Plans: a tuple of k, see :mod:`pincal.evaluation.plans`)."""
     qs, batched = plan_batch(params, plan)

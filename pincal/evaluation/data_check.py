@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.arguments import positive_sigma
+from pincal.deprecation import keywords_after
 from pincal.evaluation.information import (
     condition_number,
     conditioning,
@@ -43,6 +44,7 @@ from pincal.evaluation.information import (
 from pincal.model.base_parameters import preference_order
 from pincal.model.jacobian import ZERO_COLUMN
 from pincal.model.parameters import ParameterSet
+from pincal.typing import ConfigurationsLike
 
 IDENTIFIABLE_STD = {"m": 1e-2, "rad": 1e-2, "1": 1e-2, "rad/(N·m)": 1e-4, "m/N": 1e-5}
 """A parameter is identifiable on the data when they determine it to better than this standard
@@ -322,7 +324,8 @@ def check_parameters(
     return _check(_Columns.of(names, units, M, always), order, m, sigma)
 
 
-def check_plan(params: ParameterSet, plan: object, sigma: float) -> DataCheck:
+@keywords_after(2)
+def check_plan(params: ParameterSet, plan: ConfigurationsLike, *, sigma: float) -> DataCheck:
     """The data check of ``params`` on configurations ``plan`` (a Plan, (m, nq) array, or the
     ``q`` of measurements) for noise ``sigma`` per coordinate [m], as identify makes it
     (:func:`check_parameters`)."""

@@ -24,6 +24,7 @@ from pincal.blas import single_threaded
 from pincal.errors import BadConfiguration
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
+from pincal.typing import PlansLike
 
 _LOCAL = threading.local()
 
@@ -45,7 +46,7 @@ def blas_for(configurations: int) -> AbstractContextManager:
     return single_threaded()
 
 
-def plan_batch(params: ParameterSet, plan: object) -> tuple[np.ndarray, bool]:
+def plan_batch(params: ParameterSet, plan: PlansLike) -> tuple[np.ndarray, bool]:
     """((k, m, nq) checked joint values, batched): one plan ((m, nq), (nq,) or a Plan) is a batch of
     one, with ``batched`` False; a (k, m, nq) array or a sequence of Plans of one m is a batch.
 
@@ -71,7 +72,7 @@ def plan_batch(params: ParameterSet, plan: object) -> tuple[np.ndarray, bool]:
     return flat.reshape(k, m, nq), True
 
 
-def plan_payloads(plan: object, shape: tuple[int, int, int]) -> np.ndarray | None:
+def plan_payloads(plan: PlansLike, shape: tuple[int, int, int]) -> np.ndarray | None:
     """(k·m, 4) the payload rows of a plan or a sequence of Plans (:attr:`~pincal.Plan.payload`;
     none for a plan without), or None when no plan carries any; ``shape`` is (k, m, nq)."""
     plans = (

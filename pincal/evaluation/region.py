@@ -38,8 +38,10 @@ from pincal.arguments import MAX_ANGLE, generator, number, positive_int
 from pincal.arguments import angle as _angle
 from pincal.arguments import length as _length
 from pincal.arguments import point as _point
+from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, Infeasible
 from pincal.model.robot import Robot
+from pincal.typing import ArrayLike, ConfigurationsLike, JointValues, PointsLike, TestPoseLike
 
 DEFAULT_SAMPLES = 256
 """Sample configurations of a continuous region."""
@@ -189,10 +191,10 @@ class Neighbourhood(TestRegion):
 
 
 def around(
-    q0: object,
-    angle: object = None,
+    q0: TestPoseLike,
+    angle: float | ArrayLike | None = None,
     *,
-    length: object = None,
+    length: float | ArrayLike | None = None,
     samples: int = DEFAULT_SAMPLES,
     seed: int = 0,
 ) -> Neighbourhood:
@@ -251,7 +253,7 @@ class TestPath(TestRegion):
         q: (n, nq) configurations [rad or m] (or a Plan).
     """
 
-    q: object
+    q: ConfigurationsLike
 
     def resolve(self, robot: Robot) -> ResolvedRegion:
         poses = robot.configurations(self.q, what="test path configuration")
@@ -318,11 +320,13 @@ class CartesianBox(TestRegion):
         return resolved
 
 
+@keywords_after(3)
 def cartesian_box(
-    lower: object,
-    upper: object,
-    reference: object,
-    rotation: object = None,
+    lower: PointsLike,
+    upper: PointsLike,
+    reference: JointValues,
+    *,
+    rotation: ArrayLike | None = None,
     samples: int = DEFAULT_SAMPLES,
     seed: int = 0,
 ) -> CartesianBox:
@@ -402,7 +406,7 @@ class _InverseKinematics:
         return None
 
 
-def resolve_test_poses(robot: Robot, test_pose: object) -> tuple[np.ndarray, ResolvedRegion | None]:
+def resolve_test_poses(robot: Robot, test_pose: TestPoseLike) -> tuple[np.ndarray, ResolvedRegion | None]:
     """(k, nq) test configurations of a test pose, several of them, or a :class:`TestRegion`;
     and the resolved region (None for plain configurations)."""
     if isinstance(test_pose, TestRegion):

@@ -27,10 +27,12 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma
+from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, SingularPlan
 from pincal.evaluation.criterion import Criterion
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
+from pincal.typing import ConfigurationsLike, PayloadLike, TestPoseLike
 
 
 class ResidualCriterion(Criterion):
@@ -185,13 +187,15 @@ class _ResidualExchange:
         self.resync()
 
 
+@keywords_after(4)
 def expected_error(
     params: ParameterSet,
-    plan: object,
-    test_pose: object,
+    plan: ConfigurationsLike,
+    test_pose: TestPoseLike,
     residual_model: ResidualModel,
+    *,
     sigma: float = DEFAULT_SIGMA,
-    task_payload: object = None,
+    task_payload: PayloadLike = None,
 ) -> float:
     """sqrt(tr Σ₀) [m]: the expected error at the test pose(s) after calibrating with ``plan`` and
     predicting with ``residual_model``'s kernel (see module doc; the mean over several test poses).

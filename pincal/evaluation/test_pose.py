@@ -34,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma
+from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
 from pincal.evaluation.information import factor, factor_batch, information_matrix
 from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch, plan_payloads
@@ -44,6 +45,7 @@ from pincal.evaluation.weighted_trace import WeightedTrace
 from pincal.lapack import trtrs
 from pincal.model.parameters import ParameterSet
 from pincal.model.statics import payload_rows
+from pincal.typing import ConfigurationsLike, PayloadLike, PlansLike, TestPoseLike
 
 AGGREGATES = ("mean", "worst", "each")
 
@@ -115,11 +117,11 @@ class TestPoseCriterion:
     def __init__(
         self,
         params: ParameterSet,
-        test_poses: object,
+        test_poses: TestPoseLike,
         sigma: float = DEFAULT_SIGMA,
         aggregate: str = "mean",
         prior: Prior | None = None,
-        task_payload: object = None,
+        task_payload: PayloadLike = None,
     ) -> None:
         if aggregate not in AGGREGATES:
             raise BadArgument(f"unknown aggregate {aggregate!r}; valid: {', '.join(AGGREGATES)}")
@@ -167,7 +169,7 @@ class TestPoseCriterion:
             return float(np.sqrt(r2.max()))
         return np.sqrt(r2)
 
-    def __call__(self, qs: np.ndarray, payload: object = None):
+    def __call__(self, qs: np.ndarray, payload: PayloadLike = None):
         """ρ0 [m] of the plan ``qs`` ((m, nq), trusted: not checked against limits) measured
         under ``payload`` (one per configuration, see :func:`~pincal.model.statics.payload_rows`)."""
         J = self.engine.jacobian(qs, frame="tip", payload=payload).reshape(-1, self.J0T.shape[0])
@@ -191,14 +193,16 @@ class TestPoseCriterion:
         return each.max(axis=1) if self.aggregate == "worst" else each
 
 
+@keywords_after(3)
 def rho0(
     params: ParameterSet,
-    plan: object,
-    test_pose: object,
+    plan: PlansLike,
+    test_pose: TestPoseLike,
+    *,
     sigma: float = DEFAULT_SIGMA,
     aggregate: str = "mean",
     prior: Prior | None = None,
-    task_payload: object = None,
+    task_payload: PayloadLike = None,
 ) -> float:
     """Expected position error at the test pose(s) after calibrating with ``plan``.
 
@@ -238,13 +242,15 @@ def rho0(
     return _evaluate(params, plan, test_pose, sigma, aggregate, prior, task_payload)
 
 
+@keywords_after(3)
 def rho0_each(
     params: ParameterSet,
-    plan: object,
-    test_pose: object,
+    plan: PlansLike,
+    test_pose: TestPoseLike,
+    *,
     sigma: float = DEFAULT_SIGMA,
     prior: Prior | None = None,
-    task_payload: object = None,
+    task_payload: PayloadLike = None,
 ) -> np.ndarray:
     """(n,) ρ0 [m] at each of n test poses, or (k, n) for a batch of k plans (arguments as
     :func:`rho0`)."""
@@ -261,12 +267,14 @@ def _evaluate(params, plan, test_pose, sigma, aggregate, prior, task_payload=Non
     return np.asarray(values[0], dtype=float) if aggregate == "each" else float(values[0])
 
 
+@keywords_after(3)
 def rho0_split(
     params: ParameterSet,
-    plan: object,
-    test_pose: object,
+    plan: ConfigurationsLike,
+    test_pose: TestPoseLike,
+    *,
     sigma: float = DEFAULT_SIGMA,
-    task_payload: object = None,
+    task_payload: PayloadLike = None,
 ) -> dict[str, float]:
     """ρ0² at the test pose(s) split by the kind of parameter whose uncertainty causes it.
 
@@ -296,8 +304,9 @@ def rho0_split(
     }
 
 
+@keywords_after(3)
 def position_covariance(
-    params: ParameterSet, plan: object, test_pose: object, sigma: float = DEFAULT_SIGMA
+    params: ParameterSet, plan: ConfigurationsLike, test_pose: TestPoseLike, *, sigma: float = DEFAULT_SIGMA
 ) -> np.ndarray:
     """(k, 3K, 3K) predicted covariance σ² J₀ M⁻¹ J₀ᵀ of the measured points at each test pose,
     after calibration, in the instrument frame [m²]. Its trace is ρ0²."""

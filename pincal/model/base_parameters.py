@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from pincal.arguments import fraction, generator, positive_int
+from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
 from pincal.model.catalogue import LENGTH_TOLERANCE, split_spec
 from pincal.model.jacobian import unit_columns
@@ -187,8 +188,10 @@ def preference_order(params: ParameterSet, prefer: frozenset[str] = frozenset())
     return sorted(range(len(params)), key=key)
 
 
+@keywords_after(1)
 def identifiability(
     params: ParameterSet,
+    *,
     n_configurations: int = 200,
     seed: SeedLike = 0,
     tol: float = NEARLY_REDUNDANT,

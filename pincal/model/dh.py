@@ -31,6 +31,7 @@ import pinocchio as pin
 from pincal.arguments import check_lengths, generator, number
 from pincal.errors import BadDHTable, OverwriteRefused
 from pincal.files import atomic_write_text, read_yaml
+from pincal.typing import ConfigurationsLike
 
 CONVENTIONS = ("standard", "modified")
 JOINT_TYPES = ("revolute", "prismatic")
@@ -177,7 +178,7 @@ class DHTable:
                 out.append(_rx(joint.alpha) @ _tx(joint.a) @ _rz(theta) @ _tz(d))
         return out
 
-    def forward_kinematics(self, q: object) -> np.ndarray:
+    def forward_kinematics(self, q: ConfigurationsLike) -> np.ndarray:
         """(4, 4) placement of the tool frame in ``base_link`` at joint values ``q``: the DH product
         base · ⁰T₁ ⋯ ⁿ⁻¹Tₙ · tool."""
         q = np.asarray(q, dtype=float).reshape(self.nq)

@@ -34,6 +34,7 @@ import pinocchio as pin
 
 from pincal.errors import BadArgument
 from pincal.model.statics import payload_rows
+from pincal.typing import PayloadLike
 
 FD_STEP = 1e-6
 """Central finite-difference step [m or rad]."""
@@ -121,7 +122,9 @@ class JacobianEngine:
         needs_gravity = self.compliance_cols.size or robot.joint_compliances.any()
         self.gravity = robot.gravity_model() if needs_gravity else None
 
-    def joint_values(self, qs: np.ndarray, payload: object = None) -> tuple[np.ndarray, np.ndarray | None]:
+    def joint_values(
+        self, qs: np.ndarray, payload: PayloadLike = None
+    ) -> tuple[np.ndarray, np.ndarray | None]:
         """(θ, τ): the joints' actual values (m, nq) at readings ``qs`` (:meth:`Robot.joint_values`),
         and the gravity torques (m, nq) on them under ``payload`` when the set has compliances
         (else None)."""
@@ -145,7 +148,7 @@ class JacobianEngine:
             cached = self._buffers[m] = (buf, views)
         return cached
 
-    def regressors(self, qs: np.ndarray, pose: bool = False, payload: object = None):
+    def regressors(self, qs: np.ndarray, pose: bool = False, payload: PayloadLike = None):
         """Linear rows of the kinematic regressor at each marker, in the tip frame's axes, at the
         joint readings ``qs`` (under ``payload`` on a compliant robot).
 
@@ -183,7 +186,7 @@ class JacobianEngine:
                 pos[i] = tip.translation
         return reg, rot, pos
 
-    def jacobian(self, qs: np.ndarray, frame: str = "tip", payload: object = None) -> np.ndarray:
+    def jacobian(self, qs: np.ndarray, frame: str = "tip", payload: PayloadLike = None) -> np.ndarray:
         """(m, 3K, P) parameter Jacobian at configurations ``qs`` (validated by the caller).
 
         Args:
@@ -225,7 +228,9 @@ class JacobianEngine:
         return J
 
 
-def analytic_jacobian(params, qs: np.ndarray, frame: str = "world", payload: object = None) -> np.ndarray:
+def analytic_jacobian(
+    params, qs: np.ndarray, frame: str = "world", payload: PayloadLike = None
+) -> np.ndarray:
     """(m, 3K, P) analytic parameter Jacobian (see :meth:`ParameterSet.jacobian`)."""
     if frame not in ("world", "tip"):
         raise BadArgument(f"unknown Jacobian frame {frame!r}; valid: world, tip")
@@ -234,7 +239,7 @@ def analytic_jacobian(params, qs: np.ndarray, frame: str = "world", payload: obj
 
 
 def finite_difference_jacobian(
-    params, qs: np.ndarray, step: float = FD_STEP, payload: object = None
+    params, qs: np.ndarray, step: float = FD_STEP, payload: PayloadLike = None
 ) -> np.ndarray:
     """(m, 3K, P) world-frame Jacobian by central differences on perturbed robot copies; the step
     of each parameter is ``step`` / its natural scale (:attr:`ParameterSet.scales`)."""

@@ -25,6 +25,7 @@ from pincal.errors import (
 from pincal.model.chain import Candidate, candidates, chain_model, default_root, default_tip, frame_id
 from pincal.model.robot import Robot
 from pincal.model.urdf import parse_joint_ranges, read_urdf
+from pincal.typing import PointsLike, RobotSource
 
 _PACKAGE = Path(__file__).resolve().parent.parent
 ROBOTS_DIR = _PACKAGE / "robots" if (_PACKAGE / "robots").is_dir() else _PACKAGE.parent / "robots"
@@ -67,7 +68,7 @@ def _floating_by_name(name: str) -> bool:
 
 
 def _resolve_source(
-    source: object,
+    source: RobotSource,
     ranges: dict[str, tuple[float, float]],
     package_dirs: dict[str, str] | None,
 ) -> tuple[pin.Model, Path | None, str, bool]:
@@ -178,7 +179,7 @@ class ChainEnds:
 
 
 def chain_ends(
-    source: object,
+    source: RobotSource,
     root: str | None = None,
     joint_ranges: dict[str, tuple[float, float]] | None = None,
 ) -> ChainEnds:
@@ -198,9 +199,9 @@ def chain_ends(
 
 
 def load_robot(
-    source: object,
+    source: RobotSource,
     tip: str | None = None,
-    markers: object = None,
+    markers: PointsLike | None = None,
     *,
     root: str | None = None,
     joint_ranges: dict[str, tuple[float, float]] | None = None,

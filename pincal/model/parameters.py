@@ -41,12 +41,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pinocchio as pin
 
+from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, UnknownParameter
 from pincal.model.base_parameters import NEARLY_REDUNDANT, identifiability
 from pincal.model.catalogue import GROUPS, Parameter, catalogue, group, split_spec
 from pincal.model.jacobian import analytic_jacobian, finite_difference_jacobian
 from pincal.model.statics import require_masses
-from pincal.typing import SeedLike
+from pincal.typing import ConfigurationsLike, PayloadLike, SeedLike
 
 if TYPE_CHECKING:  # a Robot builds its ParameterSets (Robot.parameters): robot.py imports this module
     from pincal.model.robot import Robot
@@ -224,8 +225,14 @@ class ParameterSet:
         )
 
     # ---------------------------------------------------------------- derivatives
+    @keywords_after(2)
     def jacobian(
-        self, plan: object, method: str = "analytic", frame: str = "world", payload: object = None
+        self,
+        plan: ConfigurationsLike,
+        *,
+        method: str = "analytic",
+        frame: str = "world",
+        payload: PayloadLike = None,
     ) -> np.ndarray:
         """Parameter Jacobian ∂p/∂Π at each configuration of ``plan``.
 
@@ -252,8 +259,10 @@ class ParameterSet:
             return finite_difference_jacobian(self, qs, payload=payload)
         raise BadArgument(f"unknown Jacobian method {method!r}; valid: analytic, fd")
 
+    @keywords_after(1)
     def identifiable(
         self,
+        *,
         n_configurations: int = 200,
         seed: SeedLike = 0,
         tol: float = NEARLY_REDUNDANT,

@@ -29,7 +29,7 @@ from pincal.errors import BadConfiguration
 from pincal.model.chain import frame_id
 from pincal.model.parameters import ParameterSet
 from pincal.model.statics import Gravity, chain_mass, mounted, payload_rows
-from pincal.typing import SeedLike
+from pincal.typing import ArrayLike, ConfigurationsLike, PayloadLike, SeedLike
 
 LIMIT_TOLERANCE = 1e-9
 """Slack [rad or m] allowed when checking configurations against joint limits."""
@@ -176,13 +176,13 @@ class Robot:
         mask.flags.writeable = False
         return mask
 
-    def to_radians(self, values: object) -> np.ndarray:
+    def to_radians(self, values: ArrayLike) -> np.ndarray:
         """Joint values with the revolute ones given in degrees, in radians (prismatic joints stay
         in metres); a new array."""
         values = np.array(values, dtype=float)
         return np.where(self.revolute, np.radians(values), values)
 
-    def to_degrees(self, values: object) -> np.ndarray:
+    def to_degrees(self, values: ArrayLike) -> np.ndarray:
         """Joint values [rad or m] with the revolute ones in degrees (prismatic joints stay in
         metres); a new array."""
         values = np.array(values, dtype=float)
@@ -231,7 +231,7 @@ class Robot:
         return tuple(out)
 
     # ------------------------------------------------------------- configurations
-    def configurations(self, q: object, what: str = "configuration") -> np.ndarray:
+    def configurations(self, q: ConfigurationsLike, what: str = "configuration") -> np.ndarray:
         """Validate joint values; return a new (m, nq) float array.
 
         Args:
@@ -317,7 +317,7 @@ class Robot:
         return lo + (hi - lo) * rng.random((n, self.nq))
 
     # ------------------------------------------------------------------ kinematics
-    def points(self, q: object, *, check: bool = True, payload: object = None) -> np.ndarray:
+    def points(self, q: ConfigurationsLike, *, check: bool = True, payload: PayloadLike = None) -> np.ndarray:
         """Measured points at configurations ``q``, in the instrument (base) frame.
 
         Args:
@@ -335,7 +335,12 @@ class Robot:
         return positions[:, None, :] + np.einsum("mij,kj->mki", rotations, self.markers)
 
     def tip_poses(
-        self, q: object, *, check: bool = True, data: pin.Data | None = None, payload: object = None
+        self,
+        q: ConfigurationsLike,
+        *,
+        check: bool = True,
+        data: pin.Data | None = None,
+        payload: PayloadLike = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Tip orientations (m, 3, 3) and positions (m, 3) [m] in the instrument frame: the one
         forward-kinematics path (points, constraints and scenes use it).
@@ -377,7 +382,7 @@ class Robot:
         """Total mass of the links the chain moves [kg] (0 for a URDF without inertias)."""
         return chain_mass(self.model)
 
-    def with_gravity(self, gravity: object) -> Robot:
+    def with_gravity(self, gravity: ArrayLike) -> Robot:
         """A new Robot mounted so that gravity is ``gravity`` (3,) [m/s²] in its base frame (a
         tilted or wall-mounted base, a measured tilt); see :func:`~pincal.model.statics.mounted`."""
         return self.replace(model=mounted(self.model, gravity))
@@ -387,7 +392,12 @@ class Robot:
         return Gravity(self.model, self.tip_joint, self.model.frames[self.tip_frame].placement)
 
     def joint_values(
-        self, q: object, *, payload: object = None, check: bool = True, gravity: Gravity | None = None
+        self,
+        q: ConfigurationsLike,
+        *,
+        payload: PayloadLike = None,
+        check: bool = True,
+        gravity: Gravity | None = None,
     ) -> np.ndarray:
         """The joints' actual values θ (m, nq) at readings ``q`` [rad or m]: q + offsets for a rigid
         robot; with gains and compliances, θ = q + Δq + k⊙q + c⊙τ(θ, w) solved for the payload w
@@ -403,7 +413,9 @@ class Robot:
         gravity = self.gravity_model() if gravity is None else gravity
         return gravity.deflected(start, self.joint_compliances, payload_rows(payload, len(qs)))
 
-    def joint_torques(self, q: object, *, payload: object = None, check: bool = True) -> np.ndarray:
+    def joint_torques(
+        self, q: ConfigurationsLike, *, payload: PayloadLike = None, check: bool = True
+    ) -> np.ndarray:
         """(m, nq) torques [N·m, or N for a prismatic joint] gravity applies at each joint, through
         the links and the payload, at readings ``q`` (at the actual joint values
         :meth:`joint_values`): τ = -g(θ), g Pinocchio's generalized gravity."""

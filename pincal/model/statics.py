@@ -29,6 +29,7 @@ import pinocchio as pin
 
 from pincal.arguments import MAX_LENGTH
 from pincal.errors import BadArgument, NoInertias
+from pincal.typing import PayloadLike
 
 PAYLOAD_COLUMNS = ("payload_kg", "payload_x", "payload_y", "payload_z")
 """The payload columns of a plan or measurement file: mass [kg], centre of mass in the tip frame."""
@@ -74,7 +75,7 @@ class Payload:
         return np.array([self.mass, *self.centre])
 
 
-def payload_rows(payload: object, m: int) -> np.ndarray:
+def payload_rows(payload: PayloadLike, m: int) -> np.ndarray:
     """The payload of each of ``m`` configurations as a new (m, 4) array of rows [kg, x, y, z].
 
     Args:

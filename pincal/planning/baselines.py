@@ -18,7 +18,7 @@ from pincal.planning.feasibility import Feasibility
 from pincal.planning.multistart import single_threaded_blas
 from pincal.planning.objectives import TEST_POSE_CRITERIA, checked_test_poses, criterion_name
 from pincal.planning.results import RandomPlans
-from pincal.typing import SeedLike
+from pincal.typing import PoolLike, SeedLike, TestPoseLike
 
 __all__ = ["random_plans"]
 
@@ -27,14 +27,14 @@ def random_plans(
     params: ParameterSet,
     m: int,
     n: int = 1000,
-    test_pose: object = None,
+    test_pose: TestPoseLike = None,
     *,
     criterion: str = "test-pose",
     sigma: float = DEFAULT_SIGMA,
     prior: Prior | None = None,
     constraints: Iterable[AnyConstraint] = (),
     seed: SeedLike = 0,
-    pool: object = None,
+    pool: PoolLike = None,
 ) -> RandomPlans:
     """The distribution of a criterion over ``n`` random feasible plans of m configurations.
 

@@ -40,6 +40,7 @@ from dataclasses import replace
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, fraction, number, positive_int, positive_sigma, seed_entropy
+from pincal.deprecation import keywords_after
 from pincal.errors import (
     BadArgument,
     FloorUnreachable,
@@ -62,7 +63,7 @@ from pincal.planning.objectives import (
 )
 from pincal.planning.results import DesignResult
 from pincal.planning.search import Pool, Settings, draw_starts, search
-from pincal.typing import SeedLike
+from pincal.typing import PayloadLike, PoolLike, SeedLike, TestPoseLike
 
 METHODS = ("continuous", "exchange")
 """Names of the search methods."""
@@ -87,15 +88,16 @@ __all__ = ["DEFAULT_POOL", "METHODS", "MIN_CONDITIONING", "SINGULAR_WARNING", "d
 
 
 # ------------------------------------------------------------------------------ driver
+@keywords_after(3)
 def design(
     params: ParameterSet,
     m: int,
-    test_pose: object = None,
-    criterion: str = "test-pose",
+    test_pose: TestPoseLike = None,
     *,
+    criterion: str = "test-pose",
     method: str = "exchange",
     constraints: Iterable[AnyConstraint] = (),
-    pool: object = None,
+    pool: PoolLike = None,
     starts: int = 16,
     seed: SeedLike = 0,
     sigma: float = DEFAULT_SIGMA,
@@ -110,7 +112,7 @@ def design(
     prior: Prior | None = None,
     progress: bool = False,
     payloads: Sequence[object] | None = None,
-    task_payload: object = None,
+    task_payload: PayloadLike = None,
     residual_model: ResidualModel | None = None,
 ) -> DesignResult:
     """Find the m measurement configurations that minimise a criterion, within the constraints.
@@ -257,7 +259,7 @@ def design(
 def _validate(
     params: ParameterSet,
     m: object,
-    test_pose: object,
+    test_pose: TestPoseLike,
     criterion: str,
     *,
     method: str,
@@ -344,7 +346,7 @@ def _check_m(params: ParameterSet, m: object, prior: np.ndarray | None = None) -
 
 
 # ----------------------------------------------------------------------------- pool
-def _pool(params: ParameterSet, settings: Settings, pool: object, init: Sequence[object]) -> Pool:
+def _pool(params: ParameterSet, settings: Settings, pool: PoolLike, init: Sequence[object]) -> Pool:
     """The candidate configurations (the user's feasible ones, or drawn) and the checked init plans."""
     robot, feasibility, m = params.robot, settings.feasibility, settings.m
     rejected = 0

@@ -23,6 +23,7 @@ from pincal.planning.constraints import (
     limit_margin_of,
     spacing_of,
 )
+from pincal.typing import PoolLike
 
 
 class Feasibility:
@@ -71,7 +72,7 @@ class Feasibility:
                 ok[idx] &= b.satisfied(kin)
         return ok
 
-    def feasible_pool(self, pool: object, m: int) -> tuple[np.ndarray, int]:
+    def feasible_pool(self, pool: PoolLike, m: int) -> tuple[np.ndarray, int]:
         """The configurations of a user's pool that satisfy every constraint, and how many did not.
 
         Args:

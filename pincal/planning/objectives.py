@@ -17,6 +17,7 @@ from pincal.evaluation.registry import (
     criterion_name,
 )
 from pincal.model.parameters import ParameterSet
+from pincal.typing import TestPoseLike
 
 __all__ = [
     "CRITERIA",
@@ -26,7 +27,7 @@ __all__ = [
 ]
 
 
-def checked_test_poses(params: ParameterSet, test_pose: object, criterion: str) -> np.ndarray | None:
+def checked_test_poses(params: ParameterSet, test_pose: TestPoseLike, criterion: str) -> np.ndarray | None:
     """The (k, nq) test poses of a design (a region's or path's sample configurations), checked
     against the robot; None if none is given and the criterion needs none.
 

@@ -43,7 +43,7 @@ from pincal.planning.objectives import checked_test_poses
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, StartRecord
 from pincal.planning.starts import pick
-from pincal.typing import SeedLike
+from pincal.typing import PayloadLike, SeedLike, TestPoseLike
 
 MIN_CONDITIONING = 1e-2
 """The conditioning floor tried first (as :func:`~pincal.design`'s); it adapts down to half what a
@@ -63,10 +63,10 @@ def payload_rows_of(payloads: Sequence[object]) -> np.ndarray:
 def design_with_payloads(
     params: ParameterSet,
     m: int,
-    test_pose: object = None,
+    test_pose: TestPoseLike = None,
     payloads: Sequence[object] = (0.0,),
     *,
-    task_payload: object = None,
+    task_payload: PayloadLike = None,
     criterion: str = "test-pose",
     constraints: Iterable[AnyConstraint] = (),
     pool: int | np.ndarray = 1000,
@@ -161,7 +161,7 @@ def design_with_payloads(
     flat = J.reshape(-1, len(params))
     each = None
     if test_poses is not None:
-        each = rho0_each(params, plan, test_poses, sigma, prior, task_payload=task_payload)
+        each = rho0_each(params, plan, test_poses, sigma=sigma, prior=prior, task_payload=task_payload)
     rho0 = (
         None
         if each is None

@@ -18,6 +18,7 @@ from pincal.arguments import MAX_COUNT, positive_int
 from pincal.errors import BadArgument, BadPlanFile
 from pincal.files import atomic_write_text, column_mismatch, csv_header, read_numeric_csv
 from pincal.model.statics import PAYLOAD_COLUMNS, payload_columns, payload_rows
+from pincal.typing import ConfigurationsLike, PayloadLike
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,7 +66,7 @@ class Plan:
         object.__setattr__(self, "revolute", revolute)
 
     @classmethod
-    def for_robot(cls, robot, q: object, payload: object = None) -> Plan:
+    def for_robot(cls, robot, q: ConfigurationsLike, payload: PayloadLike = None) -> Plan:
         """A plan for ``robot`` from (m, nq) joint values, checked against its limits (and the
         payload of each configuration, see :func:`~pincal.model.statics.payload_rows`)."""
         return cls(robot.configurations(q), robot.joint_names, tuple(robot.revolute), payload)

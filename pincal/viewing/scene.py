@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma, ratio
+from pincal.deprecation import keywords_after
 from pincal.errors import BadConfiguration, SingularPlan, warn
 from pincal.evaluation.accuracy import PredictedError
 from pincal.evaluation.prior import Prior
@@ -44,6 +45,7 @@ from pincal.files import atomic_write_text
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.optional import require
+from pincal.typing import ConfigurationsLike, InstrumentLike, TestPoseLike, ViewerLike
 from pincal.viewing.drawing import (
     ROOT,
     add_ellipsoid,
@@ -148,15 +150,17 @@ def static_viewer() -> Visualizer:
     return meshcat.Visualizer(window=StaticWindow())
 
 
+@keywords_after(3)
 def show(
     params_or_robot: ParameterSet | Robot,
-    plan: object,
-    test_pose: object = None,
+    plan: ConfigurationsLike,
+    test_pose: TestPoseLike = None,
+    *,
     sigma: float = DEFAULT_SIGMA,
-    instrument: object = None,
+    instrument: InstrumentLike = None,
     scale: float | None = None,
-    viewer: object = None,
-    error_samples: object = None,
+    viewer: ViewerLike = None,
+    error_samples: int | ConfigurationsLike | None = None,
     prior: Prior | None = None,
 ) -> Visualizer:
     """Show a plan in meshcat: ghosts of the measurement poses, the test pose and its error.
@@ -187,19 +191,29 @@ def show(
         BadConfiguration: a configuration of the wrong size or outside the joint limits.
     """
     return scene(
-        params_or_robot, plan, test_pose, sigma, instrument, scale, viewer, error_samples, prior
+        params_or_robot,
+        plan,
+        test_pose,
+        sigma=sigma,
+        instrument=instrument,
+        scale=scale,
+        viewer=viewer,
+        error_samples=error_samples,
+        prior=prior,
     ).viewer
 
 
+@keywords_after(3)
 def scene(
     params_or_robot: ParameterSet | Robot,
-    plan: object,
-    test_pose: object = None,
+    plan: ConfigurationsLike,
+    test_pose: TestPoseLike = None,
+    *,
     sigma: float = DEFAULT_SIGMA,
-    instrument: object = None,
+    instrument: InstrumentLike = None,
     scale: float | None = None,
-    viewer: object = "static",
-    error_samples: object = None,
+    viewer: ViewerLike = "static",
+    error_samples: int | ConfigurationsLike | None = None,
     prior: Prior | None = None,
 ) -> Scene:
     """Build the scene of :func:`show` (same arguments) and return it with what it shows.
@@ -277,7 +291,7 @@ def _error_ellipsoids(
     cov, note = None, ""
     if len(q0):
         try:
-            cov = position_covariance(params, qs, q0, sigma)
+            cov = position_covariance(params, qs, q0, sigma=sigma)
         except SingularPlan as exc:
             note = f"no error ellipsoid: {exc}"
             warn(note, UserWarning)

@@ -36,6 +36,7 @@ from pincal.planning.constraints.min_spacing import MinSpacing
 from pincal.planning.constraints.self_collision import SelfCollision
 from pincal.planning.constraints.visibility import Visibility
 from pincal.planning.constraints.workspace_box import WorkspaceBox
+from pincal.typing import ConfigurationsLike
 
 AnyConstraint = Constraint | MinSpacing
 """Any constraint object: a per-configuration :class:`Constraint` or the plan-wide :class:`MinSpacing`."""
@@ -61,7 +62,9 @@ __all__ = [
 ]
 
 
-def satisfied(robot: Robot, plan: object, constraints: Iterable[AnyConstraint] = ()) -> np.ndarray:
+def satisfied(
+    robot: Robot, plan: ConfigurationsLike, constraints: Iterable[AnyConstraint] = ()
+) -> np.ndarray:
     """(m,) True where a configuration of ``plan`` satisfies every constraint (and the joint
     limits); a configuration too close to an earlier one (MinSpacing) is marked False."""
     qs = robot.configurations(plan)

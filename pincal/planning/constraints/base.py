@@ -11,6 +11,7 @@ from pincal import arguments
 from pincal.arguments import MAX_LENGTH
 from pincal.errors import BadConstraint
 from pincal.model.robot import Robot
+from pincal.typing import ConfigurationsLike
 
 TOLERANCE = 1e-9
 """Slack [m or rad] allowed when checking a constraint exactly (rounding)."""
@@ -67,7 +68,7 @@ class Constraint:
     def bind(self, robot: Robot) -> Bound:  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def satisfied(self, robot: Robot, q: object) -> np.ndarray:
+    def satisfied(self, robot: Robot, q: ConfigurationsLike) -> np.ndarray:
         """(m,) True where configuration i of ``q`` (validated) satisfies this constraint."""
         qs = robot.configurations(q)
         return self.bind(robot).satisfied(Kinematics(robot, qs))

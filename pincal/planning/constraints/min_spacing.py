@@ -8,6 +8,7 @@ import numpy as np
 
 from pincal.model.robot import Robot
 from pincal.planning.constraints.base import TOLERANCE, number
+from pincal.typing import ConfigurationsLike
 
 
 @dataclass(frozen=True)
@@ -30,7 +31,7 @@ class MinSpacing:
         i, j = np.triu_indices(len(qs), 1)
         return np.linalg.norm(qs[i] - qs[j], axis=1) - self.distance
 
-    def satisfied(self, robot: Robot, q: object) -> np.ndarray:
+    def satisfied(self, robot: Robot, q: ConfigurationsLike) -> np.ndarray:
         """(m,) False for configuration j when it is too close to an earlier one."""
         qs = robot.configurations(q)
         i, j = np.triu_indices(len(qs), 1)

@@ -1,0 +1,68 @@
+"""What pincal 0.2 deprecates, and until when: names moved out of the top level (see
+``pincal/__init__.py``) and arguments passed by position after a function's first few
+(:func:`keywords_after`). Both keep working, with a DeprecationWarning naming what to write
+instead, until pincal :data:`REMOVAL`.
+
+Imports nothing but the standard library: ``import pincal`` reads :data:`REMOVAL`.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import warnings
+from collections.abc import Callable
+from typing import ParamSpec, TypeVar
+
+__all__ = ["REMOVAL", "keywords_after"]
+
+REMOVAL = "0.3"
+"""The release that removes what 0.2 deprecates."""
+
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+def keywords_after(n: int) -> Callable[[Callable[P, R]], Callable[P, R]]:
+    """Make the decorated function's arguments after its first ``n`` keyword-only, as its
+    signature (with ``*``) says, while a call passing them by position, as pincal 0.1 allowed,
+    still works until pincal :data:`REMOVAL`, with a DeprecationWarning at the caller's line naming
+    the keywords to write. Type checkers read the keyword-only signature.
+
+    Args:
+        n: the arguments that stay positional (the function's first ``n``, before its ``*``).
+    """
+
+    def decorate(function: Callable[P, R]) -> Callable[P, R]:
+        parameters = inspect.signature(function).parameters.values()
+        positional = [p.name for p in parameters if p.kind is p.POSITIONAL_OR_KEYWORD]
+        if len(positional) != n:
+            raise TypeError(f"{function.__name__} has {len(positional)} positional arguments, not {n}")
+        keywords = [p.name for p in parameters if p.kind is p.KEYWORD_ONLY]
+
+        @functools.wraps(function)
+        def call(*args: P.args, **kwargs: P.kwargs) -> R:
+            if len(args) <= n:
+                return function(*args, **kwargs)
+            extra = args[n:]
+            if len(extra) > len(keywords):
+                raise TypeError(
+                    f"{function.__name__}() takes {n} positional arguments, then keywords "
+                    f"({', '.join(keywords)}), but {len(args)} were given"
+                )
+            moved = dict(zip(keywords, extra))
+            twice = sorted(moved.keys() & kwargs.keys())
+            if twice:
+                raise TypeError(f"{function.__name__}() got multiple values for argument {twice[0]!r}")
+            warnings.warn(
+                f"{function.__name__}(): passing {', '.join(moved)} by position is deprecated: write "
+                f"{', '.join(f'{name}=...' for name in moved)} (pincal's arguments after the first "
+                f"{n} are keyword-only; by position stops working in pincal {REMOVAL})",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            return function(*args[:n], **moved, **kwargs)  # type: ignore[arg-type]
+
+        return call
+
+    return decorate
