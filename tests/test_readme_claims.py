@@ -16,6 +16,7 @@ import math
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -108,8 +109,16 @@ def shown_in(notebook: str, words: str) -> Callable[[list[float], str], None]:
 def asserted_in(path: str, text: str) -> Callable[[list[float], str], None]:
     """The claim is asserted by a test: ``path`` holds ``text`` (the assertion or the test's name)."""
 
+    # pincal's own files are read where pincal is imported from: .ci/run tests an installed wheel from
+    # a copy of the repository without pincal/.
+    file = (
+        Path(pincal.__file__).parent / path.removeprefix("pincal/")
+        if path.startswith("pincal/")
+        else ROOT / path
+    )
+
     def check(numbers: list[float], excerpt: str) -> None:
-        assert text in (ROOT / path).read_text(encoding="utf-8"), f"{path} no longer holds {text!r}"
+        assert text in file.read_text(encoding="utf-8"), f"{path} no longer holds {text!r}"
 
     return check
 
