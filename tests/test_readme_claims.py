@@ -377,6 +377,10 @@ CLAIMS: tuple[Claim, ...] = (
     Claim("(the 2-link closed form", GIVEN),
     Claim("(Klimchik et al., 2013)", GIVEN),
     Claim("every number of its 2-link section", GIVEN),
+    Claim(
+        "its Table 1 at 60° and 120° contradicts its own eq. (20)",
+        shown_in("01_planar_2link.ipynb", "Verdict on Table 1"),
+    ),
 )
 
 
