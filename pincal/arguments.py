@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import re
+from typing import cast
 
 import numpy as np
 
@@ -248,14 +249,14 @@ def angle(
 def joint_range(value: object, name: str, error: type[BadArgument] = BadArgument) -> tuple[float, float]:
     """(lower, upper) joint values [rad or m], each within ±:data:`MAX_ANGLE`, lower ≤ upper."""
     try:
-        lo, hi = value  # type: ignore[misc]
+        low, high = cast("tuple[object, object]", value)  # a TypeError or ValueError if it is not a pair
     except (TypeError, ValueError):
         valid = "(lower, upper) [rad or m]"
         raise error(
             f"{name} must be {valid}, got {_shown(value)}", argument=name, value=value, valid=valid
         ) from None
-    lo = number(lo, f"{name} lower", -MAX_ANGLE, MAX_ANGLE, unit="m or rad", error=error)
-    hi = number(hi, f"{name} upper", -MAX_ANGLE, MAX_ANGLE, unit="m or rad", error=error)
+    lo = number(low, f"{name} lower", -MAX_ANGLE, MAX_ANGLE, unit="m or rad", error=error)
+    hi = number(high, f"{name} upper", -MAX_ANGLE, MAX_ANGLE, unit="m or rad", error=error)
     if lo > hi:
         raise error(f"{name} must have lower ≤ upper, got ({lo:g}, {hi:g})", argument=name, value=value)
     return lo, hi
@@ -385,5 +386,5 @@ def seed_entropy(seed: SeedLike) -> int:
     if isinstance(seed, np.random.Generator):
         return int(seed.integers(2**63))
     if isinstance(seed, np.random.SeedSequence):
-        return int(seed.entropy)
-    return int(np.random.SeedSequence(None if seed is None else int(seed)).entropy)
+        return int(seed.entropy)  # type: ignore[arg-type]  # an int: pincal makes no spawned sequence
+    return int(np.random.SeedSequence(None if seed is None else int(seed)).entropy)  # type: ignore[arg-type]

@@ -19,6 +19,7 @@ from __future__ import annotations
 import difflib
 import os
 import sys
+import types
 import warnings
 from collections.abc import Iterable
 
@@ -336,7 +337,7 @@ def _outside_stacklevel() -> int:
     name the first frame outside the pincal package (counted as ``warnings.warn`` counts: 1 is
     that function, importlib's frames are skipped); the outermost frame when every frame is
     pincal's (the CLI)."""
-    frame = sys._getframe(1)
+    frame: types.FrameType | None = sys._getframe(1)
     level = last = 1
     while frame is not None:
         name = frame.f_code.co_filename

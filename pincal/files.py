@@ -293,7 +293,7 @@ def read_yaml(path: str | os.PathLike, what: str, error: type[Exception]) -> obj
     depth = nodes = 0
     try:
         for event in yaml.parse(text, Loader=yaml.SafeLoader):
-            line = event.start_mark.line + 1
+            line = event.start_mark.line + 1 if event.start_mark is not None else 0
             if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None):
                 raise _error(
                     error,

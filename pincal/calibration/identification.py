@@ -318,6 +318,7 @@ def _verdict(setup: Setup, solution: Solution, rows: Rows) -> Verdict:
     or not (an unfinished estimate is judged by its data only); a converged fit's message says what
     its residuals say about the data."""
     problem, settings, z = setup.problem, setup.settings, solution.z
+    assert z is not None  # a finished fit (identify returns before when it failed)
     m, used = problem.m, rows.used
     residual = problem.residual(z)
     before_rms = _rms(setup.before.reshape(m, -1, 3)[used])
@@ -386,7 +387,7 @@ def _prior_std(prior: Prior | None, params: ParameterSet, n: int) -> np.ndarray:
     if prior is None:
         return std
     std[: len(params)] = prior.std(params)
-    named = set()
+    named: set[str] = set()
     for key in prior.overrides:
         named.update(params.select(key).names if any(p.kind == "base" for p in params) else ())
     for i, p in enumerate(params):

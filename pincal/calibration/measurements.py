@@ -322,7 +322,7 @@ def _measured_columns(measured: list[str], where: str) -> list[str]:
                 f"x0,y0,z0,x1,... for several, not a mix"
             )
         return ["x", "y", "z"]
-    indices = sorted({int(_MEASURED.match(c).group(2)) for c in measured})
+    indices = sorted({int(_MEASURED.match(c).group(2)) for c in measured})  # type: ignore[union-attr]
     expected = [f"{c}{k}" for k in range(len(indices)) for c in "xyz"]
     if sorted(measured) != sorted(expected):
         missing = [c for c in expected if c not in measured]
@@ -367,7 +367,7 @@ def _checked_payload(payload: PayloadLike, m: int, labels: list[str]) -> np.ndar
         rows = np.array(payload, dtype=float).reshape(m, 4)
     except (TypeError, ValueError):
         raise BadMeasurementData(
-            f"measurements: payload must be {m} rows [kg, x, y, z], got shape {np.shape(payload)}"
+            f"measurements: payload must be {m} rows [kg, x, y, z], got shape {np.shape(payload)}"  # type: ignore[arg-type]
         ) from None
     mass = rows[:, 0]
     bad = ~((mass >= 0) & (mass <= MAX_PAYLOAD))

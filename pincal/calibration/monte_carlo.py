@@ -21,7 +21,7 @@ from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0
 from pincal.model.parameters import ParameterSet
-from pincal.typing import ConfigurationsLike, SeedLike, TestPoseLike
+from pincal.typing import ConfigurationsLike, SeedLike
 
 QUANTILES = (0.5, 0.9, 0.95, 0.99)
 """Quantiles of the error at the test pose(s) reported by :func:`monte_carlo`."""
@@ -107,7 +107,7 @@ class MonteCarloResult:
 def monte_carlo(
     params: ParameterSet,
     plan: ConfigurationsLike,
-    test_pose: TestPoseLike,
+    test_pose: ConfigurationsLike,
     *,
     sigma: float = DEFAULT_SIGMA,
     trials: int = 200,

@@ -60,7 +60,7 @@ class Noise:
         d = 3 * sessions[0].n_markers
         given = sigma is not None
         if all(per_point):
-            values = np.concatenate([s.sigma.reshape(-1) for s in sessions])
+            values = np.concatenate([np.asarray(s.sigma).reshape(-1) for s in sessions])
             return cls(values.reshape(-1, d), float(np.median(values)), True, given)
         reference = DEFAULT_SIGMA if sigma is None else sigma
         return cls(np.full((sum(s.m for s in sessions), d), reference), reference, False, given)

@@ -185,7 +185,7 @@ class IdentificationResult:
         robot = self.params.robot
         load = None if payload is None else payload_rows(payload, 1)
         if load is not None and not isinstance(payload, Payload):
-            payload = Payload(float(load[0, 0]), load[0, 1:])
+            payload = Payload(float(load[0, 0]), (float(load[0, 1]), float(load[0, 2]), float(load[0, 3])))
         sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
         rows = tuple(ErrorSummary.of(where, self.expected_error(qs, payload=payload)) for where, qs in sets)
         worst = None if region is None else worst_found(_SquaredError(self, payload), region)

@@ -95,7 +95,7 @@ def find_outliers(
     """The rows whose residual exceeds ``threshold`` robust σ, worst first."""
     distance, score = row_scores(residual, noise)
     rows = sorted(np.flatnonzero(score > threshold), key=lambda i: -score[i])
-    return tuple(Outlier(int(i), labels[i], float(distance[i]), float(score[i])) for i in rows)
+    return tuple(Outlier(int(i), labels[int(i)], float(distance[i]), float(score[i])) for i in rows)
 
 
 def implausible(params: ParameterSet, x: np.ndarray, before: float, after: float, sigma: float) -> list[str]:

@@ -42,10 +42,11 @@ def _robust_scale(setup: Setup, used: np.ndarray, z_start: np.ndarray, loss: str
     until it changes by less than 5 % (at most 5 fits); None when the first fit fails."""
     whitened = setup.problem.noise.whitening(used)
     keep = setup.problem.noise.coordinates(used)
-    z, fit_loss, scale = z_start, "linear", None
+    z: np.ndarray | None = z_start
+    fit_loss, scale = "linear", None
     for _ in range(5):
-        f_scale = 1.0 if fit_loss == "linear" else ROBUST_SCALE * scale
-        z = _run(setup, used, z, fit_loss, f_scale, "trf").z
+        f_scale = 1.0 if fit_loss == "linear" or scale is None else ROBUST_SCALE * scale
+        z = _run(setup, used, z, fit_loss, f_scale, "trf").z if z is not None else None
         if z is None:
             break
         new_scale = robust_scale(whitened(-setup.problem.residual(z)[keep]))

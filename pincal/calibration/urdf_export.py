@@ -76,7 +76,7 @@ def sidecar_path(path: str | os.PathLike) -> Path:
 def sidecar(calibrated: IdentificationResult | Robot, urdf: str | os.PathLike) -> dict:
     """The sidecar's content for ``calibrated`` exported to ``urdf`` (see the module doc)."""
     result = calibrated if isinstance(calibrated, IdentificationResult) else None
-    robot = calibrated.robot if result is not None else calibrated
+    robot = calibrated.robot if isinstance(calibrated, IdentificationResult) else calibrated
     base = robot.base
     out = {
         "urdf": Path(urdf).name,
@@ -148,7 +148,7 @@ def export_urdf(
             reproduce the calibrated model.
     """
     result = calibrated if isinstance(calibrated, IdentificationResult) else None
-    robot = calibrated.robot if result is not None else calibrated
+    robot = calibrated.robot if isinstance(calibrated, IdentificationResult) else calibrated
     if result is not None and not (result.success or (force and result.status == "implausible")):
         raise IdentificationFailed(result)
     if not isinstance(robot, Robot):
@@ -176,7 +176,7 @@ def export_urdf(
     tree = _parse(text, source)
     _check_with_yourdfpy(tree, source)
     root = tree.getroot()
-    joints = {j.get("name"): j for j in root.findall("joint")}
+    joints = {str(j.get("name")): j for j in root.findall("joint")}
     origins = _calibrated_origins(robot)
     missing = [name for name in origins if name not in joints]
     if missing:
@@ -263,6 +263,7 @@ def _calibrated_origins(robot: Robot) -> dict[str, pin.SE3]:
     out: dict[str, pin.SE3] = {}
     for o, origin in enumerate(robot.origins):
         if o < robot.nq:
+            assert origin.urdf_joint is not None  # a chain joint is a URDF joint
             out[origin.urdf_joint] = robot.folded_origin(o)
         elif origin.urdf_joint is not None:
             out[origin.urdf_joint] = pin.SE3(origin.origin)

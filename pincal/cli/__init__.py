@@ -12,6 +12,7 @@ import os
 import sys
 import traceback
 import warnings
+from collections.abc import Mapping
 from typing import NamedTuple, NoReturn
 
 from pincal.errors import PincalError
@@ -122,11 +123,14 @@ pip install "pincal[plot]"; xacro sources need the xacro package: pip install "p
 class Parser(argparse.ArgumentParser):
     """argparse with pincal's error format: one line ``pincal: error: ...`` naming the --help."""
 
+    commands: Mapping[str, argparse.ArgumentParser]
+    """The subcommands' parsers, by name (set by :func:`build_parser`)."""
+
     def error(self, message: str) -> NoReturn:
         self.exit(2, f"pincal: error: {message} (see '{self.prog} --help')\n")
 
 
-def build_parser(commands: list[str] | None = None) -> argparse.ArgumentParser:
+def build_parser(commands: list[str] | None = None) -> Parser:
     """The parser of ``pincal``, with every subcommand listed; the options of those in ``commands``
     (default: all of them, importing every subcommand's module) are added, the others are parsed
     as their bare name only (``main`` adds the one it runs)."""

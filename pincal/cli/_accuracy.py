@@ -196,7 +196,7 @@ def payload_centre_from_args(args: argparse.Namespace) -> tuple[float, float, fl
     values = parse_floats(args.payload_centre, "--payload-centre")
     if len(values) != 3:
         raise BadArgument(f"--payload-centre {args.payload_centre!r}: expected X,Y,Z (three numbers, metres)")
-    return tuple(values)
+    return (values[0], values[1], values[2])
 
 
 def task_payload_from_args(args: argparse.Namespace) -> Payload | None:
@@ -255,7 +255,7 @@ def accuracy_report(
 ) -> AccuracyReport:
     """The accuracy report of ``plan`` next to ``reference`` (the D-optimal plan, if any)."""
     compare = {} if reference is None else {"D-optimal": reference}
-    return accuracy(
+    report = accuracy(
         params,
         plan,
         test_pose,
@@ -265,6 +265,8 @@ def accuracy_report(
         seed=seed,
         task_payload=task_payload,
     )
+    assert isinstance(report, AccuracyReport)  # one plan, one report
+    return report
 
 
 def save_accuracy_plot(

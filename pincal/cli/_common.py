@@ -130,7 +130,7 @@ def sigma_type(option: str = "--sigma", zero: bool = False) -> Callable[[str], o
 def argument_names(parser: argparse.ArgumentParser) -> dict[str, str]:
     """{dest: '--option' or 'METAVAR'} of a (sub)command's arguments."""
     return {
-        a.dest: a.option_strings[-1] if a.option_strings else (a.metavar or a.dest.upper())
+        a.dest: a.option_strings[-1] if a.option_strings else str(a.metavar or a.dest.upper())
         for a in parser._actions
     }
 
@@ -282,14 +282,15 @@ def _name_value(text: str, option: str, form: str) -> tuple[str, str]:
 
 def joint_ranges_from_args(args: argparse.Namespace) -> dict[str, tuple[float, float]]:
     """--joint-range NAME=LO,HI options as {joint: (lower, upper)} in radians or metres."""
-    out = {}
+    out: dict[str, tuple[float, float]] = {}
     for text in args.joint_range or ():
         name, value = _name_value(text, "--joint-range", "NAME=LO,HI")
         bounds = parse_floats(value, f"--joint-range {name}=")
         if len(bounds) != 2 or bounds[0] > bounds[1]:
             raise BadConfiguration(f"--joint-range {text!r}: expected NAME=LO,HI with LO <= HI")
         joint_range(bounds, f"--joint-range {text!r}:", BadConfiguration)  # as typed, before --deg
-        out[name] = tuple(np.radians(bounds)) if getattr(args, "deg", False) else tuple(bounds)
+        lo, hi = np.radians(bounds) if getattr(args, "deg", False) else bounds
+        out[name] = (float(lo), float(hi))
     return out
 
 

@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         values = parse_floats(args.payload_centre, "--payload-centre")
         if len(values) != 3:
             raise BadArgument(f"--payload-centre {args.payload_centre!r}: expected X,Y,Z (three numbers)")
-        centre = tuple(values)
+        centre = (values[0], values[1], values[2])
     payload = Payload(args.payload, centre)
     result = compensate(
         deployed.robot,

@@ -251,7 +251,7 @@ def run(args: argparse.Namespace) -> int:
         baseline = None
         if args.baseline is not None:
             baseline = _baseline(params, args, q0, criterion, taught, options)
-        reference = None if baseline is None else baseline[1].plan
+        reference = None if baseline is None or baseline[1] is None else baseline[1].plan
         report = report_accuracy(
             args,
             params,
@@ -311,7 +311,9 @@ def _payload_options(args: argparse.Namespace) -> dict:
     }
 
 
-def _baseline(params, args: argparse.Namespace, q0, criterion: str, taught, options: dict) -> tuple:
+def _baseline(
+    params, args: argparse.Namespace, q0, criterion: str, taught, options: dict
+) -> tuple[RandomPlans, DesignResult | None]:
     """(random feasible plans, the D-optimal plan) of --baseline: the random plans drawn from the
     taught pool if any, the D-optimal plan designed with the same options as the plan."""
     randoms = random_plans(
@@ -345,7 +347,7 @@ def _write_and_print(
     else:
         print_design(robot, params, source, result, args.deg, sigma_text, _split(params, result, args))
         if baseline is not None:
-            print_baseline(*baseline, pool=args.pool)
+            print_baseline(baseline[0], baseline[1], pool=args.pool)
         if report is not None:
             print("\n".join(report.lines(degrees=args.deg)))
         if args.out:
@@ -417,7 +419,7 @@ def print_design(
         f"{result.starts} starts, {result.continued} run to convergence, {result.time_s:.3g} s)"
     )
     print(f"{len(params)} parameters ({source}); {sigma_text}")
-    if result.rho0_each is not None and len(result.rho0_each) > 1:
+    if result.rho0_each is not None and result.rho0 is not None and len(result.rho0_each) > 1:
         agg = "worst" if result.criterion == "test-pose-worst" else "root mean square"
         print(
             f"rho0 over {len(result.rho0_each)} test poses ({agg}): {fmt_length(result.rho0)}  "
@@ -456,5 +458,5 @@ def print_baseline(randoms: RandomPlans, d_opt: DesignResult | None, pool: str |
         f"baseline, {randoms.n} random feasible plans{drawn}{singular}: rho0 min {fmt_length(randoms.min)}, "
         f"median {fmt_length(randoms.median)}, mean {fmt_length(randoms.mean)}, max {fmt_length(randoms.max)}"
     )
-    if d_opt is not None:
+    if d_opt is not None and d_opt.rho0 is not None:
         print(f"baseline, D-optimal plan: rho0 {fmt_length(d_opt.rho0)}")

@@ -94,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
     value = float(each.max()) if args.worst else float(np.sqrt(np.mean(each**2)))
     try:
         crit = criteria(params, plan)
+        assert not isinstance(crit, tuple)  # one plan, one set of criteria
     except SingularPlan:
         if prior is None:
             raise

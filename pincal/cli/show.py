@@ -200,7 +200,7 @@ def _scene_inputs(args: argparse.Namespace, robot, q0) -> tuple:
     drawn = drawn if drawn is None or isinstance(q0, np.ndarray) else drawn[:1]
     constraints = constraints_from_args(args)
     visible = [c for c in constraints if isinstance(c, Visibility)]
-    instrument = visible[0] if visible else None
+    instrument: Visibility | list[float] | None = visible[0] if visible else None
     if args.instrument:
         instrument = parse_floats(args.instrument, "--instrument")
         if len(instrument) != 3:

@@ -28,6 +28,7 @@ from pincal.cli._common import (
 )
 from pincal.cli._plot import add_simulation_plot_arguments, save_simulation_plot
 from pincal.errors import BadArgument
+from pincal.typing import ConfigurationsLike
 
 HELP = COMMANDS["simulate"].help
 EXAMPLES = """\
@@ -93,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     others = [(path, read_plan(robot, path, args.deg)) for path in args.compare or ()]
     q0 = test_poses_from_args(robot, args)
 
-    def simulated(configurations: object) -> MonteCarloResult:  # the same trials, errors and seed
+    def simulated(configurations: ConfigurationsLike) -> MonteCarloResult:  # the same trials, errors and seed
         return monte_carlo(
             params, configurations, q0, sigma=sigma, trials=args.trials, seed=args.seed, error_std=error_std
         )

@@ -209,7 +209,7 @@ def compensate(
     return Compensation(calibrated.joint_names, planned, commands, distance, angle, steps, outside)
 
 
-def _positions(targets: object) -> np.ndarray:
+def _positions(targets: ArrayLike) -> np.ndarray:
     try:
         goals = np.array(targets, dtype=float).reshape(-1, 3)
     except (TypeError, ValueError):
@@ -222,7 +222,7 @@ def _positions(targets: object) -> np.ndarray:
     return goals
 
 
-def _seeds(robot: Robot, seed: object, m: int) -> np.ndarray:
+def _seeds(robot: Robot, seed: ConfigurationsLike | None, m: int) -> np.ndarray:
     if seed is None:
         raise BadArgument(
             "Cartesian targets need a seed: a configuration near the first target (seed=, --seed-pose), "

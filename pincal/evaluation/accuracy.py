@@ -18,7 +18,9 @@ D-optimal one in pincal's reports), so the trade-off is visible.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -138,8 +140,17 @@ class WorstFound:
         }
 
 
+class SquaredError(Protocol):
+    """What :func:`worst_found` maximises: ρ²(q) at a batch of configurations (a
+    :class:`PredictedError`, or a calibration's expected error)."""
+
+    def squared(self, qs: np.ndarray) -> np.ndarray:
+        """(n,) ρ² [m²] at the (n, nq) configurations ``qs``."""
+        ...
+
+
 @keywords_after(2)
-def worst_found(predicted: PredictedError, region: ResolvedRegion, *, starts: int = 3) -> WorstFound:
+def worst_found(predicted: SquaredError, region: ResolvedRegion, *, starts: int = 3) -> WorstFound:
     """The worst ρ over a region: sampled, then maximised locally from the ``starts`` worst
     samples (continuous regions). See the module doc."""
     starts = positive_int(starts, "starts", 0)
@@ -150,7 +161,8 @@ def worst_found(predicted: PredictedError, region: ResolvedRegion, *, starts: in
         return WorstFound(sampled, np.array(region.poses[best]), sampled, False)
     from scipy.optimize import minimize
 
-    to_q = region.to_configuration
+    to_q, unit_samples = region.to_configuration, region.unit_samples
+    assert to_q is not None and unit_samples is not None  # a continuous region
     scale = 1.0 / max(float(r2[best]), 1e-300)
     h = 1e-6
     shifts = np.vstack(
@@ -172,7 +184,7 @@ def worst_found(predicted: PredictedError, region: ResolvedRegion, *, starts: in
     best_value, best_pose = float(r2[best]), np.array(region.poses[best])
     bounds = [(0.0, 1.0)] * region.dimension
     for s in np.argsort(r2)[::-1][:starts]:
-        u0 = region.unit_samples[s]
+        u0 = unit_samples[s]
         result = minimize(negative, u0, jac=True, method="L-BFGS-B", bounds=bounds, options={"maxiter": 50})
         q = to_q(result.x)
         if q is None:
@@ -517,7 +529,7 @@ class ErrorProfile:
 @keywords_after(3)
 def error_profile(
     params: ParameterSet,
-    plans: dict[str, object],
+    plans: Mapping[str, ConfigurationsLike],
     test_pose: TestPoseLike,
     *,
     sigma: float,

@@ -158,7 +158,7 @@ def _shown(value: float, unit: str) -> str:
 def _combination(names: Sequence[str], v: np.ndarray) -> str:
     big = sorted(np.flatnonzero(np.abs(v) >= 0.2), key=lambda i: -abs(v[i]))[:4]
     sign = 1.0 if v[big[0]] >= 0 else -1.0
-    terms = [f"{'+' if sign * v[i] >= 0 else '-'} {abs(v[i]):.2f}·{names[i]}" for i in big]
+    terms = [f"{'+' if sign * v[i] >= 0 else '-'} {abs(v[i]):.2f}·{names[int(i)]}" for i in big]
     text = " ".join(terms)
     return text[2:] if text.startswith("+ ") else "-" + text[2:]
 
@@ -242,6 +242,7 @@ def _identifiable_subset(
         if why is not None:
             dropped[names[i]] = why
             continue
+        assert diag is not None  # a singular trial is refused above
         kept, std = trial, np.sqrt(diag)
     for i, name in enumerate(names):
         if name in dropped and columns.units[i] in COMPLIANCE_UNITS:
@@ -290,7 +291,7 @@ def _refusal(columns: _Columns, trial: list[int], diag: np.ndarray | None) -> st
 def _weakest_words(names: tuple[str, ...], M: np.ndarray) -> tuple[str, ...]:
     """The least determined combinations of M's columns, in words: the weakest, and up to two more
     while their relative singular value is below 0.05."""
-    words = []
+    words: list[str] = []
     for s, v in weakest(M, min(3, len(names))):
         if s >= 0.05 and words:
             break

@@ -229,6 +229,7 @@ class InformationExchange:
         return cand, values
 
     def swap(self, i: int, best: int) -> None:
+        assert self._last is not None  # swap follows the candidates() it names
         last_i, cand, values, aux, Ai = self._last
         assert last_i == i
         c = int(cand[best])

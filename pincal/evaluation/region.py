@@ -222,8 +222,9 @@ def around(
             number(d, f"the neighbourhood's half-width of joint {i}", 0.0, MAX_ANGLE, low_open=True)
             for i, d in enumerate(np.asarray(angle, dtype=object))
         ]
-        checked: float | np.ndarray | None = np.array(widths)
-        checked.flags.writeable = False
+        array = np.array(widths)
+        array.flags.writeable = False
+        checked: float | np.ndarray | None = array
     else:
         checked = None if angle is None else _angle(angle, "the neighbourhood's half-width (angle)")
     size = None if length is None else _length(length, "the neighbourhood's half-width (length)")

@@ -32,7 +32,7 @@ from pincal.errors import BadArgument, SingularPlan
 from pincal.evaluation.criterion import Criterion
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
-from pincal.typing import ConfigurationsLike, PayloadLike, TestPoseLike
+from pincal.typing import ConfigurationsLike, PayloadLike
 
 
 class ResidualCriterion(Criterion):
@@ -157,7 +157,8 @@ class _ResidualExchange:
     :class:`~pincal.evaluation.criterion.ExchangeState`), exact values for every swap."""
 
     def __init__(self, criterion: ResidualCriterion, J_pool: np.ndarray, index: np.ndarray) -> None:
-        self.criterion = criterion
+        assert criterion.pool is not None  # exchange() checks it
+        self.criterion, self.pool = criterion, criterion.pool
         self.J_pool = J_pool
         self.index = index
         self.resync()
@@ -166,11 +167,11 @@ class _ResidualExchange:
         J = self.J_pool[self.index]
         flat = J.reshape(-1, J.shape[-1])
         self.M = flat.T @ flat
-        self.F = self.criterion.plan_value(J, self.criterion.pool[self.index])
+        self.F = self.criterion.plan_value(J, self.pool[self.index])
 
     def scores(self, i: int, allowed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         cand = np.flatnonzero(allowed)
-        pool, values = self.criterion.pool, np.empty(len(cand))
+        pool, values = self.pool, np.empty(len(cand))
         for start in range(0, len(cand), BATCH):  # bounded memory: (batch, m, r, P) arrays
             c = cand[start : start + BATCH]
             traces = self.criterion.swapped_traces(
@@ -191,7 +192,7 @@ class _ResidualExchange:
 def expected_error(
     params: ParameterSet,
     plan: ConfigurationsLike,
-    test_pose: TestPoseLike,
+    test_pose: ConfigurationsLike,
     residual_model: ResidualModel,
     *,
     sigma: float = DEFAULT_SIGMA,

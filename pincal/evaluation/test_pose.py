@@ -271,7 +271,7 @@ def _evaluate(params, plan, test_pose, sigma, aggregate, prior, task_payload=Non
 def rho0_split(
     params: ParameterSet,
     plan: ConfigurationsLike,
-    test_pose: TestPoseLike,
+    test_pose: ConfigurationsLike,
     *,
     sigma: float = DEFAULT_SIGMA,
     task_payload: PayloadLike = None,
@@ -306,7 +306,11 @@ def rho0_split(
 
 @keywords_after(3)
 def position_covariance(
-    params: ParameterSet, plan: ConfigurationsLike, test_pose: TestPoseLike, *, sigma: float = DEFAULT_SIGMA
+    params: ParameterSet,
+    plan: ConfigurationsLike,
+    test_pose: ConfigurationsLike,
+    *,
+    sigma: float = DEFAULT_SIGMA,
 ) -> np.ndarray:
     """(k, 3K, 3K) predicted covariance σ² J₀ M⁻¹ J₀ᵀ of the measured points at each test pose,
     after calibration, in the instrument frame [m²]. Its trace is ρ0²."""

@@ -42,6 +42,7 @@ class TestPoseWorst(WeightedTrace):
     ) -> None:
         if J0 is not None:
             J0T, groups = J0.reshape(-1, J0.shape[-1]).T, len(J0)
+        assert J0T is not None and groups is not None  # J0, or its factors
         super().__init__(J0T, groups, sigma, rows, prior)
         self.power = power
 

@@ -35,7 +35,7 @@ class WeightedTrace(Criterion):
         self, J0T: np.ndarray, groups: int, scale: float, rows: int, prior: np.ndarray | None = None
     ) -> None:
         super().__init__(rows, prior)
-        self.J0T = np.ascontiguousarray(J0T)
+        self.J0T: np.ndarray = np.ascontiguousarray(J0T)
         self.k = groups
         self.scale = scale
         self.weight = self.J0T @ self.J0T.T if groups == 1 else None  # W = Σ J0kᵀJ0k
@@ -101,6 +101,7 @@ class WeightedTrace(Criterion):
     def batch_traces(self, Ms: np.ndarray) -> np.ndarray:
         """(n, k) traces for a stack of information matrices; NaN rows where M is singular."""
         d, w, V, singular = scaled_eigh(self.posterior(Ms))
+        assert V is not None  # the vectors were asked for
         w = np.where(singular[:, None], 1.0, w)
         X = np.swapaxes(V, 1, 2) @ (self.J0T[None] / d[:, :, None])
         X /= np.sqrt(np.abs(w))[:, :, None]

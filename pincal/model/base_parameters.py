@@ -38,7 +38,7 @@ from pincal.errors import BadArgument
 from pincal.model.catalogue import LENGTH_TOLERANCE, split_spec
 from pincal.model.jacobian import unit_columns
 from pincal.model.statics import payload_rows
-from pincal.typing import SeedLike
+from pincal.typing import PayloadLike, SeedLike
 
 if TYPE_CHECKING:  # ParameterSet.identifiable() calls this module: parameters.py imports it
     from pincal.model.parameters import ParameterSet
@@ -196,7 +196,7 @@ def identifiability(
     seed: SeedLike = 0,
     tol: float = NEARLY_REDUNDANT,
     prefer: str | Iterable[str] = (),
-    payloads: Sequence[object] | None = None,
+    payloads: Sequence[PayloadLike] | None = None,
 ) -> Identifiability:
     """Identifiability report of ``params`` (see module doc).
 
@@ -234,7 +234,7 @@ def identifiability(
     combinations: dict[str, dict[str, float]] = {}
     nearly: dict[str, float] = {}
     compliant = [i for i, p in enumerate(params.parameters) if p.kind == "compliance"]
-    torques = robot.joint_torques(qs, payload=loads, check=False) if compliant else None
+    torques = robot.joint_torques(qs, payload=loads, check=False) if compliant else np.zeros((0, robot.nq))
     for i in range(len(params)):
         if i in kept:
             continue
@@ -284,7 +284,9 @@ def identifiability(
     )
 
 
-def _drawn_payloads(payloads: Sequence[object] | None, n: int, rng: np.random.Generator) -> np.ndarray | None:
+def _drawn_payloads(
+    payloads: Sequence[PayloadLike] | None, n: int, rng: np.random.Generator
+) -> np.ndarray | None:
     """(n, 4) payload rows drawn from ``payloads`` (one per configuration), or None."""
     if payloads is None:
         return None

@@ -63,16 +63,17 @@ def urdf_geometry(
     path = Path(robot.urdf_path)
     dirs = [str(d) for d in search]
     root = copy.deepcopy(tree) if tree is not None else robot_tree(robot)
+    assert root is not None  # the robot has a URDF (above)
     tag = "visual" if kind == pin.GeometryType.VISUAL else "collision"
     named = dict(robot.package_dirs)
     missing: set[str] = set()
-    for element in [e for e in root.iter(tag) if e.getparent() is not None and e.getparent().tag == "link"]:
+    for element in [e for e in root.iter(tag) if getattr(e.getparent(), "tag", None) == "link"]:
         for mesh in element.iter("mesh"):
             name = mesh.get("filename") or ""
             found = resolve_mesh(name, path, named, dirs) if name else None
             if found is None:
                 missing.add(name)
-                element.getparent().remove(element)
+                element.getparent().remove(element)  # type: ignore[union-attr]  # a link's child
                 break
             mesh.set("filename", str(found.resolve()))
     try:

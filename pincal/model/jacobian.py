@@ -132,8 +132,10 @@ class JacobianEngine:
             return (qs + self.offsets if self.has_offsets else qs), None
         loads = payload_rows(payload, len(qs))
         theta = self.robot.joint_values(qs, payload=loads, check=False, gravity=self.gravity)
-        tau = self.gravity.torques(theta, loads) if self.compliance_cols.size else None
-        return theta, tau
+        if not self.compliance_cols.size:
+            return theta, None
+        assert self.gravity is not None  # built when the set has compliances
+        return theta, self.gravity.torques(theta, loads)
 
     def _buffer(self, m: int) -> tuple[np.ndarray, list[list[np.ndarray]]]:
         """A reusable (m, 3K, 6·nq + 3K) regressor buffer and views of its per-marker blocks."""
@@ -180,7 +182,7 @@ class JacobianEngine:
             fk(model, data, q)
             for view, point in zip(row, points):
                 view[...] = regressor(model, data, joint, local, point)[:3]
-            if pose:
+            if rot is not None and pos is not None:
                 tip = data.oMi[joint] * self.placement
                 rot[i] = tip.rotation
                 pos[i] = tip.translation
@@ -203,7 +205,7 @@ class JacobianEngine:
         J = (reg.reshape(-1, reg.shape[2]) @ self.C_ext).reshape(len(qs), self.rows, self.n_params)
         if self.gain_cols.size:
             J[:, :, self.gain_cols] *= qs[:, None, self.gain_joints]
-        if self.compliance_cols.size:
+        if tau is not None:  # the set has compliances
             J[:, :, self.compliance_cols] *= tau[:, None, self.compliance_joints]
         if not pose:
             return J

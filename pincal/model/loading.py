@@ -241,8 +241,8 @@ def load_robot(
         ('joint_a1', 'joint_a2', 'joint_a3', 'joint_a4', 'joint_a5', 'joint_a6')
     """
     ranges = parse_joint_ranges(joint_ranges)
-    package_dirs = _package_dirs(package_dirs)
-    model, urdf, name, floats = _resolve_source(source, ranges, package_dirs)
+    dirs = _package_dirs(package_dirs)
+    model, urdf, name, floats = _resolve_source(source, ranges, dirs)
     root_id = frame_id(model, root, "root frame") if root is not None else default_root(model)
     note = ""
     if floats or root_id != 0 and root is None:
@@ -262,7 +262,7 @@ def load_robot(
         name=name,
         urdf_path=urdf,
         root=root if root else None,
-        package_dirs=package_dirs,
+        package_dirs=tuple(dirs.items()),
     )
 
 

@@ -267,7 +267,7 @@ class ParameterSet:
         seed: SeedLike = 0,
         tol: float = NEARLY_REDUNDANT,
         prefer: str | Iterable[str] = (),
-        payloads: Sequence[object] | None = None,
+        payloads: Sequence[PayloadLike] | None = None,
     ):
         """Which of these parameters position measurements can identify.
 

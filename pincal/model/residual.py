@@ -24,6 +24,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -230,7 +231,7 @@ class ResidualModel:
         }
 
     @classmethod
-    def from_dict(cls, data: dict[str, object]) -> ResidualModel:
+    def from_dict(cls, data: dict[str, Any]) -> ResidualModel:
         """The model :meth:`as_dict` wrote."""
         try:
             if data.get("kind") != "gp":

@@ -16,7 +16,7 @@ the static solution θ of :mod:`pincal.model.statics` when the robot has joint g
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -113,12 +113,12 @@ class Robot:
     markers: np.ndarray
     name: str = "robot"
     urdf_path: Path | None = None
-    joint_offsets: np.ndarray = field(default=None)  # type: ignore[assignment]
+    joint_offsets: np.ndarray = field(default=None)  # type: ignore[arg-type]  # None: zeros (__post_init__)
     base: pin.SE3 = field(default_factory=pin.SE3.Identity)
     root: str | None = None
     package_dirs: tuple[tuple[str, str], ...] = ()
-    joint_gains: np.ndarray = field(default=None)  # type: ignore[assignment]
-    joint_compliances: np.ndarray = field(default=None)  # type: ignore[assignment]
+    joint_gains: np.ndarray = field(default=None)  # type: ignore[arg-type]  # None: zeros (__post_init__)
+    joint_compliances: np.ndarray = field(default=None)  # type: ignore[arg-type]  # None: zeros (__post_init__)
 
     def __post_init__(self) -> None:
         dirs = tuple((str(name), str(folder)) for name, folder in dict(self.package_dirs).items())
@@ -351,7 +351,7 @@ class Robot:
             data: a ``pinocchio.Data`` of this robot's model to reuse (default: a new one).
             payload: the payload at each configuration (see :meth:`points`).
         """
-        qs = self.configurations(q) if check else q
+        qs = self.configurations(q) if check else np.asarray(q, dtype=float)
         model = self.model
         data = model.createData() if data is None else data
         placement = model.frames[self.tip_frame].placement
@@ -468,9 +468,9 @@ class Robot:
             "joint_compliances": self.joint_compliances,
         }
         fields.update(changes)
-        return Robot(**fields)  # type: ignore[arg-type]
+        return Robot(**fields)
 
-    def parameters(self, spec: str | list[str] | tuple[str, ...] = "full,offsets") -> ParameterSet:
+    def parameters(self, spec: str | Iterable[str] = "full,offsets") -> ParameterSet:
         """The geometric parameters named by ``spec`` (see :class:`pincal.ParameterSet`)."""
         return ParameterSet.from_spec(self, spec)
 

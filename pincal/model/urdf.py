@@ -163,7 +163,7 @@ def _check_tree(root: etree._Element, where: str) -> None:
     Raises:
         UrdfError: naming the joint or the links at fault.
     """
-    links = [link.get("name") for link in root if link.tag == "link"]
+    links = [str(link.get("name")) for link in root if link.tag == "link"]
     defined = set(links)
     parent_of: dict[str, str] = {}
     for joint in (j for j in root if j.tag == "joint"):
@@ -187,7 +187,7 @@ def _check_tree(root: etree._Element, where: str) -> None:
                 f"URDF {where}: link {child!r} is the child of two joints ({parent_of[child]!r} and "
                 f"{name!r}): every link but the root hangs from one joint"
             )
-        parent_of[child] = name
+        parent_of[child] = str(name)
     roots = [link for link in links if link not in parent_of]
     if links and not roots:
         raise UrdfError(f"URDF {where}: the joints form a loop (every link has a parent): no root link")
@@ -220,7 +220,7 @@ def prepare(text: str, ranges: Mapping[str, tuple[float, float]], where: str) ->
     ranges asked for written as limits."""
     root = _parse(text, where)
     _check_tree(root, where)
-    joints = {j.get("name"): j for j in root.iter("joint") if j.getparent() is root}
+    joints = {str(j.get("name")): j for j in root.iter("joint") if j.getparent() is root}
     unknown = [name for name in ranges if name not in joints]
     if unknown:
         movable = [n for n, j in joints.items() if j.get("type") in ("revolute", "continuous", "prismatic")]
@@ -282,7 +282,9 @@ def few(names: Sequence[str], limit: int = 3) -> str:
 
 def check_meshes(text: str, urdf: Path, package_dirs: Mapping[str, str] | None = None) -> list[str]:
     """Mesh file names of the URDF that cannot be found (one warning names them)."""
-    names = sorted({m.get("filename") for m in _parse(text, str(urdf)).iter("mesh") if m.get("filename")})
+    names = sorted(
+        {str(m.get("filename")) for m in _parse(text, str(urdf)).iter("mesh") if m.get("filename")}
+    )
     missing = [n for n in names if resolve_mesh(n, urdf, package_dirs) is None]
     if missing:
         warn(

@@ -124,7 +124,7 @@ def expand_here(
 ) -> Expansion:
     """The expansion itself, in this process (the child's work, under a ``memory`` limit)."""
     try:
-        import xacro  # type: ignore[import-not-found]
+        import xacro
     except ImportError:
         return Expansion(None, "no xacro")
     said = io.StringIO()  # xacro prints its warnings (and error context) on stderr itself
@@ -135,7 +135,7 @@ def expand_here(
     except Exception as exc:  # xacro's own types with long texts, wrapping others (MemoryError) in .exc
         inner = exc
         while getattr(inner, "exc", None) is not None:
-            inner = inner.exc
+            inner = inner.exc  # type: ignore[attr-defined]  # xacro's wrapped error
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         if isinstance(inner, MemoryError):
             first += f" (out of memory: the limit is {memory / 2**30:g} GiB; a runaway expression?)"

@@ -27,7 +27,7 @@ def random_plans(
     params: ParameterSet,
     m: int,
     n: int = 1000,
-    test_pose: TestPoseLike = None,
+    test_pose: TestPoseLike | None = None,
     *,
     criterion: str = "test-pose",
     sigma: float = DEFAULT_SIGMA,

@@ -62,7 +62,7 @@ def choose(
             f"none of the {len(outcomes)} starts ended in a feasible, regular plan; "
             "relax the constraints or add starts"
         )
-    cond = {s: plan_conditioning(engine, outcomes[s].q) for s in usable}
+    cond = {s: plan_conditioning(engine, _plan(outcomes[s])) for s in usable}
     regular = [s for s in usable if cond[s] > floor or floor <= 0]
     history = tuple(
         replace(o.record, message=f"below the conditioning floor {floor:g}; " + o.record.message)
@@ -74,7 +74,7 @@ def choose(
         raise DegenerateOptimum(criterion, settings.m, floor)
     winner = min(regular, key=lambda s: (outcomes[s].F, s))
     if settings.prior is None and cond[winner] < MIN_DATA_CONDITIONING:  # only below a floor asked for
-        check = identification_check(params, engine, outcomes[winner].q, settings.sigma)
+        check = identification_check(params, engine, _plan(outcomes[winner]), settings.sigma)
         if check.dropped:
             dropped = "; ".join(f"{name}: {why}" for name, why in check.dropped.items())
             warn(
@@ -119,7 +119,7 @@ def design_result(
     elapsed: float,
 ) -> DesignResult:
     """The design result of the winning start, its value and ρ0 computed by the core's functions."""
-    s, q = settings, outcomes[choice.winner].q
+    s, q = settings, _plan(outcomes[choice.winner])
     plan = Plan.for_robot(params.robot, q)
     value, rho0, rho0_each = _report(
         params, plan, s.criterion, s.test_poses, s.sigma, engine.jacobian(q, frame="tip"), s.prior
@@ -170,6 +170,7 @@ def _report(
         each = TestPoseCriterion(params, test_poses, sigma, aggregate="each", prior=prior)(plan.q)
         rho0 = float(each.max()) if criterion == "test-pose-worst" else float(np.sqrt(np.mean(each**2)))
     if criterion in TEST_POSE_CRITERIA:
+        assert rho0 is not None  # the settings checked the test poses are given
         return rho0, rho0, each
     if prior is not None:  # the Bayesian classic criterion, as the search minimised it
         P = len(params)
@@ -190,3 +191,9 @@ def identification_check(
     (:func:`~pincal.evaluation.data_check.check_parameters`)."""
     J = engine.jacobian(q, frame="tip").reshape(-1, engine.n_params) / sigma
     return check_parameters(params, J.T @ J, len(q), sigma)
+
+
+def _plan(outcome: Outcome) -> np.ndarray:
+    """The (m, nq) plan a usable start ended at."""
+    assert outcome.q is not None  # only a start dropped after screening has none
+    return outcome.q

@@ -63,7 +63,7 @@ from pincal.planning.objectives import (
 )
 from pincal.planning.results import DesignResult
 from pincal.planning.search import Pool, Settings, draw_starts, search
-from pincal.typing import PayloadLike, PoolLike, SeedLike, TestPoseLike
+from pincal.typing import ConfigurationsLike, PayloadLike, PoolLike, SeedLike, TestPoseLike
 
 METHODS = ("continuous", "exchange")
 """Names of the search methods."""
@@ -92,7 +92,7 @@ __all__ = ["DEFAULT_POOL", "METHODS", "MIN_CONDITIONING", "SINGULAR_WARNING", "d
 def design(
     params: ParameterSet,
     m: int,
-    test_pose: TestPoseLike = None,
+    test_pose: TestPoseLike | None = None,
     *,
     criterion: str = "test-pose",
     method: str = "exchange",
@@ -103,7 +103,7 @@ def design(
     sigma: float = DEFAULT_SIGMA,
     executor: Executor | None = None,
     workers: int | None = None,
-    init: Sequence[object] = (),
+    init: Sequence[ConfigurationsLike] = (),
     polish: bool | None = None,
     keep: float = 0.25,
     screen_iterations: int = 20,
@@ -111,7 +111,7 @@ def design(
     min_conditioning: float | None = None,
     prior: Prior | None = None,
     progress: bool = False,
-    payloads: Sequence[object] | None = None,
+    payloads: Sequence[PayloadLike] | None = None,
     task_payload: PayloadLike = None,
     residual_model: ResidualModel | None = None,
 ) -> DesignResult:
@@ -205,7 +205,7 @@ def design(
         with _multistart.single_threaded_blas():
             return _payloads.design_with_payloads(
                 params, m, test_pose, [0.0] if payloads is None else payloads, task_payload=task_payload,
-                criterion=criterion, constraints=constraints, pool=1000 if pool is None else pool,
+                criterion=criterion, constraints=constraints, pool=1000 if pool is None else pool,  # type: ignore[arg-type]
                 starts=starts, seed=seed, sigma=sigma, prior=prior, min_conditioning=min_conditioning,
                 residual_model=residual_model,
             )  # fmt: skip
@@ -259,14 +259,14 @@ def design(
 def _validate(
     params: ParameterSet,
     m: object,
-    test_pose: TestPoseLike,
+    test_pose: TestPoseLike | None,
     criterion: str,
     *,
     method: str,
     constraints: Iterable[AnyConstraint],
     user_pool: bool,
     starts: object,
-    seed: object,
+    seed: SeedLike,
     sigma: object,
     workers: object,
     polish: bool | None,
@@ -346,12 +346,14 @@ def _check_m(params: ParameterSet, m: object, prior: np.ndarray | None = None) -
 
 
 # ----------------------------------------------------------------------------- pool
-def _pool(params: ParameterSet, settings: Settings, pool: PoolLike, init: Sequence[object]) -> Pool:
+def _pool(
+    params: ParameterSet, settings: Settings, pool: PoolLike, init: Sequence[ConfigurationsLike]
+) -> Pool:
     """The candidate configurations (the user's feasible ones, or drawn) and the checked init plans."""
     robot, feasibility, m = params.robot, settings.feasibility, settings.m
     rejected = 0
     if settings.user_pool:
-        candidates, rejected = feasibility.feasible_pool(pool, m)
+        candidates, rejected = feasibility.feasible_pool(pool, m)  # type: ignore[arg-type]  # user_pool: not a size
     else:
         size = DEFAULT_POOL if pool is None else positive_int(pool, "pool size", m)
         # The continuous search starts strictly inside the constraints (Feasibility.barrier).

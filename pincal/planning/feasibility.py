@@ -23,7 +23,7 @@ from pincal.planning.constraints import (
     limit_margin_of,
     spacing_of,
 )
-from pincal.typing import PoolLike
+from pincal.typing import ArrayLike
 
 
 class Feasibility:
@@ -64,7 +64,7 @@ class Feasibility:
 
     def feasible(self, qs: np.ndarray) -> np.ndarray:
         """(m,) True where a configuration satisfies every per-configuration constraint."""
-        ok = self.limits.satisfied(_LimitsOnly(qs))
+        ok = self.limits.satisfied(_LimitsOnly(qs))  # type: ignore[arg-type]  # the limits read only q
         if self.bound and ok.any():
             idx = np.flatnonzero(ok)
             kin = self.kinematics(qs[idx])
@@ -72,7 +72,7 @@ class Feasibility:
                 ok[idx] &= b.satisfied(kin)
         return ok
 
-    def feasible_pool(self, pool: PoolLike, m: int) -> tuple[np.ndarray, int]:
+    def feasible_pool(self, pool: ArrayLike, m: int) -> tuple[np.ndarray, int]:
         """The configurations of a user's pool that satisfy every constraint, and how many did not.
 
         Args:
@@ -248,14 +248,14 @@ class Feasibility:
                 hi = np.where(ok, hi, mid)
             q[bad] = a + lo[:, None] * d
         if not self.spacing_ok(q):
-            lo, hi, d = 0.0, 1.0, q - start
+            low, high, d = 0.0, 1.0, q - start
             for _ in range(iterations):
-                mid = 0.5 * (lo + hi)
-                if self.plan_feasible(start + mid * d):
-                    lo = mid
+                middle = 0.5 * (low + high)
+                if self.plan_feasible(start + middle * d):
+                    low = middle
                 else:
-                    hi = mid
-            q = start + lo * d
+                    high = middle
+            q = start + low * d
         return q
 
 

@@ -87,6 +87,7 @@ class Problem:
 
     @cached_property
     def pool_jacobians(self) -> np.ndarray:
+        assert self.spec.pool is not None  # an exchange's spec
         return self.engine.jacobian(self.spec.pool, frame="tip").copy()
 
 
@@ -139,12 +140,13 @@ def exchange_task(
     :class:`CarriedError`."""
     with single_threaded_blas():
         p = problem(spec)
-        spacing = p.feasibility.spacing
+        spacing, pool = p.feasibility.spacing, spec.pool
+        assert pool is not None  # an exchange's spec
         if index is None:
             try:
                 index = _starts.draw_start(
                     p.pool_jacobians,
-                    spec.pool,
+                    pool,
                     spec.m,
                     spacing,
                     _starts.start_seed(spec.entropy, start),
@@ -153,7 +155,7 @@ def exchange_task(
                 )
             except PincalError as error:
                 return CarriedError.of(error)
-        return _exchange.fedorov(p.objective, p.pool_jacobians, spec.pool, index, spacing, spec.floor)
+        return _exchange.fedorov(p.objective, p.pool_jacobians, pool, index, spacing, spec.floor)
 
 
 @dataclass(frozen=True)
@@ -161,7 +163,7 @@ class CarriedError:
     """A pincal error raised in a worker, carried back as plain data: an exception unpickles by
     calling its class with its message, which the errors that take their own arguments refuse."""
 
-    kind: type
+    kind: type[BaseException]
     args: tuple
     state: dict
 

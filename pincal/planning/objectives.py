@@ -27,7 +27,9 @@ __all__ = [
 ]
 
 
-def checked_test_poses(params: ParameterSet, test_pose: TestPoseLike, criterion: str) -> np.ndarray | None:
+def checked_test_poses(
+    params: ParameterSet, test_pose: TestPoseLike | None, criterion: str
+) -> np.ndarray | None:
     """The (k, nq) test poses of a design (a region's or path's sample configurations), checked
     against the robot; None if none is given and the criterion needs none.
 

@@ -50,7 +50,7 @@ MIN_CONDITIONING = 1e-2
 D-optimal plan reaches, never below what identification asks of the data."""
 
 
-def payload_rows_of(payloads: Sequence[object]) -> np.ndarray:
+def payload_rows_of(payloads: Sequence[PayloadLike]) -> np.ndarray:
     """(n, 4) rows [kg, x, y, z] of the payloads the user can mount (masses [kg] or Payloads)."""
     if isinstance(payloads, (str, bytes)) or not isinstance(payloads, Sequence) or not len(payloads):
         raise BadArgument(
@@ -63,8 +63,8 @@ def payload_rows_of(payloads: Sequence[object]) -> np.ndarray:
 def design_with_payloads(
     params: ParameterSet,
     m: int,
-    test_pose: TestPoseLike = None,
-    payloads: Sequence[object] = (0.0,),
+    test_pose: TestPoseLike | None = None,
+    payloads: Sequence[PayloadLike] = (0.0,),
     *,
     task_payload: PayloadLike = None,
     criterion: str = "test-pose",
@@ -137,6 +137,7 @@ def design_with_payloads(
             raise BadArgument(
                 "a residual model designs for the test-pose criterion, with a test pose and no prior"
             )
+        assert test_poses is not None  # J0 is theirs
         objective = ResidualCriterion(residual_model, J0, test_poses, sigma, pool=q_pool)
     floor = _floor(min_conditioning, information)
     outcomes, history = [], []
@@ -167,7 +168,11 @@ def design_with_payloads(
         if each is None
         else float(each.max() if criterion == "test-pose-worst" else np.sqrt(np.mean(each**2)))
     )
-    value = rho0 if criterion in TEST_POSE_CRITERIA else float(objective.report(outcomes[winner].F))
+    value = (
+        rho0
+        if criterion in TEST_POSE_CRITERIA and rho0 is not None
+        else float(objective.report(outcomes[winner].F))
+    )
     if criterion not in TEST_POSE_CRITERIA and prior is None:
         value = float(criteria_from_jacobian(J, len(plan)).by_criterion(criterion))
     if residual_model is not None:  # the criterion minimised: the expected error with the residual model
@@ -175,7 +180,8 @@ def design_with_payloads(
         criterion = ResidualCriterion.name
     elapsed = time.perf_counter() - t0
     masses = ", ".join(f"{w:g}" for w in rows[:, 0])
-    chosen = ", ".join(f"{int(np.sum(plan.payload[:, 0] == w))} at {w:g} kg" for w in rows[:, 0])
+    loads = plan.payload if plan.payload is not None else np.zeros((len(plan), 4))  # it has one per row
+    chosen = ", ".join(f"{int(np.sum(loads[:, 0] == w))} at {w:g} kg" for w in rows[:, 0])
     return DesignResult(
         plan=plan,
         value=value,

@@ -69,7 +69,9 @@ class Plan:
     def for_robot(cls, robot, q: ConfigurationsLike, payload: PayloadLike = None) -> Plan:
         """A plan for ``robot`` from (m, nq) joint values, checked against its limits (and the
         payload of each configuration, see :func:`~pincal.model.statics.payload_rows`)."""
-        return cls(robot.configurations(q), robot.joint_names, tuple(robot.revolute), payload)
+        qs = robot.configurations(q)
+        loads = None if payload is None else payload_rows(payload, len(qs))
+        return cls(qs, robot.joint_names, tuple(robot.revolute), loads)
 
     def __len__(self) -> int:
         return len(self.q)
@@ -198,11 +200,12 @@ class Plan:
     @classmethod
     def from_json(cls, data: dict | str) -> Plan:
         """Inverse of :meth:`to_json` (a dict or its JSON text)."""
-        if isinstance(data, str):
-            data = json.loads(data)
+        content = json.loads(data) if isinstance(data, str) else data
         try:
             return cls(
-                np.asarray(data["q"], dtype=float), tuple(data["joint_names"]), payload=data.get("payload")
+                np.asarray(content["q"], dtype=float),
+                tuple(content["joint_names"]),
+                payload=content.get("payload"),
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise BadPlanFile(f"not a plan: expected keys joint_names and q ({exc})") from None

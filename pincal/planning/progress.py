@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from typing import Any
 
 import numpy as np
 
@@ -31,7 +32,7 @@ class Progress:
         self.stream = sys.stderr if stream is None else stream
         self.tty = on and bool(getattr(self.stream, "isatty", lambda: False)())
         self.best = math.inf
-        self.bar = None
+        self.bar: Any = None  # a tqdm bar on a terminal
         self.what, self.total, self.done = "", 0, 0
         self.t0 = self.last = time.perf_counter()
 

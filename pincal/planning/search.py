@@ -143,7 +143,9 @@ def search(
         s.prior_information,
         s.entropy,
     )
-    J0 = engine.jacobian(s.test_poses, frame="tip").copy() if s.criterion in TEST_POSE_CRITERIA else None
+    J0 = None
+    if s.criterion in TEST_POSE_CRITERIA and s.test_poses is not None:  # the settings checked they are given
+        J0 = engine.jacobian(s.test_poses, frame="tip").copy()
     objective = make_criterion(s.criterion, len(params), engine.rows, J0, s.sigma, s.prior_information)
     n_starts, n_keep = pooled.n_starts(s), pooled.n_keep(s)
     bar = Progress(progress, s.criterion, objective)
@@ -230,25 +232,27 @@ def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, ba
     else:
         kept = list(range(n))
         starts_from = [x0s[s] for s in kept]
-    items = [(spec, q, x0s[s], maxiter) for s, q in zip(kept, starts_from, strict=True)]
+    polish_items = [(spec, q, x0s[s], maxiter) for s, q in zip(kept, starts_from, strict=True)]
     bar.stage(
         "run to convergence" if len(kept) == n else f"run to convergence (the best {len(kept)})", len(kept)
     )
-    finals = dict(zip(kept, _multistart.run(ex, _multistart.polish_task, items, bar), strict=True))
+    finals = dict(zip(kept, _multistart.run(ex, _multistart.polish_task, polish_items, bar), strict=True))
 
     def outcome(s: int) -> Outcome:
         first = None if screened is None else screened[s]
         screen_value = None if first is None else _report_value(objective, first.F)
         final = finals.get(s)
+        last = final if final is not None else first
+        assert last is not None  # a start is screened, run to convergence, or both
         record = StartRecord(
             start=s,
-            value=screen_value if final is None else _report_value(objective, final.F),
+            value=_report_value(objective, last.F),
             screen_value=screen_value,
             iterations=(0 if first is None else first.iterations)
             + (0 if final is None else final.iterations),
             time_s=(0.0 if first is None else first.time_s) + (0.0 if final is None else final.time_s),
             continued=final is not None,
-            feasible=first.feasible if final is None else final.feasible,
+            feasible=last.feasible,
             message="dropped after screening" if final is None else final.message,
         )
         if final is None:

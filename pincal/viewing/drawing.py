@@ -53,6 +53,7 @@ def geometry_models(robot: Robot, reach: float) -> tuple[pin.GeometryModel, pin.
     if visual is None:
         sticks = _stick_geometry(robot, reach)
         return sticks, sticks
+    assert tree is not None  # the visual geometry came from it
     collision = _urdf_geometry(robot, pin.GeometryType.COLLISION, tree)
     return visual, collision if collision is not None else visual
 
@@ -261,7 +262,7 @@ def add_instrument(vis, where: np.ndarray, points: np.ndarray, colors, reach: fl
 
 def _joint_origins(robot: Robot, qs: np.ndarray) -> np.ndarray:
     model, data = robot.model, robot.model.createData()
-    out = []
+    out: list[np.ndarray] = []
     for q in qs + robot.joint_offsets:
         pin.forwardKinematics(model, data, q)
         out.extend((robot.base * data.oMi[j]).translation for j in range(model.njoints))

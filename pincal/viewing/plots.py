@@ -128,7 +128,7 @@ def rho0_histogram(
     edges = np.geomspace(lo / 1.05, hi * 1.05, bins + 1)
     fig = _figure((7.0, 5.0))
     ax = fig.add_subplot()
-    ax.hist(random, bins=edges, color="#c7c7c7", edgecolor="#7f7f7f", linewidth=0.5,
+    ax.hist(random, bins=edges.tolist(), color="#c7c7c7", edgecolor="#7f7f7f", linewidth=0.5,
             label=f"{len(random)} random plans")  # fmt: skip
     ax.set_xscale("log")
     median = float(np.median(random))
@@ -195,10 +195,10 @@ def error_comparison(
                    medianprops={"color": "black"}, boxprops={"color": color},
                    whiskerprops={"color": color}, capprops={"color": color})  # fmt: skip
         ax.hlines(rms[label], i - 0.35, i + 0.35, color="black", linewidth=2,
-                  label="RMS error (empirical ρ0)" if i == 0 else None)  # fmt: skip
+                  label="RMS error (empirical ρ0)" if i == 0 else None)  # type: ignore[arg-type]  # fmt: skip
         if label in expected:
             ax.hlines(float(expected[label]) * f, i - 0.35, i + 0.35, color="#ff7f0e", linewidth=2,
-                      linestyle=":", label="predicted ρ0" if i == 0 else None)  # fmt: skip
+                      linestyle=":", label="predicted ρ0" if i == 0 else None)  # type: ignore[arg-type]  # fmt: skip
         change = 100.0 * (1.0 - rms[label] / rms[labels[0]])
         gain = "" if i == 0 else f"\n{abs(change):.0f}% {'below' if change >= 0 else 'above'} {labels[0]}"
         ax.annotate(f"ρ0 = {rms[label]:.3g} {unit}{gain}", (i, 1.0), xycoords=("data", "axes fraction"),
@@ -249,10 +249,10 @@ def search_progress(
     finals = []
     for i, entry in enumerate(entries):
         if hasattr(entry, "time_s"):
-            v = float(entry.value) * scale
-            if np.isfinite(v):
-                points.append((float(entry.time_s), v, bool(getattr(entry, "continued", True))))
-                finals.append(v)
+            value = float(entry.value) * scale
+            if np.isfinite(value):
+                points.append((float(entry.time_s), value, bool(getattr(entry, "continued", True))))
+                finals.append(value)
             continue
         times, values = (entry.times, entry.values) if hasattr(entry, "times") else entry
         t = np.asarray(times, dtype=float).reshape(-1)
@@ -276,7 +276,9 @@ def search_progress(
     ax.axhline(reference, color="black", linestyle="--", linewidth=1,
                label=f"{'best' if best is None else 'reference'} {reference:.4g}")  # fmt: skip
     ax.legend(fontsize="small")
-    drawn = [v for line in ax.get_lines() for v in line.get_ydata()] + [v for _, v, _ in points]
+    drawn = [float(y) for line in ax.get_lines() for y in np.asarray(line.get_ydata())] + [
+        y for _, y, _ in points
+    ]
     if min(drawn) > 0 and max(drawn) > 10 * min(drawn):  # a log scale only for a wide spread
         ax.set_yscale("log")
     ax.set_xlabel("wall time of the start [s]")

@@ -45,7 +45,7 @@ from pincal.files import atomic_write_text
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.optional import require
-from pincal.typing import ConfigurationsLike, InstrumentLike, TestPoseLike, ViewerLike
+from pincal.typing import ConfigurationsLike, InstrumentLike, ViewerLike
 from pincal.viewing.drawing import (
     ROOT,
     add_ellipsoid,
@@ -154,7 +154,7 @@ def static_viewer() -> Visualizer:
 def show(
     params_or_robot: ParameterSet | Robot,
     plan: ConfigurationsLike,
-    test_pose: TestPoseLike = None,
+    test_pose: ConfigurationsLike | None = None,
     *,
     sigma: float = DEFAULT_SIGMA,
     instrument: InstrumentLike = None,
@@ -207,7 +207,7 @@ def show(
 def scene(
     params_or_robot: ParameterSet | Robot,
     plan: ConfigurationsLike,
-    test_pose: TestPoseLike = None,
+    test_pose: ConfigurationsLike | None = None,
     *,
     sigma: float = DEFAULT_SIGMA,
     instrument: InstrumentLike = None,
@@ -311,7 +311,7 @@ def _draw_error_cloud(
     qs: np.ndarray,
     sigma: float,
     prior: Prior | None,
-    error_samples: object,
+    error_samples: int | ConfigurationsLike,
     reach: float,
 ) -> tuple[np.ndarray | None, np.ndarray | None, str]:
     """(sample configurations, predicted errors there, note) of the error cloud, drawn: a number of

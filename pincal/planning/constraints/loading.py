@@ -49,7 +49,7 @@ def _entries(value: object) -> list:
     return list(value) if isinstance(value, list) else [value]
 
 
-def constraints_from_dict(data: dict) -> tuple[AnyConstraint, ...]:
+def constraints_from_dict(data: object) -> tuple[AnyConstraint, ...]:
     """Constraints from a mapping with the layout of the YAML file (see :func:`load_constraints`)."""
     if data is None:
         return ()
@@ -61,7 +61,7 @@ def constraints_from_dict(data: dict) -> tuple[AnyConstraint, ...]:
     out: list[AnyConstraint] = []
     if "joint_limits" in data:
         e = _check_keys(data["joint_limits"], "joint_limits", ("margin", "margin_deg"))
-        out.append(JointLimits(_angle(e, "margin", "joint_limits", 0.0)))
+        out.append(JointLimits(_angle(e, "margin", "joint_limits", 0.0)))  # type: ignore[arg-type]  # checked there
     if "workspace_box" in data:
         e = _check_keys(data["workspace_box"], "workspace_box", ("lower", "upper"))
         if "lower" not in e or "upper" not in e:

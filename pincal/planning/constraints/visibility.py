@@ -90,6 +90,7 @@ class VisibilityBound(Bound):
         if np.isfinite(s.max_range):
             out.append(s.max_range - dist)
         if s.max_angle is not None:
+            assert self.normals is not None  # bound with the tip's normals when there is a max_angle
             n_world = np.einsum("mij,kj->mki", kin.rotations, self.normals)
             cos = np.einsum("mki,mki->mk", n_world, sight) / np.maximum(dist, 1e-12)
             out.append(s.max_angle - np.arccos(np.clip(cos, -1.0, 1.0)))
