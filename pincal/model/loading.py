@@ -130,7 +130,7 @@ def _with_ranges(model: pin.Model, ranges: dict[str, tuple[float, float]]) -> pi
     return model
 
 
-def _parse_markers(markers: object) -> np.ndarray:
+def _parse_markers(markers: PointsLike | None) -> np.ndarray:
     if markers is None:
         return np.zeros((1, 3))
     try:

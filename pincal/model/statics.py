@@ -29,7 +29,7 @@ import pinocchio as pin
 
 from pincal.arguments import MAX_LENGTH
 from pincal.errors import BadArgument, NoInertias
-from pincal.typing import PayloadLike
+from pincal.typing import ArrayLike, PayloadLike
 
 PAYLOAD_COLUMNS = ("payload_kg", "payload_x", "payload_y", "payload_z")
 """The payload columns of a plan or measurement file: mass [kg], centre of mass in the tip frame."""
@@ -163,7 +163,7 @@ def payload_columns(
     return out
 
 
-def mounted(model: pin.Model, gravity: object) -> pin.Model:
+def mounted(model: pin.Model, gravity: ArrayLike) -> pin.Model:
     """A copy of ``model`` whose gravity is ``gravity`` (3,) [m/s²] in its base frame.
 
     Raises:

@@ -330,7 +330,7 @@ def _draw_error_cloud(
     return samples, values, ""
 
 
-def _viewer(meshcat, viewer: object):
+def _viewer(meshcat, viewer: ViewerLike):
     if viewer is None:
         return meshcat.Visualizer()
     if isinstance(viewer, str) and viewer == "static":
@@ -370,7 +370,7 @@ def _draw_test_poses(
 
 
 # ---------------------------------------------------------------------------- numbers
-def _instrument_position(instrument: object) -> np.ndarray | None:
+def _instrument_position(instrument: InstrumentLike) -> np.ndarray | None:
     if instrument is None:
         return None
     value = getattr(instrument, "tracker", getattr(instrument, "position", instrument))
