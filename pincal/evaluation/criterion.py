@@ -20,8 +20,9 @@ Each criterion is a :class:`Criterion` in a file of its own under ``pincal/evalu
 * ``exchange(J_pool, index)`` — the state the exchange search asks for the value after swapping
   one configuration of the plan for each candidate of a pool (:class:`ExchangeState`). An
   information criterion gets :class:`~pincal.evaluation.low_rank.InformationExchange`, which
-  keeps M⁻¹ up to date by low-rank (Woodbury) updates and calls the criterion's
-  ``exchange_products`` / ``exchange_values`` for what is its own; a criterion whose swap is not
+  scores every swap by low-rank (Woodbury) algebra on the pool in the basis of the plan's
+  Cholesky factor and calls the criterion's ``exchange_products`` / ``exchange_values`` for
+  what is its own; a criterion whose swap is not
   an update of M (the residual model, whose kernel matrix gains a row and a column) returns a
   state of its own, and the search does not change.
 
@@ -160,15 +161,16 @@ class Criterion:
         """The exchange state of the plan ``J_pool[index]`` (see :class:`ExchangeState`)."""
         return InformationExchange(self, J_pool, index)
 
-    def exchange_products(self, J_pool: np.ndarray, Minv: np.ndarray) -> object:
-        """What :meth:`exchange_values` needs of every pool candidate for the current
-        (M + Λ)⁻¹, recomputed after each accepted swap (None: nothing)."""
+    def exchange_products(self, Y: np.ndarray, Linv: np.ndarray) -> object:
+        """What :meth:`exchange_values` needs of every pool candidate, from the pool in the basis of
+        the plan's Cholesky factor (M + Λ = LLᵀ): Y = L⁻¹J_cᵀ (P, r, N) and L⁻¹ (P, P);
+        recomputed after each accepted swap (None: nothing)."""
         return None
 
     def exchange_values(self, swap: object) -> tuple[np.ndarray, object]:
-        """(values, aux) after each candidate swap of a
-        :class:`~pincal.evaluation.low_rank.Swaps`: F, and what :meth:`exchange_accept` keeps of
-        the swap made (None: nothing)."""
+        """(values, aux) after each candidate swap ``swap.cand`` of a
+        :class:`~pincal.evaluation.low_rank.Swaps`: F, and what the criterion would keep of each
+        swapped plan (None: nothing)."""
         raise NotImplementedError
 
     def exchange_exact(self, M: np.ndarray, m: int) -> tuple[float, object]:

@@ -48,4 +48,4 @@ class DOptimal(Criterion):
         return F
 
     def exchange_values(self, swap) -> tuple[np.ndarray, None]:
-        return swap.F - swap.logdet, None
+        return swap.F - swap.logdet[swap.cand], None

@@ -14,6 +14,7 @@ import numpy as np
 
 from pincal.evaluation.criterion import Criterion, scaled_eigh
 from pincal.evaluation.information import factor
+from pincal.evaluation.low_rank import gram
 from pincal.lapack import trtrs
 
 
@@ -120,30 +121,32 @@ class WeightedTrace(Criterion):
     def exchange_exact(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
         return self.value(M, m), self.traces(M, m)
 
-    def exchange_products(self, J_pool: np.ndarray, Minv: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Of every candidate c, for C = (M + Λ)⁻¹: with one weight (k = 1), (J_c T, J_c T J_cᵀ) with
-        T = C W C, W = J0ᵀJ0 (the update of the trace is then tr(H⁻¹G) of 2r×2r blocks, whatever
-        the rank of W); with several, (J_c C J0ᵀ,) (the update column by column)."""
-        N, r, P = J_pool.shape
-        flat = J_pool.reshape(N * r, P)
+    def exchange_products(self, Y: np.ndarray, Linv: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Of every candidate c, from Y = L⁻¹J_cᵀ (P, r, N), with Φ = L⁻¹J0ᵀ: for one weight
+        W = J0ᵀJ0 (k = 1), (Z, G_cc, Φ) with Z = ΦᵀY (R, r, N) = (J_c C J0ᵀ)ᵀ and G_cc = ZᵀZ
+        (r, r, N) = J_c CWC J_cᵀ, C = (M + Λ)⁻¹ (the update of the trace is then tr(H⁻¹G) of 2r×2r
+        blocks, whatever the rank of W); for several, (J_c C J0ᵀ (r, c, N), Φ) (the update
+        column by column)."""
+        P, r, N = Y.shape
+        Phi = Linv @ self.J0T  # L⁻¹J0ᵀ (P, R)
+        Z = (Phi.T @ Y.reshape(P, -1)).reshape(-1, r, N)
         if self.k == 1:
-            T = Minv @ self.weight @ Minv
-            JT = (flat @ T).reshape(N, r, P)
-            return JT, np.einsum("nrp,nsp->nrs", JT, J_pool)
-        return ((flat @ (Minv @ self.J0T)).reshape(N, r, -1),)
+            return Z, gram(Z), Phi
+        return Z.transpose(1, 0, 2), Phi
 
     def exchange_values(self, swap) -> tuple[np.ndarray, np.ndarray]:
         """F and the traces after each swap (inf where a trace would not stay positive)."""
-        n, cand, Ji = len(swap.cand), swap.cand, swap.Ji
+        cand, yi = swap.cand, swap.yi
         if self.k == 1:
-            JT, G_cc = swap.products
-            T = swap.Minv @ self.weight @ swap.Minv
-            N, r, P = JT.shape
-            G_ci = (JT.reshape(N * r, P) @ Ji.T).reshape(N, r, r)[cand]  # J_c T Jᵢᵀ
-            red = swap.blocks.trace(G_cc[cand], G_ci, Ji @ T @ Ji.T)[:, None]
+            Z, G_cc, Phi = swap.products
+            R, r, N = Z.shape
+            zi = Phi.T @ yi  # (R, r): L⁻¹J0ᵀ against yᵢ
+            G_ci = (zi.T @ Z.reshape(R, -1)).reshape(r, r, N).transpose(1, 0, 2)  # J_c T Jᵢᵀ
+            red = swap.blocks.trace(G_cc, G_ci, zi.T @ zi)[cand][:, None]
         else:
-            AiJ0 = Ji @ (swap.Minv @ self.J0T)
-            red = swap.blocks.quadratic(swap.products[0][cand], AiJ0).reshape(n, self.k, -1).sum(axis=2)
+            A0, Phi = swap.products
+            q = swap.blocks.quadratic(A0, yi.T @ Phi)[:, cand]  # (c, n)
+            red = q.reshape(self.k, -1, len(cand)).sum(axis=1).T
         new_t = swap.aux - red
         values = self.from_traces(new_t)
         values[~np.all(new_t > 0, axis=1)] = np.inf

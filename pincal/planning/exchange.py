@@ -1,11 +1,13 @@
 """Exchange search: the best m configurations of a pool of feasible candidates (Fedorov-style).
 
 Starting from m pool configurations, each configuration of the plan in turn is exchanged for the
-pool candidate that improves the criterion most, until no exchange improves it. The criterion
+pool candidate that improves the criterion most, until no exchange improves it: the search stops
+when every other configuration has been tried since the last exchange (the one exchanged last
+already is the best of its candidates for the others as they are). The criterion
 scores every candidate swap at once through its exchange state
 (:meth:`pincal.evaluation.criterion.Criterion.exchange`: low-rank updates of the inverse
 information matrix for the information criteria, see :mod:`pincal.evaluation.low_rank`); the
-state is recomputed exactly once per sweep to keep rounding from drifting. Candidates already in
+state of the plan is recomputed exactly after every exchange, so rounding never drifts. Candidates already in
 the plan, or closer than the minimum spacing to another configuration of it, are not considered,
 nor an exchange that would take the plan's conditioning (see
 :func:`pincal.evaluation.information.conditioning`) below the floor.
@@ -98,10 +100,12 @@ def fedorov(
     used[state.index] = True
     dist = np.linalg.norm(pool[:, None, :] - pool[state.index][None], axis=2) if spacing > 0 else None
     sweeps = swaps = 0
+    last = None  # the configuration exchanged last
     while sweeps < max_sweeps:
         sweeps += 1
-        improved = False
         for i in range(m):
+            if i == last:  # every other configuration tried since, none improved: converged
+                break
             cand, values = state.scores(i, _allowed(used, dist, i, spacing))
             if not len(cand):
                 continue
@@ -116,8 +120,12 @@ def fedorov(
             if dist is not None:
                 dist[:, i] = np.linalg.norm(pool - pool[c], axis=1)
             swaps += 1
-            improved = True
-        state.resync()
-        if not improved:
-            break
+            last = i
+        else:
+            state.resync()
+            if last is None:  # a whole sweep without an exchange
+                break
+            continue
+        break
+    state.resync()
     return ExchangeOutcome(state.index, state.F, sweeps, swaps, time.perf_counter() - t0)
