@@ -47,6 +47,14 @@ the same polished ρ0 to 0.03 % with a third of the evaluations, but leaves the 
 converged: a D-optimal 2-link plan's ρ0 then differs from the closed form by 1e-6 (first order in
 the plan), where 1e-13 reaches it to 1e-12; kept for that."""
 
+STALL = (40, 1e-5)
+"""(iterations, drop): a stage stops once its last ``iterations`` L-BFGS-B iterations lowered F
+(a log) by less than ``drop`` in all, ρ0 by about 0.0005 %: the tail after that rarely pays.
+Measured on the README's design (5 seeds, its 20 polish stages and those of its D-optimal
+baseline): 57 % of the evaluations of running to FTOL, each stage ending at most 1.5e-4 in F
+(0.007 % in ρ0) above where FTOL stops it, 2e-5 on average; the 2-link closed forms converge
+before it applies."""
+
 SCREEN_POWER = 16.0
 POWERS = (64.0, 512.0, 4096.0, 32768.0)
 """Power-mean exponents standing for the maximum (test-pose-worst): screening, then polishing."""
@@ -169,16 +177,29 @@ class PlanFunction:
         return F + self.weight * (x - 1.0 - np.log(x)), G + self.weight * dphi * dlam
 
     def minimise(self, q0: np.ndarray, maxiter: int) -> tuple[np.ndarray, int, str]:
-        """L-BFGS-B from q0 within the joint limits; returns (q, iterations, message)."""
+        """L-BFGS-B from q0 within the joint limits, until it converges or stalls (:data:`STALL`);
+        returns (q, iterations, message)."""
+        window, drop = STALL
+        values: list[float] = []
+
+        def stalled(intermediate_result) -> None:
+            values.append(float(intermediate_result.fun))
+            if len(values) > window and values[-window - 1] - values[-1] < drop:
+                raise StopIteration
+
         res = _minimize(
             self,
             np.ravel(q0),
             jac=True,
             method="L-BFGS-B",
             bounds=self.bounds,
+            callback=stalled,
             options={"maxiter": int(maxiter), "ftol": FTOL, "gtol": 1e-10, "maxls": 50},
         )
-        return res.x.reshape(self.m, self.nq), int(res.nit), str(res.message)
+        message = str(res.message)
+        if len(values) > window and values[-window - 1] - values[-1] < drop:
+            message = f"F fell by less than {drop:g} over the last {window} iterations"
+        return res.x.reshape(self.m, self.nq), int(res.nit), message
 
     def set_power(self, power: float | None) -> None:
         self.objective = self.objective.with_power(power)
