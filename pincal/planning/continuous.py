@@ -266,6 +266,12 @@ def polish(fn: PlanFunction, q0: np.ndarray, anchor: np.ndarray, maxiter: int) -
 
 def _minimize(*args, **kwargs):
     """scipy.optimize.minimize, imported on first use (it is slow to import)."""
+    return load_optimiser()(*args, **kwargs)
+
+
+def load_optimiser():
+    """scipy.optimize.minimize, imported now: a process about to fork its workers imports it once
+    for them all (each worker importing it costs about 0.5 s of CPU)."""
     from scipy.optimize import minimize
 
-    return minimize(*args, **kwargs)
+    return minimize

@@ -9,6 +9,7 @@ The values passed between the stages of :func:`pincal.planning.driver.design` li
 from __future__ import annotations
 
 import math
+import multiprocessing as mp
 from concurrent.futures import Executor
 from dataclasses import dataclass, replace
 
@@ -22,6 +23,7 @@ from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning import multistart as _multistart
 from pincal.planning.constraints import AnyConstraint
+from pincal.planning.continuous import load_optimiser
 from pincal.planning.feasibility import Feasibility
 from pincal.planning.progress import Progress
 from pincal.planning.results import StartRecord
@@ -149,6 +151,9 @@ def search(
     objective = make_criterion(s.criterion, len(params), engine.rows, J0, s.sigma, s.prior_information)
     n_starts, n_keep = pooled.n_starts(s), pooled.n_keep(s)
     bar = Progress(progress, s.criterion, objective)
+    if executor is None and min(s.workers, n_starts) > 1 and mp.get_start_method() == "fork":
+        if s.polish or s.method == "continuous":
+            load_optimiser()  # once here, not in each forked worker
     try:
         with _multistart.executor_for(executor, s.workers, n_starts) as ex:
             if s.method == "continuous":
