@@ -257,3 +257,30 @@ def test_batches_of_plans_give_each_plans_value(kr270_marker):
         pincal.rho0(params, singular, poses, sigma=SIGMA)
     with pytest.raises(PincalError):
         pincal.rho0(params, plans[..., :3], poses)
+
+
+def test_repeated_single_evaluations_follow_their_arguments(kr270_marker):
+    """rho0 keeps the criterion of recent arguments (J0 computed once): every call still gives
+    what a criterion built afresh gives, for another test pose, σ, aggregate, parameter set or
+    task payload, in any order, and a region of the same centre is not taken for the pose."""
+    params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
+    other = kr270_marker.parameters("full,offsets").identifiable().identifiable
+    rng = np.random.default_rng(9)
+    plan = kr270_marker.random_configurations(12, rng)
+    poses = kr270_marker.random_configurations(3, rng)
+    cases = [
+        (params, poses[0], SIGMA, "mean"),
+        (params, poses[1], SIGMA, "mean"),
+        (params, poses[0], 2 * SIGMA, "mean"),
+        (params, poses, SIGMA, "mean"),
+        (params, poses, SIGMA, "worst"),
+        (other, poses[0], SIGMA, "mean"),
+        (params, pincal.around(poses[0], np.radians(5)), SIGMA, "mean"),
+    ]
+    fresh = [TestPoseCriterion(p, q, s, a)(plan) for p, q, s, a in cases]
+    assert len(set(fresh)) == len(fresh)  # every case differs
+    for _ in range(2):
+        for (p, q, s, a), expected in zip(cases, fresh, strict=True):
+            assert pincal.rho0(p, plan, q, sigma=s, aggregate=a) == pytest.approx(expected, rel=1e-12)
+    loaded = pincal.rho0(params, plan, poses[0], task_payload=50.0)
+    assert loaded == pytest.approx(fresh[0], rel=1e-12)  # no compliance: the payload changes nothing

@@ -31,6 +31,9 @@ A plan whose M is singular (too few configurations, or degenerate ones) has no f
 
 from __future__ import annotations
 
+import threading
+from contextlib import nullcontext
+
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma
@@ -39,10 +42,10 @@ from pincal.errors import BadArgument
 from pincal.evaluation.information import factor, factor_batch, information_matrix
 from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch, plan_payloads
 from pincal.evaluation.prior import Prior
-from pincal.evaluation.region import resolve_test_poses
+from pincal.evaluation.region import TestRegion, resolve_test_poses
 from pincal.evaluation.test_pose_worst import TestPoseWorst
 from pincal.evaluation.weighted_trace import WeightedTrace
-from pincal.lapack import trtrs
+from pincal.lapack import trsm
 from pincal.model.parameters import ParameterSet
 from pincal.model.statics import payload_rows
 from pincal.typing import ConfigurationsLike, PayloadLike, PlansLike, TestPoseLike
@@ -89,7 +92,7 @@ class TestPoseMean(WeightedTrace):
 
     def rho0(self, M: np.ndarray, m: int) -> float:
         """ρ0 [m], the root of the mean ρ0² over the test poses, for information M of m configurations."""
-        X = trtrs(factor(self.posterior(M), self.rows, m), self.J0T)
+        X = trsm(factor(self.posterior(M), self.rows, m), self.J0T)
         return self.scale * np.sqrt(np.einsum("ij,ij", X, X))
 
 
@@ -257,10 +260,19 @@ def rho0_each(
     return _evaluate(params, plan, test_pose, sigma, "each", prior, task_payload)
 
 
+SMALL = 64
+"""One plan's ρ0 (mean over its test poses) with at most this many configurations and test poses
+runs with BLAS as the caller has it: every operation on it is on one thread at that size (its
+triangular solve is BLAS trsm, not LAPACK trtrs, which OpenBLAS splits over its threads even for
+27 unknowns), and setting and restoring the thread count would cost more than the evaluation."""
+
+
 def _evaluate(params, plan, test_pose, sigma, aggregate, prior, task_payload=None):
     qs, batched = plan_batch(params, plan)
-    with blas_for(qs.shape[0] * qs.shape[1] + len(np.atleast_2d(getattr(test_pose, "q", test_pose)))):
-        criterion = TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
+    n = qs.shape[0] * qs.shape[1] + len(np.atleast_2d(getattr(test_pose, "q", test_pose)))
+    small = len(qs) == 1 and aggregate == "mean" and n <= SMALL and not isinstance(test_pose, TestRegion)
+    with nullcontext() if small else blas_for(n):
+        criterion = _criterion(params, test_pose, sigma, aggregate, prior, task_payload)
         values = criterion.plans(qs, plan_payloads(plan, qs.shape))
     if batched:
         return values
@@ -322,3 +334,40 @@ def position_covariance(
     J0 = params.jacobian(q0, frame="world")  # (k, 3K, P)
     X = np.linalg.solve(L, J0.transpose(0, 2, 1))  # (k, P, 3K)
     return sigma**2 * np.einsum("kpi,kpj->kij", X, X)
+
+
+_LOCAL = threading.local()
+_KEPT = 8
+"""Criteria kept per thread (the most recently used)."""
+
+
+def _criterion(params, test_pose, sigma, aggregate, prior, task_payload) -> TestPoseCriterion:
+    """The :class:`TestPoseCriterion` of these arguments, built once and kept (per thread, the
+    :data:`_KEPT` most recently used) for the same parameter set, test poses, σ, aggregate and task
+    payload without a prior: a script that evaluates many plans one call at a time pays for J₀
+    and its factor once."""
+    if prior is not None:
+        return TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
+    sigma = positive_sigma(sigma)
+    poses, _ = resolve_test_poses(params.robot, test_pose)  # checked, as the criterion would
+    rows = payload_rows(task_payload, len(poses))
+    key = (
+        id(params),
+        poses.shape,
+        poses.tobytes(),
+        float(sigma),
+        aggregate,
+        None if rows is None else rows.tobytes(),
+        type(test_pose).__name__,
+    )
+    kept = getattr(_LOCAL, "criteria", None)
+    if kept is None:
+        kept = _LOCAL.criteria = {}
+    criterion = kept.pop(key, None)
+    if criterion is None or criterion.params is not params:
+        with blas_for(len(poses)):
+            criterion = TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
+        if len(kept) >= _KEPT:
+            kept.pop(next(iter(kept)))
+    kept[key] = criterion  # last: the most recently used
+    return criterion
