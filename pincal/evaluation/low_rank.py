@@ -130,7 +130,7 @@ def product(A: np.ndarray, B: np.ndarray, transpose_a: bool = False) -> np.ndarr
 def lower_trace(Q: np.ndarray, G: np.ndarray) -> np.ndarray:
     """(n,) tr(Q G Qᵀ) for lower-triangular Q and symmetric G, (r, r, n) each."""
     r = Q.shape[0]
-    total = 0.0
+    total = np.zeros(Q.shape[2])
     for k in range(r):
         for a in range(k + 1):
             for b in range(k + 1):
