@@ -21,6 +21,8 @@ from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0
 from pincal.model.parameters import ParameterSet
+from pincal.model.statics import payload_rows
+from pincal.planning.plan import Plan
 from pincal.typing import ConfigurationsLike, SeedLike
 
 QUANTILES = (0.5, 0.9, 0.95, 0.99)
@@ -113,13 +115,17 @@ def monte_carlo(
     trials: int = 200,
     seed: SeedLike = None,
     error_std: Mapping[str, float] | None = None,
+    task_payload: object = None,
 ) -> MonteCarloResult:
     """Check a plan by simulation: does calibration deliver the predicted ρ0 at the test pose(s)?
 
     Each trial draws a true robot (:func:`random_errors`, errors of ``params`` only), measures it
     at ``plan`` with noise ``sigma`` (:func:`simulate_measurements`), identifies ``params`` from
     the nominal robot (:func:`~pincal.identify`), and records the distance between the calibrated
-    and the true points at the test pose(s).
+    and the true points at the test pose(s). A plan with payloads (:attr:`~pincal.Plan.payload`)
+    is measured under them, and the test pose(s) are taken under ``task_payload``, as
+    :func:`pincal.rho0` predicts (with gains and compliances among ``params``, the true robots
+    carry random ones too).
 
     Args:
         params: the parameters (an identifiable set).
@@ -130,6 +136,8 @@ def monte_carlo(
             or more).
         seed: a numpy Generator or a seed; one seed gives one result.
         error_std: ``{"length": [m], "angle": [rad]}`` of the random errors; default 1 mm, 1 mrad.
+        task_payload: the payload at the test pose(s) (a mass [kg] or a :class:`~pincal.Payload`),
+            or None.
 
     Returns:
         the comparison; ``nonlinear`` and ``note`` say whether the linear prediction held.
@@ -144,8 +152,11 @@ def monte_carlo(
     robot = params.robot
     qs = robot.configurations(plan)
     q0 = robot.configurations(test_pose, what="test pose")
-    predicted = float(rho0(params, qs, q0, sigma=sigma))
-    check = _Check(params, qs, q0, float(sigma), {"length": length, "angle": angle}, int(trials))
+    loads = getattr(plan, "payload", None)
+    loads = None if loads is None else payload_rows(loads, len(qs))
+    task = None if task_payload is None else payload_rows(task_payload, len(q0))
+    predicted = float(rho0(params, _planned(robot, qs, loads), q0, sigma=sigma, task_payload=task))
+    check = _Check(params, qs, q0, float(sigma), {"length": length, "angle": angle}, int(trials), loads, task)
     runs = _run_trials(check, generator(seed))
     n = len(runs.errors)
     if n < 2:
@@ -189,6 +200,8 @@ class _Check:
     sigma: float
     error_std: dict[str, float]
     trials: int
+    payload: np.ndarray | None = None
+    task_payload: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,12 +219,13 @@ class _Runs:
 def _run_trials(check: _Check, rng: np.random.Generator) -> _Runs:
     """Each trial: draw the truth, simulate, identify, score (see :func:`monte_carlo`)."""
     params, qs, q0, sigma = check.params, check.qs, check.q0, check.sigma
-    nominal0 = params.robot.points(q0)
+    task, plan = check.task_payload, _planned(params.robot, qs, check.payload)
+    nominal0 = params.robot.points(q0, payload=task)
     errors, before, at_truth = [], [], []
     failures = local_minima = 0
     for _ in range(check.trials):
         truth = random_errors(params, error_std=check.error_std, seed=rng)
-        data = simulate_measurements(truth.robot, qs, sigma, seed=rng)
+        data = simulate_measurements(truth.robot, qs, sigma, seed=rng, payload=check.payload)
         result = identify(params, data, sigma=sigma, sanity=False)
         if not result.success:
             failures += 1
@@ -220,11 +234,16 @@ def _run_trials(check: _Check, rng: np.random.Generator) -> _Runs:
         if np.sqrt(np.sum(result.residuals**2) / dof) > LOCAL_MINIMUM * sigma:
             local_minima += 1
             continue
-        true0 = truth.robot.points(q0)
-        errors.append(_rms_over_poses(result.robot.points(q0) - true0))
+        true0 = truth.robot.points(q0, payload=task)
+        errors.append(_rms_over_poses(result.robot.points(q0, payload=task) - true0))
         before.append(_rms_over_poses(nominal0 - true0))
-        at_truth.append(float(rho0(params.on(truth.robot), qs, q0, sigma=sigma)))
+        at_truth.append(float(rho0(params.on(truth.robot), plan, q0, sigma=sigma, task_payload=task)))
     return _Runs(np.array(errors), np.array(before), at_truth, failures, local_minima)
+
+
+def _planned(robot, qs: np.ndarray, payload: np.ndarray | None) -> object:
+    """The plan's configurations with their payloads (a Plan), or the bare configurations."""
+    return qs if payload is None else Plan.for_robot(robot, qs, payload)
 
 
 def _rms_over_poses(difference: np.ndarray) -> float:

@@ -8,6 +8,7 @@ from pathlib import Path
 from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
 from pincal.calibration.synthetic import DEFAULT_ERROR_STD, error_std_pair
 from pincal.cli import COMMANDS
+from pincal.cli._accuracy import add_task_payload_arguments, task_payload_from_args
 from pincal.cli._common import (
     SIGMA_HELP,
     add_command,
@@ -39,6 +40,8 @@ examples:
   pincal simulate planar_2r --plan plan.csv --test-pose=0.3,1.2 --params joint2.tx,tip.tx --sigma 1e-4
   pincal simulate kr270 --plan designed.csv --compare random.csv --compare dopt.csv \
       --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2
+  pincal simulate kr270 --plan loaded.csv --test-pose=0,-60,60,0,45,0 --deg --marker 0.1,0.05,0.2 \
+      --params lengths,offsets,gains,compliance --task-payload 270 --payload-centre 0,0,0.25
 
 Each trial draws a "true" robot with random errors of the parameters (Gaussian, std LEN metres for
 lengths and ANG radians for angles; default 1e-3,1e-3), simulates measurements at the plan with
@@ -49,6 +52,10 @@ nonlinearity shows when they are not. PLAN.csv: a header row of joint names, one
 row, radians (degrees with --deg). --compare OTHER.csv (repeatable) simulates other plans (a random
 one, a D-optimal one) with the same trials, errors, noise and seed, and reports their rho0 beside
 this plan's (text, JSON 'compare', and --plot side by side).
+A plan with payload columns (design --payloads) is measured under its payloads and the test pose(s)
+under --task-payload KG (--payload-centre X,Y,Z in the tip frame); with gains or compliances among
+--params the true robots carry random ones (gains 5e-4, compliances of about 1 mrad at each joint's
+reference torque).
 """
 
 
@@ -69,6 +76,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--seed", type=seed_type(), default=0, help="random seed (default 0)")
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
+    add_task_payload_arguments(p)
     add_simulation_plot_arguments(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
@@ -93,11 +101,13 @@ def run(args: argparse.Namespace) -> int:
     plan = read_plan(robot, args.plan, args.deg)
     others = [(path, read_plan(robot, path, args.deg)) for path in args.compare or ()]
     q0 = test_poses_from_args(robot, args)
+    task = task_payload_from_args(args)
 
     def simulated(configurations: ConfigurationsLike) -> MonteCarloResult:  # the same trials, errors and seed
         return monte_carlo(
-            params, configurations, q0, sigma=sigma, trials=args.trials, seed=args.seed, error_std=error_std
-        )
+            params, configurations, q0, sigma=sigma, trials=args.trials, seed=args.seed, error_std=error_std,
+            task_payload=task,
+        )  # fmt: skip
 
     mc = simulated(plan)
     compared = [(path, len(other), simulated(other)) for path, other in others]
