@@ -4,6 +4,7 @@ identify, outliers and the calibrated robot (built by :func:`~pincal.calibration
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import pinocchio as pin
@@ -143,6 +144,7 @@ class IdentificationResult:
         parameters, gp = self.point_variances(q, payload=payload)
         return np.sqrt(parameters.sum(axis=1) + gp.sum(axis=1))
 
+    @cached_property
     def _expected_at_data(self) -> dict[str, float]:
         """RMS over the kept configurations of the expected error and its two parts [m]."""
         data = self.data
@@ -280,7 +282,7 @@ class IdentificationResult:
             "causes": list(self.causes),
             "prior": self.prior.as_dict() if self.prior is not None else None,
             "residual_model": self.residual_model.summary() if self.residual_model is not None else None,
-            "expected_error": {k: _num(v) for k, v in self._expected_at_data().items()},
+            "expected_error": {k: _num(v) for k, v in self._expected_at_data.items()},
         }
 
     def _sigma_line(self) -> str:
@@ -291,7 +293,7 @@ class IdentificationResult:
 
     def _expected_line(self) -> str:
         """The expected error of the calibration's predictions, saying what it is made of."""
-        e = self._expected_at_data()
+        e = self._expected_at_data
         if not np.isfinite(e["rms"]):
             return "expected error of a prediction: undetermined (no standard errors)"
         head = f"expected error of a prediction at the measured configurations: {e['rms'] * 1e3:.4g} mm RMS"
