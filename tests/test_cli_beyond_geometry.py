@@ -107,6 +107,16 @@ def test_residual_model_from_identify_to_a_top_up_design(cli, tmp_path):
         "--residual-model", cal, "--pool-size", 150, "--starts", 2, "--out", plan,
     )  # fmt: skip
     assert design["criterion"] == "test-pose-gp" and design["value"] > 0
+    # Its accuracy report is of the expected error with the residual model: the test-pose row is the
+    # criterion's value, and evaluate gives the same from the plan file.
+    assert abs(design["accuracy"]["plans"][0]["rows"][0]["rms"] - design["value"]) < 1e-9 * design["value"]
+    assert design["accuracy"]["residual_model"]
+    evaluated = cli.json(
+        "evaluate", "ur10", "--marker", "0.03,-0.02,0.1", "--plan", plan,
+        "--test-pose=0.3,-1.2,1.4,-1,-1.4,0.2", "--residual-model", cal, "--no-accuracy",
+    )  # fmt: skip
+    assert abs(evaluated["expected_error_with_residual_model"] - design["value"]) < 1e-9 * design["value"]
+    assert evaluated["expected_error_with_residual_model"] > evaluated["rho0"]
     code, out, _ = cli.run(
         "design", "ur10", "-m", 12, "--test-pose=0.3,-1.2,1.4,-1,-1.4,0.2", "--residual-model", meas
     )

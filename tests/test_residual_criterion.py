@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal.errors import BadArgument
+from pincal.evaluation.prior import Prior
 from pincal.evaluation.residual_criterion import ResidualCriterion, expected_error
 from pincal.model.residual import ResidualModel
 
@@ -84,3 +86,25 @@ def test_batched_swaps_are_the_plan_values(setup):
         trial, Jt = plan.copy(), J.copy()
         trial[4], Jt[4] = cand[n], Jc[n]
         assert batched[n] == pytest.approx(criterion.trace(Jt, trial), rel=1e-9)
+
+
+def test_the_accuracy_report_with_a_residual_model(setup):
+    robot, params = setup
+    plan = robot.random_configurations(20, 1)
+    q0 = robot.random_configurations(1, 2)
+    sizes = dict(samples=40, workspace=60)
+    # A residual of no amplitude: the report is the plain one, row by row.
+    tiny = pincal.accuracy(params, plan, q0, SIGMA, residual_model=_model(robot, 1e-15), **sizes)
+    plain = pincal.accuracy(params, plan, q0, SIGMA, **sizes)
+    for with_gp, without in zip(tiny.plans[0].rows, plain.plans[0].rows, strict=True):
+        assert with_gp.rms == pytest.approx(without.rms, rel=1e-6)
+    # With one, its test-pose row is the criterion's expected error, and its variance is in every row.
+    model = _model(robot, 3e-4)
+    report = pincal.accuracy(params, plan, q0, SIGMA, residual_model=model, **sizes)
+    assert report.plans[0].row("test pose").rms == pytest.approx(
+        expected_error(params, plan, q0, model, SIGMA), rel=1e-9
+    )
+    assert all(a.rms > b.rms for a, b in zip(report.plans[0].rows, plain.plans[0].rows, strict=True))
+    assert report.residual_model and "residual model" in "\n".join(report.lines())
+    with pytest.raises(BadArgument, match="no prior"):
+        pincal.accuracy(params, plan, q0, SIGMA, residual_model=model, prior=Prior.parse("1mm,1mrad"))

@@ -19,6 +19,7 @@ from pincal.cli._common import (
     read_plan,
     trap_floating_point_warnings,
 )
+from pincal.compensation.calibration_file import load_calibration
 from pincal.errors import BadArgument, PincalError, SingularPlan
 from pincal.evaluation.accuracy import AccuracyReport, accuracy, error_profile
 from pincal.evaluation.prior import Prior
@@ -96,11 +97,12 @@ def report_accuracy(
     constraints=(),
     pool=None,
     task_payload=None,
+    residual_model=None,
 ):
     """The accuracy report the command prints (None with --no-accuracy or without a test pose), and
     the --accuracy-plot saved; ``reference`` defaults to a D-optimal plan of the same size (without
     payloads); every plan is evaluated under its own payloads, the configurations reported on under
-    ``task_payload``."""
+    ``task_payload``, and with ``residual_model`` the expected error with it."""
     if test_pose is None or args.no_accuracy:
         if args.accuracy_plot:
             raise BadArgument("--accuracy-plot needs a test pose or region, and no --no-accuracy")
@@ -108,7 +110,10 @@ def report_accuracy(
     if reference is None:
         reference = d_optimal_plan(params, len(plan), constraints, pool, getattr(args, "seed", 0))
     try:
-        report = accuracy_report(params, plan, test_pose, sigma, prior, reference, task_payload=task_payload)
+        report = accuracy_report(
+            params, plan, test_pose, sigma, prior, reference, task_payload=task_payload,
+            residual_model=residual_model,
+        )  # fmt: skip
     except SingularPlan:
         if args.accuracy_plot:
             raise
@@ -218,6 +223,18 @@ def split_line(split: dict) -> str:
     )
 
 
+def residual_model_from_args(robot, urdf: str):
+    """The residual model in the sidecar of calibration ``urdf`` (--residual-model; one line if it
+    has none)."""
+    deployed = load_calibration(urdf, robot)
+    if deployed.residual_model is None:
+        raise BadArgument(
+            f"--residual-model {urdf}: its calibration has no residual model (identify it with "
+            "--residual-model gp)"
+        )
+    return deployed.residual_model
+
+
 def prior_from_args(args: argparse.Namespace) -> Prior | None:
     """The --prior, or None."""
     return Prior.parse(args.prior) if args.prior else None
@@ -251,7 +268,15 @@ def d_optimal_plan(params, m: int, constraints=(), pool=None, seed: int = 0):
 
 
 def accuracy_report(
-    params, plan, test_pose, sigma: float, prior, reference, seed: int = 0, task_payload=None
+    params,
+    plan,
+    test_pose,
+    sigma: float,
+    prior,
+    reference,
+    seed: int = 0,
+    task_payload=None,
+    residual_model=None,
 ) -> AccuracyReport:
     """The accuracy report of ``plan`` next to ``reference`` (the D-optimal plan, if any)."""
     compare = {} if reference is None else {"D-optimal": reference}
@@ -264,6 +289,7 @@ def accuracy_report(
         compare=compare,
         seed=seed,
         task_payload=task_payload,
+        residual_model=residual_model,
     )
     assert isinstance(report, AccuracyReport)  # one plan, one report
     return report

@@ -17,6 +17,7 @@ from pincal.cli._accuracy import (
     payload_centre_from_args,
     prior_from_args,
     report_accuracy,
+    residual_model_from_args,
     split_line,
     task_payload_from_args,
     test_region_from_args,
@@ -45,7 +46,6 @@ from pincal.cli._common import (
     sigma_type,
 )
 from pincal.cli._plot import add_plot_argument, save_design_plot
-from pincal.compensation.calibration_file import load_calibration
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0_split
 from pincal.model.statics import Payload
@@ -77,7 +77,9 @@ carries payload columns, rho0 is under the task's payload, split into its geomet
 parts, and the accuracy report (and --accuracy-plot) is under the task's payload too, next to a
 payload-free D-optimal plan. {limits}.
 --residual-model CAL.urdf: a top-up plan for the residual model of an earlier calibration; the
-report gives its expected error at the test pose(s) (no accuracy table, no --pool or --accuracy-plot).
+report gives its expected error at the test pose(s), and the accuracy table is of that expected
+error (the residual model's variance included) for the plan and a D-optimal plan (no --pool or
+--accuracy-plot with it).
 
 Criteria (--criterion): test-pose (rho0, root mean square over several --test-pose), test-pose-worst
 (the worst test pose; --worst is the same), D, A, E, cond. Methods: exchange (the default: best m of
@@ -239,13 +241,11 @@ def run(args: argparse.Namespace) -> int:
     )
     loads = _payload_options(args)
     if args.residual_model:
-        loads["residual_model"] = _residual_model(robot, args.residual_model)
+        loads["residual_model"] = residual_model_from_args(robot, args.residual_model)
     if loads:
         _check_payload_design(args, loads)
         options = {k: v for k, v in options.items() if k not in ("method", "polish", "workers", "progress")}
         options.update(loads)
-        if "residual_model" in loads:
-            args.no_accuracy = True  # its expected error is the criterion's, printed instead
     with recorded_warnings() as records:
         result = design(params, args.m, q0, criterion=criterion, **options)
         baseline = None
@@ -263,6 +263,7 @@ def run(args: argparse.Namespace) -> int:
             constraints,
             pool,
             loads.get("task_payload"),
+            loads.get("residual_model"),
         )
     _write_and_print(args, robot, params, source, result, baseline, report, sigma_text)
     print_warnings(records)  # last, where they are seen
@@ -285,17 +286,6 @@ def _check_payload_design(args: argparse.Namespace, loads: dict) -> None:
             f"{what}: the design is an exchange over (configuration, payload) pairs of a pool; it does "
             f"not take {', '.join(given)} ({PAYLOAD_LIMITS})"
         )
-
-
-def _residual_model(robot, urdf: str):
-    """The residual model in the sidecar of calibration ``urdf`` (one line if it has none)."""
-    deployed = load_calibration(urdf, robot)
-    if deployed.residual_model is None:
-        raise BadArgument(
-            f"--residual-model {urdf}: its calibration has no residual model (identify it with "
-            "--residual-model gp)"
-        )
-    return deployed.residual_model
 
 
 def _payload_options(args: argparse.Namespace) -> dict:

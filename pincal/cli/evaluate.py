@@ -14,6 +14,7 @@ from pincal.cli._accuracy import (
     add_task_payload_arguments,
     prior_from_args,
     report_accuracy,
+    residual_model_from_args,
     split_line,
     task_payload_from_args,
     test_region_from_args,
@@ -33,9 +34,10 @@ from pincal.cli._common import (
     robot_from_args,
     sigma_from_args,
 )
-from pincal.errors import SingularPlan
+from pincal.errors import BadArgument, SingularPlan
 from pincal.evaluation.classic import criteria
 from pincal.evaluation.data_check import check_plan
+from pincal.evaluation.residual_criterion import expected_error
 from pincal.evaluation.test_pose import rho0_each, rho0_split
 
 HELP = COMMANDS["evaluate"].help
@@ -60,6 +62,9 @@ unit-dependent, for --criterion cond; O1-O4 higher is better) are listed for com
 A plan with payload columns (from 'design --payloads') is evaluated under its payloads, and the test
 pose(s) under --task-payload KG (centre --payload-centre, tip frame; default none), as design does:
 with gains or compliances among --params, rho0^2 is split into its geometric and elastic parts.
+--residual-model CAL.urdf (a calibration identified with --residual-model gp): also the expected
+error at the test pose(s) when the parameters and that residual are estimated from the plan, and
+the accuracy report of it (the residual model's variance included).
 """
 EXAMPLES += "\n" + CONDITIONING_HELP + "\n\n" + REGION_HELP
 
@@ -77,6 +82,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sigma", type=float, default=None, help=SIGMA_HELP)
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
     add_task_payload_arguments(p)
+    p.add_argument(
+        "--residual-model",
+        metavar="CAL.urdf",
+        help="the residual model of an earlier calibration (its sidecar): the expected error with it, its "
+        "variance included",
+    )
     add_report_arguments(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
@@ -99,7 +110,13 @@ def run(args: argparse.Namespace) -> int:
         if prior is None:
             raise
         crit = None  # the prior makes ρ0 finite; the classic criteria of M alone are not
-    report = report_accuracy(args, params, plan, q0, sigma, prior, task_payload=task)
+    model = None if args.residual_model is None else residual_model_from_args(robot, args.residual_model)
+    with_model = None
+    if model is not None:
+        if prior is not None:
+            raise BadArgument("--residual-model: the expected error with a residual model takes no --prior")
+        with_model = expected_error(params, plan, q0, model, sigma, task)
+    report = report_accuracy(args, params, plan, q0, sigma, prior, task_payload=task, residual_model=model)
     split = None
     if prior is None and any(p.kind in ("gain", "compliance") for p in params):
         split = rho0_split(params, plan, q0, sigma=sigma, task_payload=task)
@@ -122,6 +139,7 @@ def run(args: argparse.Namespace) -> int:
                 "accuracy": None if report is None else report.as_dict(),
                 "task_payload": None if task is None else task.row.tolist(),
                 "rho0_split": split,
+                "expected_error_with_residual_model": with_model,
                 "data_check": check.as_dict(),
             }
         )
@@ -147,6 +165,11 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {name:8s} {v:.6g}")
     if split is not None:
         print(split_line(split))
+    if with_model is not None:
+        print(
+            f"expected error at the test pose(s) with the residual model of {args.residual_model}: "
+            f"{fmt_length(with_model)} (rho0 assumes the model exact; this counts what it leaves)"
+        )
     print(check.report())
     if report is not None:
         print("\n".join(report.lines(degrees=args.deg)))

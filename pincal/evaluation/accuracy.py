@@ -26,13 +26,16 @@ import numpy as np
 
 from pincal.arguments import angle, generator, positive_int, positive_sigma
 from pincal.deprecation import keywords_after
+from pincal.errors import BadArgument
 from pincal.evaluation.information import factor
 from pincal.evaluation.plans import blas_for, engine_for, plan_batch, plan_payloads
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import Neighbourhood, ResolvedRegion, resolve_test_poses, width_text
+from pincal.evaluation.residual_criterion import ResidualCriterion
 from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.lapack import trtrs
 from pincal.model.parameters import ParameterSet
+from pincal.model.residual import ResidualModel
 from pincal.model.statics import payload_rows
 from pincal.typing import ConfigurationsLike, PayloadLike, PlansLike, TestPoseLike
 
@@ -288,6 +291,7 @@ class AccuracyReport:
     before: float | None
     region: str
     revolute: tuple[bool, ...] | None = None
+    residual_model: bool = False
 
     def as_dict(self) -> dict:
         return {
@@ -296,6 +300,7 @@ class AccuracyReport:
             "prior": None if self.prior is None else self.prior.as_dict(),
             "before_calibration": self.before,
             "region": self.region,
+            "residual_model": self.residual_model,
         }
 
     def _pose_text(self, pose: np.ndarray, degrees: bool) -> str:
@@ -331,6 +336,11 @@ class AccuracyReport:
                     f"  {p.name}: worst {'found' if p.worst.searched else 'of the test poses'} "
                     f"{p.worst.rho * scale:.4g} {unit} at q = {self._pose_text(p.worst.pose, degrees)}"
                 )
+        if self.residual_model:
+            out.append(
+                "  with the residual model of an earlier calibration: the expected error when the parameters "
+                "and the residual are estimated together from each plan (its variance included)"
+            )
         for p in self.plans:
             if p.from_residual_model is None:
                 continue
@@ -417,6 +427,7 @@ def accuracy(
     workspace: int = WORKSPACE_SAMPLES,
     seed: int = 0,
     task_payload: PayloadLike = None,
+    residual_model: ResidualModel | None = None,
 ) -> AccuracyReport | tuple[AccuracyReport, ...]:
     """Predicted error after calibrating with ``plan`` (and each plan of ``compare``), at the
     test pose(s), over neighbourhoods of them, and over the workspace; for a batch of plans
@@ -443,12 +454,20 @@ def accuracy(
         task_payload: the task's load at every configuration reported on (with compliance
             parameters: ρ is asked under it, as :func:`pincal.rho0`'s ``task_payload``); each
             plan's own payloads (:attr:`Plan.payload`) enter its information.
+        residual_model: a residual model from an earlier calibration: every row is then the
+            expected error when the parameters and the residual are estimated together from the
+            plan (sqrt tr Σ₀ at each configuration, docs/method.md §11.5), the residual model's
+            variance included; no prior, no worst-found search.
     """
     sigma = positive_sigma(sigma)
     robot = params.robot
     batch, batched = plan_batch(params, plan)
     sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
     engine = engine_for(params)
+    if residual_model is not None:
+        return _with_residual_model(
+            params, batch, batched, plan, compare, sets, region, sigma, prior, task_payload, residual_model
+        )
     with blas_for(sum(len(qs) for _, qs in sets)):
         jacobians = [
             (where, engine.jacobian(qs, frame="tip", payload=_loads(task_payload, len(qs))).copy())
@@ -485,6 +504,50 @@ def accuracy(
                 tuple(bool(r) for r in robot.revolute),
             )
             for q, load in plans
+        )
+    return reports if batched else reports[0]
+
+
+def _with_residual_model(
+    params, batch, batched, plan, compare, sets, region, sigma, prior, task_payload, model
+) -> AccuracyReport | tuple[AccuracyReport, ...]:
+    """:func:`accuracy` with a residual model: sqrt tr Σ₀ at every configuration of ``sets``."""
+    if prior is not None:
+        raise BadArgument("the expected error with a residual model takes no prior")
+    robot = params.robot
+    if len(model.revolute) != robot.nq:
+        raise BadArgument(
+            f"the residual model is over {len(model.revolute)} joints; the robot has {robot.nq}"
+        )
+    engine = engine_for(params)
+    loads = plan_payloads(plan, batch.shape)
+
+    def rows(q: np.ndarray, load: object, name: str) -> PlanAccuracy:
+        J = engine.jacobian(q, frame="world", payload=load)
+        out = []
+        for where, qs in sets:
+            J_at = engine.jacobian(qs, frame="world", payload=_loads(task_payload, len(qs)))
+            each = ResidualCriterion(model, J_at, qs, sigma).each(J, q)
+            out.append(ErrorSummary.of(where, np.sqrt(np.maximum(each, 0.0))))
+        return PlanAccuracy(name, tuple(out), None, out[0].rms, 0.0)
+
+    with blas_for(sum(len(qs) for _, qs in sets)):
+        compared = tuple(
+            rows(robot.configurations(q), getattr(q, "payload", None), name)
+            for name, q in (compare or {}).items()
+        )
+        reports = tuple(
+            AccuracyReport(
+                (rows(q, None if loads is None else loads[i * len(q) : (i + 1) * len(q)], "plan"),)
+                + compared,
+                float(sigma),
+                None,
+                None,
+                "test pose" if region is None else region.description,
+                tuple(bool(r) for r in robot.revolute),
+                residual_model=True,
+            )
+            for i, q in enumerate(batch)
         )
     return reports if batched else reports[0]
 

@@ -30,6 +30,7 @@ from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, SingularPlan
 from pincal.evaluation.criterion import Criterion
+from pincal.evaluation.region import resolve_test_poses
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.typing import ConfigurationsLike, PayloadLike
@@ -68,6 +69,11 @@ class ResidualCriterion(Criterion):
     # ---------------------------------------------------------------- the value
     def trace(self, J: np.ndarray, qs: np.ndarray) -> float:
         """tr Σ₀ [m²], the mean over the test poses, for world-aligned Jacobians J (m, r, P) at qs."""
+        return float(np.mean(self.each(J, qs)))
+
+    def each(self, J: np.ndarray, qs: np.ndarray, chunk: int = 1024) -> np.ndarray:
+        """(k,) tr Σ₀ [m²] at each test pose, for the plan of world-aligned Jacobians J (m, r, P) at
+        qs (the test poses ``chunk`` at a time: any number of them)."""
         m, r, P = J.shape
         A = self.model.kernel(qs, qs) + self.sigma**2 * np.eye(m)
         factor = cho_factor(A, lower=True)
@@ -79,13 +85,18 @@ class ResidualCriterion(Criterion):
             raise SingularPlan(P, r, m) from None
         if np.min(np.abs(np.diag(Gf[0]))) ** 2 < 1e-14 * np.max(np.abs(np.diag(Gf[0]))) ** 2:
             raise SingularPlan(P, r, m)
-        k = self.model.kernel(qs, self.q0)  # (m, k)
-        a = cho_solve(factor, k)  # (m, k): K_q⁻¹ k_q per test pose
-        total = 0.0
-        for t in range(len(self.q0)):
-            R = self.J0[t].T - np.einsum("i,irp->pr", a[:, t], J)  # (P, r)
-            total += r * (self.k00 - k[:, t] @ a[:, t]) + float(np.sum(R * cho_solve(Gf, R)))
-        return total / len(self.q0)
+        out = np.empty(len(self.q0))
+        k00 = np.diag(np.atleast_2d(self.model.kernel(self.q0[:1], self.q0[:1])))[0]  # s², stationary
+        for start in range(0, len(self.q0), chunk):
+            q0, J0 = self.q0[start : start + chunk], self.J0[start : start + chunk]
+            k = self.model.kernel(qs, q0)  # (m, n)
+            a = cho_solve(factor, k)  # (m, n): K_q⁻¹ k_q per test pose
+            R = J0.transpose(0, 2, 1) - np.einsum("in,irp->npr", a, J)  # (n, P, r)
+            X = cho_solve(Gf, R.transpose(1, 0, 2).reshape(P, -1)).reshape(P, len(q0), r)
+            out[start : start + len(q0)] = r * (k00 - np.einsum("in,in->n", k, a)) + np.einsum(
+                "npr,pnr->n", R, X
+            )
+        return out
 
     def swapped_traces(
         self, J: np.ndarray, qs: np.ndarray, i: int, J_cand: np.ndarray, q_cand: np.ndarray
@@ -202,7 +213,7 @@ def expected_error(
     predicting with ``residual_model``'s kernel (see module doc; the mean over several test poses).
     The plan's own payloads (:attr:`~pincal.Plan.payload`) and the task's enter the Jacobians."""
     qs = params.robot.configurations(plan)
-    q0 = params.robot.configurations(test_pose, what="test pose")
+    q0 = resolve_test_poses(params.robot, test_pose)[0]  # a region's or path's samples
     if len(residual_model.revolute) != params.robot.nq:
         raise BadArgument(
             f"the residual model is over {len(residual_model.revolute)} joints; the robot has "
