@@ -271,21 +271,25 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _check_payload_design(args: argparse.Namespace, loads: dict) -> None:
-    """What a design with --payloads/--task-payload/--residual-model does not take, said."""
+    """What a design with --payloads/--task-payload/--residual-model does not take, said with why."""
     what = "--residual-model" if "residual_model" in loads else "--payloads/--task-payload"
     refused = {
-        "--baseline": args.baseline is not None,
-        "--method continuous": args.method != "exchange",
-        "--polish": bool(args.polish),
+        "--baseline": (args.baseline is not None, "random plans carry no payloads"),
+        "--method continuous": (args.method != "exchange", CONTINUOUS_WHY),
+        "--polish": (bool(args.polish), CONTINUOUS_WHY),
     }
     if "residual_model" in loads:
-        refused.update({"--pool": bool(args.pool), "--accuracy-plot": bool(args.accuracy_plot)})
-    given = [name for name, on in refused.items() if on]
+        refused["--pool"] = (bool(args.pool), "its pool adds candidates near the test pose")
+        refused["--accuracy-plot"] = (bool(args.accuracy_plot), "the plot has no residual model")
+    given = [f"{name} ({why})" for name, (on, why) in refused.items() if on]
     if given:
         raise BadArgument(
-            f"{what}: the design is an exchange over (configuration, payload) pairs of a pool; it does "
-            f"not take {', '.join(given)} ({PAYLOAD_LIMITS})"
+            f"{what}: the design is an exchange over (configuration, payload) pairs; it does not take "
+            + "; ".join(given)
         )
+
+
+CONTINUOUS_WHY = "the continuous search cannot choose among discrete payloads"
 
 
 def _payload_options(args: argparse.Namespace) -> dict:

@@ -118,7 +118,8 @@ def design_with_payloads(
     else:
         candidates, _ = feasibility.feasible_pool(pool, m)
         size = len(candidates)
-    if residual_model is not None and test_poses is not None:  # where the residual is correlated
+    if residual_model is not None and test_poses is not None and isinstance(pool, (int, np.integer)):
+        # a generated pool also draws where the residual is correlated with the test pose's
         candidates = np.vstack([candidates, _near(params.robot, feasibility, test_poses, size // 4, rng)])
     q_pool = np.repeat(candidates, len(rows), axis=0)
     w_pool = np.tile(rows, (len(candidates), 1))
