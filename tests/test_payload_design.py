@@ -131,13 +131,13 @@ def test_monte_carlo_at_the_loaded_test_pose_matches_the_prediction(params, desi
 
 def test_monte_carlo_simulates_a_payload_plan_as_it_was_designed(params, designs):
     loaded, _ = designs
-    mc = pincal.monte_carlo(params, loaded.plan, Q0, SIGMA, trials=12, seed=3, task_payload=TASK)
+    mc = pincal.monte_carlo(params, loaded.plan, Q0, sigma=SIGMA, trials=12, seed=3, task_payload=TASK)
     assert mc.rho0_predicted == pytest.approx(loaded.rho0, rel=1e-9)
     assert mc.failures == 0 and mc.local_minima == 0
     # 12 trials of a 3-coordinate error: within a factor 1.6 of the prediction at 2 standard deviations.
     assert loaded.rho0 / 1.6 < mc.rho0_empirical < 1.6 * loaded.rho0
     # The same configurations measured without their payloads separate compliance far worse.
-    blind = pincal.monte_carlo(params, loaded.plan.q, Q0, SIGMA, trials=2, seed=3, task_payload=TASK)
+    blind = pincal.monte_carlo(params, loaded.plan.q, Q0, sigma=SIGMA, trials=2, seed=3, task_payload=TASK)
     assert blind.rho0_predicted > 2 * loaded.rho0
 
 

@@ -94,17 +94,17 @@ def test_the_accuracy_report_with_a_residual_model(setup):
     q0 = robot.random_configurations(1, 2)
     sizes = dict(samples=40, workspace=60)
     # A residual of no amplitude: the report is the plain one, row by row.
-    tiny = pincal.accuracy(params, plan, q0, SIGMA, residual_model=_model(robot, 1e-15), **sizes)
-    plain = pincal.accuracy(params, plan, q0, SIGMA, **sizes)
+    tiny = pincal.accuracy(params, plan, q0, sigma=SIGMA, residual_model=_model(robot, 1e-15), **sizes)
+    plain = pincal.accuracy(params, plan, q0, sigma=SIGMA, **sizes)
     for with_gp, without in zip(tiny.plans[0].rows, plain.plans[0].rows, strict=True):
         assert with_gp.rms == pytest.approx(without.rms, rel=1e-6)
     # With one, its test-pose row is the criterion's expected error, and its variance is in every row.
     model = _model(robot, 3e-4)
-    report = pincal.accuracy(params, plan, q0, SIGMA, residual_model=model, **sizes)
+    report = pincal.accuracy(params, plan, q0, sigma=SIGMA, residual_model=model, **sizes)
     assert report.plans[0].row("test pose").rms == pytest.approx(
-        expected_error(params, plan, q0, model, SIGMA), rel=1e-9
+        expected_error(params, plan, q0, model, sigma=SIGMA), rel=1e-9
     )
     assert all(a.rms > b.rms for a, b in zip(report.plans[0].rows, plain.plans[0].rows, strict=True))
     assert report.residual_model and "residual model" in "\n".join(report.lines())
     with pytest.raises(BadArgument, match="no prior"):
-        pincal.accuracy(params, plan, q0, SIGMA, residual_model=model, prior=Prior.parse("1mm,1mrad"))
+        pincal.accuracy(params, plan, q0, sigma=SIGMA, residual_model=model, prior=Prior.parse("1mm,1mrad"))

@@ -23,7 +23,7 @@ from pincal.evaluation.test_pose import rho0
 from pincal.model.parameters import ParameterSet
 from pincal.model.statics import payload_rows
 from pincal.planning.plan import Plan
-from pincal.typing import ConfigurationsLike, SeedLike
+from pincal.typing import ConfigurationsLike, PayloadLike, SeedLike
 
 QUANTILES = (0.5, 0.9, 0.95, 0.99)
 """Quantiles of the error at the test pose(s) reported by :func:`monte_carlo`."""
@@ -115,7 +115,7 @@ def monte_carlo(
     trials: int = 200,
     seed: SeedLike = None,
     error_std: Mapping[str, float] | None = None,
-    task_payload: object = None,
+    task_payload: PayloadLike = None,
 ) -> MonteCarloResult:
     """Check a plan by simulation: does calibration deliver the predicted ρ0 at the test pose(s)?
 

@@ -115,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
     if model is not None:
         if prior is not None:
             raise BadArgument("--residual-model: the expected error with a residual model takes no --prior")
-        with_model = expected_error(params, plan, q0, model, sigma, task)
+        with_model = expected_error(params, plan, q0, model, sigma=sigma, task_payload=task)
     report = report_accuracy(args, params, plan, q0, sigma, prior, task_payload=task, residual_model=model)
     split = None
     if prior is None and any(p.kind in ("gain", "compliance") for p in params):
