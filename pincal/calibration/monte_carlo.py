@@ -241,7 +241,7 @@ def _run_trials(check: _Check, rng: np.random.Generator) -> _Runs:
     return _Runs(np.array(errors), np.array(before), at_truth, failures, local_minima)
 
 
-def _planned(robot, qs: np.ndarray, payload: np.ndarray | None) -> object:
+def _planned(robot, qs: np.ndarray, payload: np.ndarray | None) -> np.ndarray | Plan:
     """The plan's configurations with their payloads (a Plan), or the bare configurations."""
     return qs if payload is None else Plan.for_robot(robot, qs, payload)
 

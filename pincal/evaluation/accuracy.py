@@ -522,7 +522,7 @@ def _with_residual_model(
     engine = engine_for(params)
     loads = plan_payloads(plan, batch.shape)
 
-    def rows(q: np.ndarray, load: object, name: str) -> PlanAccuracy:
+    def rows(q: np.ndarray, load: PayloadLike, name: str) -> PlanAccuracy:
         J = engine.jacobian(q, frame="world", payload=load)
         out = []
         for where, qs in sets:
