@@ -136,13 +136,14 @@ def test_no_import_inside_a_function_but_optional_ones():
                         assert (name, module) in allowed, f"{name}: {function.name} imports {module}"
 
 
-STAGES = ("model", "evaluation", "planning", "calibration", "compensation", "viewing", "cli")
+STAGES = ("model", "evaluation", "planning", "calibration", "compensation", "campaign", "viewing", "cli")
 
 
 def test_data_flows_one_way():
     """Each stage imports only the stages before it (robot → parameters → Jacobians → criteria →
-    design → identify → view → CLI); the foundation modules (errors, files, arguments, ...) none.
-    pincal.typing names stage classes in its aliases, for type checkers only (under TYPE_CHECKING)."""
+    design → identify → campaign → view → CLI); the foundation modules (errors, files, arguments,
+    ...) none. pincal.typing names stage classes in its aliases, for type checkers only (under
+    TYPE_CHECKING)."""
     for path in sorted(PACKAGE.rglob("*.py")):
         parts = path.relative_to(PACKAGE).parts
         stage = parts[0] if len(parts) > 1 else None

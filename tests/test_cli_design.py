@@ -67,7 +67,10 @@ def test_design_exchange_over_a_user_pool(cli, tmp_path, kr270_marker):
     data = cli.json("design", *KR, "-m", "4", "--method", "exchange", "--pool", path, "--starts", "3")
     rows = {tuple(np.round(q, 9)) for q in pool}
     assert all(tuple(np.round(q, 9)) in rows for q in data["plan"])
-    assert data["method"] == "exchange" and data["pool_size"] == 25
+    # The taught poses outside the safe defaults (2° from a limit, below the floor) are dropped.
+    safe = pincal.planning.constraints.with_safety(kr270_marker)
+    kept = int(pincal.planning.constraints.satisfied(kr270_marker, pool, safe).sum())
+    assert data["method"] == "exchange" and data["pool_size"] == kept and data["pool_rejected"] == 25 - kept
 
 
 def test_design_with_constraints_file(cli, tmp_path, kr270_marker):

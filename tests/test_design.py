@@ -20,7 +20,14 @@ from pincal.evaluation.registry import make_criterion as make_objective
 from pincal.planning import exchange as _exchange
 from pincal.planning import multistart as _multistart
 from pincal.planning.baselines import random_plans
-from pincal.planning.constraints import HalfSpace, MinSpacing, Visibility, WorkspaceBox, satisfied
+from pincal.planning.constraints import (
+    HalfSpace,
+    MinSpacing,
+    Visibility,
+    WorkspaceBox,
+    satisfied,
+    with_safety,
+)
 from pincal.planning.driver import design
 
 KR_Q0 = np.radians([0, -90, 90, 0, 45, 0])
@@ -75,8 +82,17 @@ def test_both_methods_reach_the_closed_form_minimum(lengths, deg, method):
 @pytest.mark.parametrize("method", ["continuous", "exchange"])
 @pytest.mark.parametrize("q20", [0.0, math.pi])
 def test_singular_limit_is_reported_not_returned_silently(lengths, q20, method):
+    # q2 = ±π is the singular limit and the joint limit: no margin kept, so the search can reach it.
     with pytest.warns(DegenerateOptimumWarning, match="not attained"):
-        result = design(lengths, 2, test_pose=[0.2, q20], method=method, min_conditioning=1e-4, **UNIT_SIGMA)
+        result = design(
+            lengths,
+            2,
+            test_pose=[0.2, q20],
+            method=method,
+            min_conditioning=1e-4,
+            joint_margin=0,
+            **UNIT_SIGMA,
+        )
     # The plan returned is regular (above the floor) but at it, and close to the infimum σ²/m.
     assert 1e-4 < result.conditioning < 2e-4
     assert result.rho0**2 == pytest.approx(0.5, rel=1e-3)
@@ -265,7 +281,8 @@ def test_every_returned_configuration_satisfies_every_constraint(kr_params, kr27
 def test_user_pool_exchange_picks_from_the_pool(kr_params, kr270_marker):
     pool = kr270_marker.random_configurations(30, np.random.default_rng(5))
     box = WorkspaceBox((-3, -3, 0.9), (3, 3, 4))
-    ok = satisfied(kr270_marker, pool, [box])
+    ok = satisfied(kr270_marker, pool, with_safety(kr270_marker, [box]))  # the safe defaults too
+    assert ok.sum() < satisfied(kr270_marker, pool, [box]).sum()  # (which reject some of the pool)
     result = design(kr_params, 5, test_pose=KR_Q0, method="exchange", pool=pool, constraints=[box], **FAST)
     assert result.pool_rejected == int((~ok).sum()) > 0
     rows = {tuple(q) for q in pool[ok]}

@@ -112,7 +112,7 @@ def test_ellipsoid_is_the_3_sigma_ellipsoid_of_the_predicted_covariance(kr_scene
     # shape matrix R diag(r)² Rᵀ equals (3 · factor)² · covariance.
     scale = built.ellipsoid_scale
     assert scale > 1 and scale / 10 ** np.floor(np.log10(scale)) in (1.0, 2.0, 5.0)
-    reach = visualize._reach(kr270_marker)
+    reach = visualize.robot_reach(kr270_marker)
     assert 0.5 * visualize.ELLIPSOID_SIZE * reach < radii[0] * scale <= visualize.ELLIPSOID_SIZE * reach
     ellipsoid = node(built, "test_poses/test_1/ellipsoid_0")
     intrinsic = np.array(unpack(ellipsoid.object)["object"]["object"]["matrix"]).reshape(4, 4)

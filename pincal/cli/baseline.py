@@ -9,7 +9,6 @@ from pincal.cli._accuracy import prior_from_args, test_region_from_args
 from pincal.cli._common import (
     add_command,
     add_output_arguments,
-    constraints_from_args,
     count,
     emit_json,
     params_from_args,
@@ -18,6 +17,7 @@ from pincal.cli._common import (
     robot_from_args,
     sigma_from_args,
 )
+from pincal.cli._safety import safe_constraints_from_args
 from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, design
@@ -32,9 +32,10 @@ examples:
   pincal baseline ur10 -m 12 --test-pose=0,-1.2,1.5,-1,-1.5,0 --pool taught.csv --random 5000 --d-optimal
 
 Random plans: configurations drawn uniformly within the joint limits, kept if they satisfy
---constraints; with --pool, m distinct configurations of the pool (plan CSV format, e.g. taught
-poses) per plan, and the D-optimal plan is made of pool configurations too. Singular plans (no
-finite rho0) are counted, not averaged. rho0 in metres for --sigma.
+--constraints and the design's safe defaults (--joint-margin, --mount); with --pool, m distinct
+configurations of the pool (plan CSV format, e.g. taught poses) per plan, and the D-optimal plan
+is made of pool configurations too. Singular plans (no finite rho0) are counted, not averaged.
+rho0 in metres for --sigma.
 """
 
 
@@ -72,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     params, source = params_from_args(robot, args)
     q0 = test_region_from_args(robot, args)
     prior = prior_from_args(args)
-    constraints = constraints_from_args(args)
+    constraints = safe_constraints_from_args(robot, args)  # the design's safe defaults too
     criterion = "test-pose-worst" if args.worst else "test-pose"
     pool = read_plan(robot, args.pool, args.deg) if args.pool else None
     with recorded_warnings() as records:

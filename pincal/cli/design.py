@@ -31,7 +31,6 @@ from pincal.cli._common import (
     add_robot_arguments,
     add_test_pose_argument,
     checked,
-    constraints_from_args,
     count,
     emit_json,
     fmt_length,
@@ -46,6 +45,7 @@ from pincal.cli._common import (
     sigma_type,
 )
 from pincal.cli._plot import add_plot_argument, save_design_plot
+from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0_split
 from pincal.model.statics import Payload
@@ -54,6 +54,7 @@ from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
 from pincal.planning.objectives import CRITERIA
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans
+from pincal.planning.safety import safety_margins
 
 HELP = COMMANDS["design"].help
 EXAMPLES = """\
@@ -96,6 +97,7 @@ plan below 1e-3 is warned about whatever the floor, and so is a floor below 1e-3
 search.
 {conditioning}
 
+{safety}
 {region}
 Units: metres and radians; --deg reads test poses and --pool, and writes --out and prints the plan,
 in degrees. The JSON plan is always in radians; rho0 is in metres for --sigma
@@ -109,6 +111,7 @@ EXAMPLES = (
     EXAMPLES.replace("{region}", REGION_HELP.rstrip())
     .replace("{conditioning}", CONDITIONING_HELP)
     .replace("{limits}", PAYLOAD_LIMITS[0].upper() + PAYLOAD_LIMITS[1:])
+    .replace("{safety}", SAFETY_HELP.rstrip())
 )
 
 
@@ -123,6 +126,7 @@ def add_design_arguments(p: argparse.ArgumentParser) -> None:
     add_test_pose_argument(p, required=False)
     add_region_arguments(p)
     p.add_argument("--constraints", metavar="FILE.yaml", help="workcell constraints (YAML)")
+    add_safety_arguments(p)
     p.add_argument("--sigma", type=sigma_type(), default=None, help=SIGMA_HELP)
     p.add_argument(
         "--deg", action="store_true", help="joint values in degrees (test poses, pool, plan output)"
@@ -218,7 +222,7 @@ def run(args: argparse.Namespace) -> int:
     criterion = "test-pose-worst" if args.worst else args.criterion
     q0 = test_region_from_args(robot, args, required=criterion.lower().startswith("test"))
     prior = prior_from_args(args)
-    constraints = constraints_from_args(args)
+    constraints = safe_constraints_from_args(robot, args)  # with the safe defaults
     if args.worst and args.criterion not in ("test-pose", "test-pose-worst"):
         raise BadArgument(f"--worst applies to the test-pose criterion, not {args.criterion!r}")
     if args.pool and args.pool_size is not None:
@@ -265,7 +269,8 @@ def run(args: argparse.Namespace) -> int:
             loads.get("task_payload"),
             loads.get("residual_model"),
         )
-    _write_and_print(args, robot, params, source, result, baseline, report, sigma_text)
+    safety = safety_margins(robot, result.plan, constraints)
+    _write_and_print(args, robot, params, source, result, baseline, report, sigma_text, safety)
     print_warnings(records)  # last, where they are seen
     return 0
 
@@ -326,7 +331,15 @@ def _baseline(
 
 
 def _write_and_print(
-    args: argparse.Namespace, robot, params, source, result: DesignResult, baseline, report, sigma_text: str
+    args: argparse.Namespace,
+    robot,
+    params,
+    source,
+    result: DesignResult,
+    baseline,
+    report,
+    sigma_text: str,
+    safety=None,
 ) -> None:
     """--out, --plot, then the JSON object or the text report."""
     if args.out:
@@ -337,9 +350,12 @@ def _write_and_print(
         payload = design_json(robot, params, result, baseline, args.out)
         payload["accuracy"] = None if report is None else report.as_dict()
         payload["rho0_split"] = _split(params, result, args)
+        payload["safety"] = None if safety is None else safety.as_dict()
         emit_json(payload)
     else:
         print_design(robot, params, source, result, args.deg, sigma_text, _split(params, result, args))
+        if safety is not None:
+            print("\n".join(safety.lines()))
         if baseline is not None:
             print_baseline(baseline[0], baseline[1], pool=args.pool)
         if report is not None:

@@ -34,11 +34,13 @@ from pincal.cli._common import (
     robot_from_args,
     sigma_from_args,
 )
+from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
 from pincal.errors import BadArgument, SingularPlan
 from pincal.evaluation.classic import criteria
 from pincal.evaluation.data_check import check_plan
 from pincal.evaluation.residual_criterion import expected_error
 from pincal.evaluation.test_pose import rho0_each, rho0_split
+from pincal.planning.safety import safety_margins
 
 HELP = COMMANDS["evaluate"].help
 EXAMPLES = """\
@@ -58,7 +60,9 @@ rho0 is in metres for --sigma (noise per coordinate, metres; default 3e-5, a las
 The report also checks the parameters on the plan's configurations: rank and conditioning, the
 weakest combinations, and those the plan cannot determine to 1 cm / 10 mrad for the noise --sigma.
 The design criteria (D: log_det, A: trace, E: max_eig, cond: σ_max/σ_min of the unscaled Jacobian,
-unit-dependent, for --criterion cond; O1-O4 higher is better) are listed for comparison.
+unit-dependent, for --criterion cond; O1-O4 higher is better) are listed for comparison, and how
+close the plan comes to the joint limits, the floor and the obstacles of --constraints (the margins
+a design keeps by default, or --joint-margin, --mount).
 A plan with payload columns (from 'design --payloads') is evaluated under its payloads, and the test
 pose(s) under --task-payload KG (centre --payload-centre, tip frame; default none), as design does:
 with gains or compliances among --params, rho0^2 is split into its geometric and elastic parts.
@@ -66,7 +70,7 @@ with gains or compliances among --params, rho0^2 is split into its geometric and
 error at the test pose(s) when the parameters and that residual are estimated from the plan, and
 the accuracy report of it (the residual model's variance included).
 """
-EXAMPLES += "\n" + CONDITIONING_HELP + "\n\n" + REGION_HELP
+EXAMPLES += "\n" + CONDITIONING_HELP + "\n\n" + SAFETY_HELP + "\n" + REGION_HELP
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -88,6 +92,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="the residual model of an earlier calibration (its sidecar): the expected error with it, its "
         "variance included",
     )
+    p.add_argument(
+        "--constraints", metavar="FILE.yaml", help="workcell constraints (YAML): the margins are reported"
+    )
+    add_safety_arguments(p)
     add_report_arguments(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
@@ -121,6 +129,7 @@ def run(args: argparse.Namespace) -> int:
     if prior is None and any(p.kind in ("gain", "compliance") for p in params):
         split = rho0_split(params, plan, q0, sigma=sigma, task_payload=task)
     check = check_plan(params, plan, sigma=sigma)
+    safety = safety_margins(robot, plan, safe_constraints_from_args(robot, args))
     if args.json:
         emit_json(
             {
@@ -141,6 +150,7 @@ def run(args: argparse.Namespace) -> int:
                 "rho0_split": split,
                 "expected_error_with_residual_model": with_model,
                 "data_check": check.as_dict(),
+                "safety": safety.as_dict(),
             }
         )
         return 0
@@ -171,6 +181,7 @@ def run(args: argparse.Namespace) -> int:
             f"{fmt_length(with_model)} (rho0 assumes the model exact; this counts what it leaves)"
         )
     print(check.report())
+    print("\n".join(safety.lines(degrees=True)))
     if report is not None:
         print("\n".join(report.lines(degrees=args.deg)))
     return 0

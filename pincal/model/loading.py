@@ -245,7 +245,8 @@ def load_robot(
     model, urdf, name, floats = _resolve_source(source, ranges, dirs)
     root_id = frame_id(model, root, "root frame") if root is not None else default_root(model)
     note = ""
-    if floats or root_id != 0 and root is None:
+    floating = bool(floats or root_id != 0 and root is None)
+    if floating:
         note = (
             f"it has a floating base, held fixed at its link {model.frames[max(root_id, 1)].name!r} "
             f"(the chain's root; --root LINK (root=) for another); "
@@ -263,6 +264,7 @@ def load_robot(
         urdf_path=urdf,
         root=root if root else None,
         package_dirs=tuple(dirs.items()),
+        floating=floating,
     )
 
 

@@ -106,6 +106,8 @@ class Robot:
         package_dirs: ``((package name, folder), ...)`` resolving the URDF's ``package://NAME/``
             mesh paths (``load_robot``'s ``package_dirs``; a mapping is accepted): the 3-D view
             and the self-collision constraint load the meshes from there.
+        floating: the robot has a floating base, held fixed at the chain's root (its base plane
+            means nothing: a design keeps no mount plane by default).
     """
 
     model: pin.Model
@@ -119,6 +121,7 @@ class Robot:
     package_dirs: tuple[tuple[str, str], ...] = ()
     joint_gains: np.ndarray = field(default=None)  # type: ignore[arg-type]  # None: zeros (__post_init__)
     joint_compliances: np.ndarray = field(default=None)  # type: ignore[arg-type]  # None: zeros (__post_init__)
+    floating: bool = False
 
     def __post_init__(self) -> None:
         dirs = tuple((str(name), str(folder)) for name, folder in dict(self.package_dirs).items())
@@ -466,6 +469,7 @@ class Robot:
             "package_dirs": self.package_dirs,
             "joint_gains": self.joint_gains,
             "joint_compliances": self.joint_compliances,
+            "floating": self.floating,
         }
         fields.update(changes)
         return Robot(**fields)

@@ -55,7 +55,7 @@ from pincal.model.residual import ResidualModel
 from pincal.planning import multistart as _multistart
 from pincal.planning import payloads as _payloads
 from pincal.planning.choice import SINGULAR_WARNING, choose, design_result
-from pincal.planning.constraints import AnyConstraint
+from pincal.planning.constraints import AnyConstraint, JointMargin, MountSpec, with_safety
 from pincal.planning.feasibility import Feasibility
 from pincal.planning.objectives import (
     checked_test_poses,
@@ -114,6 +114,8 @@ def design(
     payloads: Sequence[PayloadLike] | None = None,
     task_payload: PayloadLike = None,
     residual_model: ResidualModel | None = None,
+    joint_margin: JointMargin = None,
+    mount: MountSpec = None,
 ) -> DesignResult:
     """Find the m measurement configurations that minimise a criterion, within the constraints.
 
@@ -127,7 +129,8 @@ def design(
             test-pose criteria, used to report ρ0 otherwise.
         criterion: one of :data:`CRITERIA` (case-insensitive).
         method: ``"exchange"`` (default) or ``"continuous"`` (see module doc).
-        constraints: constraint objects of :mod:`pincal.planning.constraints` (joint limits always apply).
+        constraints: constraint objects of :mod:`pincal.planning.constraints` (joint limits always
+            apply), to which the safe defaults are added (see ``joint_margin`` and ``mount``).
         pool: candidates for the exchange method: (N, nq) configurations or a Plan (infeasible
             ones are dropped), or the number of random feasible candidates to draw (default
             2000; the continuous method draws its starts from it).
@@ -176,6 +179,15 @@ def design(
             plan minimises the expected error at the test pose(s) with it (tr Σ₀,
             :mod:`pincal.evaluation.residual_criterion`), through the same exchange; ``value`` is
             that error [m], ``rho0`` the plain ρ0 of the plan.
+        joint_margin: kept inside every joint limit: a number [rad, or m on prismatic joints], an
+            (angle [rad], length [m]) pair or a :class:`~pincal.JointLimits`; default (None) 2°,
+            1 cm on prismatic joints, at most a tenth of a joint's range (or the JointLimits among
+            ``constraints``); 0 keeps none.
+        mount: the plane the robot is mounted on, kept below everything the joints move (markers,
+            tip, link origins): ``floor``, ``wall``, ``ceiling`` (z = 0 of the base frame),
+            ``none``, a plane ``"NX,NY,NZ,OFFSET"`` or a :class:`~pincal.Mount`; default (None)
+            ``floor`` for a fixed-base robot measured from its URDF root, ``none`` otherwise (or
+            the Mount among ``constraints``).
 
     Returns:
         the best plan found, with its criterion value, ρ0 and the history of every start.
@@ -205,7 +217,8 @@ def design(
         with _multistart.single_threaded_blas():
             return _payloads.design_with_payloads(
                 params, m, test_pose, [0.0] if payloads is None else payloads, task_payload=task_payload,
-                criterion=criterion, constraints=constraints, pool=1000 if pool is None else pool,  # type: ignore[arg-type]
+                criterion=criterion, constraints=with_safety(params.robot, constraints, joint_margin, mount),
+                pool=1000 if pool is None else pool,  # type: ignore[arg-type]
                 starts=starts, seed=seed, sigma=sigma, prior=prior, min_conditioning=min_conditioning,
                 residual_model=residual_model,
             )  # fmt: skip
@@ -229,6 +242,7 @@ def design(
             maxiter=maxiter,
             min_conditioning=min_conditioning,
             prior=prior,
+            safety=(joint_margin, mount),
         )
         pooled = _pool(params, settings, pool, init)
         engine = JacobianEngine(params)
@@ -275,6 +289,7 @@ def _validate(
     maxiter: object,
     min_conditioning: object,
     prior: Prior | None = None,
+    safety: tuple[JointMargin, MountSpec] = (None, None),
 ) -> Settings:
     """Check every argument (in the order of the signature) and settle the defaults."""
     criterion = criterion_name(criterion)
@@ -300,7 +315,7 @@ def _validate(
     floor = (MIN_CONDITIONING if prior is None else 0.0) if min_conditioning is None else min_conditioning
     name = "min_conditioning" + (" (0 only with a prior)" if prior is None else "")
     floor = number(floor, name, 0.0, 0.1, low_open=prior is None, high_open=True)
-    constraints = tuple(constraints)
+    constraints = with_safety(params.robot, constraints, *safety)  # safe by default
     feasibility = Feasibility(params.robot, constraints)
     entropy = seed_entropy(seed)
     if method == "continuous":

@@ -20,7 +20,7 @@ from pincal.planning.constraints import (
     Kinematics,
     LimitsBound,
     MinSpacing,
-    limit_margin_of,
+    joint_margins,
     spacing_of,
 )
 from pincal.typing import ArrayLike
@@ -34,7 +34,7 @@ class Feasibility:
     Args:
         robot: the robot.
         constraints: any mix of the constraint objects of this module (joint limits always apply,
-            with the largest JointLimits margin given).
+            with the largest JointLimits margin given at each joint).
     """
 
     def __init__(self, robot: Robot, constraints: Iterable[AnyConstraint] = ()) -> None:
@@ -44,7 +44,8 @@ class Feasibility:
                 raise BadConstraint(f"not a constraint: {c!r} (use the classes of pincal.constraints)")
         self.robot = robot
         self.constraints = constraints
-        self.limits = LimitsBound(robot, limit_margin_of(constraints))
+        self.margins = joint_margins(robot, constraints)
+        self.limits = LimitsBound(robot, self.margins)
         self.lower, self.upper = self.limits.lower, self.limits.upper
         self.bound = [
             (c.key, c.bind(robot))
@@ -196,7 +197,7 @@ class Feasibility:
         """
         minimum = n if minimum is None else minimum
         max_tries = max(100_000, 50 * n) if max_tries is None else max_tries
-        margin = limit_margin_of(self.constraints)
+        margin = self.margins
         found: list[np.ndarray] = []
         count, tried = 0, 0
         rejected: dict[str, int] = {}

@@ -15,6 +15,7 @@ from lxml import etree
 from pincal.errors import UrdfError, warn
 from pincal.model.geometry import robot_tree, urdf_geometry
 from pincal.model.robot import Robot
+from pincal.planning.constraints.collision_world import segment_placement
 
 ROOT = "pincal"
 """Name of the scene's root node (under meshcat's ``/meshcat``)."""
@@ -95,16 +96,11 @@ def _stick_geometry(robot: Robot, reach: float) -> pin.GeometryModel:
 
     model = robot.model
     geom = pin.GeometryModel()
-    z = np.array([0.0, 0.0, 1.0])
 
     def cylinder(name: str, joint: int, start: np.ndarray, end: np.ndarray, radius: float) -> None:
-        d = np.asarray(end, float) - np.asarray(start, float)
-        length = float(np.linalg.norm(d))
-        if length < 1e-9:
-            return
-        rotation = pin.Quaternion.FromTwoVectors(z, d / length).toRotationMatrix()
-        placement = pin.SE3(rotation, 0.5 * (np.asarray(start) + np.asarray(end)))
-        geom.addGeometryObject(pin.GeometryObject(name, joint, placement, coal.Cylinder(radius, length)))
+        placement, length = segment_placement(start, end)
+        if length > 0:
+            geom.addGeometryObject(pin.GeometryObject(name, joint, placement, coal.Cylinder(radius, length)))
 
     origin = np.zeros(3)
     for j in range(1, model.njoints):

@@ -45,6 +45,7 @@ from pincal.files import atomic_write_text
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.optional import require
+from pincal.planning.constraints.collision_world import reach as robot_reach
 from pincal.typing import ConfigurationsLike, InstrumentLike, ViewerLike
 from pincal.viewing.drawing import (
     ROOT,
@@ -235,7 +236,7 @@ def scene(
 
     vis = _viewer(meshcat, viewer)
     vis[ROOT].delete()  # a viewer reused for another plan starts afresh
-    reach = _reach(robot)
+    reach = robot_reach(robot)
     colors = pose_colors(len(qs))
     visual, ghost = geometry_models(robot, reach)
     points = _draw_ghosts(vis, robot, ghost, qs, colors, reach)
@@ -381,15 +382,6 @@ def _instrument_position(instrument: InstrumentLike) -> np.ndarray | None:
     if arr.size != 3 or not np.all(np.isfinite(arr)):
         raise BadConfiguration(f"instrument: expected a position (x, y, z) in metres, got {value!r}")
     return arr
-
-
-def _reach(robot: Robot) -> float:
-    """A length scale of the robot [m]: the sum of its link offsets and the farthest marker."""
-    model = robot.model
-    links = sum(np.linalg.norm(model.jointPlacements[j].translation) for j in range(1, model.njoints))
-    tip = model.frames[robot.tip_frame].placement
-    markers = np.linalg.norm(robot.markers @ tip.rotation.T + tip.translation, axis=1).max()
-    return float(max(links + markers, 1e-3))
 
 
 def _ellipsoids(cov: np.ndarray, n_markers: int) -> tuple[np.ndarray, np.ndarray]:

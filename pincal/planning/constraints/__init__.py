@@ -5,7 +5,10 @@ inside all of them. Lengths are in metres, in the instrument's frame (the robot'
 the robot has a base placement); angles in radians. :func:`load_constraints` reads them from YAML
 (degrees allowed there, with ``_deg`` keys).
 
-* :class:`JointLimits` — the URDF limits shrunk by a margin (always applied, margin 0 by default).
+* :class:`JointLimits` — the URDF limits shrunk by a margin (always applied; a design keeps 2°,
+  1 cm on prismatic joints, by default: :data:`DEFAULT_JOINT_LIMITS`).
+* :class:`Mount` — the measured points, the tip and every moving link origin on the robot's side
+  of its mounting plane (a design keeps ``floor`` by default for a fixed-base robot).
 * :class:`WorkspaceBox` — every marker inside an axis-aligned box.
 * :class:`HalfSpace` — every marker on one side of a plane (``normal · p ≥ offset``).
 * :class:`Visibility` — a laser tracker at a known position sees every marker: distance within
@@ -13,8 +16,14 @@ the robot has a base placement); angles in radians. :func:`load_constraints` rea
   the line of sight at most ``max_angle``.
 * :class:`SelfCollision` — no two links of the chain closer than ``min_distance`` (the URDF's
   collision geometry through Pinocchio and coal; pairs of adjacent links are not checked).
+* :class:`Workcell` — the robot's collision geometry (the URDF's, or capsules derived from the
+  kinematics) at least ``min_distance`` from every obstacle of the cell (boxes, cylinders, spheres,
+  meshes, a URDF of the cell; base frame).
 * :class:`MinSpacing` — any two configurations of a plan at least ``distance`` apart in joint space
   (Euclidean norm of the joint differences [rad]).
+
+A design adds the safe defaults with :func:`with_safety` (see
+:mod:`pincal.planning.constraints.defaults`).
 
 Inside the continuous search the constraints act as a barrier: a truncated logarithmic barrier
 that is zero farther than :attr:`reach` from the boundary (5 cm, 0.05 rad, 2 cm for collisions)
@@ -29,12 +38,23 @@ import numpy as np
 
 from pincal.model.robot import Robot
 from pincal.planning.constraints.base import TOLERANCE, Bound, Constraint, Kinematics
+from pincal.planning.constraints.defaults import (
+    JointMargin,
+    MountSpec,
+    default_mount,
+    joint_limits_of,
+    joint_margins,
+    mount_of,
+    with_safety,
+)
 from pincal.planning.constraints.half_space import HalfSpace
-from pincal.planning.constraints.joint_limits import JointLimits, LimitsBound
+from pincal.planning.constraints.joint_limits import DEFAULT_JOINT_LIMITS, JointLimits, LimitsBound
 from pincal.planning.constraints.loading import constraints_from_dict, load_constraints
 from pincal.planning.constraints.min_spacing import MinSpacing
+from pincal.planning.constraints.mount import MOUNTS, Mount, MountBound
 from pincal.planning.constraints.self_collision import SelfCollision
 from pincal.planning.constraints.visibility import Visibility
+from pincal.planning.constraints.workcell import Obstacle, Workcell
 from pincal.planning.constraints.workspace_box import WorkspaceBox
 from pincal.typing import ConfigurationsLike
 
@@ -42,23 +62,35 @@ AnyConstraint = Constraint | MinSpacing
 """Any constraint object: a per-configuration :class:`Constraint` or the plan-wide :class:`MinSpacing`."""
 
 __all__ = [
+    "DEFAULT_JOINT_LIMITS",
+    "MOUNTS",
     "TOLERANCE",
     "AnyConstraint",
     "Bound",
     "Constraint",
     "HalfSpace",
     "JointLimits",
+    "JointMargin",
     "Kinematics",
     "LimitsBound",
     "MinSpacing",
+    "Mount",
+    "MountBound",
+    "MountSpec",
+    "Obstacle",
     "SelfCollision",
     "Visibility",
+    "Workcell",
     "WorkspaceBox",
     "constraints_from_dict",
-    "limit_margin_of",
+    "default_mount",
+    "joint_limits_of",
+    "joint_margins",
     "load_constraints",
+    "mount_of",
     "satisfied",
     "spacing_of",
+    "with_safety",
 ]
 
 
@@ -77,8 +109,3 @@ def satisfied(
 def spacing_of(constraints: Iterable[AnyConstraint]) -> float:
     """The largest MinSpacing distance among ``constraints`` (0 if none)."""
     return max((c.distance for c in constraints if isinstance(c, MinSpacing)), default=0.0)
-
-
-def limit_margin_of(constraints: Iterable[AnyConstraint]) -> float:
-    """The largest JointLimits margin among ``constraints`` (0 if none)."""
-    return max((c.margin for c in constraints if isinstance(c, JointLimits)), default=0.0)

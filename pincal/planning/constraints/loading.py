@@ -14,15 +14,26 @@ from pincal.planning.constraints.base import number
 from pincal.planning.constraints.half_space import HalfSpace
 from pincal.planning.constraints.joint_limits import JointLimits
 from pincal.planning.constraints.min_spacing import MinSpacing
+from pincal.planning.constraints.mount import MOUNTS, Mount
 from pincal.planning.constraints.self_collision import SelfCollision
 from pincal.planning.constraints.visibility import Visibility
+from pincal.planning.constraints.workcell import workcell_from_dict
 from pincal.planning.constraints.workspace_box import WorkspaceBox
 
 if TYPE_CHECKING:  # the union of the constraint classes, defined where they are all gathered
     from pincal.planning.constraints import AnyConstraint
 
 
-_KEYS = ("joint_limits", "workspace_box", "half_space", "visibility", "self_collision", "min_spacing")
+_KEYS = (
+    "joint_limits",
+    "mount",
+    "workspace_box",
+    "half_space",
+    "visibility",
+    "self_collision",
+    "workcell",
+    "min_spacing",
+)
 
 
 def _angle(entry: dict, key: str, what: str, default: float | None) -> float | None:
@@ -49,8 +60,9 @@ def _entries(value: object) -> list:
     return list(value) if isinstance(value, list) else [value]
 
 
-def constraints_from_dict(data: object) -> tuple[AnyConstraint, ...]:
-    """Constraints from a mapping with the layout of the YAML file (see :func:`load_constraints`)."""
+def constraints_from_dict(data: dict, folder: str | os.PathLike | None = None) -> tuple[AnyConstraint, ...]:
+    """Constraints from a mapping with the layout of the YAML file (see :func:`load_constraints`);
+    the workcell's relative paths are taken from ``folder`` (default: the working folder)."""
     if data is None:
         return ()
     if not isinstance(data, dict):
@@ -60,8 +72,28 @@ def constraints_from_dict(data: object) -> tuple[AnyConstraint, ...]:
         raise BadConstraint(f"unknown constraint {unknown[0]!r}; valid: {', '.join(_KEYS)}")
     out: list[AnyConstraint] = []
     if "joint_limits" in data:
-        e = _check_keys(data["joint_limits"], "joint_limits", ("margin", "margin_deg"))
-        out.append(JointLimits(_angle(e, "margin", "joint_limits", 0.0)))  # type: ignore[arg-type]  # checked there
+        e = _check_keys(data["joint_limits"], "joint_limits", ("margin", "margin_deg", "prismatic"))
+        out.append(JointLimits(_angle(e, "margin", "joint_limits", 0.0), e.get("prismatic")))  # type: ignore[arg-type]  # checked there
+    if "mount" in data:
+        e = data["mount"]
+        if isinstance(e, str):
+            out.append(Mount.parse(e))
+        else:
+            e = _check_keys(e, "mount", ("plane", "normal", "offset"))
+            if "plane" in e and e["plane"] not in MOUNTS:
+                raise BadConstraint(f"mount plane must be one of {', '.join(MOUNTS)}, got {e['plane']!r}")
+            if "plane" in e and ("normal" in e or "offset" in e):
+                raise BadConstraint(
+                    "mount: give plane (floor, wall, ceiling, none) or normal and offset, not both"
+                )
+            if "plane" in e:
+                out.append(Mount(e["plane"]))
+            elif "normal" in e:
+                out.append(Mount("plane", e["normal"], e.get("offset", 0.0)))
+            else:
+                raise BadConstraint(
+                    "mount needs plane: floor|wall|ceiling|none, or normal: [x, y, z] and offset"
+                )
     if "workspace_box" in data:
         e = _check_keys(data["workspace_box"], "workspace_box", ("lower", "upper"))
         if "lower" not in e or "upper" not in e:
@@ -92,6 +124,8 @@ def constraints_from_dict(data: object) -> tuple[AnyConstraint, ...]:
         if not all(isinstance(d, str) for d in dirs):
             raise BadConstraint(f"self_collision package_dirs must be folder names, got {dirs!r}")
         out.append(SelfCollision(e.get("min_distance", 0.0), tuple(dirs)))
+    if "workcell" in data:
+        out.append(workcell_from_dict(data["workcell"], None if folder is None else Path(folder)))
     if "min_spacing" in data:
         e = _check_keys(data["min_spacing"], "min_spacing", ("distance", "distance_deg"))
         distance = _angle(e, "distance", "min_spacing", None)
@@ -107,7 +141,8 @@ def load_constraints(path: str | os.PathLike) -> tuple[AnyConstraint, ...]:
     Layout (every key optional; lengths in metres in the instrument frame; angles in radians, or
     in degrees with the ``_deg`` keys)::
 
-        joint_limits: {margin_deg: 5}
+        joint_limits: {margin_deg: 5, prismatic: 0.02}   # default 2 deg, 1 cm on prismatic joints
+        mount: floor                     # floor, wall, ceiling, none, or {normal: [0, 0, 1], offset: -0.8}
         workspace_box: {lower: [0.5, -1.5, 0.2], upper: [2.8, 1.5, 2.2]}
         half_space:                      # one mapping or a list; keeps normal·p >= offset
           - {normal: [0, 0, 1], offset: 0.3}
@@ -118,6 +153,9 @@ def load_constraints(path: str | os.PathLike) -> tuple[AnyConstraint, ...]:
           normal: [0, 0, 1]              # marker normal in the tip frame
           max_angle_deg: 60
         self_collision: {min_distance: 0.01}   # or: self_collision: true
+        workcell:                        # obstacles, base frame (pincal.planning.constraints.workcell)
+          min_distance: 0.02
+          obstacles: [{name: table, box: [1.2, 0.8, 0.05], xyz: [1.6, 0, 0.5]}]
         min_spacing: {distance_deg: 10}
 
     Raises:
@@ -126,6 +164,6 @@ def load_constraints(path: str | os.PathLike) -> tuple[AnyConstraint, ...]:
     path = Path(path)
     data = read_yaml(path, "constraints", BadConstraint)
     try:
-        return constraints_from_dict(data)
+        return constraints_from_dict(data, path.parent)
     except BadConstraint as exc:
         raise BadConstraint(f"constraints file {str(path)!r}: {exc}") from None

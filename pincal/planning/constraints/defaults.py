@@ -1,0 +1,127 @@
+"""Safe by default: the constraints a design keeps unless told otherwise.
+
+:func:`with_safety` adds to a design's constraints
+
+* a margin inside the joint limits, :data:`~pincal.planning.constraints.joint_limits.DEFAULT_JOINT_LIMITS`
+  (2°, 1 cm on prismatic joints), unless the constraints hold a :class:`JointLimits` or a
+  ``joint_margin`` is given (0 keeps none);
+* the robot's mounting plane, ``Mount("floor")``, for a fixed-base robot whose chain starts at its
+  URDF root, unless the constraints hold a :class:`Mount` or a ``mount`` is given (``"none"`` keeps
+  none); a floating base (held at the chain's root) and a chain from another ``root`` link keep
+  none by default: their base plane is not a floor.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from pincal.errors import BadArgument
+from pincal.model.robot import Robot
+from pincal.planning.constraints.base import Constraint
+from pincal.planning.constraints.joint_limits import DEFAULT_JOINT_LIMITS, JointLimits
+from pincal.planning.constraints.min_spacing import MinSpacing
+from pincal.planning.constraints.mount import Mount
+
+JointMargin = float | tuple[float, float] | JointLimits | None
+"""What ``joint_margin`` accepts: a number (kept from every limit, [rad], or [m] for a prismatic
+joint), an (angle [rad], length [m]) pair, a :class:`JointLimits`, or None (the default)."""
+
+MountSpec = str | Mount | None
+"""What ``mount`` accepts: ``floor``, ``wall``, ``ceiling``, ``none``, ``NX,NY,NZ,OFFSET``, a
+:class:`Mount`, or None (the default)."""
+
+
+def joint_limits_of(joint_margin: JointMargin) -> JointLimits:
+    """The :class:`JointLimits` of a ``joint_margin`` argument (None: the default one).
+
+    Raises:
+        BadArgument: a value of another kind, or a negative or non-finite margin.
+    """
+    if joint_margin is None:
+        return DEFAULT_JOINT_LIMITS
+    if isinstance(joint_margin, JointLimits):
+        return joint_margin
+    if isinstance(joint_margin, (tuple, list)) and len(joint_margin) == 2:
+        return JointLimits(joint_margin[0], joint_margin[1])
+    if isinstance(joint_margin, (int, float, np.integer, np.floating)) and not isinstance(joint_margin, bool):
+        return JointLimits(float(joint_margin))
+    raise BadArgument(
+        f"joint_margin must be a number [rad, or m on prismatic joints], an (angle, length) pair or a "
+        f"JointLimits, got {joint_margin!r}",
+        argument="joint_margin",
+        value=joint_margin,
+    )
+
+
+def default_mount(robot: Robot) -> Mount:
+    """``floor`` for a fixed-base robot measured from its URDF root, else ``none``."""
+    return Mount("none") if robot.floating or robot.root is not None else Mount("floor")
+
+
+def mount_of(robot: Robot, mount: MountSpec) -> Mount:
+    """The :class:`Mount` of a ``mount`` argument (None: :func:`default_mount`)."""
+    if mount is None:
+        return default_mount(robot)
+    if isinstance(mount, Mount):
+        return mount
+    if isinstance(mount, str):
+        return Mount.parse(mount)
+    raise BadArgument(
+        f"mount must be floor, wall, ceiling, none, a plane 'NX,NY,NZ,OFFSET' or a Mount, got {mount!r}",
+        argument="mount",
+        value=mount,
+    )
+
+
+def with_safety(
+    robot: Robot,
+    constraints: Iterable[Constraint | MinSpacing] = (),
+    joint_margin: JointMargin = None,
+    mount: MountSpec = None,
+) -> tuple[Constraint | MinSpacing, ...]:
+    """``constraints`` with the safe defaults added (see the module doc); idempotent.
+
+    Args:
+        robot: the robot (its joints say which margins are angles; its base, whether it has a floor).
+        constraints: the user's constraints.
+        joint_margin: the margin kept inside the joint limits (see :data:`JointMargin`); None: the
+            JointLimits among ``constraints``, else the default 2° / 1 cm.
+        mount: the mounting plane (see :data:`MountSpec`); None: the Mount among ``constraints``,
+            else :func:`default_mount`.
+
+    Raises:
+        BadArgument: a ``joint_margin`` (or ``mount``) given both as an argument and among the
+            constraints, or of the wrong kind.
+    """
+    constraints = tuple(constraints)
+    limits = [c for c in constraints if isinstance(c, JointLimits)]
+    mounts = [c for c in constraints if isinstance(c, Mount)]
+    if joint_margin is not None and limits:
+        raise BadArgument(
+            "the joint margin is given twice (joint_margin and a JointLimits constraint): give it once",
+            argument="joint_margin",
+        )
+    if mount is not None and mounts:
+        raise BadArgument(
+            "the mount is given twice (mount and a Mount constraint): give it once", argument="mount"
+        )
+    if len(mounts) > 1:
+        raise BadArgument("a robot has one mount: give one Mount constraint", argument="mount")
+    added: list[Constraint | MinSpacing] = []
+    if not limits:
+        added.append(joint_limits_of(joint_margin))
+    if not mounts:
+        added.append(mount_of(robot, mount))
+    return constraints + tuple(added)
+
+
+def joint_margins(robot: Robot, constraints: Iterable[Constraint | MinSpacing]) -> np.ndarray:
+    """(nq,) the largest margin any :class:`JointLimits` among ``constraints`` keeps at each joint
+    [rad or m] (0 where none)."""
+    out = np.zeros(robot.nq)
+    for c in constraints:
+        if isinstance(c, JointLimits):
+            out = np.maximum(out, c.margins_for(robot))
+    return out
