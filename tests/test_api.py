@@ -119,6 +119,7 @@ def test_no_import_inside_a_function_but_optional_ones():
     Pinocchio)."""
     allowed = {
         ("pincal/cli/show.py", "pincal.viewing.scene"),
+        ("pincal/cli/campaign.py", "pincal.viewing.animation"),
         ("pincal/viewing/scene.py", "pincal.viewing.static_page"),
         ("pincal/cli/__init__.py", "pincal.cli._common"),
         ("pincal/cli/__init__.py", "pincal.files"),

@@ -51,6 +51,14 @@ COMMANDS: dict[str, Command] = {
             "D-optimal plan's"
         ),
     ),
+    "campaign": Command(
+        "pincal.cli.campaign",
+        "run a plan on a real cell: the quickest order from home and back, every move checked, the time",
+    ),
+    "next": Command(
+        "pincal.cli.next",
+        "from the measurements so far, the next poses to measure (or stop: the target is reached)",
+    ),
     "simulate": Command(
         "pincal.cli.simulate",
         "Monte-Carlo simulation of a calibration with a plan: empirical vs predicted rho0",
@@ -108,6 +116,9 @@ a whole calibration, rehearsed on the shipped KUKA KR 270 (joint values in degre
       --out kr270_calibrated.urdf
   pincal compensate kr270 --calibration kr270_calibrated.urdf --targets program.csv --deg --payload 120 \\
       --marker 0.1,0.05,0.2 --out corrected.csv       # the program's corrected joint targets
+  pincal campaign kr270 --plan plan.csv --deg --marker 0.1,0.05,0.2 --out campaign.csv --html campaign.html
+  pincal next kr270 --data meas.csv --plan plan.csv -k 3 --deg --marker 0.1,0.05,0.2 \\
+      --test-pose=0,-60,60,0,45,0 --around 10deg --target 0.02mm --out next.csv
   pincal robots
   pincal urdf-from-dh docs/dh/ur5_dh.yaml --out ur5_dh.urdf     # a robot given by a DH table
 

@@ -61,6 +61,7 @@ OUTPUT_OPTIONS = {
     "save_true": "file",
     "plot": "figure",
     "accuracy_plot": "figure",
+    "campaign_plot": "figure",
 }
 
 

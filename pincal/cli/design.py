@@ -46,6 +46,12 @@ from pincal.cli._common import (
 )
 from pincal.cli._plot import add_plot_argument, save_design_plot
 from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
+from pincal.cli.campaign import (
+    TRADEOFF_HELP,
+    add_tradeoff_arguments,
+    check_tradeoff_arguments,
+    report_tradeoff,
+)
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0_split
 from pincal.model.statics import Payload
@@ -98,6 +104,7 @@ search.
 {conditioning}
 
 {safety}
+{tradeoff}
 {region}
 Units: metres and radians; --deg reads test poses and --pool, and writes --out and prints the plan,
 in degrees. The JSON plan is always in radians; rho0 is in metres for --sigma
@@ -112,6 +119,7 @@ EXAMPLES = (
     .replace("{conditioning}", CONDITIONING_HELP)
     .replace("{limits}", PAYLOAD_LIMITS[0].upper() + PAYLOAD_LIMITS[1:])
     .replace("{safety}", SAFETY_HELP.rstrip())
+    .replace("{tradeoff}", TRADEOFF_HELP.rstrip())
 )
 
 
@@ -206,6 +214,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_plot_argument(p)
     add_report_arguments(p)
+    add_tradeoff_arguments(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -223,6 +232,7 @@ def run(args: argparse.Namespace) -> int:
     q0 = test_region_from_args(robot, args, required=criterion.lower().startswith("test"))
     prior = prior_from_args(args)
     constraints = safe_constraints_from_args(robot, args)  # with the safe defaults
+    check_tradeoff_arguments(args, robot, q0)
     if args.worst and args.criterion not in ("test-pose", "test-pose-worst"):
         raise BadArgument(f"--worst applies to the test-pose criterion, not {args.criterion!r}")
     if args.pool and args.pool_size is not None:
@@ -269,8 +279,9 @@ def run(args: argparse.Namespace) -> int:
             loads.get("task_payload"),
             loads.get("residual_model"),
         )
+        campaign = report_tradeoff(args, params, q0, result.plan, options)  # --campaign
     safety = safety_margins(robot, result.plan, constraints)
-    _write_and_print(args, robot, params, source, result, baseline, report, sigma_text, safety)
+    _write_and_print(args, robot, params, source, result, baseline, report, sigma_text, safety, campaign)
     print_warnings(records)  # last, where they are seen
     return 0
 
@@ -340,6 +351,7 @@ def _write_and_print(
     report,
     sigma_text: str,
     safety=None,
+    campaign=(None, None),
 ) -> None:
     """--out, --plot, then the JSON object or the text report."""
     if args.out:
@@ -351,11 +363,17 @@ def _write_and_print(
         payload["accuracy"] = None if report is None else report.as_dict()
         payload["rho0_split"] = _split(params, result, args)
         payload["safety"] = None if safety is None else safety.as_dict()
+        if campaign[0] is not None:
+            payload["campaign"] = {"time": campaign[0].total, "order": list(campaign[0].order)}
+            payload["tradeoff"] = campaign[1].as_dict()
         emit_json(payload)
     else:
         print_design(robot, params, source, result, args.deg, sigma_text, _split(params, result, args))
         if safety is not None:
             print("\n".join(safety.lines()))
+        if campaign[0] is not None:
+            print(f"this plan's campaign: {campaign[0].summary()}")
+            print("\n".join(campaign[1].lines()))
         if baseline is not None:
             print_baseline(baseline[0], baseline[1], pool=args.pool)
         if report is not None:

@@ -118,7 +118,9 @@ def _stick_geometry(robot: Robot, reach: float) -> pin.GeometryModel:
 
 
 # ---------------------------------------------------------------------------- drawing
-def add_robot(vis, robot: Robot, geom: pin.GeometryModel, q: np.ndarray, path: str, rgba) -> None:
+def add_robot(vis, robot: Robot, geom: pin.GeometryModel, q: np.ndarray, path: str, rgba):
+    """The robot drawn with ``geom`` at ``q`` under ``path``; returns Pinocchio's
+    ``MeshcatVisualizer`` holding it (its nodes: ``viz.getViewerNodeName``)."""
     from pinocchio.visualize import MeshcatVisualizer
 
     viz = MeshcatVisualizer(robot.model, None, geom)
@@ -128,6 +130,7 @@ def add_robot(vis, robot: Robot, geom: pin.GeometryModel, q: np.ndarray, path: s
         viz.loadViewerModel(rootNodeName=path, visual_color=list(rgba))
     vis[path].set_transform(robot.base.homogeneous)
     viz.display(q + robot.joint_offsets)
+    return viz
 
 
 def material(color: str, opacity: float = 1.0):
@@ -265,19 +268,45 @@ def _joint_origins(robot: Robot, qs: np.ndarray) -> np.ndarray:
     return np.array(out).reshape(-1, 3)
 
 
-def set_view(vis, robot: Robot, qs: np.ndarray, reach: float) -> None:
-    """A light background and a camera that sees every pose of the robot (meshcat's camera looks
-    at the origin; a far instrument may be out of the first view: zoom out to see it)."""
+VIEW_PAD = 0.08
+"""Padding around the joint origins and points the view frames, as a fraction of the robot's reach
+(the links' thickness)."""
+
+FIELD_OF_VIEW = 75.0
+"""meshcat's vertical field of view [deg]."""
+
+
+def set_view(vis, robot: Robot, qs: np.ndarray, reach: float, extra: np.ndarray | None = None) -> np.ndarray:
+    """A light background, and a view that frames every pose of the robot: returns the centre [m].
+
+    meshcat's camera looks at, and turns about, its origin: the scene's root is shifted so that
+    the centre of the box holding every joint origin, tip and marker of ``qs`` (and the ``extra``
+    points, e.g. the cell's obstacles), padded by :data:`VIEW_PAD` × reach, is there; the camera
+    stands far enough for the sphere around that box to fit its field of view (nothing cut at
+    the top), and the grid lies at the robot's base plane, or under the lowest point when
+    something is below it (nothing hidden under the floor).
+    """
     vis["/Background"].set_property("top_color", [0.98, 0.98, 0.98])  # RGB in [0, 1]
     vis["/Background"].set_property("bottom_color", [0.78, 0.8, 0.84])
     pts = _joint_origins(robot, qs) if len(qs) else np.zeros((1, 3))
-    pts = np.vstack([pts, robot.points(qs).reshape(-1, 3) if len(qs) else pts])
-    extent = np.ptp(pts, axis=0)
+    pts = np.vstack([pts, robot.points(qs, check=False).reshape(-1, 3) if len(qs) else pts])
+    if extra is not None and len(extra):
+        pts = np.vstack([pts, np.asarray(extra, dtype=float).reshape(-1, 3)])
+    pad = VIEW_PAD * reach
+    lo, hi = pts.min(axis=0) - pad, pts.max(axis=0) + pad
+    centre = 0.5 * (lo + hi)
+    radius = max(0.5 * float(np.linalg.norm(hi - lo)), 0.3 * reach)
+    vis[ROOT].set_transform(_translation(-centre))
+    vis["/Axes"].set_transform(_translation(-centre))
+    low = float(pts[:, 2].min())
+    floor = low - pad if low < 0 else 0.0
+    vis["/Grid"].set_transform(_translation(np.array([-centre[0], -centre[1], floor - centre[2]])))
+    extent = hi - lo
     direction = np.array([1.0, -1.4, 0.9])
-    if extent[2] < 0.05 * max(extent.max(), 1e-9):  # a planar robot: look from above
+    if extent[2] < 0.1 * max(extent.max(), 1e-9):  # a planar robot: look from above
         direction = np.array([0.3, -0.6, 1.6])
-    # meshcat's camera (75° field of view) looks at the origin: keep every point in sight.
-    radius = max(np.linalg.norm(pts, axis=1).max(), 0.3 * reach)
-    eye = direction / np.linalg.norm(direction) * 1.7 * radius
+    distance = 1.05 * radius / np.sin(np.radians(FIELD_OF_VIEW / 2))
+    eye = direction / np.linalg.norm(direction) * distance
     # The camera sits under /Cameras/default/rotated, whose axes are (x, z, -y) of the world's.
     vis["/Cameras/default/rotated/<object>"].set_property("position", [eye[0], eye[2], -eye[1]])
+    return centre

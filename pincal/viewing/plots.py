@@ -13,6 +13,8 @@ function is called, never when pincal is imported.
   pose (median and 95th percentile), plans side by side.
 * :func:`validation_errors`: held-out position errors before/after calibration, per point and
   as histograms.
+* :func:`accuracy_vs_time`: predicted error after calibration against the campaign's minutes,
+  one point per plan size.
 """
 
 from __future__ import annotations
@@ -360,4 +362,27 @@ def validation_errors(validation: Any, unit: str = "mm", bins: int = 30, title: 
     right.set_ylabel("points")
     right.legend(fontsize="small")
     fig.suptitle(title or f"validation: {getattr(validation, 'how', 'held-out points')}", fontsize="medium")
+    return fig
+
+
+def accuracy_vs_time(
+    sizes: object, minutes: object, errors: object, unit: str = "mm", title: str | None = None
+) -> Figure:
+    """The predicted error over the test region [m] against the campaign's time [min], one point
+    per plan size, labelled ``m=…`` (:func:`pincal.campaign.tradeoff.accuracy_vs_time`)."""
+    factor = _factor(unit)
+    m = np.asarray(sizes, dtype=int)
+    t = np.asarray(minutes, dtype=float)
+    e = _finite_positive(errors, "errors") * factor
+    if not (len(m) == len(t) == len(e)):
+        raise BadArgument("accuracy_vs_time: one size, one time and one error per point")
+    fig = _figure((6.0, 4.0))
+    ax = fig.add_subplot()
+    ax.plot(t, e, "o-", color=_COLORS[1])
+    for mi, x, y in zip(m, t, e, strict=True):
+        ax.annotate(f"m={mi}", (x, y), textcoords="offset points", xytext=(4, 4), fontsize=8)
+    ax.set_xlabel("campaign time [min]")
+    ax.set_ylabel(f"predicted error over the test region [{unit}]")
+    ax.set_title(title or "accuracy against campaign time")
+    ax.grid(True, alpha=0.3)
     return fig

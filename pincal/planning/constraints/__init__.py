@@ -19,6 +19,8 @@ the robot has a base placement); angles in radians. :func:`load_constraints` rea
 * :class:`Workcell` — the robot's collision geometry (the URDF's, or capsules derived from the
   kinematics) at least ``min_distance`` from every obstacle of the cell (boxes, cylinders, spheres,
   meshes, a URDF of the cell; base frame).
+* :class:`AvoidPoses` — every configuration a distance away from given ones (poses found
+  unreachable).
 * :class:`MinSpacing` — any two configurations of a plan at least ``distance`` apart in joint space
   (Euclidean norm of the joint differences [rad]).
 
@@ -37,6 +39,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from pincal.model.robot import Robot
+from pincal.planning.constraints.avoid_poses import AvoidPoses
 from pincal.planning.constraints.base import TOLERANCE, Bound, Constraint, Kinematics
 from pincal.planning.constraints.defaults import (
     JointMargin,
@@ -66,6 +69,7 @@ __all__ = [
     "MOUNTS",
     "TOLERANCE",
     "AnyConstraint",
+    "AvoidPoses",
     "Bound",
     "Constraint",
     "HalfSpace",

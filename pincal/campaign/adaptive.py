@@ -1,0 +1,337 @@
+"""Adaptive campaigns: from the measurements so far, the next poses to measure, or stop.
+
+:func:`next_poses` takes the data measured so far (and the plan they were measured from) and
+
+1. identifies the parameters from them (:func:`pincal.identify`, rows beyond ``reject`` robust σ
+   dropped as outliers and named), and re-estimates σ from the residuals (unless given, or the data
+   carry their own uncertainties);
+2. names the planned poses that were not measured (unreachable, or not seen by the instrument);
+3. predicts the error over the test region with the data so far: the information of the poses
+   measured (outliers left out), F = Σ JᵢᵀJᵢ/σ², taken as a prior (:class:`MeasuredPrior`);
+4. stops when that prediction is below ``target``; otherwise designs the next ``k`` poses that most
+   reduce the criterion over the test region *given what is already measured* (the design's prior is
+   F plus the user's prior), kept away from the unreachable poses, and predicts the error after
+   them.
+
+A campaign run this way measures until the data say the target is reached, and spends each new
+pose where the data so far are weakest: it reaches the target in fewer poses than a plan fixed in
+advance when the noise, an outlier or an unreachable pose differ from what the plan assumed
+(benchmarks/RESULTS.md, bench_adaptive).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from pincal.arguments import DEFAULT_SIGMA, Seed, positive_int, positive_sigma
+from pincal.calibration.identification import IdentificationResult, identify
+from pincal.calibration.measurements import MeasurementData
+from pincal.calibration.sanity import OUTLIER_SCORE, Outlier
+from pincal.campaign.measured import MeasuredPrior
+from pincal.errors import BadArgument, DegenerateOptimumWarning, PincalError, SingularPlan
+from pincal.evaluation.prior import Prior
+from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.model.parameters import ParameterSet
+from pincal.planning.constraints import AnyConstraint, AvoidPoses, JointMargin, MountSpec, with_safety
+from pincal.planning.driver import design
+from pincal.planning.plan import Plan
+
+MATCH_TOLERANCE = 1e-3
+"""A planned pose counts as measured when a measured configuration is within this of it on every
+joint [rad or m] (a robot reports where it stopped, not exactly what it was sent)."""
+
+AVOID_DISTANCE = math.radians(10)
+"""How far the next poses keep from the unreachable ones (joint space, Euclidean) [rad]."""
+
+
+SIGMA_SOURCES = {
+    "estimated": "re-estimated from the residuals",
+    "given": "given",
+    "data": "from the data's uncertainty columns",
+    "default": "the default: too few data to estimate it",
+}
+"""Where the σ of a prediction comes from, in words."""
+
+
+@dataclass(frozen=True, eq=False)
+class NextPoses:
+    """What :func:`next_poses` decided.
+
+    Attributes:
+        plan: the next configurations to measure (empty when ``stop``).
+        stop: the predicted error over the test region is below the target with the data so far.
+        predicted: the predicted error over the test region with the data so far [m] (root mean
+            square over its samples; inf while the data cannot determine every parameter).
+        predicted_after: the same after measuring ``plan`` too [m] (None when stopping).
+        target: the target [m], or None.
+        sigma: the σ used [m] (re-estimated, given, or the default).
+        sigma_source: ``estimated``, ``given``, ``data`` (uncertainty columns) or ``default``.
+        measured: configurations measured so far (rows of the data).
+        used: those used (outliers left out).
+        outliers: the rows dropped as outliers.
+        unreachable: (u, nq) planned poses not measured.
+        identification: the identification from the data so far, or None (too few data).
+        message: one line: what to do next.
+    """
+
+    plan: Plan
+    stop: bool
+    predicted: float
+    predicted_after: float | None
+    target: float | None
+    sigma: float
+    sigma_source: str
+    measured: int
+    used: int
+    outliers: tuple[Outlier, ...]
+    unreachable: np.ndarray
+    identification: IdentificationResult | None
+    message: str
+
+    def as_dict(self) -> dict:
+        def finite(v: float | None) -> float | None:
+            return None if v is None or not math.isfinite(v) else float(v)
+
+        return {
+            "stop": self.stop,
+            "next": self.plan.q.tolist(),
+            "joint_names": list(self.plan.joint_names),
+            "predicted": finite(self.predicted),
+            "predicted_after": finite(self.predicted_after),
+            "target": self.target,
+            "sigma": self.sigma,
+            "sigma_source": self.sigma_source,
+            "measured": self.measured,
+            "used": self.used,
+            "outliers": [o.as_dict() for o in self.outliers],
+            "unreachable": self.unreachable.tolist(),
+            "identification": None
+            if self.identification is None
+            else {"status": self.identification.status, "message": self.identification.message},
+            "message": self.message,
+        }
+
+    def lines(self, degrees: bool = False) -> list[str]:
+        """The report (poses in degrees if asked)."""
+
+        def mm(v: float | None) -> str:
+            return "not yet determined" if v is None or not math.isfinite(v) else f"{v * 1e3:.4g} mm"
+
+        out = [f"data so far: {self.measured} poses measured, {self.used} used"]
+        for o in self.outliers:
+            out.append(f"  outlier dropped: {o}")
+        if len(self.unreachable):
+            out.append(f"  planned but not measured (unreachable): {len(self.unreachable)} pose(s), avoided")
+        if self.identification is not None:
+            out.append(f"  identification: {self.identification.status}")
+        source = SIGMA_SOURCES[self.sigma_source]
+        out.append(f"  σ = {self.sigma * 1e3:.4g} mm ({source})")
+        target = "" if self.target is None else f" (target {mm(self.target)})"
+        out.append(f"predicted error over the test region with the data so far: {mm(self.predicted)}{target}")
+        if self.stop:
+            out.append("stop: the predicted error is below the target with the data so far")
+            return out
+        out.append(f"next {len(self.plan)} poses, predicted error after them: {mm(self.predicted_after)}")
+        values = (
+            self.plan.q if not degrees else np.where(self.plan.revolute, np.degrees(self.plan.q), self.plan.q)
+        )
+        for row in values:
+            out.append("  " + " ".join(f"{v:10.4f}" for v in row))
+        return out
+
+
+def unmeasured(plan: np.ndarray, measured: np.ndarray, tolerance: float = MATCH_TOLERANCE) -> np.ndarray:
+    """The rows of ``plan`` with no configuration of ``measured`` within ``tolerance`` on every joint."""
+    if not len(plan):
+        return np.zeros(0, dtype=bool)
+    if not len(measured):
+        return np.ones(len(plan), dtype=bool)
+    gap = np.abs(plan[:, None, :] - measured[None, :, :]).max(axis=2)
+    return gap.min(axis=1) > tolerance
+
+
+@dataclass(frozen=True, eq=False)
+class Assessment:
+    """What the data so far say (steps 1 to 3 of the module doc).
+
+    Attributes:
+        identification: the identification, or None (too few data).
+        used: (m,) the rows used (outliers left out).
+        outliers: the rows dropped.
+        sigma: the σ of the prediction [m]; sigma_source: where it came from.
+        measured: the information of the rows used, as a prior.
+        unreachable: (u, nq) planned poses not measured.
+        predicted: the predicted error over the test region with the data so far [m].
+    """
+
+    identification: IdentificationResult | None
+    used: np.ndarray
+    outliers: tuple[Outlier, ...]
+    sigma: float
+    sigma_source: str
+    measured: MeasuredPrior
+    unreachable: np.ndarray
+    predicted: float
+
+
+def assess(
+    params: ParameterSet,
+    data: MeasurementData,
+    test_pose: object,
+    *,
+    plan: object = None,
+    sigma: float | None = None,
+    prior: Prior | None = None,
+    reject: float = OUTLIER_SCORE,
+) -> Assessment:
+    """Identify from ``data``, re-estimate σ, drop outliers, name the unreachable planned poses and
+    predict the error over the test region with the data so far (arguments as :func:`next_poses`)."""
+    robot = params.robot
+    if prior is not None and not isinstance(prior, Prior):
+        raise BadArgument(f"prior must be a pincal.Prior, got {prior!r}", argument="prior")
+    data = data.for_robot(robot)
+    given = None if sigma is None else positive_sigma(sigma)
+    fit, used, outliers = _identified(params, data, given, prior, reject)
+    if data.sigma is not None:
+        noise, source = data.sigma[used], "data"
+        value = float(np.median(data.sigma[used]))
+    elif given is not None:
+        noise, source, value = given, "given", given
+    elif fit is not None and fit.sigma_estimated and math.isfinite(fit.sigma) and fit.sigma > 0:
+        noise = value = float(fit.sigma)
+        source = "estimated"
+    else:
+        noise = value = DEFAULT_SIGMA
+        source = "default"
+    measured = MeasuredPrior.from_measurements(params, data.q[used], noise, prior)
+    planned = np.empty((0, robot.nq)) if plan is None else robot.configurations(plan, what="planned pose")
+    missing = planned[unmeasured(planned, data.q)]
+    predicted = _predicted(params, test_pose, value, measured)
+    return Assessment(fit, used, outliers, value, source, measured, missing, predicted)
+
+
+def next_poses(
+    params: ParameterSet,
+    data: MeasurementData,
+    test_pose: object,
+    k: int = 3,
+    *,
+    plan: object = None,
+    target: float | None = None,
+    sigma: float | None = None,
+    prior: Prior | None = None,
+    constraints: Iterable[AnyConstraint] = (),
+    joint_margin: JointMargin = None,
+    mount: MountSpec = None,
+    reject: float = OUTLIER_SCORE,
+    starts: int = 8,
+    seed: Seed = 0,
+    workers: int | None = 1,
+    pool: object = None,
+    polish: bool | None = None,
+) -> NextPoses:
+    """The next ``k`` poses to measure given the data so far, or stop (see the module doc).
+
+    Args:
+        params: the parameters identified (an identifiable set of the nominal robot).
+        data: the measurements so far.
+        test_pose: where the robot works: a test pose, several, a region or a path (as
+            :func:`pincal.design` takes it); the predicted error is the root mean square over it.
+        k: how many poses to choose next.
+        plan: the poses planned so far (those not in ``data`` are unreachable and avoided), or None.
+        target: stop when the predicted error over the test region is below this [m].
+        sigma: the instrument's noise per coordinate [m]; default: re-estimated from the residuals
+            (or the data's uncertainty columns; :data:`~pincal.DEFAULT_SIGMA` while too few data).
+        prior: the errors' prior before any measurement, or None.
+        constraints, joint_margin, mount: the workcell and the safe defaults, as for
+            :func:`pincal.design`.
+        reject: rows beyond this many robust σ are outliers, dropped.
+        starts, seed, workers, pool, polish: the next design's search (see :func:`pincal.design`).
+
+    Raises:
+        SingularPlan: ``k`` poses cannot complete what the data leave undetermined (the message
+            names the minimum).
+        BadArgument, BadMeasurementData, BadConfiguration: bad input.
+    """
+    robot = params.robot
+    k = positive_int(k, "k (poses to choose next)")
+    if target is not None:
+        target = positive_sigma(target, "target")
+    a = assess(params, data, test_pose, plan=plan, sigma=sigma, prior=prior, reject=reject)
+    common = dict(
+        target=target, sigma=a.sigma, sigma_source=a.sigma_source, measured=data.m, used=int(a.used.sum()),
+        outliers=a.outliers, unreachable=a.unreachable, identification=a.identification,
+    )  # fmt: skip
+    if target is not None and a.predicted <= target:
+        empty = Plan(np.empty((0, robot.nq)), robot.joint_names, tuple(robot.revolute))
+        message = (
+            f"stop: the predicted error {a.predicted * 1e3:.4g} mm is below the target {target * 1e3:.4g} mm"
+        )
+        return NextPoses(empty, True, a.predicted, None, message=message, **common)
+    _check_enough(params, a.measured, a.sigma, k)
+    cell = tuple(constraints) + ((AvoidPoses(a.unreachable, AVOID_DISTANCE),) if len(a.unreachable) else ())
+    cell = with_safety(robot, cell, joint_margin, mount)
+    with warnings.catch_warnings():
+        # The next k poses alone need not determine every parameter: the data so far do the rest.
+        warnings.simplefilter("ignore", DegenerateOptimumWarning)
+        result = design(
+            params, k, test_pose, prior=a.measured, sigma=a.sigma, constraints=cell, starts=starts, seed=seed,
+            workers=workers, pool=pool, polish=polish,
+        )  # fmt: skip
+    message = f"measure the next {k} poses (predicted error after them: {result.rho0 * 1e3:.4g} mm)"
+    return NextPoses(result.plan, False, a.predicted, float(result.rho0), message=message, **common)
+
+
+def _identified(
+    params: ParameterSet, data: MeasurementData, sigma: float | None, prior: Prior | None, reject: float
+) -> tuple[IdentificationResult | None, np.ndarray, tuple[Outlier, ...]]:
+    """(the identification from the data, or None when it cannot run; the rows used; the outliers)."""
+    used = np.ones(data.m, dtype=bool)
+    if data.m * 3 * params.robot.n_markers <= len(params):  # no residual left to judge σ or outliers by
+        return None, used, ()
+    try:
+        fit = identify(params, data, sigma=sigma, prior=prior, reject=reject, sanity=False)
+    except PincalError:
+        return None, used, ()
+    if fit.status == "rank_deficient":
+        return None, used, ()
+    rejected = tuple(fit.rejected)
+    for o in rejected:
+        used[o.row] = False
+    return fit, used, rejected
+
+
+def _predicted(params: ParameterSet, test_pose: object, sigma: float, measured: MeasuredPrior) -> float:
+    """The predicted error over the test region with the measured information only [m] (inf when it
+    does not determine every parameter)."""
+    criterion = TestPoseCriterion(params, test_pose, sigma, "mean", measured)
+    P = len(params)
+    try:
+        return float(criterion.from_information(np.zeros((P, P)), 0))
+    except SingularPlan:
+        return math.inf
+
+
+def _check_enough(params: ParameterSet, measured: MeasuredPrior, sigma: float, k: int) -> None:
+    """Refuse a k that cannot complete what the data leave undetermined."""
+    info = measured.information(params, sigma)
+    d = np.sqrt(np.maximum(np.diag(info), 1e-300))
+    w = np.linalg.eigvalsh(info / np.outer(d, d)) if len(info) else np.zeros(0)
+    rank = int(np.sum(w > 1e-10 * max(w.max(initial=0.0), 1e-300)))
+    missing = len(params) - rank
+    rows = 3 * params.robot.n_markers
+    if missing > k * rows:
+        need = -(-missing // rows)
+        raise SingularPlan(
+            len(params),
+            rows,
+            k,
+            rank,
+            why=f"the data so far determine {rank} of {len(params)} parameter combinations: the next poses "
+            f"must bring {missing} more, at least {need} poses (k = {k} is too few)",
+        )

@@ -1,0 +1,209 @@
+r"""Moves certified collision-free, with a stated bound rather than a number of samples.
+
+A move from a to b runs the joints along the straight segment q(s) = a + s(b − a), s ∈ [0, 1]. For
+every pair the collision world checks (the robot against itself, the cell's obstacles and the
+floor: :class:`~pincal.planning.constraints.collision_world.CollisionWorld`), no point of the
+pair's moving shape travels farther, relative to the other shape, than λ = Σⱼ wⱼ |Δqⱼ| over a
+stretch of the segment where the joints move by Δq (w: the world's motion weights). So if the
+pair is η(s₀) apart at s₀ and η(s₁) apart at s₁, everywhere between them it is at least
+
+    (η(s₀) + η(s₁) − λ(s₀, s₁)) / 2
+
+apart (Schwarzer, Saha & Latombe, IEEE T-RO 2005): a stretch where this bound is at least the
+clearance asked is clear — certified, not sampled — and only the stretches where it is not are
+bisected, until every stretch is certified, or a configuration closer than the clearance is found
+(the move collides there), or :data:`MAX_EVALUATIONS` distance evaluations did not settle it.
+:func:`certify_move` reports the certified bound (the smallest distance anywhere on the move is at
+least this), the smallest distance at the configurations evaluated, and the pair.
+
+A move that is not clear gets a detour (:func:`find_detour`): an intermediate configuration c,
+drawn around the segment farther and farther out, that is itself clear and from which both a → c
+and c → b are certified; the quickest one found is kept.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pincal.planning.constraints.collision_world import CollisionWorld
+
+MAX_EVALUATIONS = 4000
+"""Distance evaluations one move may use before it is declared not certified."""
+
+DETOUR_TRIES = 24
+"""Candidate intermediate configurations tried at each detour distance."""
+
+DETOUR_SCALES = (0.05, 0.1, 0.2, 0.35, 0.5)
+"""How far detour candidates are drawn from the segment, as fractions of each joint's range."""
+
+
+@dataclass(frozen=True)
+class MoveCheck:
+    """The clearance of one straight joint-space move.
+
+    Attributes:
+        clear: every pair keeps its clearance along the whole move (certified).
+        certified: a lower bound of the smallest distance anywhere on the move [m] (inf with no
+            pair to check); at least the clearance when ``clear``.
+        sampled: the smallest distance at the configurations evaluated [m].
+        closest: the pair of ``sampled`` (``link_4 (capsule) / table``).
+        evaluations: configurations at which the distances were computed.
+        blocked: why the move is not clear (the pair found too close, and where), or "".
+        at: where along the move (0 to 1) the blocking configuration is, or None.
+    """
+
+    clear: bool
+    certified: float
+    sampled: float
+    closest: str
+    evaluations: int
+    blocked: str = ""
+    at: float | None = None
+
+    def as_dict(self) -> dict:
+        finite = np.isfinite
+        return {
+            "clear": self.clear,
+            "certified": float(self.certified) if finite(self.certified) else None,
+            "sampled": float(self.sampled) if finite(self.sampled) else None,
+            "closest": self.closest,
+            "evaluations": self.evaluations,
+            "blocked": self.blocked,
+            "at": self.at,
+        }
+
+
+def certify_move(
+    world: CollisionWorld,
+    a: np.ndarray,
+    b: np.ndarray,
+    required: np.ndarray | float = 0.0,
+    ends: tuple[np.ndarray, np.ndarray] | None = None,
+    max_evaluations: int = MAX_EVALUATIONS,
+) -> MoveCheck:
+    """Certify the straight move from ``a`` to ``b`` (see the module doc).
+
+    Args:
+        world: the collision world.
+        a, b: (nq,) the move's ends [rad or m].
+        required: the clearance each pair must keep [m] (one for all, or (world.size,)).
+        ends: the distances at ``a`` and ``b``, when known.
+        max_evaluations: distance evaluations allowed.
+    """
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if world.size == 0:
+        return MoveCheck(True, np.inf, np.inf, "", 0)
+    need = np.broadcast_to(np.asarray(required, dtype=float), (world.size,))
+    span = world.weights @ np.abs(b - a)  # λ over the whole move, per pair
+    ea, eb = ends if ends is not None else (world.distances(a), world.distances(b))
+    evaluations = 0 if ends is not None else 2
+    samples = [ea, eb]
+    certified = np.inf
+    stack = [(0.0, 1.0, ea, eb)]
+    blocked, at = "", None
+    while stack:
+        s0, s1, e0, e1 = stack.pop()
+        for s, e in ((s0, e0), (s1, e1)):
+            short = e < need - 1e-12
+            if short.any():
+                k = int(np.argmax(need - e))
+                blocked = f"{world.names[k]}: {e[k] * 1e3:.3g} mm apart (keeps {need[k] * 1e3:.3g} mm)"
+                at = s
+                break
+        if blocked:
+            break
+        lower = 0.5 * (e0 + e1 - span * (s1 - s0))
+        if np.all(lower >= need):
+            certified = min(certified, float(lower.min()))
+            continue
+        if evaluations >= max_evaluations:
+            k = int(np.argmin(lower - need))
+            blocked = (
+                f"{world.names[k]}: not certified within {max_evaluations} distance evaluations "
+                f"(it comes within {max(lower[k], 0) * 1e3:.3g} mm of the clearance)"
+            )
+            at = 0.5 * (s0 + s1)
+            break
+        mid = 0.5 * (s0 + s1)
+        em = world.distances(a + mid * (b - a))
+        evaluations += 1
+        samples.append(em)
+        stack.append((mid, s1, em, e1))  # the first half is checked first (popped next)
+        stack.append((s0, mid, e0, em))
+    sampled = np.min(samples, axis=0)
+    k = int(np.argmin(sampled))
+    return MoveCheck(
+        not blocked,
+        certified if not blocked else float(min(certified, sampled.min())),
+        float(sampled[k]),
+        world.names[k],
+        evaluations,
+        blocked,
+        at,
+    )
+
+
+@dataclass(frozen=True)
+class Detour:
+    """A move split in two by an intermediate configuration.
+
+    Attributes:
+        via: (nq,) the intermediate configuration [rad or m].
+        first, second: the checks of the two moves (both clear).
+    """
+
+    via: np.ndarray
+    first: MoveCheck
+    second: MoveCheck
+
+
+def find_detour(
+    world: CollisionWorld,
+    a: np.ndarray,
+    b: np.ndarray,
+    required: np.ndarray | float,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    move_time,
+    rng: np.random.Generator,
+    extra: tuple[np.ndarray, ...] = (),
+) -> Detour | None:
+    """The quickest detour found from ``a`` to ``b`` through one clear intermediate configuration.
+
+    Candidates are ``extra`` (e.g. the home configuration) and configurations drawn around the
+    segment, :data:`DETOUR_TRIES` at each distance of :data:`DETOUR_SCALES` (a fraction of each
+    joint's range in [lower, upper]); the first distance with a clear detour ends the search, and
+    the quickest of its detours (by ``move_time(a, c) + move_time(c, b)``) is returned, or None.
+    """
+    need = np.broadcast_to(np.asarray(required, dtype=float), (world.size,))
+    ends = world.distances(a), world.distances(b)
+    span = upper - lower
+
+    def attempt(candidates: list[np.ndarray]) -> Detour | None:
+        found = []
+        for c in sorted(candidates, key=lambda c: move_time(a, c) + move_time(c, b)):
+            dc = world.distances(c)
+            if np.any(dc < need):
+                continue
+            first = certify_move(world, a, c, need, (ends[0], dc), max_evaluations=MAX_EVALUATIONS // 4)
+            if not first.clear:
+                continue
+            second = certify_move(world, c, b, need, (dc, ends[1]), max_evaluations=MAX_EVALUATIONS // 4)
+            if second.clear:
+                found.append(Detour(c, first, second))
+                break  # candidates are sorted by time: the first clear one is the quickest
+        return found[0] if found else None
+
+    detour = attempt([np.clip(np.asarray(c, dtype=float), lower, upper) for c in extra])
+    if detour is not None:
+        return detour
+    for scale in DETOUR_SCALES:
+        s = rng.uniform(0.2, 0.8, DETOUR_TRIES)
+        base = a[None] + s[:, None] * (b - a)[None]
+        candidates = base + rng.normal(0.0, scale, base.shape) * span
+        detour = attempt(list(np.clip(candidates, lower, upper)))
+        if detour is not None:
+            return detour
+    return None

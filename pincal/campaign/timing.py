@@ -1,0 +1,206 @@
+"""How long a campaign takes: the moves between configurations and the time spent at each.
+
+A joint-space move from a to b runs every joint at once and ends when the slowest ends
+(synchronised joints). Joint j, with speed limit vⱼ and, optionally, acceleration limit aⱼ, covers
+dⱼ = |bⱼ − aⱼ| in
+
+* tⱼ = dⱼ / vⱼ                     without acceleration limits;
+* tⱼ = dⱼ / vⱼ + vⱼ / aⱼ           with them, when dⱼ ≥ vⱼ² / aⱼ (a trapezoid: it reaches vⱼ);
+* tⱼ = 2 √(dⱼ / aⱼ)               with them, when dⱼ < vⱼ² / aⱼ (a triangle: it never does);
+
+and the move takes maxⱼ tⱼ. At each measurement pose the robot then waits a settle time (its
+position settling after the stop) and the instrument's dwell (the time it takes per point:
+:data:`DWELLS`). The speeds are the URDF's ``<limit velocity>`` unless given, scaled by a speed
+fraction (a controller's override, e.g. 0.5 for 50 %).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pincal.errors import BadArgument
+from pincal.model.robot import Robot
+
+DWELLS = {"tracker": 2.0, "probe": 10.0}
+"""The instrument's time per point [s] by kind: a laser tracker at its best accuracy (averaging
+over about 2 s), a 6-DoF probe (about 10 s)."""
+
+DEFAULT_DWELL = "tracker"
+"""The instrument assumed when none is given."""
+
+DEFAULT_SETTLE = 0.5
+"""Time [s] the robot is left to settle at a measurement pose before the instrument reads."""
+
+
+def _positive_vector(values: object, n: int, what: str, names: tuple[str, ...]) -> np.ndarray:
+    try:
+        arr = np.array(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        arr = np.empty(0)
+    if arr.size == 1:
+        arr = np.full(n, arr[0])
+    if arr.size != n or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
+        raise BadArgument(
+            f"{what} must be {n} positive numbers (one per joint: {', '.join(names)}) or one for all, "
+            f"got {values!r}",
+            argument=what,
+            value=values,
+        )
+    return arr
+
+
+def dwell_seconds(dwell: float | str | None) -> tuple[float, str]:
+    """(seconds, instrument) of a dwell given as seconds, an instrument kind of :data:`DWELLS` or None
+    (the default instrument)."""
+    if dwell is None:
+        dwell = DEFAULT_DWELL
+    if isinstance(dwell, str) and dwell.strip().lower() in DWELLS:
+        kind = dwell.strip().lower()
+        return DWELLS[kind], kind
+    try:
+        value = float(dwell)
+    except (TypeError, ValueError):
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise BadArgument(
+            f"dwell must be seconds ≥ 0 or an instrument "
+            f"({', '.join(f'{k}: {v:g} s' for k, v in DWELLS.items())}), got {dwell!r}",
+            argument="dwell",
+            value=dwell,
+        )
+    return value, "given"
+
+
+@dataclass(frozen=True, eq=False)
+class Timing:
+    """The time model of a campaign (see the module doc).
+
+    Attributes:
+        speeds: (nq,) joint speed limits used [rad/s, or m/s for a prismatic joint] (after the
+            speed fraction).
+        accelerations: (nq,) joint acceleration limits [rad/s², m/s²], or None (instant speed).
+        settle: wait after each move to a measurement pose [s].
+        dwell: the instrument's time per measurement pose [s].
+        instrument: ``tracker``, ``probe`` or ``given`` (the dwell given in seconds).
+        speed_source: where the speeds came from (``URDF velocity limits`` or ``given``).
+    """
+
+    speeds: np.ndarray
+    accelerations: np.ndarray | None
+    settle: float = DEFAULT_SETTLE
+    dwell: float = DWELLS[DEFAULT_DWELL]
+    instrument: str = DEFAULT_DWELL
+    speed_source: str = "given"
+
+    @classmethod
+    def for_robot(
+        cls,
+        robot: Robot,
+        speeds: object = None,
+        accelerations: object = None,
+        *,
+        speed_fraction: float = 1.0,
+        settle: float = DEFAULT_SETTLE,
+        dwell: float | str | None = None,
+    ) -> Timing:
+        """The time model of ``robot``.
+
+        Args:
+            robot: the robot.
+            speeds: joint speed limits [rad/s or m/s], one per joint or one for all (default: the
+                URDF's ``<limit velocity>``).
+            accelerations: joint acceleration limits [rad/s² or m/s²], one per joint or one for
+                all, or None (moves at full speed from the start).
+            speed_fraction: the fraction of the speeds the robot runs at, in (0, 1].
+            settle: wait after each move to a measurement pose [s].
+            dwell: the instrument's time per point [s], or ``tracker`` (2 s), ``probe`` (10 s);
+                default ``tracker``.
+
+        Raises:
+            BadArgument: a bad value, or no speed limits in the URDF (give ``speeds``).
+        """
+        names = robot.joint_names
+        source = "given"
+        if speeds is None:
+            urdf = np.asarray(robot.model.velocityLimit, dtype=float)
+            if urdf.size != robot.nq or not np.all(np.isfinite(urdf)) or np.any(urdf <= 0):
+                missing = [n for n, v in zip(names, urdf, strict=False) if not (np.isfinite(v) and v > 0)]
+                raise BadArgument(
+                    f"the URDF gives no speed limit (<limit velocity>) for joint(s) {', '.join(missing)}: "
+                    "give the joints' speeds (--joint-speeds, speeds=) in rad/s (m/s for prismatic "
+                    "joints)",
+                    argument="speeds",
+                )
+            speeds, source = urdf, "URDF velocity limits"
+        v = _positive_vector(speeds, robot.nq, "speeds", names)
+        a = (
+            None
+            if accelerations is None
+            else _positive_vector(accelerations, robot.nq, "accelerations", names)
+        )
+        try:
+            fraction = float(speed_fraction)
+        except (TypeError, ValueError):
+            fraction = math.nan
+        if not (0 < fraction <= 1):
+            raise BadArgument(
+                f"speed_fraction must be in (0, 1], got {speed_fraction!r}", argument="speed_fraction"
+            )
+        try:
+            settle_s = float(settle)
+        except (TypeError, ValueError):
+            settle_s = math.nan
+        if not (math.isfinite(settle_s) and settle_s >= 0):
+            raise BadArgument(f"settle must be seconds ≥ 0, got {settle!r}", argument="settle", value=settle)
+        dwell_s, instrument = dwell_seconds(dwell)
+        if fraction < 1:
+            source += f" × {fraction:g}"
+        return cls(v * fraction, a, settle_s, dwell_s, instrument, source)
+
+    def joint_times(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(..., nq) time each joint needs from ``a`` to ``b`` [s] (broadcast over leading axes)."""
+        d = np.abs(np.asarray(b, dtype=float) - np.asarray(a, dtype=float))
+        v = self.speeds
+        if self.accelerations is None:
+            return d / v
+        acc = self.accelerations
+        cruise = d / v + v / acc
+        triangle = 2.0 * np.sqrt(d / acc)
+        return np.where(d >= v**2 / acc, cruise, triangle)
+
+    def move_time(self, a: np.ndarray, b: np.ndarray) -> np.ndarray | float:
+        """Time of the synchronised move from ``a`` to ``b`` [s]: the slowest joint's."""
+        t = self.joint_times(a, b).max(axis=-1)
+        return float(t) if np.ndim(t) == 0 else t
+
+    def matrix(self, qs: np.ndarray) -> np.ndarray:
+        """(n, n) move times between every pair of configurations ``qs`` [s] (symmetric)."""
+        qs = np.asarray(qs, dtype=float)
+        return self.joint_times(qs[:, None, :], qs[None, :, :]).max(axis=-1)
+
+    @property
+    def stop(self) -> float:
+        """Time spent at each measurement pose: settle plus dwell [s]."""
+        return self.settle + self.dwell
+
+    def describe(self) -> str:
+        """The model in words, for reports."""
+        acc = "no acceleration limits" if self.accelerations is None else "acceleration limits given"
+        kind = {"tracker": "laser tracker", "probe": "6-DoF probe"}.get(self.instrument, "given")
+        return (
+            f"joint speeds: {self.speed_source}, {acc}; settle {self.settle:g} s, dwell {self.dwell:g} s "
+            f"per pose ({kind})"
+        )
+
+    def as_dict(self) -> dict:
+        return {
+            "speeds": self.speeds.tolist(),
+            "accelerations": None if self.accelerations is None else self.accelerations.tolist(),
+            "settle": self.settle,
+            "dwell": self.dwell,
+            "instrument": self.instrument,
+            "speed_source": self.speed_source,
+        }

@@ -1,0 +1,158 @@
+"""Accuracy against campaign time: what each more pose costs, and what it buys.
+
+For m = 6 … 30 poses, :func:`accuracy_vs_time` designs the plan of m poses (as
+:func:`pincal.design`, same options), orders it into a campaign (:func:`plan_campaign`, order and
+time: the moves are not checked) and reports the predicted error over the test region next to the
+campaign's minutes — so a user picks m knowing the price in robot downtime. Sizes too small to
+identify the parameters (without a prior) are left out and named.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from pincal.arguments import DEFAULT_SIGMA, positive_int
+from pincal.campaign.schedule import plan_campaign
+from pincal.campaign.timing import Timing
+from pincal.errors import BadArgument, PincalError
+from pincal.evaluation.prior import Prior
+from pincal.model.parameters import ParameterSet
+from pincal.planning.constraints import AnyConstraint, JointMargin, MountSpec, with_safety
+from pincal.planning.driver import design
+from pincal.planning.plan import Plan
+
+DEFAULT_SIZES = (6, 8, 10, 12, 15, 18, 21, 24, 27, 30)
+"""The plan sizes of the trade-off by default (m = 6 … 30)."""
+
+
+@dataclass(frozen=True, eq=False)
+class TradeoffRow:
+    """One plan size.
+
+    Attributes:
+        m: poses.
+        predicted: the predicted error over the test region after calibration [m] (root mean square).
+        minutes: the campaign's time from home and back [min].
+        plan: the designed plan.
+    """
+
+    m: int
+    predicted: float
+    minutes: float
+    plan: Plan
+
+
+@dataclass(frozen=True, eq=False)
+class Tradeoff:
+    """Accuracy against campaign time (see the module doc).
+
+    Attributes:
+        rows: one per plan size, by m.
+        skipped: the sizes left out, with why.
+        timing: the time model of the campaigns.
+        sigma: the noise of the predictions [m].
+    """
+
+    rows: tuple[TradeoffRow, ...]
+    skipped: tuple[tuple[int, str], ...]
+    timing: Timing
+    sigma: float
+
+    def as_dict(self) -> dict:
+        return {
+            "rows": [{"m": r.m, "predicted": r.predicted, "minutes": r.minutes} for r in self.rows],
+            "skipped": [{"m": m, "why": why} for m, why in self.skipped],
+            "timing": self.timing.as_dict(),
+            "sigma": self.sigma,
+        }
+
+    def lines(self) -> list[str]:
+        out = [
+            "accuracy against campaign time (predicted error over the test region after calibration; "
+            "campaign from home and back):",
+            f"  {self.timing.describe()}",
+            f"  {'m':>4} {'error':>11} {'minutes':>8}",
+        ]
+        for r in self.rows:
+            out.append(f"  {r.m:>4} {r.predicted * 1e3:>8.4g} mm {r.minutes:>8.3g}")
+        for m, why in self.skipped:
+            out.append(f"  {m:>4} left out: {why}")
+        return out
+
+
+def parse_sizes(text: str) -> tuple[int, ...]:
+    """``6:30:3`` (start:stop:step, stop included), ``6,8,12`` or ``12``: plan sizes."""
+    text = str(text).strip()
+    try:
+        if ":" in text:
+            parts = [int(p) for p in text.split(":")]
+            if len(parts) not in (2, 3) or (len(parts) == 3 and parts[2] < 1):
+                raise ValueError
+            start, stop, step = parts[0], parts[1], parts[2] if len(parts) == 3 else 1
+            sizes = tuple(range(start, stop + 1, step))
+        else:
+            sizes = tuple(int(p) for p in text.split(","))
+    except ValueError:
+        sizes = ()
+    if not sizes or min(sizes) < 1:
+        raise BadArgument(
+            f"plan sizes {text!r}: expected START:STOP[:STEP] (e.g. 6:30:3), or M1,M2,... (integers > 0)",
+            argument="sizes",
+            value=text,
+        )
+    return tuple(sorted(set(sizes)))
+
+
+def accuracy_vs_time(
+    params: ParameterSet,
+    test_pose: object,
+    sizes: Iterable[int] = DEFAULT_SIZES,
+    *,
+    timing: Timing | None = None,
+    home: object = None,
+    sigma: float = DEFAULT_SIGMA,
+    prior: Prior | None = None,
+    constraints: Iterable[AnyConstraint] = (),
+    joint_margin: JointMargin = None,
+    mount: MountSpec = None,
+    **options: object,
+) -> Tradeoff:
+    """The predicted error over the test region and the campaign time for each plan size.
+
+    Args:
+        params: the parameters identified.
+        test_pose: where the robot works (test pose(s), a region, a path).
+        sizes: the plan sizes (default :data:`DEFAULT_SIZES`, 6 … 30).
+        timing: the campaign's time model (default: the URDF's speeds, a laser tracker's dwell).
+        home: where each campaign starts and ends (see :func:`plan_campaign`).
+        sigma, prior, constraints, joint_margin, mount: as :func:`pincal.design`'s.
+        options: more :func:`pincal.design` options (starts, seed, workers, method, pool, ...).
+
+    Raises:
+        BadArgument: a size that is not a positive integer, or a bad design option.
+    """
+    robot = params.robot
+    sizes = tuple(sorted({positive_int(m, "plan size") for m in sizes}))
+    timing = Timing.for_robot(robot) if timing is None else timing
+    constraints = with_safety(robot, constraints, joint_margin, mount)
+    rows, skipped = [], []
+    minimum = -(-len(params) // (3 * robot.n_markers))
+    for m in sizes:
+        if prior is None and m < minimum:
+            skipped.append((m, f"fewer than the {minimum} poses that identify the {len(params)} parameters"))
+            continue
+        try:
+            result = design(
+                params, m, test_pose, sigma=sigma, prior=prior, constraints=constraints, **options
+            )
+        except PincalError as exc:
+            skipped.append((m, str(exc).split(";")[0]))
+            continue
+        campaign = plan_campaign(
+            robot, result.plan, home=home, timing=timing, constraints=constraints, check=False
+        )
+        predicted = result.rho0 if result.rho0 is not None else math.nan
+        rows.append(TradeoffRow(m, float(predicted), campaign.total / 60.0, result.plan))
+    return Tradeoff(tuple(rows), tuple(skipped), timing, float(sigma))

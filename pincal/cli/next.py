@@ -1,0 +1,158 @@
+"""pincal next: from the measurements so far, the next poses to measure — or stop."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+
+from pincal.calibration.measurements import MeasurementData
+from pincal.calibration.sanity import OUTLIER_SCORE
+from pincal.campaign.adaptive import AVOID_DISTANCE, next_poses
+from pincal.cli._accuracy import REGION_HELP, add_region_arguments, prior_from_args, test_region_from_args
+from pincal.cli._common import (
+    SIGMA_HELP,
+    add_base_argument,
+    add_command,
+    add_output_arguments,
+    add_robot_arguments,
+    add_test_pose_argument,
+    emit_json,
+    params_from_args,
+    read_plan,
+    recorded_warnings,
+    robot_from_args,
+)
+from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
+from pincal.cli.design import print_warnings
+from pincal.errors import BadArgument
+
+HELP = "from the measurements so far, the next poses to measure (or stop: the target is reached)"
+EXAMPLES = f"""\
+examples:
+  pincal next kr270 --data measured.csv --plan plan.csv -k 3 --test-pose=0,-60,60,0,45,0 --around 10deg \\
+      --deg --marker 0.1,0.05,0.2 --target 0.02mm --out next.csv
+  pincal next kr270 --data measured.csv --plan plan.csv --deg --mm --base --test-path weld.csv --json
+
+What it does, from --data (the measurement CSV, as 'pincal identify' reads it) and --plan (the poses
+planned so far: those not in the data are unreachable, and the next poses keep
+{math.degrees(AVOID_DISTANCE):g} degrees away from them):
+  1. identifies the parameters, drops the rows beyond --reject robust sigma (default {OUTLIER_SCORE:g})
+     as outliers and names them, re-estimates sigma from the residuals (unless --sigma is given or
+     the data have uncertainty columns);
+  2. predicts the error over the test region with the data so far (the measured poses' information,
+     outliers left out);
+  3. stops when it is below --target; otherwise designs the next -k poses that most reduce the
+     criterion over the test region given what is already measured, and predicts the error after
+     them. Measure them, add them to the data and the plan, and run it again.
+--target takes a length with a unit (0.02mm, 20um, 2e-5m; a bare number is metres).
+--out writes the next poses (plan CSV; degrees with --deg); run 'pincal campaign' on them to order
+and check the moves.
+
+{SAFETY_HELP.rstrip()}
+
+{REGION_HELP.rstrip()}
+"""
+
+_LENGTH = re.compile(r"^\s*([0-9.eE+-]+)\s*(m|mm|um|µm|cm)?\s*$")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = add_command(sub, "next", HELP, EXAMPLES)
+    add_robot_arguments(p)
+    add_base_argument(p)
+    p.add_argument("--data", required=True, metavar="MEASURED.csv", help="the measurements so far")
+    p.add_argument(
+        "--plan", metavar="PLAN.csv", help="the poses planned so far (those not measured are avoided)"
+    )
+    p.add_argument("-k", type=int, default=3, help="poses to choose next (default 3)")
+    add_test_pose_argument(p, required=False)
+    add_region_arguments(p)
+    p.add_argument(
+        "--target", metavar="LENGTH", help="stop when the predicted error is below this (e.g. 0.02mm)"
+    )
+    p.add_argument(
+        "--sigma", type=float, default=None, help=SIGMA_HELP + "; default: re-estimated from the data"
+    )
+    p.add_argument(
+        "--deg", action="store_true", help="joint values in degrees (data, plan, test poses, --out)"
+    )
+    p.add_argument("--mm", action="store_true", help="measured coordinates are in millimetres")
+    p.add_argument(
+        "--reject",
+        type=float,
+        default=OUTLIER_SCORE,
+        metavar="K",
+        help="outliers: rows beyond K robust sigma",
+    )
+    p.add_argument("--constraints", metavar="FILE.yaml", help="workcell constraints (YAML)")
+    add_safety_arguments(p)
+    p.add_argument("--starts", type=int, default=8, help="starts of the next design (default 8)")
+    p.add_argument("--workers", type=int, help="processes of the next design (default: all CPUs)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the next design (default 0)")
+    p.add_argument("--out", metavar="NEXT.csv", help="write the next poses (plan CSV), atomically")
+    add_output_arguments(p)
+    p.set_defaults(run=run)
+
+
+def parse_length(text: str, what: str) -> float:
+    """A positive length from '0.02mm', '20um', '2e-5m' or a bare number of metres [m]."""
+    match = _LENGTH.match(str(text))
+    try:
+        value = float(match.group(1)) if match else math.nan
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise BadArgument(f"{what} {text!r}: expected a positive length, e.g. 0.02mm, 20um or 2e-5 (metres)")
+    unit = (match.group(2) or "m").replace("µ", "u")
+    return value * {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6}[unit]
+
+
+def run(args: argparse.Namespace) -> int:
+    robot = robot_from_args(args)
+    params, source = params_from_args(robot, args)
+    target = None if args.target is None else parse_length(args.target, "--target")
+    if args.reject is not None and not (math.isfinite(args.reject) and args.reject > 0):
+        raise BadArgument(f"--reject must be a positive number of robust sigma, got {args.reject}")
+    data = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm)
+    plan = read_plan(robot, args.plan, args.deg) if args.plan else None
+    region = test_region_from_args(robot, args)
+    prior = prior_from_args(args)
+    constraints = safe_constraints_from_args(robot, args)
+    with recorded_warnings() as records:
+        result = next_poses(
+            params,
+            data,
+            region,
+            args.k,
+            plan=plan,
+            target=target,
+            sigma=args.sigma,
+            prior=prior,
+            constraints=constraints,
+            reject=args.reject,
+            starts=args.starts,
+            seed=args.seed,
+            workers=args.workers,
+        )
+    if args.out and not result.stop:
+        result.plan.to_csv(args.out, degrees=args.deg)
+    if args.json:
+        payload = {
+            "robot": robot.name,
+            "params": list(params.names),
+            "out": None if result.stop else args.out,
+        }
+        payload.update(result.as_dict())
+        emit_json(payload)
+    else:
+        print(f"{robot.name}: {len(params)} parameters ({source})")
+        print("\n".join(result.lines(degrees=args.deg)))
+        if args.out and not result.stop:
+            print(f"wrote {args.out} ({'degrees' if args.deg else 'radians'})")
+        elif args.out:
+            print(f"{args.out} not written: nothing more to measure")
+    sys.stdout.flush()
+    print_warnings(records)
+    return 0
