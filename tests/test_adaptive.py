@@ -4,7 +4,6 @@ Monte-Carlo over simulated campaigns (heteroscedastic noise, an outlier, an unre
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -14,7 +13,6 @@ import pincal
 from pincal.campaign.adaptive import AVOID_DISTANCE, assess, next_poses
 from pincal.campaign.measured import MeasuredPrior
 from pincal.campaign.rehearsal import Faults, one_shot_plan, rehearse, summary
-from pincal.cli import main
 
 SIGMA = 3e-5
 Q0 = np.radians([0, -60, 60, 0, 45, 0])
@@ -123,31 +121,19 @@ def test_adaptive_reaches_the_target_in_fewer_poses_than_one_shot(params, region
     assert stats["adaptive"]["true_over_target_mean"] < 1.2
 
 
-def test_cli_next(tmp_path, capsys, params, first, kr270_marker):
+def test_cli_next(tmp_path, cli, params, first, kr270_marker):
     truth = pincal.random_errors(params, seed=1)
     data = pincal.simulate_measurements(truth, first, sigma=SIGMA, seed=2)
     measured, plan, out = tmp_path / "meas.csv", tmp_path / "plan.csv", tmp_path / "next.csv"
     data.to_csv(measured, degrees=True, robot=kr270_marker)
     first.to_csv(plan, degrees=True)
-    argv = [
-        "next",
-        "kr270",
-        "--data",
-        str(measured),
-        "--plan",
-        str(plan),
-        "--deg",
-        "--marker",
-        "0.1,0.05,0.2",
-    ]
+    argv = ["next", "kr270", "--data", measured, "--plan", plan, "--deg", "--marker", "0.1,0.05,0.2"]
     argv += ["--params", "lengths,offsets", "--test-pose=0,-60,60,0,45,0", "--around", "10deg"]
     argv += ["--starts", "2", "--workers", "1"]
-    assert main(argv + ["--target", "1um", "--out", str(out), "--json"]) == 0
-    payload = json.loads(capsys.readouterr().out)
+    payload = cli.json(*argv, "--target", "1um", "--out", out)
     assert not payload["stop"] and len(payload["next"]) == 3 and payload["sigma_source"] == "estimated"
     written = pincal.Plan.from_csv(out, robot=kr270_marker, degrees=True)
     np.testing.assert_allclose(written.q, payload["next"], atol=1e-9)
-    assert main(argv + ["--target", "10mm"]) == 0
-    assert "stop: the predicted error is below the target" in capsys.readouterr().out
-    assert main(argv + ["--target", "fast"]) == 2
-    assert "--target 'fast'" in capsys.readouterr().err
+    code, text, _ = cli.run(*argv, "--target", "10mm")
+    assert code == 0 and "stop: the predicted error is below the target" in text
+    cli.fails(*argv, "--target", "fast", match="--target 'fast'")

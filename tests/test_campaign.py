@@ -17,7 +17,6 @@ from pincal.campaign.motion import certify_move, find_detour
 from pincal.campaign.ordering import EXACT_LIMIT, best_tour, held_karp, improve, tour_cost
 from pincal.campaign.schedule import HOME, plan_campaign
 from pincal.campaign.timing import DWELLS, Timing
-from pincal.cli import main
 from pincal.errors import BadArgument
 from pincal.planning.constraints import Mount, Obstacle, Workcell
 
@@ -230,13 +229,12 @@ def test_campaign_checks_every_move_against_the_cell(kr270_marker, kr_plan):
     assert payload["dwell"] == [2.0] * 7 and payload["total"] == pytest.approx(campaign.total)
 
 
-def test_cli_campaign_json_csv_and_animation(tmp_path, capsys, kr270_marker, kr_plan):
+def test_cli_campaign_json_csv_and_animation(tmp_path, cli, kr270_marker, kr_plan):
     plan = tmp_path / "plan.csv"
     pincal.Plan.for_robot(kr270_marker, kr_plan).to_csv(plan, degrees=True)
     out, html = tmp_path / "campaign.csv", tmp_path / "campaign.html"
-    argv = ["campaign", "kr270", "--plan", str(plan), "--deg", "--marker", "0.1,0.05,0.2"]
-    assert main(argv + ["--out", str(out), "--html", str(html), "--json", "--dwell", "probe"]) == 0
-    payload = json.loads(capsys.readouterr().out)
+    argv = ["campaign", "kr270", "--plan", plan, "--deg", "--marker", "0.1,0.05,0.2"]
+    payload = cli.json(*argv, "--out", out, "--html", html, "--dwell", "probe")
     assert sorted(payload["order"]) == list(range(7)) and payload["dwell"] == [10.0] * 7
     assert payload["total"] == pytest.approx(sum(mv["time"] for mv in payload["moves"]) + 7 * 10.5)
     assert payload["safety"]["ok"] and payload["timing"]["speed_source"] == "URDF velocity limits"
@@ -244,17 +242,13 @@ def test_cli_campaign_json_csv_and_animation(tmp_path, capsys, kr270_marker, kr_
     assert rows[0].split(",")[-2:] == ["pose", "wait"]
     poses = [int(r.split(",")[-2]) for r in rows[1:]]
     assert [p for p in poses if p] == [i + 1 for i in payload["order"]] and poses[0] == poses[-1] == 0
-    assert "set_animation" in html.read_text()[-2_000_000:] or "animations" in html.read_text()
-    assert main(argv + ["--no-check"]) == 0
-    assert "moves not checked" in capsys.readouterr().out
-    for extra, message in (
-        (["--dwell", "forever"], "--dwell"),
-        (["--joint-speeds", "1,2"], "--joint-speeds"),
-        (["--speed", "0"], "--speed"),
-        (["--home", "0,0"], "--home"),
-    ):
-        assert main(argv + extra) == 2
-        assert message in capsys.readouterr().err
+    assert "set_animation" in html.read_text()
+    code, text, _ = cli.run(*argv, "--no-check")
+    assert code == 0 and "moves not checked" in text
+    cli.fails(*argv, "--dwell", "forever", match="--dwell")
+    cli.fails(*argv, "--joint-speeds", "1,2", match="--joint-speeds")
+    cli.fails(*argv, "--speed", "0", match="--speed")
+    cli.fails(*argv, "--home", "0,0", match="--home")
 
 
 def test_animation_numbers_the_poses_in_execution_order(kr270_marker, kr_plan):
@@ -336,14 +330,12 @@ def test_accuracy_against_campaign_time(kr270_marker):
         parse_sizes("6-30")
 
 
-def test_cli_design_campaign_reports_the_tradeoff(tmp_path, capsys):
+def test_cli_design_campaign_reports_the_tradeoff(tmp_path, cli):
     figure = tmp_path / "tradeoff.png"
     argv = ["design", "kr270", "-m", "6", "--test-pose=0,-60,60,0,45,0", "--deg", "--marker", "0.1,0.05,0.2"]
     argv += ["--params", "lengths,offsets", "--starts", "2", "--workers", "1", "--pool-size", "200"]
-    argv += ["--no-accuracy", "--no-polish", "--campaign", "--campaign-m", "6,8"]
-    assert main(argv + ["--campaign-plot", str(figure), "--json"]) == 0
-    payload = json.loads(capsys.readouterr().out)
+    argv += ["--no-accuracy", "--no-polish"]
+    payload = cli.json(*argv, "--campaign", "--campaign-m", "6,8", "--campaign-plot", figure)
     assert [r["m"] for r in payload["tradeoff"]["rows"]] == [6, 8] and payload["campaign"]["time"] > 6 * 2.5
     assert figure.stat().st_size > 1000
-    assert main(argv[:-4] + ["--campaign-plot", str(figure)]) == 2  # without --campaign
-    assert "go with --campaign" in capsys.readouterr().err
+    cli.fails(*argv, "--campaign-plot", figure, match="go with --campaign")

@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.cli import main
 from pincal.errors import BadArgument, BadConstraint, Infeasible
 from pincal.planning.constraints import (
     DEFAULT_JOINT_LIMITS,
@@ -164,7 +163,7 @@ def test_default_design_is_safe_and_opting_out_is_possible(kr_params, kr270_mark
     assert safety_margins(kr270_marker, free.plan).angle.value >= -1e-9
 
 
-def test_cli_design_reports_safety_and_takes_the_options(tmp_path, capsys):
+def test_cli_design_reports_safety_and_takes_the_options(tmp_path, cli):
     argv = ["design", "kr270", "-m", "9", "--test-pose=0,-60,60,0,45,0", "--deg", "--marker", "0.1,0.05,0.2"]
     argv += [
         "--params",
@@ -177,21 +176,14 @@ def test_cli_design_reports_safety_and_takes_the_options(tmp_path, capsys):
         "300",
         "--no-accuracy",
     ]
-    assert main(argv + ["--joint-margin", "5deg", "--json"]) == 0
-    payload = json.loads(capsys.readouterr().out)
-    safety = payload["safety"]
+    safety = cli.json(*argv, "--joint-margin", "5deg")["safety"]
     assert safety["ok"] and safety["joint_limit_angle"]["required"] == pytest.approx(math.radians(5))
     assert safety["joint_limit_angle"]["value"] >= math.radians(5) - 1e-9
     assert safety["floor"]["value"] >= 0 and safety["mount"].startswith("floor")
-    assert main(argv + ["--mount", "none", "--joint-margin", "0"]) == 0
-    out = capsys.readouterr().out
-    assert "safety (smallest margins" in out and "floor: not checked (mount none)" in out
+    code, out, _ = cli.run(*argv, "--mount", "none", "--joint-margin", "0")
+    assert code == 0 and "safety (smallest margins" in out and "floor: not checked (mount none)" in out
     cell = tmp_path / "cell.yaml"
     cell.write_text("joint_limits: {margin_deg: 3}\n")
-    for extra, message in (
-        (["--joint-margin", "2parsecs"], "--joint-margin angle"),
-        (["--mount", "roof"], "mount 'roof'"),
-        (["--constraints", str(cell), "--joint-margin", "1deg"], "keep one"),
-    ):
-        assert main(argv + extra) == 2
-        assert message in capsys.readouterr().err
+    cli.fails(*argv, "--joint-margin", "2parsecs", match="--joint-margin angle")
+    cli.fails(*argv, "--mount", "roof", match="mount 'roof'")
+    cli.fails(*argv, "--constraints", cell, "--joint-margin", "1deg", match="keep one")

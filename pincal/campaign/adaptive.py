@@ -1,4 +1,5 @@
-"""Adaptive campaigns: from the measurements so far, the next poses to measure, or stop.
+"""Adaptive campaigns: from the measurements so far, the next poses to measure, or stop
+(docs/method.md §12.4).
 
 :func:`next_poses` takes the data measured so far (and the plan they were measured from) and
 

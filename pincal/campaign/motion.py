@@ -1,4 +1,5 @@
-r"""Moves certified collision-free, with a stated bound rather than a number of samples.
+r"""Moves certified collision-free, with a stated bound rather than a number of samples
+(docs/method.md §12.3).
 
 A move from a to b runs the joints along the straight segment q(s) = a + s(b − a), s ∈ [0, 1]. For
 every pair the collision world checks (the robot against itself, the cell's obstacles and the

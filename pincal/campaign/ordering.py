@@ -1,5 +1,5 @@
 """The order of a campaign: the tour from home through every measurement pose and back that takes
-the least time.
+the least time (docs/method.md §12.2).
 
 It is a travelling-salesman tour over the move-time matrix (node 0: home). Up to
 :data:`EXACT_LIMIT` poses it is solved exactly by dynamic programming over subsets (Held & Karp

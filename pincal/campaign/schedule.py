@@ -1,4 +1,5 @@
-"""From a plan to a campaign: the order the robot runs the poses in, each move checked, the time.
+"""From a plan to a campaign: the order the robot runs the poses in, each move checked, the time
+(docs/method.md §12).
 
 :func:`plan_campaign` takes a plan (the measurement configurations) and returns a
 :class:`Campaign`: the tour from a home configuration through every pose and back that takes the

@@ -1,4 +1,5 @@
-"""How long a campaign takes: the moves between configurations and the time spent at each.
+"""How long a campaign takes: the moves between configurations and the time spent at each
+(docs/method.md §12.1).
 
 A joint-space move from a to b runs every joint at once and ends when the slowest ends
 (synchronised joints). Joint j, with speed limit vⱼ and, optionally, acceleration limit aⱼ, covers
