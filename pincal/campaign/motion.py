@@ -30,8 +30,11 @@ import numpy as np
 
 from pincal.planning.constraints.collision_world import CollisionWorld
 
-MAX_EVALUATIONS = 4000
+MAX_EVALUATIONS = 1000
 """Distance evaluations one move may use before it is declared not certified."""
+
+DETOUR_EVALUATIONS = 2000
+"""Distance evaluations the search for one detour may use in all (candidates and their moves)."""
 
 DETOUR_TRIES = 24
 """Candidate intermediate configurations tried at each detour distance."""
@@ -176,26 +179,35 @@ def find_detour(
     Candidates are ``extra`` (e.g. the home configuration) and configurations drawn around the
     segment, :data:`DETOUR_TRIES` at each distance of :data:`DETOUR_SCALES` (a fraction of each
     joint's range in [lower, upper]); the first distance with a clear detour ends the search, and
-    the quickest of its detours (by ``move_time(a, c) + move_time(c, b)``) is returned, or None.
+    the quickest of its detours (by ``move_time(a, c) + move_time(c, b)``) is returned, or None
+    (also when :data:`DETOUR_EVALUATIONS` distance evaluations did not find one).
     """
     need = np.broadcast_to(np.asarray(required, dtype=float), (world.size,))
     ends = world.distances(a), world.distances(b)
     span = upper - lower
+    budget = [DETOUR_EVALUATIONS]
 
     def attempt(candidates: list[np.ndarray]) -> Detour | None:
-        found = []
         for c in sorted(candidates, key=lambda c: move_time(a, c) + move_time(c, b)):
+            if budget[0] <= 0:
+                return None
             dc = world.distances(c)
+            budget[0] -= 1
             if np.any(dc < need):
                 continue
-            first = certify_move(world, a, c, need, (ends[0], dc), max_evaluations=MAX_EVALUATIONS // 4)
+            first = certify_move(
+                world, a, c, need, (ends[0], dc), max_evaluations=min(budget[0], MAX_EVALUATIONS)
+            )
+            budget[0] -= first.evaluations
             if not first.clear:
                 continue
-            second = certify_move(world, c, b, need, (dc, ends[1]), max_evaluations=MAX_EVALUATIONS // 4)
+            second = certify_move(
+                world, c, b, need, (dc, ends[1]), max_evaluations=min(budget[0], MAX_EVALUATIONS)
+            )
+            budget[0] -= second.evaluations
             if second.clear:
-                found.append(Detour(c, first, second))
-                break  # candidates are sorted by time: the first clear one is the quickest
-        return found[0] if found else None
+                return Detour(c, first, second)  # candidates are sorted by time: the quickest clear one
+        return None
 
     detour = attempt([np.clip(np.asarray(c, dtype=float), lower, upper) for c in extra])
     if detour is not None:
@@ -205,6 +217,6 @@ def find_detour(
         base = a[None] + s[:, None] * (b - a)[None]
         candidates = base + rng.normal(0.0, scale, base.shape) * span
         detour = attempt(list(np.clip(candidates, lower, upper)))
-        if detour is not None:
+        if detour is not None or budget[0] <= 0:
             return detour
     return None

@@ -272,13 +272,13 @@ class Campaign:
                 c = mv.check
                 if mv.detour is not None:
                     line += f"  detour (straight: {c.blocked})"
+                elif c.clear and not math.isfinite(c.certified):
+                    line += "  clear: nothing to check"
                 elif c.clear:
-                    certified = (
-                        "nothing to check"
-                        if not math.isfinite(c.certified)
-                        else f"≥ {c.certified * 1e3:.4g} mm"
+                    line += (
+                        f"  clear (certified ≥ {c.certified * 1e3:.3g} mm; closest {c.sampled * 1e3:.4g} mm, "
+                        f"{c.closest}; {c.evaluations} evaluations)"
                     )
-                    line += f"  clear: {certified} ({c.evaluations} evaluations)"
                 else:
                     line += f"  NOT CLEAR: {c.blocked}"
             out.append(line)

@@ -7,6 +7,7 @@ import math
 import re
 import sys
 
+from pincal.arguments import positive_int, positive_sigma
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.sanity import OUTLIER_SCORE
 from pincal.campaign.adaptive import AVOID_DISTANCE, next_poses
@@ -113,6 +114,8 @@ def run(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)
     target = None if args.target is None else parse_length(args.target, "--target")
+    sigma = None if args.sigma is None else positive_sigma(args.sigma, "--sigma")
+    positive_int(args.k, "-k")
     if args.reject is not None and not (math.isfinite(args.reject) and args.reject > 0):
         raise BadArgument(f"--reject must be a positive number of robust sigma, got {args.reject}")
     data = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm)
@@ -128,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
             args.k,
             plan=plan,
             target=target,
-            sigma=args.sigma,
+            sigma=sigma,
             prior=prior,
             constraints=constraints,
             reject=args.reject,
