@@ -187,3 +187,18 @@ def test_cli_design_reports_safety_and_takes_the_options(tmp_path, cli):
     cli.fails(*argv, "--joint-margin", "2parsecs", match="--joint-margin angle")
     cli.fails(*argv, "--mount", "roof", match="mount 'roof'")
     cli.fails(*argv, "--constraints", cell, "--joint-margin", "1deg", match="keep one")
+
+
+def test_show_and_evaluate_report_the_margins(tmp_path, cli, kr270_marker):
+    plan = tmp_path / "plan.csv"
+    qs = np.radians([[0, -60, 60, 0, 45, 0], [90, -10, 150, 0, -60, 0], [30, -80, 90, 0, 30, 0]])
+    pincal.Plan.for_robot(kr270_marker, qs).to_csv(plan, degrees=True)
+    robot = ["kr270", "--plan", plan, "--deg", "--marker", "0.1,0.05,0.2", "--params", "offsets"]
+    robot += ["--test-pose=0,-60,60,0,45,0"]
+    expected = safety_margins(kr270_marker, qs, with_safety(kr270_marker))
+    for command in (["show", *robot, "--html", tmp_path / "scene.html"], ["evaluate", *robot]):
+        safety = cli.json(*command, "--no-accuracy")["safety"]
+        assert safety["floor"]["pose"] == 1 and safety["floor"]["value"] == pytest.approx(
+            expected.floor.value
+        )
+        assert not safety["ok"] and safety["floor"]["what"] == expected.floor.what

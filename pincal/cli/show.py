@@ -41,11 +41,13 @@ from pincal.cli._common import (
     sigma_from_args,
     sigma_type,
 )
+from pincal.cli._safety import add_safety_arguments, safe_constraints_from_args
 from pincal.errors import BadArgument, BadConfiguration
 from pincal.evaluation.test_pose import rho0
 from pincal.optional import require
 from pincal.planning.baselines import random_plans
 from pincal.planning.constraints import Visibility
+from pincal.planning.safety import safety_margins
 from pincal.viewing import plots
 
 HELP = COMMANDS["show"].help
@@ -96,6 +98,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="workcell constraints as for 'pincal design': the visibility constraint's tracker is drawn, "
         "and --plot's random plans respect them",
     )
+    add_safety_arguments(p)
     p.add_argument(
         "--scale",
         type=checked("--scale", ratio),
@@ -158,6 +161,8 @@ def run(args: argparse.Namespace) -> int:
     )
     report = report_accuracy(args, params, plan, q0, sigma, prior)
     summary = _summary(robot.name, len(plan), sigma, built, report)
+    safety = safety_margins(robot, plan, safe_constraints_from_args(robot, args))
+    summary["safety"] = safety.as_dict()
     if args.html:
         built.save_html(args.html)
         summary["html"] = args.html
@@ -172,6 +177,7 @@ def run(args: argparse.Namespace) -> int:
             emit_json(summary)
         else:
             _print_summary(summary, sigma_text)
+            print("\n".join(safety.lines()))
             if report is not None:
                 print("\n".join(report.lines(degrees=args.deg)))
         sys.stdout.flush()
