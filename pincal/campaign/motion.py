@@ -89,63 +89,92 @@ def certify_move(
 ) -> MoveCheck:
     """Certify the straight move from ``a`` to ``b`` (see the module doc).
 
+    The distances at the configurations visited are the convex hulls' (fast lower bounds); a pair
+    of meshes whose hulls do not clear a stretch is measured again on the meshes at its ends before
+    the stretch is bisected or declared blocked.
+
     Args:
         world: the collision world.
         a, b: (nq,) the move's ends [rad or m].
         required: the clearance each pair must keep [m] (one for all, or (world.size,)).
-        ends: the distances at ``a`` and ``b``, when known.
-        max_evaluations: distance evaluations allowed.
+        ends: the distances at ``a`` and ``b`` (:meth:`CollisionWorld.distances`), when known.
+        max_evaluations: distance evaluations allowed (configurations visited).
     """
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     if world.size == 0:
         return MoveCheck(True, np.inf, np.inf, "", 0)
     need = np.broadcast_to(np.asarray(required, dtype=float), (world.size,))
     span = world.weights @ np.abs(b - a)  # λ over the whole move, per pair
-    ea, eb = ends if ends is not None else (world.distances(a), world.distances(b))
-    evaluations = 0 if ends is not None else 2
-    samples = [ea, eb]
+    refinable = np.concatenate([world.refinable, np.zeros(world.n_points, dtype=bool)])
+    samples: dict[float, tuple[np.ndarray, np.ndarray]] = {}  # s -> (distances, measured on the meshes)
+    evaluations = 0
+
+    def at(s: float) -> np.ndarray:
+        nonlocal evaluations
+        if s not in samples:
+            samples[s] = (world.distances(a + s * (b - a), refine=False), ~refinable)
+            evaluations += 1
+        return samples[s][0]
+
+    def refine(s: float, pairs: np.ndarray) -> None:
+        e, exact = samples[s]
+        todo = pairs[~exact[pairs]]
+        if len(todo):
+            e[todo] = np.maximum(e[todo], world.exact_distances(a + s * (b - a), todo))
+            exact[todo] = True
+
+    if ends is not None:
+        samples[0.0] = (np.array(ends[0], dtype=float), np.ones(world.size, dtype=bool))
+        samples[1.0] = (np.array(ends[1], dtype=float), np.ones(world.size, dtype=bool))
     certified = np.inf
-    stack = [(0.0, 1.0, ea, eb)]
-    blocked, at = "", None
-    while stack:
-        s0, s1, e0, e1 = stack.pop()
-        for s, e in ((s0, e0), (s1, e1)):
-            short = e < need - 1e-12
-            if short.any():
-                k = int(np.argmax(need - e))
-                blocked = f"{world.names[k]}: {e[k] * 1e3:.3g} mm apart (keeps {need[k] * 1e3:.3g} mm)"
-                at = s
-                break
+    stack = [(0.0, 1.0)]
+    blocked, where = "", None
+    while stack and not blocked:
+        s0, s1 = stack.pop()
+        for s in (s0, s1):
+            e = at(s)
+            short = np.flatnonzero(e < need - 1e-12)
+            if len(short):
+                refine(s, short)
+                if np.any(e < need - 1e-12):
+                    k = int(np.argmax(need - e))
+                    blocked = f"{world.names[k]}: {e[k] * 1e3:.3g} mm apart (keeps {need[k] * 1e3:.3g} mm)"
+                    where = s
+                    break
         if blocked:
             break
+        e0, e1 = at(s0), at(s1)
         lower = 0.5 * (e0 + e1 - span * (s1 - s0))
-        if np.all(lower >= need):
+        failing = np.flatnonzero(lower < need)
+        if len(failing) and refinable[failing].any():
+            refine(s0, failing)
+            refine(s1, failing)
+            lower = 0.5 * (e0 + e1 - span * (s1 - s0))
+            failing = np.flatnonzero(lower < need)
+        if not len(failing):
             certified = min(certified, float(lower.min()))
             continue
         if evaluations >= max_evaluations:
-            k = int(np.argmin(lower - need))
+            k = int(failing[np.argmin((lower - need)[failing])])
             blocked = (
                 f"{world.names[k]}: not certified within {max_evaluations} distance evaluations "
                 f"(it comes within {max(lower[k], 0) * 1e3:.3g} mm of the clearance)"
             )
-            at = 0.5 * (s0 + s1)
+            where = 0.5 * (s0 + s1)
             break
         mid = 0.5 * (s0 + s1)
-        em = world.distances(a + mid * (b - a))
-        evaluations += 1
-        samples.append(em)
-        stack.append((mid, s1, em, e1))  # the first half is checked first (popped next)
-        stack.append((s0, mid, e0, em))
-    sampled = np.min(samples, axis=0)
+        stack.append((mid, s1))  # the first half is checked first (popped next)
+        stack.append((s0, mid))
+    sampled = np.min([e for e, _ in samples.values()], axis=0)
     k = int(np.argmin(sampled))
     return MoveCheck(
         not blocked,
-        certified if not blocked else float(min(certified, sampled.min())),
+        certified if not blocked else float(sampled.min()),
         float(sampled[k]),
         world.names[k],
         evaluations,
         blocked,
-        at,
+        where,
     )
 
 

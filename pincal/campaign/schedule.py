@@ -107,6 +107,7 @@ class Campaign:
             (inf: nothing to check).
         pose_closest: that pair at each pose.
         pose_required: (m,) the clearance that pair keeps [m].
+        home_short: the pair at the home configuration closer than its clearance, or "".
         required: what each kind of pair keeps [m]: ``{"self": ..., "obstacle": ..., "floor": ...}``.
         occlusions: the markers the instrument cannot see (with a visibility constraint).
         skipped_pairs: pairs of the robot's shapes in contact at the reference configuration, not checked.
@@ -125,6 +126,7 @@ class Campaign:
     pose_clearance: np.ndarray | None = None
     pose_closest: tuple[str, ...] = ()
     pose_required: np.ndarray | None = None
+    home_short: str = ""
     required: dict | None = None
     occlusions: tuple[Occlusion, ...] = ()
     skipped_pairs: tuple[str, ...] = ()
@@ -227,6 +229,7 @@ class Campaign:
             "pose_closest": list(self.pose_closest),
             "blocked": list(self.blocked),
             "unsafe_poses": list(self.unsafe_poses),
+            "home_short": self.home_short,
             "occlusions": [o.as_dict() for o in self.occlusions],
             "skipped_pairs": list(self.skipped_pairs),
         }
@@ -297,6 +300,8 @@ class Campaign:
                 )
             for name in self.blocked:
                 out.append(f"  blocked: {name}")
+            if self.home_short:
+                out.append(f"  home itself is too close: {self.home_short}")
             for i in self.unsafe_poses:
                 out.append(
                     f"  pose {i + 1} itself is too close: {self.pose_closest[i]} "
@@ -309,11 +314,12 @@ class Campaign:
         return out
 
 
-def default_home(robot: Robot, qs: np.ndarray) -> np.ndarray:
-    """The URDF zero when it lies within the joint limits, else the plan's first configuration."""
+def default_home(robot: Robot, qs: np.ndarray, clear=None) -> np.ndarray:
+    """The URDF zero when it lies within the joint limits (and ``clear(zero)``, when given), else
+    the plan's first configuration."""
     zero = np.zeros(robot.nq)
     inside = np.all(zero >= robot.model.lowerPositionLimit) and np.all(zero <= robot.model.upperPositionLimit)
-    return zero if inside else qs[0].copy()
+    return zero if inside and (clear is None or clear(zero)) else qs[0].copy()
 
 
 def plan_campaign(
@@ -335,7 +341,8 @@ def plan_campaign(
         robot: the robot.
         plan: (m, nq) measurement configurations [rad or m] or a Plan.
         home: (nq,) the configuration the campaign starts from and ends at (default: the URDF zero
-            when within the joint limits, else the plan's first configuration).
+            when within the joint limits and, with ``check``, clear itself; else the plan's first
+            configuration).
         timing: the time model (default: :meth:`Timing.for_robot`: URDF speeds, a laser tracker).
         constraints: the cell: a :class:`~pincal.planning.constraints.Workcell` (its obstacles and
             clearance), the :class:`~pincal.planning.constraints.Mount` (the floor), a
@@ -357,9 +364,15 @@ def plan_campaign(
     plan = plan if isinstance(plan, Plan) else Plan.for_robot(robot, plan)
     qs = robot.configurations(plan)
     plan = Plan.for_robot(robot, qs)
-    home_q = default_home(robot, qs) if home is None else robot.configurations(home, what="home")[0]
     timing = Timing.for_robot(robot) if timing is None else timing
     constraints = with_safety(robot, constraints, joint_margin, mount)
+    world, need = _world(robot, constraints, self_collision) if check else (None, None)
+    if home is not None:
+        home_q = robot.configurations(home, what="home")[0]
+    elif world is not None:  # the zero only when it is clear itself (a UR10's has its wrist below the floor)
+        home_q = default_home(robot, qs, lambda q: bool(np.all(world.distances(q) >= need)))
+    else:
+        home_q = default_home(robot, qs)
     nodes = np.vstack([home_q[None], qs])
     cost = timing.matrix(nodes)
     m = len(qs)
@@ -373,7 +386,6 @@ def plan_campaign(
             Move(a, b, float(cost[a + 1, b + 1])) for a, b in zip(route[:-1], route[1:], strict=True)
         )
         return Campaign(robot, plan, home_q, order, moves, timing, tour.exact, given_time)
-    world, need = _world(robot, constraints, self_collision)
     at = {i: world.distances(q) for i, q in enumerate(qs)}
     at[HOME] = world.distances(home_q)
     rng = generator(seed)
@@ -426,10 +438,19 @@ def plan_campaign(
         pose_clearance=pose_distance,
         pose_closest=closest,
         pose_required=required_at,
+        home_short=_short(world, at[HOME], need),
         required=required,
         occlusions=tuple(blocked_sight),
         skipped_pairs=tuple(world.skipped),
     )
+
+
+def _short(world: CollisionWorld, distances: np.ndarray, need: np.ndarray) -> str:
+    """The pair closest to (and below) its clearance, with its distance, or ""."""
+    if not world.size or np.all(distances >= need):
+        return ""
+    k = int(np.argmin(distances - need))
+    return f"{world.names[k]} {distances[k] * 1e3:.3g} mm apart (keeps {need[k] * 1e3:.3g} mm)"
 
 
 def _world(robot: Robot, constraints: tuple, self_collision: bool) -> tuple[CollisionWorld, np.ndarray]:

@@ -33,8 +33,8 @@ examples:
   pincal campaign ur10 --plan plan.csv --dwell probe --speed 0.5 --settle 1 --html campaign.html
   pincal campaign kr270 --plan plan.csv --deg --joint-speeds 1,1,1,2,2,3 --joint-accelerations 2 --no-check
 
-Order: the tour from --home (default: the URDF zero when within the limits, else the plan's first
-pose) through every pose and back with the least move time: exact (dynamic programming) up to 12
+Order: the tour from --home (default: the URDF zero when within the limits and clear, else the
+plan's first pose) through every pose and back with the least move time: exact (dynamic programming) up to 12
 poses, 2-opt/Or-opt beyond; the report gives the time saved against the plan's own order.
 Time: a move takes its slowest joint's time, |dq|/v (with --joint-accelerations a, the trapezoid
 |dq|/v + v/a, or 2 sqrt(|dq|/a) when it never reaches v); speeds from the URDF's <limit velocity>
@@ -63,7 +63,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--home",
         metavar="Q",
         help="configuration the campaign starts and ends at (default: the URDF zero when within the "
-        "limits, else the plan's first pose)",
+        "limits and clear, else the plan's first pose)",
     )
     p.add_argument(
         "--joint-speeds",
