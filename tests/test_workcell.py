@@ -84,11 +84,11 @@ def test_cell_from_yaml_with_a_mesh_and_a_urdf(tmp_path):
 @pytest.mark.parametrize(
     "entry, match",
     [
-        ({"obstacles": [{"box": [1, 1]}]}, "3 finite numbers"),
+        ({"obstacles": [{"box": [1, 1]}]}, "box size must be 3 numbers"),
         ({"obstacles": [{"box": [1, 1, 1], "sphere": 1}]}, "exactly one shape"),
         ({"obstacles": [{"cone": [1, 1]}]}, "unknown key 'cone'"),
         ({"obstacles": [{"mesh": "nowhere.stl"}]}, "not found"),
-        ({"min_distance": -1, "obstacles": [{"sphere": 1}]}, "≥ 0"),
+        ({"min_distance": -1, "obstacles": [{"sphere": 1}]}, "min_distance must be a number from 0"),
         ({}, "needs obstacles or a urdf"),
         ({"urdf": "nowhere.urdf"}, "not found"),
     ],

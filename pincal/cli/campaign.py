@@ -19,6 +19,7 @@ from pincal.cli._common import (
     read_plan,
     recorded_warnings,
     robot_from_args,
+    seed_type,
 )
 from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
 from pincal.errors import BadArgument
@@ -99,7 +100,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--no-self-collision", action="store_true", help="check the moves against the cell and the floor only"
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the detours' random draws (default 0)")
+    p.add_argument(
+        "--seed", type=seed_type(), default=0, help="seed of the detours' random draws (default 0)"
+    )
     p.add_argument(
         "--out", metavar="CAMPAIGN.csv", help="write the robot program (every waypoint), atomically"
     )

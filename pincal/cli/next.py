@@ -7,7 +7,6 @@ import math
 import re
 import sys
 
-from pincal.arguments import positive_int, positive_sigma
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.sanity import OUTLIER_SCORE
 from pincal.campaign.adaptive import AVOID_DISTANCE, next_poses
@@ -19,11 +18,13 @@ from pincal.cli._common import (
     add_output_arguments,
     add_robot_arguments,
     add_test_pose_argument,
+    count,
     emit_json,
     params_from_args,
     read_plan,
     recorded_warnings,
     robot_from_args,
+    seed_type,
 )
 from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
 from pincal.cli.design import print_warnings
@@ -67,7 +68,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--plan", metavar="PLAN.csv", help="the poses planned so far (those not measured are avoided)"
     )
-    p.add_argument("-k", type=int, default=3, help="poses to choose next (default 3)")
+    p.add_argument("-k", type=count("-k"), default=3, help="poses to choose next (default 3)")
     add_test_pose_argument(p, required=False)
     add_region_arguments(p)
     p.add_argument(
@@ -89,9 +90,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--constraints", metavar="FILE.yaml", help="workcell constraints (YAML)")
     add_safety_arguments(p)
-    p.add_argument("--starts", type=int, default=8, help="starts of the next design (default 8)")
-    p.add_argument("--workers", type=int, help="processes of the next design (default: all CPUs)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the next design (default 0)")
+    p.add_argument(
+        "--starts", type=count("--starts"), default=8, help="starts of the next design (default 8)"
+    )
+    p.add_argument(
+        "--workers", type=count("--workers"), help="processes of the next design (default: all CPUs)"
+    )
+    p.add_argument("--seed", type=seed_type(), default=0, help="seed of the next design (default 0)")
     p.add_argument("--out", metavar="NEXT.csv", help="write the next poses (plan CSV), atomically")
     add_output_arguments(p)
     p.set_defaults(run=run)
@@ -114,10 +119,6 @@ def run(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     params, source = params_from_args(robot, args)
     target = None if args.target is None else parse_length(args.target, "--target")
-    sigma = None if args.sigma is None else positive_sigma(args.sigma, "--sigma")
-    positive_int(args.k, "-k")
-    if args.reject is not None and not (math.isfinite(args.reject) and args.reject > 0):
-        raise BadArgument(f"--reject must be a positive number of robust sigma, got {args.reject}")
     data = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm)
     plan = read_plan(robot, args.plan, args.deg) if args.plan else None
     region = test_region_from_args(robot, args)
@@ -131,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
             args.k,
             plan=plan,
             target=target,
-            sigma=sigma,
+            sigma=args.sigma,
             prior=prior,
             constraints=constraints,
             reject=args.reject,

@@ -197,13 +197,12 @@ class Feasibility:
         """
         minimum = n if minimum is None else minimum
         max_tries = max(100_000, 50 * n) if max_tries is None else max_tries
-        margin = self.margins
         found: list[np.ndarray] = []
         count, tried = 0, 0
         rejected: dict[str, int] = {}
         while count < n and tried < max_tries:
             size = int(min(max_tries - tried, max(256, 2 * (n - count)), 20_000))
-            qs = self.robot.random_configurations(size, rng, margin)
+            qs = self._inside_margins(self.robot.random_configurations(size, rng))
             tried += size
             ok = np.ones(size, dtype=bool)
             if self.bound:
@@ -228,6 +227,22 @@ class Feasibility:
                 f"constraints ({minimum} needed): {detail or 'no constraint'}; relax the constraints"
             )
         return np.concatenate(found)[:n]
+
+    def _inside_margins(self, qs: np.ndarray) -> np.ndarray:
+        """Uniform draws within the joint limits (each within ±π) mapped onto the limits shrunk by
+        each joint's margin (the margins differ between revolute and prismatic joints)."""
+        model = self.robot.model
+        lo0 = np.maximum(model.lowerPositionLimit, -np.pi)
+        hi0 = np.minimum(model.upperPositionLimit, np.pi)
+        lo, hi = lo0 + self.margins, hi0 - self.margins
+        if np.any(hi < lo):
+            j = int(np.argmax(lo - hi))
+            raise Infeasible(
+                f"joint limit margin {self.margins[j]:g} leaves no room between the limits of joint "
+                f"{self.robot.joint_names[j]}"
+            )
+        span = np.where(hi0 > lo0, hi0 - lo0, 1.0)
+        return lo + (qs - lo0) / span * (hi - lo)
 
     # -------------------------------------------------------------------------- repair
     def repair(self, start: np.ndarray, end: np.ndarray, iterations: int = 40) -> np.ndarray:
