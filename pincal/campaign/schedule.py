@@ -238,15 +238,8 @@ class Campaign:
     def tour_time(self) -> float:
         """The campaign's time in the chosen order without detours [s] (to compare with
         :attr:`given_time`)."""
-        return (
-            float(
-                sum(
-                    mv.time if mv.detour is None else self.timing.move_time(*self._ends(mv))
-                    for mv in self.moves
-                )
-            )
-            + self.stop_time
-        )
+        straight = [self.timing.move_time(*self._ends(mv)) for mv in self.moves]
+        return float(sum(straight)) + self.stop_time
 
     def _ends(self, mv: Move) -> tuple[np.ndarray, np.ndarray]:
         def q(i: int) -> np.ndarray:
