@@ -2,7 +2,7 @@
 then calibrate.
 
 Data flows one way: robot → parameters → Jacobians → criteria → design → (simulate | identify) →
-compensate / export / show.
+campaign → compensate / export / show.
 
     >>> import pincal
     >>> robot = pincal.load_robot("kr270", tip="tool0", markers=[(0.1, 0.05, 0.2)])
@@ -15,6 +15,7 @@ The names here are the workflow; each stage is a public subpackage holding the r
 :mod:`pincal.evaluation` (criteria, regions, accuracy, the data check), :mod:`pincal.planning`
 (design, plans, constraints in :mod:`pincal.planning.constraints`), :mod:`pincal.calibration`
 (measurements, identification, validation, simulation, export), :mod:`pincal.compensation`,
+:mod:`pincal.campaign` (ordered, checked, timed campaigns; the next poses from the data so far),
 :mod:`pincal.viewing`, :mod:`pincal.errors` (every exception and warning) and
 :mod:`pincal.typing` (the types of pincal's arguments).
 
@@ -41,6 +42,8 @@ if TYPE_CHECKING:
     from pincal.calibration.synthetic import random_errors, simulate_measurements
     from pincal.calibration.urdf_export import export_urdf
     from pincal.calibration.validation import validate
+    from pincal.campaign.adaptive import next_poses
+    from pincal.campaign.schedule import plan_campaign
     from pincal.compensation.compensate import compensate
     from pincal.errors import PincalError, PincalWarning
     from pincal.evaluation.accuracy import accuracy
@@ -81,6 +84,8 @@ __all__ = [
     "identify",
     "load_robot",
     "monte_carlo",
+    "next_poses",
+    "plan_campaign",
     "random_errors",
     "random_plans",
     "rho0",
@@ -102,6 +107,8 @@ _HOMES = {
     ),
     "pincal.calibration.urdf_export": ("export_urdf",),
     "pincal.calibration.validation": ("validate",),
+    "pincal.campaign.adaptive": ("next_poses",),
+    "pincal.campaign.schedule": ("plan_campaign",),
     "pincal.compensation.compensate": ("compensate",),
     "pincal.errors": (
         "PincalError",

@@ -13,6 +13,7 @@ import pincal
 from pincal.campaign.adaptive import AVOID_DISTANCE, assess, next_poses
 from pincal.campaign.measured import MeasuredPrior
 from pincal.campaign.rehearsal import Faults, one_shot_plan, rehearse, summary
+from pincal.errors import BadArgument, SingularPlan
 
 SIGMA = 3e-5
 Q0 = np.radians([0, -60, 60, 0, 45, 0])
@@ -46,7 +47,7 @@ def test_measured_information_is_the_plans_own(params, first, region, kr270_mark
     both = MeasuredPrior.from_measurements(params, first.q, SIGMA, prior)
     np.testing.assert_allclose(both.precision(params), prior.precision(params) + measured.fisher)
     np.testing.assert_allclose(both.std(params), prior.std(params))  # "before calibration" is the prior's
-    with pytest.raises(pincal.BadArgument, match="other parameters"):
+    with pytest.raises(BadArgument, match="other parameters"):
         measured.precision(kr270_marker.parameters("offsets"))
 
 
@@ -100,7 +101,7 @@ def test_stopping_rule(params, first, region):
 def test_too_few_next_poses_are_refused(params, region, first):
     truth = pincal.random_errors(params, seed=5)
     data = pincal.simulate_measurements(truth, first.q[:1], sigma=SIGMA, seed=6)  # 3 of 12 coordinates
-    with pytest.raises(pincal.SingularPlan, match="at least 3 poses"):
+    with pytest.raises(SingularPlan, match="at least 3 poses"):
         next_poses(params, data, region, 2, sigma=SIGMA, **FAST)
 
 

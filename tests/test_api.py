@@ -28,6 +28,7 @@ PUBLIC_MODULES = (
     "pincal.planning.constraints",
     "pincal.calibration",
     "pincal.compensation",
+    "pincal.campaign",
     "pincal.viewing",
     "pincal.errors",
     "pincal.typing",

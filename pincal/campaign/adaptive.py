@@ -247,7 +247,7 @@ def next_poses(
         plan: the poses planned so far (those not in ``data`` are unreachable and avoided), or None.
         target: stop when the predicted error over the test region is below this [m].
         sigma: the instrument's noise per coordinate [m]; default: re-estimated from the residuals
-            (or the data's uncertainty columns; :data:`~pincal.DEFAULT_SIGMA` while too few data).
+            (or the data's uncertainty columns; :data:`~pincal.arguments.DEFAULT_SIGMA` while too few data).
         prior: the errors' prior before any measurement, or None.
         constraints, joint_margin, mount: the workcell and the safe defaults, as for
             :func:`pincal.design`.

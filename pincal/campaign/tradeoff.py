@@ -1,4 +1,5 @@
-"""Accuracy against campaign time: what each more pose costs, and what it buys.
+"""Accuracy against campaign time: what each more pose costs, and what it buys
+(docs/method.md §12.6).
 
 For m = 6 … 30 poses, :func:`accuracy_vs_time` designs the plan of m poses (as
 :func:`pincal.design`, same options), orders it into a campaign (:func:`plan_campaign`, order and

@@ -56,7 +56,7 @@ COMMANDS: dict[str, Command] = {
         "run a plan on a real cell: the quickest order from home and back, every move checked, the time",
     ),
     "next": Command(
-        "pincal.cli.next",
+        "pincal.cli.next_poses",  # not pincal.cli.next: it would hide the builtin next() here
         "from the measurements so far, the next poses to measure (or stop: the target is reached)",
     ),
     "simulate": Command(

@@ -9,6 +9,7 @@ import sys
 from pincal.campaign.schedule import plan_campaign
 from pincal.campaign.timing import DEFAULT_SETTLE, DWELLS, Timing
 from pincal.campaign.tradeoff import DEFAULT_SIZES, accuracy_vs_time, parse_sizes
+from pincal.cli import COMMANDS
 from pincal.cli._common import (
     add_command,
     add_output_arguments,
@@ -26,7 +27,7 @@ from pincal.errors import BadArgument
 from pincal.planning.safety import safety_margins
 from pincal.viewing import plots
 
-HELP = "run a plan on a real cell: the quickest order from home and back, every move checked, the time"
+HELP = COMMANDS["campaign"].help
 EXAMPLES = f"""\
 examples:
   pincal campaign kr270 --plan plan.csv --deg --marker 0.1,0.05,0.2 --out campaign.csv

@@ -3,18 +3,22 @@
 criteria are :mod:`pincal.evaluation`'s), the search methods (:mod:`.exchange`,
 :mod:`.continuous`, run by :mod:`.multistart`), the search stage (:mod:`.search`), the driver
 :func:`~pincal.planning.driver.design`, what it returns (:mod:`.results`) and the random-plan
-baseline (:mod:`.baselines`). The constraints' names are public in :mod:`pincal.planning.constraints`."""
+baseline (:mod:`.baselines`), the smallest safety margins of a plan (:mod:`.safety`).
+The constraints' names are public in :mod:`pincal.planning.constraints`."""
 
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import design
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans, StartRecord
+from pincal.planning.safety import SafetyReport, safety_margins
 
 __all__ = [
     "DesignResult",
     "Plan",
     "RandomPlans",
+    "SafetyReport",
     "StartRecord",
     "design",
     "random_plans",
+    "safety_margins",
 ]

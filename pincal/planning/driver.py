@@ -180,14 +180,16 @@ def design(
             :mod:`pincal.evaluation.residual_criterion`), through the same exchange; ``value`` is
             that error [m], ``rho0`` the plain ρ0 of the plan.
         joint_margin: kept inside every joint limit: a number [rad, or m on prismatic joints], an
-            (angle [rad], length [m]) pair or a :class:`~pincal.JointLimits`; default (None) 2°,
-            1 cm on prismatic joints, at most a tenth of a joint's range (or the JointLimits among
-            ``constraints``); 0 keeps none.
+            (angle [rad], length [m]) pair or a
+            :class:`~pincal.planning.constraints.JointLimits`; default (None) 2°, 1 cm on prismatic
+            joints, at most a tenth of a joint's range (or the JointLimits among ``constraints``);
+            0 keeps none.
         mount: the plane the robot is mounted on, kept below everything the joints move (markers,
             tip, link origins): ``floor``, ``wall``, ``ceiling`` (z = 0 of the base frame),
-            ``none``, a plane ``"NX,NY,NZ,OFFSET"`` or a :class:`~pincal.Mount`; default (None)
-            ``floor`` for a fixed-base robot measured from its URDF root, ``none`` otherwise (or
-            the Mount among ``constraints``).
+            ``none``, a plane ``"NX,NY,NZ,OFFSET"`` or a
+            :class:`~pincal.planning.constraints.Mount`; default (None) ``floor`` for a fixed-base
+            robot measured from its URDF root, ``none`` otherwise (or the Mount among
+            ``constraints``).
 
     Returns:
         the best plan found, with its criterion value, ρ0 and the history of every start.

@@ -1,4 +1,4 @@
-"""Safe by default: the constraints a design keeps unless told otherwise.
+"""Safe by default: the constraints a design keeps unless told otherwise (docs/method.md §12.5).
 
 :func:`with_safety` adds to a design's constraints
 

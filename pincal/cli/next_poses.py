@@ -10,6 +10,7 @@ import sys
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.sanity import OUTLIER_SCORE
 from pincal.campaign.adaptive import AVOID_DISTANCE, next_poses
+from pincal.cli import COMMANDS
 from pincal.cli._accuracy import REGION_HELP, add_region_arguments, prior_from_args, test_region_from_args
 from pincal.cli._common import (
     SIGMA_HELP,
@@ -30,7 +31,7 @@ from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constrain
 from pincal.cli.design import print_warnings
 from pincal.errors import BadArgument
 
-HELP = "from the measurements so far, the next poses to measure (or stop: the target is reached)"
+HELP = COMMANDS["next"].help
 EXAMPLES = f"""\
 examples:
   pincal next kr270 --data measured.csv --plan plan.csv -k 3 --test-pose=0,-60,60,0,45,0 --around 10deg \\
