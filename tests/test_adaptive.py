@@ -40,8 +40,10 @@ def test_measured_information_is_the_plans_own(params, first, region, kr270_mark
     prior equals ρ0 of old and new poses together, to rounding."""
     measured = MeasuredPrior.from_measurements(params, first.q, SIGMA)
     new = kr270_marker.random_configurations(3, 7)
-    together = pincal.rho0(params, first.concat(pincal.Plan.for_robot(kr270_marker, new)), region, SIGMA)
-    assert pincal.rho0(params, new, region, SIGMA, prior=measured) == pytest.approx(together, rel=1e-9)
+    together = pincal.rho0(
+        params, first.concat(pincal.Plan.for_robot(kr270_marker, new)), region, sigma=SIGMA
+    )
+    assert pincal.rho0(params, new, region, sigma=SIGMA, prior=measured) == pytest.approx(together, rel=1e-9)
     # With a prior too: its precision adds up with the measured information.
     prior = pincal.Prior(1e-3, 1e-3)
     both = MeasuredPrior.from_measurements(params, first.q, SIGMA, prior)
@@ -56,11 +58,11 @@ def test_assessment_predicts_from_the_data_so_far(params, first, region):
     data = pincal.simulate_measurements(truth, first, sigma=SIGMA, seed=2)
     a = assess(params, data, region, plan=first, sigma=SIGMA)
     assert a.sigma_source == "given" and a.used.all() and not len(a.unreachable)
-    assert a.predicted == pytest.approx(pincal.rho0(params, first, region, SIGMA), rel=1e-9)
+    assert a.predicted == pytest.approx(pincal.rho0(params, first, region, sigma=SIGMA), rel=1e-9)
     # σ re-estimated from the residuals: the prediction scales with it.
     b = assess(params, data, region, plan=first)
     assert b.sigma_source == "estimated" and b.sigma == pytest.approx(b.identification.sigma)
-    assert b.predicted == pytest.approx(pincal.rho0(params, first, region, b.sigma), rel=1e-9)
+    assert b.predicted == pytest.approx(pincal.rho0(params, first, region, sigma=b.sigma), rel=1e-9)
 
 
 def test_outliers_and_unreachable_poses_are_named_and_left_out(params, region, kr270_marker):
@@ -75,7 +77,7 @@ def test_outliers_and_unreachable_poses_are_named_and_left_out(params, region, k
     np.testing.assert_allclose(step.unreachable, plan.q[:1])
     # The information kept is that of the 8 good rows.
     kept = np.delete(np.arange(9), 4)
-    assert step.predicted == pytest.approx(pincal.rho0(params, data.q[kept], region, SIGMA), rel=1e-9)
+    assert step.predicted == pytest.approx(pincal.rho0(params, data.q[kept], region, sigma=SIGMA), rel=1e-9)
     # The next poses keep away from the unreachable one, and improve the prediction.
     assert np.linalg.norm(step.plan.q - plan.q[0], axis=1).min() >= AVOID_DISTANCE - 1e-9
     assert step.predicted_after < step.predicted and len(step.plan) == 3 and not step.stop
@@ -83,7 +85,7 @@ def test_outliers_and_unreachable_poses_are_named_and_left_out(params, region, k
     for seed in range(3):
         random3 = kr270_marker.random_configurations(3, seed)
         measured = MeasuredPrior.from_measurements(params, data.q[kept], SIGMA)
-        assert step.predicted_after <= pincal.rho0(params, random3, region, SIGMA, prior=measured)
+        assert step.predicted_after <= pincal.rho0(params, random3, region, sigma=SIGMA, prior=measured)
     text = "\n".join(step.lines(degrees=True))
     assert "outlier dropped" in text and "unreachable" in text and "next 3 poses" in text
 

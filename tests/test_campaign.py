@@ -320,7 +320,9 @@ def test_accuracy_against_campaign_time(kr270_marker):
         and "4 poses" in result.skipped[0][1]
     )
     for row in result.rows:
-        assert row.predicted == pytest.approx(pincal.rho0(params, row.plan, region, DEFAULT_SIGMA), rel=1e-9)
+        assert row.predicted == pytest.approx(
+            pincal.rho0(params, row.plan, region, sigma=DEFAULT_SIGMA), rel=1e-9
+        )
         campaign = plan_campaign(kr270_marker, row.plan, timing=timing, check=False)
         assert row.minutes == pytest.approx(campaign.total / 60) and row.minutes >= row.m * 10.5 / 60
     assert "accuracy against campaign time" in result.lines()[0]
