@@ -171,6 +171,11 @@ from pincal.calibration.sanity import (  # noqa: E402
 )
 from pincal.calibration.synthetic import DEFAULT_ERROR_STD  # noqa: E402
 from pincal.calibration.urdf_export import ROUND_TRIP_TOLERANCE  # noqa: E402
+from pincal.campaign.adaptive import AVOID_DISTANCE  # noqa: E402
+from pincal.campaign.ordering import EXACT_LIMIT  # noqa: E402
+from pincal.campaign.rehearsal import Faults  # noqa: E402
+from pincal.campaign.timing import DEFAULT_SETTLE, DWELLS  # noqa: E402
+from pincal.campaign.tradeoff import DEFAULT_SIZES  # noqa: E402
 from pincal.evaluation.accuracy import NEIGHBOURHOODS, PRISMATIC_PER_RADIAN, WORKSPACE_SAMPLES  # noqa: E402
 from pincal.evaluation.data_check import IDENTIFIABLE_STD, MIN_DATA_CONDITIONING  # noqa: E402
 from pincal.evaluation.prior import PRIOR_RANGE  # noqa: E402
@@ -180,6 +185,8 @@ from pincal.model.base_parameters import NEARLY_REDUNDANT  # noqa: E402
 from pincal.model.urdf import MAX_URDF_BYTES, MAX_URDF_ELEMENTS, MAX_URDF_JOINTS  # noqa: E402
 from pincal.model.xacro_expansion import XACRO_MEMORY, XACRO_SECONDS  # noqa: E402
 from pincal.planning.choice import SINGULAR_WARNING  # noqa: E402
+from pincal.planning.constraints import DEFAULT_JOINT_LIMITS  # noqa: E402
+from pincal.planning.constraints.collision_world import LINK_RADIUS, REFINE_BELOW  # noqa: E402
 from pincal.planning.driver import DEFAULT_POOL, MIN_CONDITIONING  # noqa: E402
 
 MIB, GIB = 2**20, 2**30
@@ -381,6 +388,31 @@ CLAIMS: tuple[Claim, ...] = (
         "its Table 1 at 60° and 120° contradicts its own eq. (20)",
         shown_in("01_planar_2link.ipynb", "Verdict on Table 1"),
     ),
+    # Safe by default, from plan to campaign
+    Claim(
+        "keeps 2° inside every joint limit (1 cm on prismatic joints",
+        equals(math.degrees(DEFAULT_JOINT_LIMITS.margin), DEFAULT_JOINT_LIMITS.prismatic * 100),
+    ),
+    Claim("z = 0 of the base frame", GIVEN),
+    Claim("e.g. `0,0,1,-0.8` for a floor 0.8 m below a riser", GIVEN),
+    Claim("(Held–Karp) up to 12 poses, 2-opt", equals(EXACT_LIMIT, 2)),
+    Claim(
+        "plans: 9–16 % of the campaign with 12 poses, 21–25 % with 40",
+        measured(RESULTS, "## bench_campaign_order"),
+    ),
+    Claim("(2√(|Δq|/a) when", GIVEN),
+    Claim("`--speed 0.5` for a 50 % override", GIVEN),
+    Claim("(`--settle`, 0.5 s)", equals(DEFAULT_SETTLE)),
+    Claim("(`--dwell tracker`: 2 s,", equals(DWELLS["tracker"])),
+    Claim("`probe`: 10 s, a 6-DoF probe", equals(DWELLS["probe"], 6)),
+    Claim("IEEE T-RO 2005", GIVEN),
+    Claim("where the hulls come within 5 cm", equals(REFINE_BELOW * 100)),
+    Claim("(4 % of the reach thick", equals(LINK_RADIUS * 100)),
+    Claim("1-based; 0 for home and via points", GIVEN),
+    Claim("plans of m = 6 … 30 poses", equals(DEFAULT_SIZES[0], DEFAULT_SIZES[-1])),
+    Claim("the next poses keep 10° away from them", equals(math.degrees(AVOID_DISTANCE))),
+    Claim("noise 1.5× the data sheet on average", equals(Faults().noise_scale)),
+    Claim("one 2 mm outlier", equals(Faults().outlier * 1e3)),
 )
 
 
