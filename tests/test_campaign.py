@@ -20,6 +20,7 @@ from pincal.campaign.schedule import HOME, plan_campaign
 from pincal.campaign.timing import DWELLS, Timing
 from pincal.errors import BadArgument
 from pincal.planning.constraints import Mount, Obstacle, Workcell
+from pincal.planning.constraints.collision_world import TOUCHING, with_exact
 
 R = 0.05  # capsule radius of the planar scenes [m]
 
@@ -160,6 +161,27 @@ def test_detour_goes_around(planar2):
     detour = find_detour(world, a, b, 0.0, lower, upper, timing.move_time, rng)
     assert detour is not None and detour.first.clear and detour.second.clear
     assert np.all(world.distances(detour.via) >= 0)
+
+
+def test_meshes_in_contact_are_not_clear():
+    # coal gives 0, not a depth, for meshes that intersect: a contact must not pass for a clearance
+    # of 0. The convex hulls' signed distance is kept when the meshes touch.
+    np.testing.assert_array_equal(
+        with_exact(np.array([-0.07, 0.01, 0.0, 0.02]), np.array([0.0, 0.03, 0.0, 0.0])),
+        [-0.07, 0.03, -TOUCHING, -TOUCHING],
+    )
+    # A UR10 folded with its forearm through its shoulder (shoulder_lift -149°, elbow -178°): the
+    # meshes intersect (shoulder / forearm hulls 77 mm deep, and others), so the pose is not clear
+    # and the moves to it are named.
+    ur10 = pincal.load_robot("ur10", markers=[(0.1, 0.05, 0.2)])
+    folded = np.radians([6.0, -149.4, -178.0, 209.7, -112.7, -49.8])
+    fine = np.radians([20.5, -64.5, 106.0, -100.3, -123.1, 48.5])
+    campaign = plan_campaign(ur10, np.vstack([fine, folded]), home=fine)
+    assert "collision geometry" in campaign.geometry
+    assert campaign.unsafe_poses == (1,)
+    assert campaign.pose_clearance[1] < -0.05  # the deepest of its overlapping pairs
+    assert campaign.blocked and all("pose 2" in b for b in campaign.blocked)
+    assert all(mv.detour is None for mv in campaign.moves)
 
 
 def test_line_of_sight_blocked_by_a_box(planar2):

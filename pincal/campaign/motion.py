@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.planning.constraints.collision_world import CollisionWorld
+from pincal.planning.constraints.collision_world import CollisionWorld, with_exact
 
 MAX_EVALUATIONS = 1000
 """Distance evaluations one move may use before it is declared not certified."""
@@ -117,11 +117,13 @@ def certify_move(
         return samples[s][0]
 
     def refine(s: float, pairs: np.ndarray) -> None:
+        nonlocal evaluations
         e, exact = samples[s]
         todo = pairs[~exact[pairs]]
         if len(todo):
-            e[todo] = np.maximum(e[todo], world.exact_distances(a + s * (b - a), todo))
+            e[todo] = with_exact(e[todo], world.exact_distances(a + s * (b - a), todo))
             exact[todo] = True
+            evaluations += 1  # the meshes' distances, counted as one more evaluation
 
     if ends is not None:
         samples[0.0] = (np.array(ends[0], dtype=float), np.ones(world.size, dtype=bool))

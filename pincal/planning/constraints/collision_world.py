@@ -50,6 +50,20 @@ of its link offsets: 0.14 m for the KR 270, 0.08 m for a UR10)."""
 REFINE_BELOW = 0.05
 """Mesh pairs whose convex hulls are closer than this [m] are measured again on the meshes."""
 
+
+TOUCHING = 1e-6
+"""How far apart [m] two meshes that coal finds in contact are reported, at most: negative, so
+that a contact is never taken for a clearance of 0 (coal gives 0, not a depth, for meshes that
+intersect)."""
+
+
+def with_exact(hull: np.ndarray, exact: np.ndarray) -> np.ndarray:
+    """The distances of mesh pairs from their convex hulls' (``hull``, a lower bound, signed) and
+    the meshes' own (``exact``, 0 when they intersect) [m]: the meshes' where they are apart, else
+    negative (the hulls' depth, at least :data:`TOUCHING`)."""
+    return np.where(exact > 0, np.maximum(hull, exact), np.minimum(hull, -TOUCHING))
+
+
 MARKER_RADIUS = 0.25
 """Radius of the capsule from the tip to a marker, as a fraction of the link radius."""
 
@@ -354,7 +368,7 @@ class CollisionWorld:
             out[: len(self.pairs)] = [r.min_distance for r in self.gdata.distanceResults]
             if refine:
                 near = np.flatnonzero(self.refinable & (out[: len(self.pairs)] < REFINE_BELOW))
-                out[near] = np.maximum(out[near], self.exact_distances(q, near))
+                out[near] = with_exact(out[near], self.exact_distances(q, near))
         if self.n_points:
             out[len(self.pairs) :] = self.mount._heights(q[None])[0, self.mount.keep]
         return out
