@@ -225,6 +225,7 @@ def test_campaign_time_adds_up_by_hand(kr270_marker, kr_plan):
     assert campaign.given_time == pytest.approx(tour_cost(cost, range(1, 8)) + 7 * 1.8)
     assert campaign.given_time >= campaign.tour_time
     assert campaign.moves[0].start == HOME and campaign.moves[-1].end == HOME
+    assert campaign.home_source == "given" and "  home: given" in campaign.lines()
     waypoints = campaign.waypoints()
     assert [p for _, p, _ in waypoints if p] == [i + 1 for i in campaign.order]
     assert all(w == pytest.approx(1.8) for _, p, w in waypoints if p)
@@ -236,6 +237,8 @@ def test_campaign_checks_every_move_against_the_cell(kr270_marker, kr_plan):
     campaign = plan_campaign(kr270_marker, kr_plan, constraints=[cell], seed=1)
     world = cell.world(kr270_marker, self_collision=True, mount_points=Mount("floor").bind(kr270_marker))
     assert campaign.checked and "capsules" in campaign.geometry
+    # The KR 270's zero has joint_a2 outside [-140°, -5°]: home is the plan's first pose, and said.
+    assert np.array_equal(campaign.home, kr_plan[0]) and "outside the joint limits" in campaign.home_source
     assert campaign.required == {"self": 0.0, "obstacle": 0.02, "floor": 0.0}
     for mv in campaign.moves:
         ends = [campaign.home if i == HOME else kr_plan[i] for i in (mv.start, mv.end)]

@@ -111,6 +111,8 @@ class Campaign:
         required: what each kind of pair keeps [m]: ``{"self": ..., "obstacle": ..., "floor": ...}``.
         occlusions: the markers the instrument cannot see (with a visibility constraint).
         skipped_pairs: pairs of the robot's shapes in contact at the reference configuration, not checked.
+        home_source: where :attr:`home` comes from, in words (``given``, ``the URDF zero``, or
+            ``the plan's first pose`` and why).
     """
 
     robot: Robot
@@ -130,6 +132,7 @@ class Campaign:
     required: dict | None = None
     occlusions: tuple[Occlusion, ...] = ()
     skipped_pairs: tuple[str, ...] = ()
+    home_source: str = ""
 
     @property
     def m(self) -> int:
@@ -210,6 +213,7 @@ class Campaign:
             "m": self.m,
             "order": list(self.order),
             "home": self.home.tolist(),
+            "home_source": self.home_source,
             "exact": self.exact,
             "total": self.total,
             "move_time": self.move_time,
@@ -252,6 +256,8 @@ class Campaign:
         t = self.timing
         out = [f"campaign: {self.summary()}"]
         out.append(f"  {t.describe()}")
+        if self.home_source:
+            out.append(f"  home: {self.home_source}")
         saved = self.given_time - self.tour_time
         out.append(
             f"  in the plan's order: {self.given_time / 60:.3g} min; this order saves {saved:.3g} s "
@@ -307,12 +313,16 @@ class Campaign:
         return out
 
 
-def default_home(robot: Robot, qs: np.ndarray, clear=None) -> np.ndarray:
+def default_home(robot: Robot, qs: np.ndarray, clear=None) -> tuple[np.ndarray, str]:
     """The URDF zero when it lies within the joint limits (and ``clear(zero)``, when given), else
-    the plan's first configuration."""
+    the plan's first configuration; with where it comes from, in words."""
     zero = np.zeros(robot.nq)
     inside = np.all(zero >= robot.model.lowerPositionLimit) and np.all(zero <= robot.model.upperPositionLimit)
-    return zero if inside and (clear is None or clear(zero)) else qs[0].copy()
+    if not inside:
+        return qs[0].copy(), "the plan's first pose (the URDF zero is outside the joint limits)"
+    if clear is not None and not clear(zero):
+        return qs[0].copy(), "the plan's first pose (the URDF zero is not clear itself)"
+    return zero, "the URDF zero"
 
 
 def plan_campaign(
@@ -361,11 +371,11 @@ def plan_campaign(
     constraints = with_safety(robot, constraints, joint_margin, mount)
     world, need = _world(robot, constraints, self_collision) if check else (None, None)
     if home is not None:
-        home_q = robot.configurations(home, what="home")[0]
+        home_q, home_source = robot.configurations(home, what="home")[0], "given"
     elif world is not None:  # the zero only when it is clear itself (a UR10's has its wrist below the floor)
-        home_q = default_home(robot, qs, lambda q: bool(np.all(world.distances(q) >= need)))
+        home_q, home_source = default_home(robot, qs, lambda q: bool(np.all(world.distances(q) >= need)))
     else:
-        home_q = default_home(robot, qs)
+        home_q, home_source = default_home(robot, qs)
     nodes = np.vstack([home_q[None], qs])
     cost = timing.matrix(nodes)
     m = len(qs)
@@ -378,7 +388,9 @@ def plan_campaign(
         moves = tuple(
             Move(a, b, float(cost[a + 1, b + 1])) for a, b in zip(route[:-1], route[1:], strict=True)
         )
-        return Campaign(robot, plan, home_q, order, moves, timing, tour.exact, given_time)
+        return Campaign(
+            robot, plan, home_q, order, moves, timing, tour.exact, given_time, home_source=home_source
+        )
     at = {i: world.distances(q) for i, q in enumerate(qs)}
     at[HOME] = world.distances(home_q)
     rng = generator(seed)
@@ -435,6 +447,7 @@ def plan_campaign(
         required=required,
         occlusions=tuple(blocked_sight),
         skipped_pairs=tuple(world.skipped),
+        home_source=home_source,
     )
 
 

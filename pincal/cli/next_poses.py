@@ -67,7 +67,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_base_argument(p)
     p.add_argument("--data", required=True, metavar="MEASURED.csv", help="the measurements so far")
     p.add_argument(
-        "--plan", metavar="PLAN.csv", help="the poses planned so far (those not measured are avoided)"
+        "--plan",
+        metavar="PLAN.csv",
+        help="the poses tried so far (the batches sent to the robot, not the poses still to run): "
+        "those without data are taken as unreachable and the next poses keep away from them",
     )
     p.add_argument("-k", type=count("-k"), default=3, help="poses to choose next (default 3)")
     add_test_pose_argument(p, required=False)
