@@ -52,7 +52,6 @@ from pincal.cli.campaign import (
     check_tradeoff_arguments,
     report_tradeoff,
 )
-from pincal.compensation.calibration_file import load_calibration
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0_split
 from pincal.model.statics import Payload
