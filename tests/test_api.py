@@ -136,7 +136,7 @@ def test_no_import_inside_a_function_but_optional_ones():
                         assert (name, module) in allowed, f"{name}: {function.name} imports {module}"
 
 
-STAGES = ("model", "evaluation", "planning", "calibration", "compensation", "viewing", "cli")
+STAGES = ("model", "instruments", "evaluation", "planning", "calibration", "compensation", "viewing", "cli")
 
 
 def test_data_flows_one_way():
