@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -21,7 +22,7 @@ from pincal.instruments.error_model import (
     PerCoordinate,
     Tracker,
 )
-from pincal.instruments.instrument import Instrument
+from pincal.instruments.instrument import Instrument, orientation_length_of
 from pincal.instruments.kind import Kind
 from pincal.instruments.point import Point
 from pincal.instruments.pose import Pose, partial_from_text
@@ -45,9 +46,18 @@ and transverse c + e*d across it at distance d, --tracker-sigma A,B,C,E [m, m/m]
 Leica AT500's MPE: {",".join(f"{v:g}" for v in TRACKER_RADIAL + TRACKER_TRANSVERSE)})."""
 
 
-def add_instrument_arguments(parser: argparse.ArgumentParser, measure: bool = True) -> None:
+def add_instrument_arguments(
+    parser: argparse.ArgumentParser, measure: bool = True, test_pose: bool = False
+) -> None:
     """--measure (when ``measure``), --anchor, --camera, --sigma-rot, --sigma-px, --instrument,
-    --instrument-at, --tracker-sigma."""
+    --instrument-at, --tracker-sigma; --orientation-length with ``test_pose``."""
+    if test_pose:
+        parser.add_argument(
+            "--orientation-length",
+            type=float,
+            metavar="L",
+            help="rho0 also counts the tool's orientation error at the test pose, times this lever [m]",
+        )
     if measure:
         parser.add_argument(
             "--measure",
@@ -191,3 +201,41 @@ def instrument_from_args(args: argparse.Namespace, kind: Kind | None, sigma: flo
     if error is None:
         error = PerCoordinate(DEFAULT_SIGMA if sigma is None else sigma)
     return Instrument(Point() if kind is None else kind, error)
+
+
+@dataclass(frozen=True, eq=False)
+class Measuring:
+    """What a command's plan is measured with, from its arguments.
+
+    Attributes:
+        robot: the robot with the instrument's fixtures (--anchor, --camera).
+        instrument: what is measured and how well (points with --sigma by default).
+        options: ``measure=``, ``instrument=``, ``orientation_length=`` for the core's functions:
+            empty for points with one σ and no orientation (their calls as they always were).
+        text: the instrument in words for the report, or "" for points with one σ.
+    """
+
+    robot: Robot
+    instrument: Instrument
+    options: dict
+    text: str
+
+
+def measuring_from_args(args: argparse.Namespace, robot: Robot, sigma: float | None) -> Measuring:
+    """The :class:`Measuring` of the instrument arguments, ``sigma`` the checked --sigma (or None)."""
+    robot = robot_with_fixtures(robot, args)
+    kind = kind_from_args(args, robot)
+    error = error_from_args(args, sigma)
+    instrument = instrument_from_args(args, kind, sigma)
+    options: dict = {}
+    if kind is not None and not isinstance(kind, Point):
+        options["measure"] = kind
+    if error is not None:
+        options["instrument"] = error
+    length = getattr(args, "orientation_length", None)
+    if length is not None:
+        options["orientation_length"] = orientation_length_of(length)
+    text = "" if instrument.is_default and not options else instrument.describe()
+    if length is not None:
+        text += f"; rho0 counts the tool's orientation error times L = {length:g} m"
+    return Measuring(robot, instrument, options, text.lstrip("; "))

@@ -18,6 +18,7 @@ from pincal.cli._common import (
     robot_from_args,
     sigma_from_args,
 )
+from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
 from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, design
@@ -35,7 +36,10 @@ Random plans: configurations drawn uniformly within the joint limits, kept if th
 --constraints; with --pool, m distinct configurations of the pool (plan CSV format, e.g. taught
 poses) per plan, and the D-optimal plan is made of pool configurations too. Singular plans (no
 finite rho0) are counted, not averaged. rho0 in metres for --sigma.
+
+{instrument}
 """
+EXAMPLES = EXAMPLES.replace("{instrument}", INSTRUMENT_HELP)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -62,14 +66,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--workers", type=count("--workers"), help="processes for the --d-optimal search (default: all CPUs)"
     )
+    add_instrument_arguments(p, test_pose=True)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     sigma, sigma_text = sigma_from_args(args)
-    robot = robot_from_args(args)
-    params, source = params_from_args(robot, args)
+    measuring = measuring_from_args(args, robot_from_args(args), sigma if args.sigma is not None else None)
+    robot = measuring.robot
+    sigma_text = measuring.text or sigma_text
+    params, source = params_from_args(robot, args, measuring.instrument)
     q0 = test_region_from_args(robot, args)
     prior = prior_from_args(args)
     constraints = constraints_from_args(args)
@@ -87,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
             constraints=constraints,
             seed=args.seed,
             pool=pool,
+            **measuring.options,
         )
         d_opt = None
         if args.d_optimal:
@@ -103,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
                 seed=args.seed,
                 starts=args.starts,
                 workers=args.workers,
+                **measuring.options,
             )
     print_warnings(records)
     if args.json:

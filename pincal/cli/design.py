@@ -45,6 +45,7 @@ from pincal.cli._common import (
     sigma_from_args,
     sigma_type,
 )
+from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
 from pincal.cli._plot import add_plot_argument, save_design_plot
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0_split
@@ -70,6 +71,10 @@ examples:
   pincal design kr270 -m 15 --test-pose=0,-60,60,0,45,0 --deg --marker 0.1,0.05,0.2 \
       --params lengths,offsets,gains,compliance --payloads 0,135,270 --task-payload 270 \
       --payload-centre 0,0,0.25 --out plan.csv      # choose a payload per configuration
+  pincal design ur10 -m 8 --test-pose=0,-1.2,1.5,-1,-1.5,0 --measure pose --sigma 1e-4 --sigma-rot 2e-3
+  pincal design panda -m 10 --test-pose=0,-0.3,0,-2.2,0,2,0.8 --camera rig.yaml   # a camera and a grid
+  pincal design kr270 -m 12 --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 \
+      --instrument tracker --instrument-at 4,0,1    # a tracker's radial/transverse error, 4 m away
 
 Payloads (--payloads KG,KG,...; --task-payload KG; --payload-centre X,Y,Z): the exchange chooses a
 payload for each configuration of a generated pool (--pool-size) or of your --pool; the plan CSV
@@ -110,6 +115,7 @@ EXAMPLES = (
     .replace("{conditioning}", CONDITIONING_HELP)
     .replace("{limits}", PAYLOAD_LIMITS[0].upper() + PAYLOAD_LIMITS[1:])
 )
+EXAMPLES += "\n" + INSTRUMENT_HELP + "\n"
 
 
 def add_design_arguments(p: argparse.ArgumentParser) -> None:
@@ -202,6 +208,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_plot_argument(p)
     add_report_arguments(p)
+    add_instrument_arguments(p, test_pose=True)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -213,8 +220,10 @@ def print_warnings(records: list) -> None:
 
 def run(args: argparse.Namespace) -> int:
     sigma, sigma_text = sigma_from_args(args)
-    robot = robot_from_args(args)
-    params, source = params_from_args(robot, args)
+    measuring = measuring_from_args(args, robot_from_args(args), sigma if args.sigma is not None else None)
+    robot = measuring.robot
+    params, source = params_from_args(robot, args, measuring.instrument)
+    sigma_text = measuring.text or sigma_text
     criterion = "test-pose-worst" if args.worst else args.criterion
     q0 = test_region_from_args(robot, args, required=criterion.lower().startswith("test"))
     prior = prior_from_args(args)
@@ -238,6 +247,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         workers=args.workers,
         progress=progress,
+        **measuring.options,
     )
     loads = _payload_options(args)
     if args.residual_model:
@@ -264,6 +274,7 @@ def run(args: argparse.Namespace) -> int:
             pool,
             loads.get("task_payload"),
             loads.get("residual_model"),
+            **measuring.options,
         )
     _write_and_print(args, robot, params, source, result, baseline, report, sigma_text)
     print_warnings(records)  # last, where they are seen
@@ -321,6 +332,7 @@ def _baseline(
         constraints=options["constraints"],
         seed=args.seed,
         pool=taught,
+        **{k: options[k] for k in ("measure", "instrument", "orientation_length") if k in options},
     )
     return randoms, design(params, args.m, q0, criterion="D", **options)
 

@@ -23,7 +23,9 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import pinocchio as pin
 
+from pincal.arguments import MAX_LENGTH
 from pincal.errors import BadArgument
 from pincal.instruments.error_model import ErrorModel, PerCoordinate
 from pincal.instruments.identifiability import identifiable
@@ -33,6 +35,10 @@ from pincal.model.base_parameters import NEARLY_REDUNDANT, Identifiability
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.typing import SeedLike
+
+POOL_ROWS = 6
+"""Configurations with more rows than this are compressed to their rank for the exchange search
+(:meth:`RowsEngine.pool`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,6 +104,12 @@ def instrument_for(kind: Kind | None, error: ErrorModel | None, sigma: float) ->
     return Instrument(Point() if kind is None else kind, PerCoordinate(sigma) if error is None else error)
 
 
+def optional_instrument(kind: Kind | None, error: ErrorModel | None, sigma: float) -> Instrument | None:
+    """:func:`instrument_for`, or None when neither is given (points with ``sigma``, as always:
+    the evaluations take their own, unchanged path)."""
+    return None if kind is None and error is None else instrument_for(kind, error, sigma)
+
+
 class RowsEngine:
     """The whitened rows of one instrument for one parameter set (see module doc).
 
@@ -146,11 +158,77 @@ class RowsEngine:
         covariance = error.covariance(kind, self.robot, qs, payload)
         return self.scale * covariance.whiten(J, seen)
 
-    def tool_rows(self, qs: np.ndarray, orientation_length: float | None = None) -> np.ndarray:
-        """(k, 3K [+ 3], P) the rows of the test poses ``qs``: the markers' positions in the tip
-        frame, and with ``orientation_length`` L [m], L times the tip frame's orientation rows."""
-        J0 = self.points.jacobian(qs, frame="tip")
-        if orientation_length is None:
-            return J0
-        angular = self.points.frame_rows(qs)[0][:, 3:]
-        return np.concatenate([J0, orientation_length * angular], axis=1)
+    def tool_rows(
+        self, qs: np.ndarray, orientation_length: float | None = None, payload: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(k, 3K [+ 3], P) the rows of the test poses ``qs`` (see :func:`tool_rows`)."""
+        return tool_rows(self.points, qs, orientation_length, payload)
+
+    def pool(self, qs: np.ndarray) -> np.ndarray:
+        """(N, r', P) rows of many candidate configurations with the information of
+        :meth:`jacobian`'s: its rows, or, when a configuration's rows have a lower rank than their
+        number (a camera's 2 per target point move with 12 twists at most), the r' = rank rows
+        S·Vᵀ of their singular value decomposition (JᵢᵀJᵢ unchanged): every exchange of the
+        search then costs (2r')³, not (2r)³."""
+        J = self.jacobian(qs)
+        if J.shape[1] <= POOL_ROWS:
+            return J
+        _, s, Vt = np.linalg.svd(J, full_matrices=False)
+        keep = s > s[:, :1] * 1e-12
+        r = max(int(keep.sum(axis=1).max()), 1)
+        if r == J.shape[1]:
+            return J
+        return (s[:, :r, None] * Vt[:, :r]) * keep[:, :r, None]
+
+    @property
+    def model(self) -> pin.Model:
+        """The robot's Pinocchio model (read-only use)."""
+        return self.points.model
+
+
+def tool_rows(
+    engine: JacobianEngine | RowsEngine,
+    qs: np.ndarray,
+    orientation_length: float | None = None,
+    payload: np.ndarray | None = None,
+) -> np.ndarray:
+    """(k, 3K [+ 3], P) the rows of test poses ``qs``: the markers' positions in the tip frame (ρ0's
+    J₀, whatever the instrument), and with ``orientation_length`` L [m], L times the tip frame's
+    orientation rows, so that ρ0² adds L²·E‖δθ‖² (docs/method.md §13.3); under the payload rows
+    ``payload`` (k, 4) of the task, if any."""
+    engine = engine.points if isinstance(engine, RowsEngine) else engine
+    J0 = engine.jacobian(qs, frame="tip", payload=payload)
+    if orientation_length is None:
+        return J0
+    angular = engine.frame_rows(qs, payload=payload, pose=False)[0][:, 3:]
+    return np.concatenate([J0, orientation_length * angular], axis=1)
+
+
+def pool_rows(engine: JacobianEngine | RowsEngine, qs: np.ndarray) -> np.ndarray:
+    """(N, r', P) the rows of a pool of candidates for the exchange (:meth:`RowsEngine.pool`; the
+    markers' tip-frame rows for a plain engine)."""
+    return engine.pool(qs) if isinstance(engine, RowsEngine) else engine.jacobian(qs, frame="tip")
+
+
+def rows_engine(params: ParameterSet, instrument: Instrument | None) -> JacobianEngine | RowsEngine:
+    """The engine of what a plan measures: the markers' points (None: exactly as always), or the
+    instrument's whitened rows."""
+    return JacobianEngine(params) if instrument is None else instrument.engine(params)
+
+
+def orientation_length_of(value: object) -> float | None:
+    """A checked ``orientation_length`` [m] (None: positions only).
+
+    Raises:
+        BadArgument: not a positive length within :data:`~pincal.arguments.MAX_LENGTH`.
+    """
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value <= MAX_LENGTH:
+        raise BadArgument(
+            f"orientation_length must be a positive length [m]: the lever that turns the tool's "
+            f"orientation error into a distance, got {value!r}",
+            argument="orientation_length",
+            value=value,
+        )
+    return float(value)

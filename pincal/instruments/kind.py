@@ -111,11 +111,12 @@ def marker_frame(robot: Robot, k: int) -> pin.SE3:
 
 
 def marker_frame_rows(
-    engine: JacobianEngine, qs: np.ndarray, k: int, payload: np.ndarray | None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    engine: JacobianEngine, qs: np.ndarray, k: int, payload: np.ndarray | None, pose: bool = True
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
     """(J, R, p): marker k's frame twist rows (m, 6, P) in its own axes (the marker's own
-    parameters included), its orientations (m, 3, 3) and positions (m, 3) in the instrument's frame."""
-    J, R, p = engine.frame_rows(qs, marker_frame(engine.robot, k), payload)
+    parameters included), its orientations (m, 3, 3) and positions (m, 3) in the instrument's frame
+    (None, None without ``pose``: :meth:`~pincal.model.jacobian.JacobianEngine.frame_rows`)."""
+    J, R, p = engine.frame_rows(qs, marker_frame(engine.robot, k), payload, pose)
     J[:, :3] += engine.marker_columns()[k]
     return J, R, p
 

@@ -86,7 +86,7 @@ class Pose(Kind):
     ) -> np.ndarray:
         blocks = []
         for k in range(engine.robot.n_markers):
-            J, R, _ = marker_frame_rows(engine, qs, k, payload)
+            J, R, _ = marker_frame_rows(engine, qs, k, payload, pose=world)
             blocks.append(in_world(J, R) if world else J)
         return np.concatenate(blocks, axis=1)
 

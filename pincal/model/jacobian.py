@@ -233,8 +233,8 @@ class JacobianEngine:
         return J
 
     def frame_rows(
-        self, qs: np.ndarray, placement: pin.SE3 | None = None, payload: object = None
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self, qs: np.ndarray, placement: pin.SE3 | None = None, payload: object = None, pose: bool = True
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         """Twist rows of a frame fixed to the tip, and the frame's poses, at joint readings ``qs``.
 
         The frame F sits at ``placement`` in the tip frame (default: the tip frame itself). A
@@ -247,6 +247,7 @@ class JacobianEngine:
             qs: (m, nq) joint readings (validated by the caller).
             placement: F in the tip frame.
             payload: the payload at each configuration (:func:`~pincal.model.statics.payload_rows`).
+            pose: also return F's poses (else None, None, unless the set has ``base.*``): cheaper.
 
         Returns:
             (J, R, p): (m, 6, P) rows in F's axes [m or rad per parameter unit], and F's
@@ -258,12 +259,15 @@ class JacobianEngine:
         model, data, joint = self.model, self.data, self.joint
         m = len(configurations)
         reg = np.empty((m, 6, 6 * model.nq))
-        rot, pos = np.empty((m, 3, 3)), np.empty((m, 3))
+        pose = pose or bool(self.base_cols)
+        rot, pos = (np.empty((m, 3, 3)), np.empty((m, 3))) if pose else (None, None)
+        fk, regressor, local = pin.forwardKinematics, pin.computeJointKinematicRegressor, pin.LOCAL
         for i, q in enumerate(configurations):
-            pin.forwardKinematics(model, data, q)
-            reg[i] = pin.computeJointKinematicRegressor(model, data, joint, pin.LOCAL, frame)
-            pose = data.oMi[joint] * frame
-            rot[i], pos[i] = pose.rotation, pose.translation
+            fk(model, data, q)
+            reg[i] = regressor(model, data, joint, local, frame)
+            if pose:
+                placed = data.oMi[joint] * frame
+                rot[i], pos[i] = placed.rotation, placed.translation
         const = inner.inverse().toActionMatrix() @ self.tip_twist  # a tip twist seen from F
         J = (reg.reshape(-1, reg.shape[2]) @ self.C).reshape(m, 6, self.n_params) + const
         if self.gain_cols.size:
@@ -280,6 +284,8 @@ class JacobianEngine:
                 axis = np.eye(3)[c - 3]
                 J[:, :3, col] = np.einsum("mji,mj->mi", rot, np.cross(axis, pos))
                 J[:, 3:, col] = rot[:, c - 3, :]
+        if not pose:
+            return J, None, None
         world = np.matmul(base.rotation, rot)
         return J, world, pos @ base.rotation.T + base.translation
 
