@@ -23,6 +23,7 @@ PACKAGE = Path(pincal.__file__).resolve().parent
 
 PUBLIC_MODULES = (
     "pincal.model",
+    "pincal.instruments",
     "pincal.evaluation",
     "pincal.planning",
     "pincal.planning.constraints",

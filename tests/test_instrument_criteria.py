@@ -9,6 +9,16 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal.instruments import (
+    Camera,
+    Image,
+    Instrument,
+    PerCoordinate,
+    Point,
+    Pose,
+    Tracker,
+    grid,
+)
 from pincal.instruments.instrument import tool_rows
 from pincal.model.jacobian import JacobianEngine
 
@@ -22,62 +32,60 @@ def ur10():
 
 @pytest.fixture(scope="module")
 def pose_params(ur10):
-    return pincal.Instrument(pincal.Pose()).identifiable(ur10.parameters("full,offsets")).identifiable
+    return Instrument(Pose()).identifiable(ur10.parameters("full,offsets")).identifiable
 
 
 def test_default_instrument_is_today_exactly(ur10):
     params = ur10.parameters("full,offsets").identifiable().identifiable
     plan = ur10.random_configurations(15, 1)
     plain = pincal.rho0(params, plan, Q0, 2e-5)
-    same = pincal.rho0(params, plan, Q0, measure=pincal.Point(), instrument=pincal.PerCoordinate(2e-5))
+    same = pincal.rho0(params, plan, Q0, measure=Point(), instrument=PerCoordinate(2e-5))
     assert same == plain
-    assert pincal.criteria(params, plan, instrument=pincal.PerCoordinate(2e-5)) == pincal.criteria(
-        params, plan
-    )
+    assert pincal.criteria(params, plan, instrument=PerCoordinate(2e-5)) == pincal.criteria(params, plan)
 
 
 def test_rho0_is_weighted_by_the_inverse_covariance(ur10):
     """ρ0² = tr(J₀ (Σ JᵢᵀΣᵢ⁻¹Jᵢ)⁻¹ J₀ᵀ), for a tracker's anisotropic covariance."""
     params = ur10.parameters("full,offsets").identifiable().identifiable
     plan = ur10.random_configurations(15, 2)
-    tracker = pincal.Tracker(at=(3.0, 1.0, 0.5))
+    tracker = Tracker(at=(3.0, 1.0, 0.5))
     J = JacobianEngine(params).jacobian(plan, frame="world")
-    cov = tracker.covariance(pincal.Point(), ur10, plan).matrices()
+    cov = tracker.covariance(Point(), ur10, plan).matrices()
     M = sum(j.T @ np.linalg.solve(c, j) for j, c in zip(J, cov))
     J0 = params.jacobian(Q0, frame="world")[0]
     expected = np.sqrt(np.trace(J0 @ np.linalg.solve(M, J0.T)))
     assert pincal.rho0(params, plan, Q0, instrument=tracker) == pytest.approx(expected, rel=1e-9)
-    each = pincal.rho0_each(params, plan, [Q0, Q0 * 0.5], instrument=tracker)
+    each = pincal.evaluation.rho0_each(params, plan, [Q0, Q0 * 0.5], instrument=tracker)
     assert each[0] == pytest.approx(expected, rel=1e-9)
 
 
 def test_orientation_part_of_the_test_pose_criterion(ur10, pose_params):
     """ρ0² = E‖δp‖² + L²·E‖δθ‖², from the posterior covariance of a pose plan."""
     plan = ur10.random_configurations(12, 3)
-    mocap = pincal.PerCoordinate(1e-4, 2e-3)
-    engine = pincal.Instrument(pincal.Pose(), mocap).engine(pose_params)
+    mocap = PerCoordinate(1e-4, 2e-3)
+    engine = Instrument(Pose(), mocap).engine(pose_params)
     W = engine.jacobian(plan).reshape(-1, len(pose_params))
     C = np.linalg.inv(W.T @ W) * mocap.sigma**2
     points = JacobianEngine(pose_params)
     Jp, Jw = points.jacobian(Q0[None], frame="tip")[0], points.frame_rows(Q0[None])[0][0, 3:]
     position, angle = np.trace(Jp @ C @ Jp.T), np.trace(Jw @ C @ Jw.T)
-    kw = {"measure": pincal.Pose(), "instrument": mocap}
+    kw = {"measure": Pose(), "instrument": mocap}
     assert pincal.rho0(pose_params, plan, Q0, **kw) == pytest.approx(np.sqrt(position), rel=1e-9)
     with_angle = pincal.rho0(pose_params, plan, Q0, orientation_length=0.25, **kw)
     assert with_angle == pytest.approx(np.sqrt(position + 0.25**2 * angle), rel=1e-9)
     assert tool_rows(points, Q0[None], 0.25).shape == (1, 6, len(pose_params))
-    with pytest.raises(pincal.BadArgument, match="orientation_length"):
+    with pytest.raises(pincal.errors.BadArgument, match="orientation_length"):
         pincal.rho0(pose_params, plan, Q0, orientation_length=-1.0)
 
 
 def test_pool_rows_keep_the_information(ur10):
     """A camera's 2N rows per configuration are compressed to their rank for the exchange."""
-    kind = pincal.Image(pincal.Camera(600, 600, 320, 240), pincal.grid(6, 5, 0.03))
+    kind = Image(Camera(600, 600, 320, 240), grid(6, 5, 0.03))
     robot = pincal.load_robot("panda").with_fixtures(
         *kind.fixtures((0.05, 0, 0.05), (0.5, 0, 0, np.pi, 0, 0))
     )
     params = robot.parameters("full,offsets,instrument")
-    engine = pincal.Instrument(kind).engine(params)
+    engine = Instrument(kind).engine(params)
     qs = robot.random_configurations(50, 4)
     J, R = engine.jacobian(qs), engine.pool(qs)
     assert R.shape[1] <= 12 < J.shape[1]  # a camera's twist and a target's: 12 at most
@@ -86,35 +94,35 @@ def test_pool_rows_keep_the_information(ur10):
 
 
 def test_design_measures_what_the_instrument_does(ur10, pose_params):
-    mocap = pincal.PerCoordinate(1e-4, 2e-3)
+    mocap = PerCoordinate(1e-4, 2e-3)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pincal.PincalWarning)
         result = pincal.design(
-            pose_params, 8, Q0, starts=2, workers=1, seed=1, pool=300, measure=pincal.Pose(), instrument=mocap
+            pose_params, 8, Q0, starts=2, workers=1, seed=1, pool=300, measure=Pose(), instrument=mocap
         )
     assert result.sigma == mocap.sigma and result.as_dict()["instrument"]["measure"] == {"kind": "pose"}
-    again = pincal.rho0(pose_params, result.plan, Q0, measure=pincal.Pose(), instrument=mocap)
+    again = pincal.rho0(pose_params, result.plan, Q0, measure=Pose(), instrument=mocap)
     assert result.rho0 == pytest.approx(again, rel=1e-12)
-    randoms = pincal.random_plans(pose_params, 8, 50, Q0, measure=pincal.Pose(), instrument=mocap, seed=2)
+    randoms = pincal.random_plans(pose_params, 8, 50, Q0, measure=Pose(), instrument=mocap, seed=2)
     assert randoms.n_singular == 0 and result.rho0 < randoms.min
-    with pytest.raises(pincal.SingularPlan):  # 4 poses of 6 values cannot identify 30 parameters
-        pincal.design(pose_params, 4, Q0, workers=1, measure=pincal.Pose())
+    with pytest.raises(pincal.errors.SingularPlan):  # 4 poses of 6 values cannot identify 30 parameters
+        pincal.design(pose_params, 4, Q0, workers=1, measure=Pose())
 
 
 def test_monte_carlo_of_a_pose_plan_matches_its_prediction(ur10, pose_params):
-    mocap = pincal.PerCoordinate(1e-4, 2e-3)
+    mocap = PerCoordinate(1e-4, 2e-3)
     plan = ur10.random_configurations(20, 5)
-    mc = pincal.monte_carlo(pose_params, plan, Q0, trials=40, seed=3, measure=pincal.Pose(), instrument=mocap)
+    mc = pincal.monte_carlo(pose_params, plan, Q0, trials=40, seed=3, measure=Pose(), instrument=mocap)
     assert mc.failures == 0 and abs(mc.ratio - 1) < 4 * mc.ratio_se
     assert mc.rho0_predicted == pytest.approx(
-        pincal.rho0(pose_params, plan, Q0, measure=pincal.Pose(), instrument=mocap), rel=1e-12
+        pincal.rho0(pose_params, plan, Q0, measure=Pose(), instrument=mocap), rel=1e-12
     )
 
 
 def test_accuracy_away_from_the_test_pose_with_a_tracker(ur10):
     params = ur10.parameters("full,offsets").identifiable().identifiable
     plan = ur10.random_configurations(15, 6)
-    tracker = pincal.Tracker(at=(3.0, 0.0, 1.0))
+    tracker = Tracker(at=(3.0, 0.0, 1.0))
     report = pincal.accuracy(params, plan, Q0, 3e-5, instrument=tracker, samples=16, workspace=32)
     at = report.plans[0].rows[0].rms
     assert at == pytest.approx(pincal.rho0(params, plan, Q0, instrument=tracker), rel=1e-9)

@@ -202,7 +202,7 @@ def test_quaternions_uncertainties_and_covariances_are_read(tmp_path):
     with pytest.raises(BadMeasurementData, match="sq"):
         pincal.MeasurementData.from_csv(path, ur10)
     path.write_text(f"{joints},d0,d1\n{q},1,2\n")
-    with pytest.raises(pincal.BadArgument, match="--anchor"):
+    with pytest.raises(pincal.errors.BadArgument, match="--anchor"):
         pincal.MeasurementData.from_csv(path, ur10)
     two = ur10.with_fixtures(*anchors((1, 0, 0), (0, 1, 0)))
     assert pincal.MeasurementData.from_csv(path, two).measure == Distance(((0, 0), (0, 1)))

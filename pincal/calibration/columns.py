@@ -75,7 +75,7 @@ def kind_of(measured: list[str], robot: Robot, given: Kind | None, where: str) -
     if any(_PIXEL.match(c) for c in measured):
         raise BadMeasurementData(
             f"{where}: image columns (u0,v0,...) need the camera and its target: give --camera RIG.yaml "
-            f"(kind=pincal.Image(...))"
+            f"(kind=pincal.instruments.Image(...))"
         )
     distances = [c for c in measured if _DISTANCE.match(c)]
     if distances:

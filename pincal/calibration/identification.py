@@ -133,8 +133,8 @@ def identify(
             process over joint space (:mod:`pincal.model.residual`, docs/method.md §11.5),
             hyperparameters by marginal likelihood on these data only (the rows kept); the
             result's :meth:`~IdentificationResult.predict` adds its mean. None: no residual model.
-        instrument: the instrument's error model (:class:`pincal.PerCoordinate`,
-            :class:`pincal.Tracker`): the weights of data without uncertainty columns (a tracker's
+        instrument: the instrument's error model (:mod:`pincal.instruments`: ``PerCoordinate``,
+            ``Tracker``): the weights of data without uncertainty columns (a tracker's
             at each point); default ``sigma`` per length and pincal's default σ of angles and pixels.
 
     Returns:
@@ -166,7 +166,8 @@ def identify(
         )
     if instrument is not None and not isinstance(instrument, ErrorModel):
         raise BadArgument(
-            f"instrument must be an error model (pincal.PerCoordinate, pincal.Tracker), got {instrument!r}",
+            "instrument must be an error model (pincal.instruments.PerCoordinate or Tracker), "
+            f"got {instrument!r}",
             argument="instrument",
         )
     settings = replace(settings, instrument=instrument)

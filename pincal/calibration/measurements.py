@@ -316,7 +316,7 @@ class MeasurementData:
             degrees: revolute joint values are in degrees (converted to radians).
             millimetres: lengths are in millimetres (converted to metres).
             kind: the measurement kind; default: read from the columns (points, poses, partial
-                poses, distances); image data need theirs (:class:`pincal.Image`).
+                poses, distances); image data need theirs (:class:`pincal.instruments.Image`).
 
         Returns:
             the data, in the robot's joint order, values in radians and metres.

@@ -181,8 +181,8 @@ def simulate_measurements(
             frame), as real robots have.
         measure: what is measured (:mod:`pincal.instruments`: a pose, part of one, distances,
             pixels); default the markers' points.
-        instrument: the error model the noise is drawn from (:class:`pincal.PerCoordinate`,
-            :class:`pincal.Tracker`, taken at the true points); default ``sigma`` per length.
+        instrument: the error model the noise is drawn from (:class:`pincal.instruments.PerCoordinate`,
+            :class:`pincal.instruments.Tracker`, taken at the true points); default ``sigma`` per length.
 
     Returns:
         the measurements (in the true robot's base frame, i.e. the instrument's frame when
@@ -219,7 +219,9 @@ def _simulate_kind(
     """:func:`simulate_measurements` of any kind at configurations ``qs`` under payload rows
     ``loads``, noise drawn from the error model's covariance."""
     if not isinstance(kind, Kind):
-        raise BadArgument(f"measure must be a pincal measurement kind (pincal.Pose(), ...), got {kind!r}")
+        raise BadArgument(
+            f"measure must be a pincal measurement kind (pincal.instruments.Pose(), ...), got {kind!r}"
+        )
     kind.check(robot)
     values = kind.predict(robot, qs, loads)
     if error is not None or sigma > 0:

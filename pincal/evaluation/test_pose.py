@@ -116,7 +116,7 @@ class TestPoseCriterion:
         prior: the errors' prior (Bayesian criterion), or None.
         task_payload: the payload at the test pose(s) (a mass [kg], a :class:`~pincal.Payload`,
             or one per test pose); default none.
-        instrument: what is measured and how well (:class:`~pincal.Instrument`): the plan's rows
+        instrument: what is measured and how well (:class:`~pincal.instruments.Instrument`): the plan's rows
             are its whitened rows and ``sigma`` its reference σ; None: points with ``sigma``.
         orientation_length: L [m]: ρ0² also counts L² times the expected squared orientation
             error of the tool at the test poses [rad²] (docs/method.md §13.3); None: positions.
@@ -240,10 +240,10 @@ def rho0(
             σ²(M + σ²Σp⁻¹)⁻¹, finite for every plan (σ must then be the real noise in metres).
         task_payload: the payload at the test pose(s) (matters with compliance parameters); the
             plan's own payloads are its :attr:`~pincal.Plan.payload`.
-        measure: what the instrument measures (:class:`pincal.Pose`, :class:`pincal.Partial`,
-            :class:`pincal.Distance`, :class:`pincal.Image`); default points. ρ0 is still the
+        measure: what the instrument measures (:mod:`pincal.instruments`: ``Pose``, ``Partial``,
+            ``Distance``, ``Image``); default points. ρ0 is still the
             error of the markers' positions at the test pose(s).
-        instrument: its error model (:class:`pincal.PerCoordinate`, :class:`pincal.Tracker`):
+        instrument: its error model (:mod:`pincal.instruments`: ``PerCoordinate``, ``Tracker``):
             M = Σ JᵢᵀΣᵢ⁻¹Jᵢ; ``sigma`` is then not used. Default ``sigma`` per coordinate.
         orientation_length: L [m]: add L² times the expected squared orientation error of the
             tool (ρ0² = E‖δp‖² + L²·E‖δθ‖²), for a user who works with the tool's orientation.

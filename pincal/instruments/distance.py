@@ -84,7 +84,8 @@ class Distance(Kind):
         if missing:
             raise BadArgument(
                 f"distance measurements need the anchor point(s) {', '.join(wanted)} fixed in the cell: give "
-                f"their nominal positions (--anchor X,Y,Z; robot.with_fixtures(*pincal.anchors(...)))",
+                "their nominal positions (--anchor X,Y,Z; "
+                "robot.with_fixtures(*pincal.instruments.anchors(...)))",
                 argument="anchor",
             )
         if max(k for k, _ in self.pairs) >= robot.n_markers:

@@ -187,11 +187,11 @@ def design(
             plan minimises the expected error at the test pose(s) with it (tr Σ₀,
             :mod:`pincal.evaluation.residual_criterion`), through the same exchange; ``value`` is
             that error [m], ``rho0`` the plain ρ0 of the plan.
-        measure: what the instrument measures (:class:`pincal.Pose`, :class:`pincal.Partial`,
-            :class:`pincal.Distance`, :class:`pincal.Image`; default points): every criterion is
+        measure: what the instrument measures (:mod:`pincal.instruments`: ``Pose``, ``Partial``,
+            ``Distance``, ``Image``; default points): every criterion is
             of the information of its rows. ρ0 stays the markers' position error at the test pose.
-        instrument: the instrument's error model (:class:`pincal.PerCoordinate`,
-            :class:`pincal.Tracker`): the rows are weighted by Σᵢ⁻¹; ``sigma`` is then not used
+        instrument: the instrument's error model (:mod:`pincal.instruments`: ``PerCoordinate``,
+            ``Tracker``): the rows are weighted by Σᵢ⁻¹; ``sigma`` is then not used
             (the model's own reference σ scales the reports). Default ``sigma`` per coordinate.
         orientation_length: L [m]: the test-pose criteria also count L² times the expected
             squared orientation error of the tool (docs/method.md §13.3).
