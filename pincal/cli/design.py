@@ -49,12 +49,16 @@ from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, me
 from pincal.cli._plot import add_plot_argument, save_design_plot
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0_split
+from pincal.instruments.error_model import Tracker
+from pincal.instruments.instrument import Instrument
 from pincal.model.statics import Payload
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
 from pincal.planning.objectives import CRITERIA
+from pincal.planning.placement import Placement, place_instrument
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans
+from pincal.viewing import plots
 
 HELP = COMMANDS["design"].help
 EXAMPLES = """\
@@ -75,6 +79,8 @@ examples:
   pincal design panda -m 10 --test-pose=0,-0.3,0,-2.2,0,2,0.8 --camera rig.yaml   # a camera and a grid
   pincal design kr270 -m 12 --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 \
       --instrument tracker --instrument-at 4,0,1    # a tracker's radial/transverse error, 4 m away
+  pincal design ur10 -m 12 --test-pose=0,-1.2,1.5,-1,-1.5,0 --marker 0.05,0.02,0.1 \
+      --place-instrument 1.5,-2,0.75,9,2,0.75 --placement-plot placement.png   # where the tracker goes
 
 Payloads (--payloads KG,KG,...; --task-payload KG; --payload-centre X,Y,Z): the exchange chooses a
 payload for each configuration of a generated pool (--pool-size) or of your --pool; the plan CSV
@@ -93,9 +99,19 @@ gives your own, e.g. taught poses, in the plan CSV format, and keeps the plan on
 (all joint values at once, L-BFGS-B from many random starts).
 --baseline N: rho0 of N random feasible plans (drawn from --pool when given, else within the joint
 limits and --constraints) and of the D-optimal plan, next to the designed plan's.
+--place-instrument X0,Y0,Z0,X1,Y1,Z1: choose the tracker's position in that box (instrument frame,
+metres) together with the plan: a grid of --place-steps per axis (default 3), then the best
+position's neighbours at half the step; at each position the plan is designed with the tracker
+there (--instrument tracker, --tracker-sigma: its error; default the AT500's), under its range (1 to
+40 m), a 30-degree acceptance angle about the reflector's normal (the tip frame's z) and the line of
+sight (nothing of the robot's collision geometry within 1 cm of the beam; unchecked, and said so,
+when the URDF has none). With --camera (eye-to-hand), the camera is placed, aimed at the target at
+the test pose, counting the target points in its field of view. The report (and JSON 'instrument_at',
+'placement') gives the position chosen, rho0 there and at the default position (--instrument-at, or
+the box's centre) and their factor; --placement-plot FILE.png maps rho0 over the box.
 --base: the tracker measures in its own frame, so base.* are identified too (as 'identify --base').
---constraints FILE.yaml: joint_limits, workspace_box, half_space, visibility, self_collision,
-min_spacing (see pincal.constraints.load_constraints for the layout).
+--constraints FILE.yaml: joint_limits, workspace_box, half_space, visibility, line_of_sight,
+self_collision, min_spacing (see pincal.planning.constraints.load_constraints for the layout).
 --min-conditioning X: no plan whose conditioning is below X (default 1e-2, none with --prior); a
 plan below 1e-3 is warned about whatever the floor, and so is a floor below 1e-3 that stops the
 search.
@@ -206,6 +222,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="a top-up plan: the residual model of an earlier calibration (its sidecar) values measuring "
         "where the residual is correlated with the test pose's",
     )
+    p.add_argument(
+        "--place-instrument",
+        metavar="X0,Y0,Z0,X1,Y1,Z1",
+        help="choose the tracker's (or a fixed camera's) position in this box [m] with the plan",
+    )
+    p.add_argument(
+        "--place-steps",
+        type=count("--place-steps"),
+        metavar="N",
+        help="grid positions per axis of the --place-instrument box (default 3)",
+    )
+    p.add_argument(
+        "--placement-plot",
+        metavar="FILE.png",
+        help="save the map of rho0 against the instrument's position over the box (--place-instrument)",
+    )
     add_plot_argument(p)
     add_report_arguments(p)
     add_instrument_arguments(p, test_pose=True)
@@ -256,8 +288,16 @@ def run(args: argparse.Namespace) -> int:
         _check_payload_design(args, loads)
         options = {k: v for k, v in options.items() if k not in ("method", "polish", "workers", "progress")}
         options.update(loads)
+    placement = None
+    if args.place_instrument is not None:
+        placement, options = _placed(args, params, q0, criterion, options, taught, loads)
+    elif args.placement_plot or args.place_steps is not None:
+        raise BadArgument("--placement-plot and --place-steps go with --place-instrument X0,Y0,Z0,X1,Y1,Z1")
     with recorded_warnings() as records:
-        result = design(params, args.m, q0, criterion=criterion, **options)
+        if placement is None:
+            result = design(params, args.m, q0, criterion=criterion, **options)
+        else:
+            result = placement.result
         baseline = None
         if args.baseline is not None:
             baseline = _baseline(params, args, q0, criterion, taught, options)
@@ -276,7 +316,9 @@ def run(args: argparse.Namespace) -> int:
             loads.get("residual_model"),
             **measuring.options,
         )
-    _write_and_print(args, robot, params, source, result, baseline, report, sigma_text)
+    if placement is not None and args.placement_plot:
+        plots.save_figure(plots.placement_map(placement), args.placement_plot)
+    _write_and_print(args, robot, params, source, result, baseline, report, sigma_text, placement)
     print_warnings(records)  # last, where they are seen
     return 0
 
@@ -298,6 +340,38 @@ def _check_payload_design(args: argparse.Namespace, loads: dict) -> None:
             f"{what}: the design is an exchange over (configuration, payload) pairs; it does not take "
             + "; ".join(given)
         )
+
+
+def _placed(args, params, q0, criterion: str, options: dict, taught, loads: dict):
+    """(the :class:`Placement` of --place-instrument, the options of the rest of the command: its
+    instrument where the placement put it)."""
+    if args.baseline is not None or taught is not None or loads:
+        raise BadArgument(
+            "--place-instrument designs over a generated pool: no --baseline, --pool, --payloads or "
+            "--residual-model with it"
+        )
+    box = parse_floats(args.place_instrument, "--place-instrument")
+    if len(box) != 6:
+        raise BadArgument(
+            f"--place-instrument {args.place_instrument!r}: expected X0,Y0,Z0,X1,Y1,Z1 (six numbers, metres)"
+        )
+    kind, error = options.get("measure"), options.get("instrument")
+    rest = {k: v for k, v in options.items() if k not in ("measure", "instrument", "constraints", "progress")}
+    default_at = getattr(error, "at", None) if getattr(args, "instrument_at", None) else None
+    with recorded_warnings() as records:
+        placement = place_instrument(
+            params, args.m, q0, (box[:3], box[3:]), criterion=criterion, measure=kind, instrument=error,
+            constraints=options["constraints"], steps=args.place_steps or 3, default_at=default_at, **rest,
+        )  # fmt: skip
+    print_warnings(records)
+    options = dict(options)
+    if isinstance(placement.result.instrument, Instrument) and isinstance(
+        placement.result.instrument.error, Tracker
+    ):
+        options["instrument"] = placement.result.instrument.error
+    else:  # a camera: its fixture moved; the accuracy report would be of the nominal camera
+        args.no_accuracy = True
+    return placement, options
 
 
 CONTINUOUS_WHY = "the continuous search cannot choose among discrete payloads"
@@ -338,7 +412,15 @@ def _baseline(
 
 
 def _write_and_print(
-    args: argparse.Namespace, robot, params, source, result: DesignResult, baseline, report, sigma_text: str
+    args: argparse.Namespace,
+    robot,
+    params,
+    source,
+    result: DesignResult,
+    baseline,
+    report,
+    sigma_text: str,
+    placement: Placement | None = None,
 ) -> None:
     """--out, --plot, then the JSON object or the text report."""
     if args.out:
@@ -349,9 +431,12 @@ def _write_and_print(
         payload = design_json(robot, params, result, baseline, args.out)
         payload["accuracy"] = None if report is None else report.as_dict()
         payload["rho0_split"] = _split(params, result, args)
+        payload["placement"] = None if placement is None else placement.as_dict()
         emit_json(payload)
     else:
         print_design(robot, params, source, result, args.deg, sigma_text, _split(params, result, args))
+        if placement is not None:
+            print("\n".join(placement.lines()))
         if baseline is not None:
             print_baseline(baseline[0], baseline[1], pool=args.pool)
         if report is not None:

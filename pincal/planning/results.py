@@ -76,6 +76,8 @@ class DesignResult:
         instrument: what the plan is measured with and how well (``sigma`` is then its reference
             σ), or None: points with ``sigma``.
         orientation_length: L [m] of the test-pose criterion's orientation part, or None.
+        instrument_at: (x, y, z) the instrument's position chosen with the plan
+            (:func:`pincal.planning.place_instrument`) [m], or None.
     """
 
     plan: Plan
@@ -97,6 +99,7 @@ class DesignResult:
     prior: Prior | None = None
     instrument: Instrument | None = None
     orientation_length: float | None = None
+    instrument_at: tuple[float, float, float] | None = None
 
     @property
     def m(self) -> int:
@@ -135,6 +138,8 @@ class DesignResult:
             out["instrument"] = self.instrument.as_dict()
         if self.orientation_length is not None:
             out["orientation_length"] = self.orientation_length
+        if self.instrument_at is not None:
+            out["instrument_at"] = list(self.instrument_at)
         return out
 
 

@@ -11,6 +11,8 @@ the robot has a base placement); angles in radians. :func:`load_constraints` rea
 * :class:`Visibility` — a laser tracker at a known position sees every marker: distance within
   [min_range, max_range] and, if the marker's normal is given, the angle between that normal and
   the line of sight at most ``max_angle``.
+* :class:`LineOfSight` — nothing of the chain crosses the line from an instrument to a marker (the
+  URDF's collision geometry through coal).
 * :class:`SelfCollision` — no two links of the chain closer than ``min_distance`` (the URDF's
   collision geometry through Pinocchio and coal; pairs of adjacent links are not checked).
 * :class:`MinSpacing` — any two configurations of a plan at least ``distance`` apart in joint space
@@ -31,6 +33,7 @@ from pincal.model.robot import Robot
 from pincal.planning.constraints.base import TOLERANCE, Bound, Constraint, Kinematics
 from pincal.planning.constraints.half_space import HalfSpace
 from pincal.planning.constraints.joint_limits import JointLimits, LimitsBound
+from pincal.planning.constraints.line_of_sight import LineOfSight
 from pincal.planning.constraints.loading import constraints_from_dict, load_constraints
 from pincal.planning.constraints.min_spacing import MinSpacing
 from pincal.planning.constraints.self_collision import SelfCollision
@@ -50,6 +53,7 @@ __all__ = [
     "JointLimits",
     "Kinematics",
     "LimitsBound",
+    "LineOfSight",
     "MinSpacing",
     "SelfCollision",
     "Visibility",
