@@ -289,7 +289,9 @@ def test_arguments_by_position_still_work_with_a_warning(planar):
     )
     assert "pincal 0.3" in message
     with pytest.raises(TypeError, match=r"rho0\(\) takes 3 positional arguments, then keywords"):
-        pincal.rho0(params, plan, [0.2, 1.0], 1e-4, "worst", None, None, "extra")
+        # one more than its keywords: sigma, aggregate, prior, task_payload, measure, instrument,
+        # orientation_length
+        pincal.rho0(params, plan, [0.2, 1.0], 1e-4, "worst", None, None, None, None, None, "extra")
     with pytest.raises(TypeError, match="multiple values for argument 'sigma'"), warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         pincal.rho0(params, plan, [0.2, 1.0], 1e-4, sigma=1e-4)

@@ -38,7 +38,7 @@ def pose_params(ur10):
 def test_default_instrument_is_today_exactly(ur10):
     params = ur10.parameters("full,offsets").identifiable().identifiable
     plan = ur10.random_configurations(15, 1)
-    plain = pincal.rho0(params, plan, Q0, 2e-5)
+    plain = pincal.rho0(params, plan, Q0, sigma=2e-5)
     same = pincal.rho0(params, plan, Q0, measure=Point(), instrument=PerCoordinate(2e-5))
     assert same == plain
     assert pincal.criteria(params, plan, instrument=PerCoordinate(2e-5)) == pincal.criteria(params, plan)
@@ -123,7 +123,7 @@ def test_accuracy_away_from_the_test_pose_with_a_tracker(ur10):
     params = ur10.parameters("full,offsets").identifiable().identifiable
     plan = ur10.random_configurations(15, 6)
     tracker = Tracker(at=(3.0, 0.0, 1.0))
-    report = pincal.accuracy(params, plan, Q0, 3e-5, instrument=tracker, samples=16, workspace=32)
+    report = pincal.accuracy(params, plan, Q0, sigma=3e-5, instrument=tracker, samples=16, workspace=32)
     at = report.plans[0].rows[0].rms
     assert at == pytest.approx(pincal.rho0(params, plan, Q0, instrument=tracker), rel=1e-9)
     assert report.sigma == tracker.reference

@@ -33,7 +33,7 @@ def campaign(robot, kind, spec, m, error=None, seed=0, prefer=()):
     """(result, truth): identify simulated data of ``kind`` with known errors."""
     instrument = Instrument(kind, error or PerCoordinate())
     params = identifiable(robot.parameters(spec), instrument, prefer=prefer).identifiable
-    truth = pincal.random_errors(params, {"length": 1e-3, "angle": 1e-3}, seed=seed)
+    truth = pincal.random_errors(params, error_std={"length": 1e-3, "angle": 1e-3}, seed=seed)
     qs = (
         seen_plan(robot, kind, m, seed + 1)
         if isinstance(kind, Image)
