@@ -55,7 +55,7 @@ from pincal.model.statics import Payload
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
 from pincal.planning.objectives import CRITERIA
-from pincal.planning.placement import Placement, place_instrument
+from pincal.planning.placement import STEPS, Placement, place_instrument
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans
 from pincal.viewing import plots
@@ -231,7 +231,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--place-steps",
         type=count("--place-steps"),
         metavar="N",
-        help="grid positions per axis of the --place-instrument box (default 3)",
+        help=f"grid positions per axis of the --place-instrument box (default {STEPS})",
     )
     p.add_argument(
         "--placement-plot",
@@ -361,7 +361,8 @@ def _placed(args, params, q0, criterion: str, options: dict, taught, loads: dict
     with recorded_warnings() as records:
         placement = place_instrument(
             params, args.m, q0, (box[:3], box[3:]), criterion=criterion, measure=kind, instrument=error,
-            constraints=options["constraints"], steps=args.place_steps or 3, default_at=default_at, **rest,
+            constraints=options["constraints"], steps=args.place_steps or STEPS, default_at=default_at,
+            **rest,
         )  # fmt: skip
     print_warnings(records)
     options = dict(options)

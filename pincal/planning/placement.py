@@ -43,6 +43,9 @@ TRACKER_RANGE = (1.0, 40.0)
 """Default (min, max) distance from a tracker to a reflector [m]: a tracker measures from about a
 metre; 40 m is far beyond any robot cell (give yours with ``Sight``)."""
 
+STEPS = 3
+"""Default grid positions per axis of the box searched."""
+
 ACCEPTANCE = math.radians(30.0)
 """Default acceptance half-angle of a tracker's reflector [rad]: a 1.5" red-ring reflector's ±30°."""
 
@@ -150,7 +153,7 @@ def place_instrument(
     instrument: ErrorModel | None = None,
     constraints: tuple[AnyConstraint, ...] = (),
     sight: Sight = Sight(),
-    steps: int = 3,
+    steps: int = STEPS,
     refine: int = 1,
     default_at: object = None,
     **options: object,
