@@ -28,7 +28,7 @@ import math
 import os
 import stat
 import tempfile
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -166,12 +166,16 @@ def column_mismatch(expected: Sequence[str], found: Sequence[str]) -> str:
 
 
 def read_numeric_csv(
-    path: str | os.PathLike, what: str = "plan", error: type[Exception] = BadPlanFile
+    path: str | os.PathLike,
+    what: str = "plan",
+    error: type[Exception] = BadPlanFile,
+    may_be_empty: Callable[[str], bool] | None = None,
 ) -> tuple[list[str], np.ndarray, np.ndarray]:
     """Read a CSV file with one header row and numeric rows.
 
     Blank lines and lines starting with ``#`` are skipped. Every other row must have as many cells
-    as the header, all finite numbers.
+    as the header, all finite numbers; an empty cell of a column for which ``may_be_empty(name)``
+    is True is read as NaN (a value not measured: a target point out of a camera's view).
 
     Returns:
         (header names, (rows, columns) float array, (rows,) line number of each row in the file).
@@ -216,6 +220,9 @@ def read_numeric_csv(
             )
         values = []
         for name, cell in zip(header, row):
+            if may_be_empty is not None and not cell.strip() and may_be_empty(name):
+                values.append(np.nan)
+                continue
             try:
                 v = float(cell)
             except ValueError:

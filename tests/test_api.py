@@ -23,6 +23,7 @@ PACKAGE = Path(pincal.__file__).resolve().parent
 
 PUBLIC_MODULES = (
     "pincal.model",
+    "pincal.instruments",
     "pincal.evaluation",
     "pincal.planning",
     "pincal.planning.constraints",
@@ -138,7 +139,17 @@ def test_no_import_inside_a_function_but_optional_ones():
                         assert (name, module) in allowed, f"{name}: {function.name} imports {module}"
 
 
-STAGES = ("model", "evaluation", "planning", "calibration", "compensation", "campaign", "viewing", "cli")
+STAGES = (
+    "model",
+    "instruments",
+    "evaluation",
+    "planning",
+    "calibration",
+    "compensation",
+    "campaign",
+    "viewing",
+    "cli",
+)
 
 
 def test_data_flows_one_way():
@@ -291,7 +302,9 @@ def test_arguments_by_position_still_work_with_a_warning(planar):
     )
     assert "pincal 0.3" in message
     with pytest.raises(TypeError, match=r"rho0\(\) takes 3 positional arguments, then keywords"):
-        pincal.rho0(params, plan, [0.2, 1.0], 1e-4, "worst", None, None, "extra")
+        # one more than its keywords: sigma, aggregate, prior, task_payload, measure, instrument,
+        # orientation_length
+        pincal.rho0(params, plan, [0.2, 1.0], 1e-4, "worst", None, None, None, None, None, "extra")
     with pytest.raises(TypeError, match="multiple values for argument 'sigma'"), warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         pincal.rho0(params, plan, [0.2, 1.0], 1e-4, sigma=1e-4)

@@ -22,6 +22,8 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal.instruments.error_model import TRACKER_RADIAL, TRACKER_TRANSVERSE
+from pincal.planning.placement import ACCEPTANCE, STEPS, Sight
 from tests.conftest import ROOT
 
 NUMBER = re.compile(r"(?<![\w.])(?:\d{1,3}(?: \d{3})+(?!\d)|\d+(?:\.\d+)?(?:e-?\d+)?)")
@@ -364,6 +366,19 @@ CLAIMS: tuple[Claim, ...] = (
         "which predicts 0.32 mm; without it, 0.54 mm, of which the fit predicts 0.02 mm",
         computed("test_the_held_out_error_and_its_predictions_are_the_readme_s"),
     ),
+    # Instruments
+    Claim("in metres (docs/method.md §13)", GIVEN),
+    Claim("motion capture, 6-DoF probe", GIVEN),
+    Claim(
+        'the manual\'s "typical"), 5 µm + 0.15 µm/m and 7.5 µm + 3 µm/m',
+        equals(*(1e6 * v for v in TRACKER_RADIAL + TRACKER_TRANSVERSE)),
+    ),
+    Claim("6-D motion capture on a UR10: position 0.1 mm, orientation 2 mrad", GIVEN),  # the example's inputs
+    Claim("a laser tracker 4 m away", GIVEN),
+    Claim("default 3 per axis", equals(STEPS)),
+    Claim("acceptance angle (30° about the tip's z)", equals(math.degrees(ACCEPTANCE))),
+    Claim("within 1 cm of the beam", equals(Sight().clearance * 100)),
+    Claim("tracker at 2 m and 10 m", measured("benchmarks/RESULTS.md", "## bench_instruments")),
     # Python API
     Claim(
         "gives the workflow, about 30 names",

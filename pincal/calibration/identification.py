@@ -48,14 +48,22 @@ from pincal.arguments import positive_int, positive_sigma, ratio
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.noise import Noise
 from pincal.calibration.problem import Problem, initial_values
-from pincal.calibration.result import IdentificationResult, _rms, identification_result
-from pincal.calibration.sanity import Outlier, find_outliers, implausible, likely_causes, row_scores
+from pincal.calibration.result import IdentificationResult, distance_unit, identification_result, residual_rms
+from pincal.calibration.sanity import (
+    Outlier,
+    find_outliers,
+    implausible,
+    implausible_noise,
+    likely_causes,
+    row_scores,
+)
 from pincal.calibration.solver import ERROR_SCALE, ROBUST_SCALE, solve
 from pincal.calibration.state import Rows, Settings, Setup, Solution, Verdict
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, BadMeasurementData, SingularPlan
 from pincal.evaluation.data_check import DataCheck, check_parameters
 from pincal.evaluation.prior import Prior
+from pincal.instruments.error_model import ErrorModel
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
@@ -97,6 +105,7 @@ def identify(
     reject: float | None = None,
     sanity: bool = True,
     residual_model: str | None = None,
+    instrument: ErrorModel | None = None,
 ) -> IdentificationResult:
     """Identify the errors ``params`` from measurements (see the module doc).
 
@@ -124,6 +133,9 @@ def identify(
             process over joint space (:mod:`pincal.model.residual`, docs/method.md §11.5),
             hyperparameters by marginal likelihood on these data only (the rows kept); the
             result's :meth:`~IdentificationResult.predict` adds its mean. None: no residual model.
+        instrument: the instrument's error model (:mod:`pincal.instruments`: ``PerCoordinate``,
+            ``Tracker``): the weights of data without uncertainty columns (a tracker's
+            at each point); default ``sigma`` per length and pincal's default σ of angles and pixels.
 
     Returns:
         the result; its ``status`` says whether it converged, and ``message`` (and ``causes``)
@@ -147,10 +159,22 @@ def identify(
             value=residual_model,
             valid=RESIDUAL_MODELS,
         )
-    m, per_row = sum(d.m for d in sessions), 3 * params.robot.n_markers
+    if residual_model is not None and not sessions[0].is_points:
+        raise BadArgument(
+            f"the residual model is fitted to points; these data measure {sessions[0].measure.name}",
+            argument="residual_model",
+        )
+    if instrument is not None and not isinstance(instrument, ErrorModel):
+        raise BadArgument(
+            "instrument must be an error model (pincal.instruments.PerCoordinate or Tracker), "
+            f"got {instrument!r}",
+            argument="instrument",
+        )
+    settings = replace(settings, instrument=instrument)
+    m, per_row = sum(d.m for d in sessions), sessions[0].row_size
     if m * per_row < len(params):
         raise SingularPlan(len(params), per_row, m)
-    setup = _setup(Problem(params, sessions, Noise.of(sessions, settings.sigma)), settings)
+    setup = _setup(_problem(params, sessions, settings), settings)
     why = _rank_deficiency(setup)
     if why is not None:
         return identification_result(setup, None, Rows.every(m), Verdict("rank_deficient", why))
@@ -184,6 +208,18 @@ def fit_residual_model(result: IdentificationResult, seed: SeedLike = 0) -> Resi
     return ResidualModel.fit(
         result.data.q[used], residuals[used].reshape(int(used.sum()), -1), result.robot.revolute, seed=seed
     )
+
+
+def _problem(params: ParameterSet, sessions: list[MeasurementData], settings: Settings) -> Problem:
+    """The problem, its noise from the data or the error model: an error model that depends on where
+    a point is (a tracker's) is taken where each session's start puts the points (its base fitted)."""
+    error, S = settings.instrument, len(sessions)
+    problem = Problem(params, sessions, Noise.of(sessions, settings.sigma, error, [params.robot] * S))
+    if error is None or error.direction_free or not problem.base:
+        return problem
+    z0 = initial_values(problem)
+    robots = [problem.robot(z0, s) for s in range(S)]
+    return Problem(params, sessions, Noise.of(sessions, settings.sigma, error, robots))
 
 
 def _sessions(data: MeasurementData | Sequence[MeasurementData], robot: Robot) -> list[MeasurementData]:
@@ -258,7 +294,7 @@ def _rank_deficiency(setup: Setup) -> str | None:
     """Why the data cannot identify the parameters at all (None when they can)."""
     problem, check = setup.problem, setup.check
     params, m = problem.params, problem.m
-    rows = 3 * params.robot.n_markers
+    rows = problem.noise.row_size
     distinct = len(np.unique(np.concatenate([d.q for d in problem.sessions]), axis=0))
     minimum = SingularPlan(len(params), rows, m).min_configurations
     if setup.free.size == 0 or (check.dropped and distinct < minimum):
@@ -274,7 +310,7 @@ def _reject_outliers(setup: Setup) -> Rows:
     """Step 3: the rows the final fit uses; with ``reject``, the rows beyond ``reject`` robust σ of
     a robust fit are dropped and the fit repeated (at most 10 times) until none is left."""
     problem, reject, loss = setup.problem, setup.settings.reject, setup.settings.loss
-    m, rows = problem.m, 3 * problem.params.robot.n_markers
+    m, rows = problem.m, problem.noise.row_size
     used = np.ones(m, dtype=bool)
     rejected: list[Outlier] = []
     if reject is None:
@@ -284,12 +320,15 @@ def _reject_outliers(setup: Setup) -> Rows:
         z_scoring = solve(setup, used, setup.z0, "soft_l1" if loss == "linear" else loss).z
         if z_scoring is None:
             break
-        distance, score = row_scores(problem.residual(z_scoring), problem.noise)
+        distance, score = row_scores(problem.residual(z_scoring), problem.noise, problem.blocks)
         score[~used] = 0.0
         new = [i for i in np.argsort(-score) if score[i] > reject]
         if not new:
             break
-        rejected += [Outlier(int(i), problem.labels[i], float(distance[i]), float(score[i])) for i in new]
+        unit = distance_unit(problem)
+        rejected += [
+            Outlier(int(i), problem.labels[i], float(distance[i]), float(score[i]), unit) for i in new
+        ]
         used[new] = False
         if used.sum() * rows < free.size:  # too few rows left to fit (or none: nothing to score)
             break
@@ -309,7 +348,13 @@ def _outliers(setup: Setup, z: np.ndarray, used: np.ndarray) -> tuple[Outlier, .
     """The suspicious rows among those the fit at ``z`` used, worst first."""
     problem = setup.problem
     keep = problem.noise.coordinates(used)
-    found = find_outliers(np.where(keep, problem.residual(z), 0.0), problem.noise, problem.labels)
+    found = find_outliers(
+        np.where(keep, problem.residual(z), 0.0),
+        problem.noise,
+        problem.labels,
+        blocks=problem.blocks,
+        unit=distance_unit(problem),
+    )
     return tuple(o for o in found if used[o.row])
 
 
@@ -319,16 +364,10 @@ def _verdict(setup: Setup, solution: Solution, rows: Rows) -> Verdict:
     its residuals say about the data."""
     problem, settings, z = setup.problem, setup.settings, solution.z
     assert z is not None  # a finished fit (identify returns before when it failed)
-    m, used = problem.m, rows.used
+    used = rows.used
     residual = problem.residual(z)
-    before_rms = _rms(setup.before.reshape(m, -1, 3)[used])
-    after_rms = _rms(residual.reshape(m, -1, 3)[used])
-    params = problem.params
-    problems = (
-        implausible(params, z[: len(params)], before_rms, after_rms, problem.noise.reference)
-        if settings.sanity
-        else []
-    )
+    after_rms = residual_rms(problem, residual, used)
+    problems = _implausible(setup, z, residual, used) if settings.sanity else []
     if not solution.converged:
         problems = [p for p in problems if "before calibration" in p]
     if problems:
@@ -359,16 +398,31 @@ def _verdict(setup: Setup, solution: Solution, rows: Rows) -> Verdict:
     return Verdict("not_converged", message)
 
 
+def _implausible(setup: Setup, z: np.ndarray, residual: np.ndarray, used: np.ndarray) -> list[str]:
+    """What no real robot has in a fit at ``z`` (see :func:`~pincal.calibration.sanity.implausible`)."""
+    problem, params = setup.problem, setup.problem.params
+    if problem.points:
+        before, after = residual_rms(problem, setup.before, used), residual_rms(problem, residual, used)
+        return implausible(params, z[: len(params)], before, after, problem.noise.reference)
+    noise, keep = problem.noise, problem.noise.coordinates(used)
+    count = max(noise.count(used), 1)
+    before, after = (
+        float(np.sqrt(np.sum(noise.whiten(r[keep], used) ** 2) / count)) for r in (setup.before, residual)
+    )
+    geometry = implausible(params, z[: len(params)], 0.0, 0.0, problem.noise.reference)
+    return geometry + implausible_noise(before, after)
+
+
 def _quality(setup: Setup, residual: np.ndarray, used: np.ndarray, rms: float) -> str:
     """What a converged fit's residuals (RMS ``rms`` [m] over the rows used) say about the data, as
     a message suffix."""
     noise = setup.problem.noise
     r = residual[noise.coordinates(used)]
-    dof = r.size - len(setup.free)
+    dof = noise.count(used) - len(setup.free)
     if dof <= 0:
         return "; as many parameters as measured coordinates: no residual degrees of freedom"
     chi = float(np.sqrt(np.sum(noise.whiten(r, used) ** 2) / dof))
-    if rms > POOR_FIT:
+    if setup.problem.points and rms > POOR_FIT:
         return (
             f"; but the residuals stay at {rms * 1e3:.3g} mm RMS, more than geometric errors explain: "
             f"non-geometric errors (compliance, gear errors) or parameters missing from the set"

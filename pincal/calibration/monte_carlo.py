@@ -13,14 +13,19 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import pinocchio as pin
 
 from pincal.arguments import DEFAULT_SIGMA, generator, positive_int, positive_sigma
-from pincal.calibration.identification import identify
+from pincal.calibration.identification import IdentificationResult, identify
 from pincal.calibration.synthetic import error_std_pair, random_errors, simulate_measurements
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0
+from pincal.instruments.error_model import ErrorModel
+from pincal.instruments.instrument import Instrument, optional_instrument, orientation_length_of
+from pincal.instruments.kind import Kind
 from pincal.model.parameters import ParameterSet
+from pincal.model.robot import Robot
 from pincal.model.statics import payload_rows
 from pincal.planning.plan import Plan
 from pincal.typing import ConfigurationsLike, PayloadLike, SeedLike
@@ -116,6 +121,9 @@ def monte_carlo(
     seed: SeedLike = None,
     error_std: Mapping[str, float] | None = None,
     task_payload: PayloadLike = None,
+    measure: Kind | None = None,
+    instrument: ErrorModel | None = None,
+    orientation_length: float | None = None,
 ) -> MonteCarloResult:
     """Check a plan by simulation: does calibration deliver the predicted ρ0 at the test pose(s)?
 
@@ -138,6 +146,12 @@ def monte_carlo(
         error_std: ``{"length": [m], "angle": [rad]}`` of the random errors; default 1 mm, 1 mrad.
         task_payload: the payload at the test pose(s) (a mass [kg] or a :class:`~pincal.Payload`),
             or None.
+        measure: what is measured (a pose, part of one, distances, pixels; default points): the
+            trials simulate and identify it; the error at the test pose is still the markers'.
+        instrument: the instrument's error model, which both draws the noise and weighs the fit
+            (default ``sigma`` per length and pincal's default σ of angles and pixels).
+        orientation_length: L [m]: the error at the test pose also counts L times the tool's
+            orientation error (and the prediction its expectation), as the test-pose criterion does.
 
     Returns:
         the comparison; ``nonlinear`` and ``note`` say whether the linear prediction held.
@@ -155,8 +169,12 @@ def monte_carlo(
     loads = getattr(plan, "payload", None)
     loads = None if loads is None else payload_rows(loads, len(qs))
     task = None if task_payload is None else payload_rows(task_payload, len(q0))
-    predicted = float(rho0(params, _planned(robot, qs, loads), q0, sigma=sigma, task_payload=task))
-    check = _Check(params, qs, q0, float(sigma), {"length": length, "angle": angle}, int(trials), loads, task)
+    inst = optional_instrument(measure, instrument, sigma)
+    kinds = {"measure": measure, "instrument": instrument, "orientation_length": orientation_length}
+    predicted = float(rho0(params, _planned(robot, qs, loads), q0, sigma=sigma, task_payload=task, **kinds))
+    errors = {"length": length, "angle": angle}
+    length = orientation_length_of(orientation_length)
+    check = _Check(params, qs, q0, float(sigma), errors, int(trials), loads, task, inst, length)
     runs = _run_trials(check, generator(seed))
     n = len(runs.errors)
     if n < 2:
@@ -202,6 +220,8 @@ class _Check:
     trials: int
     payload: np.ndarray | None = None
     task_payload: np.ndarray | None = None
+    instrument: Instrument | None = None
+    orientation_length: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -220,24 +240,28 @@ def _run_trials(check: _Check, rng: np.random.Generator) -> _Runs:
     """Each trial: draw the truth, simulate, identify, score (see :func:`monte_carlo`)."""
     params, qs, q0, sigma = check.params, check.qs, check.q0, check.sigma
     task, plan = check.task_payload, _planned(params.robot, qs, check.payload)
-    nominal0 = params.robot.points(q0, payload=task)
     errors, before, at_truth = [], [], []
     failures = local_minima = 0
+    inst, length = check.instrument, check.orientation_length
+    kind, error = (None, None) if inst is None else (inst.kind, inst.error)
     for _ in range(check.trials):
         truth = random_errors(params, error_std=check.error_std, seed=rng)
-        data = simulate_measurements(truth.robot, qs, sigma, seed=rng, payload=check.payload)
-        result = identify(params, data, sigma=sigma, sanity=False)
+        data = simulate_measurements(
+            truth.robot, qs, sigma, seed=rng, payload=check.payload, measure=kind, instrument=error
+        )
+        result = identify(params, data, sigma=None if inst else sigma, sanity=False, instrument=error)
         if not result.success:
             failures += 1
             continue
-        dof = max(result.residuals.size - len(params), 1)
-        if np.sqrt(np.sum(result.residuals**2) / dof) > LOCAL_MINIMUM * sigma:
+        if _local_minimum(result, inst, sigma):
             local_minima += 1
             continue
-        true0 = truth.robot.points(q0, payload=task)
-        errors.append(_rms_over_poses(result.robot.points(q0, payload=task) - true0))
-        before.append(_rms_over_poses(nominal0 - true0))
-        at_truth.append(float(rho0(params.on(truth.robot), plan, q0, sigma=sigma, task_payload=task)))
+        errors.append(_error_at(result.robot, truth.robot, q0, length, task))
+        before.append(_error_at(params.robot, truth.robot, q0, length, task))
+        kinds = {"measure": kind, "instrument": error, "orientation_length": length}
+        at_truth.append(
+            float(rho0(params.on(truth.robot), plan, q0, sigma=sigma, task_payload=task, **kinds))
+        )
     return _Runs(np.array(errors), np.array(before), at_truth, failures, local_minima)
 
 
@@ -246,9 +270,29 @@ def _planned(robot, qs: np.ndarray, payload: np.ndarray | None) -> np.ndarray | 
     return qs if payload is None else Plan.for_robot(robot, qs, payload)
 
 
-def _rms_over_poses(difference: np.ndarray) -> float:
-    """sqrt(mean over test poses of Σ over markers ‖difference‖²) for (k, K, 3) differences."""
-    return float(np.sqrt(np.mean(np.sum(difference**2, axis=(1, 2)))))
+def _local_minimum(result: IdentificationResult, inst: Instrument | None, sigma: float) -> bool:
+    """A converged fit whose residuals per degree of freedom exceed :data:`LOCAL_MINIMUM` σ (of
+    another instrument: its whitened residuals, :data:`LOCAL_MINIMUM`) found a wrong solution."""
+    dof = max(int(np.isfinite(result.data.values).sum()) - len(result.params), 1)
+    if inst is None:
+        return bool(np.sqrt(np.sum(result.residuals**2) / dof) > LOCAL_MINIMUM * sigma)
+    qs, kind = result.data.q, result.data.measure
+    covariance = inst.error.covariance(kind, result.robot, qs)
+    e = covariance.whiten(result.residuals.reshape(len(qs), -1), np.isfinite(result.data.values))
+    return bool(np.sqrt(np.sum(e**2) / dof) > LOCAL_MINIMUM)
+
+
+def _error_at(
+    robot: Robot, truth: Robot, q0: np.ndarray, length: float | None, task: np.ndarray | None = None
+) -> float:
+    """sqrt(mean over test poses of Σ over markers ‖p − p_true‖² (under the task's payload), plus
+    L²‖δθ‖² of the tool's orientation with ``length`` L)."""
+    squared = np.sum((robot.points(q0, payload=task) - truth.points(q0, payload=task)) ** 2, axis=(1, 2))
+    if length is not None:
+        R, R_true = robot.tip_poses(q0, payload=task)[0], truth.tip_poses(q0, payload=task)[0]
+        angles = np.array([np.linalg.norm(pin.log3(a @ b.T)) for a, b in zip(R, R_true)])
+        squared = squared + (length * angles) ** 2
+    return float(np.sqrt(np.mean(squared)))
 
 
 def _note(result: MonteCarloResult) -> str:

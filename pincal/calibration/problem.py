@@ -5,11 +5,14 @@ relative to the nominal robot, docs/method.md §2) shared by every session, and,
 ``base.*``, one more base for each extra session (data file measured from another instrument
 placement): session s uses x with its base components replaced by b_s. The points of session s are
 ``params.apply(x_s).points(q_s, payload=w_s)``, w_s the payload of each row (none when the data
-have no payload columns).
+have no payload columns); for another measurement kind (a pose, distances, pixels:
+:mod:`pincal.instruments`) its values are the kind's prediction on that robot, the residual its
+difference (a rotation's composed, not subtracted) and the Jacobian its rows. A value not measured
+(a target point out of view) has a zero residual and zero rows.
 
-Rotation errors compose on the right, R·exp3(ω): the Jacobian with respect to ω is the Jacobian of
-a perturbation on top of the current robot (:meth:`ParameterSet.on`, Pinocchio's kinematic
-regressor) times the right Jacobian of exp3.
+Rotation errors (of origins, the base, the fixtures) compose on the right, R·exp3(ω): the
+Jacobian with respect to ω is the Jacobian of a perturbation on top of the current robot
+(:meth:`ParameterSet.on`, Pinocchio's kinematic regressor) times the right Jacobian of exp3.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ import pinocchio as pin
 
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.noise import Noise
+from pincal.instruments.pose import Pose
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
@@ -36,6 +40,11 @@ class Problem:
         base: indices of the ``base.*`` parameters in ``params``.
         names: the name of each unknown (``base2.tx`` ... for the bases of extra sessions).
         units: the unit of each unknown.
+        kind: the measurement kind of every session.
+        points: the sessions measure points (today's arithmetic throughout).
+        blocks: the values of a row that belong together (a marker's, a target point's), or None
+            for points (three coordinates per marker).
+        value_units: the unit of each value of a row (``m``, ``rad``, ``px``).
         measured: (N,) the measured coordinates, sessions stacked.
         labels: how messages name each row (configuration), sessions stacked: file and line.
     """
@@ -49,16 +58,23 @@ class Problem:
         extra = [(s, params.names[i]) for s in range(2, len(self.sessions) + 1) for i in self.base]
         self.names = params.names + tuple(f"base{s}.{name.split('.', 1)[1]}" for s, name in extra)
         self.units = params.units + tuple(params.units[i] for i in self.base) * (len(self.sessions) - 1)
-        self.measured = np.concatenate([d.points.reshape(-1) for d in self.sessions])
-        self._rows = np.cumsum([0] + [d.points.size for d in self.sessions])
-        # Rotation components need all three rotation columns of their placement (and base).
+        self.kind = self.sessions[0].measure
+        self.points = self.sessions[0].is_points
+        self.blocks = None if self.points else self.kind.blocks(params.robot)
+        self.value_units = self.kind.units(params.robot)
+        self.measured = np.concatenate([d.values.reshape(-1) for d in self.sessions])
+        self._rows = np.cumsum([0] + [d.values.size for d in self.sessions])
+        # Rotation components need all three rotation columns of their placement (base, fixture).
         groups: dict[tuple[str, int], list[int]] = {}
         for i, p in enumerate(params.parameters):
-            if p.kind in ("placement", "base") and p.component >= 3:
+            rotation = p.kind in ("placement", "base") or (
+                p.kind == "fixture" and not params.robot.fixtures[p.index].point
+            )
+            if rotation and p.component >= 3:
                 groups.setdefault((p.kind, p.index), []).append(i)
         extra_names = []
         for kind, index in groups:
-            name = "base" if kind == "base" else params.robot.origins[index].name
+            name = _placement_name(params.robot, kind, index)
             extra_names += [f"{name}.{c}" for c in ("rx", "ry", "rz")]
         self.augmented = ParameterSet.from_spec(params.robot, list(params.names) + extra_names)
         self.D0 = np.zeros((len(self.augmented), len(params)))
@@ -66,7 +82,7 @@ class Problem:
             self.D0[self.augmented.index(name), i] = 1.0
         self.rotations = []  # (augmented columns of rx ry rz, set columns, their components 0..2)
         for (kind, index), cols in groups.items():
-            name = "base" if kind == "base" else params.robot.origins[index].name
+            name = _placement_name(params.robot, kind, index)
             aug = [self.augmented.index(f"{name}.{c}") for c in ("rx", "ry", "rz")]
             self.rotations.append((aug, cols, [params.parameters[i].component - 3 for i in cols]))
 
@@ -93,6 +109,13 @@ class Problem:
 
     def model(self, z: np.ndarray) -> np.ndarray:
         """(N,) model coordinates, sessions stacked."""
+        if not self.points:
+            return np.concatenate(
+                [
+                    self.kind.predict(self.robot(z, s), d.q, d.payload).reshape(-1)
+                    for s, d in enumerate(self.sessions)
+                ]
+            )
         return np.concatenate(
             [
                 self.robot(z, s).points(d.q, check=False, payload=d.payload).reshape(-1)
@@ -101,13 +124,24 @@ class Problem:
         )
 
     def residual(self, z: np.ndarray) -> np.ndarray:
-        """(N,) measured − model [m]."""
+        """(N,) measured − model [m, rad or px] (0 where nothing was measured)."""
+        if not self.points:
+            parts = [
+                self.kind.difference(d.values, self.kind.predict(self.robot(z, s), d.q, d.payload)).reshape(
+                    -1
+                )
+                for s, d in enumerate(self.sessions)
+            ]
+            return np.nan_to_num(np.concatenate(parts), nan=0.0)
         return self.measured - self.model(z)
 
-    def _jacobian_x(self, x: np.ndarray, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
-        J = JacobianEngine(self.augmented.on(self.params.apply(x))).jacobian(
-            qs, frame="world", payload=payload
-        )
+    def _jacobian_x(self, x: np.ndarray, data: MeasurementData) -> np.ndarray:
+        engine = JacobianEngine(self.augmented.on(self.params.apply(x)))
+        if self.points:
+            J = engine.jacobian(data.q, frame="world", payload=data.payload)
+        else:
+            J = self.kind.rows(engine, data.q, data.payload)
+            J = np.where(np.isfinite(data.values)[..., None], J, 0.0)
         D = self.D0.copy()
         for aug, cols, comps in self.rotations:
             omega = np.zeros(3)
@@ -123,7 +157,7 @@ class Problem:
         out = np.zeros((self.measured.size, len(self)))
         for s, data in enumerate(self.sessions):
             rows = slice(self._rows[s], self._rows[s + 1])
-            Jx = self._jacobian_x(self.session_values(z, s), data.q, data.payload)
+            Jx = self._jacobian_x(self.session_values(z, s), data)
             if s == 0 or not nb:
                 out[rows, :P] = Jx
             else:
@@ -132,6 +166,13 @@ class Problem:
                 start = P + (s - 1) * nb
                 out[rows, start : start + nb] = Jx[:, self.base]
         return out
+
+
+def _placement_name(robot: Robot, kind: str, index: int) -> str:
+    """The name of a placement's parameters: ``base``, an origin's, a fixture's."""
+    if kind == "base":
+        return "base"
+    return robot.fixtures[index].name if kind == "fixture" else robot.origins[index].name
 
 
 def _kabsch(source: np.ndarray, target: np.ndarray, reflection: bool) -> tuple[np.ndarray, np.ndarray] | None:
@@ -174,7 +215,10 @@ def initial_values(problem: Problem) -> np.ndarray:
     components = [problem.params.parameters[i].component for i in problem.base]
     P, nb = len(problem.params), len(problem.base)
     for s, data in enumerate(problem.sessions):
-        fit = rigid_fit(robot.points(data.q, check=False).reshape(-1, 3), data.points.reshape(-1, 3))
+        measured = measured_points(data)
+        if measured is None:  # no positions to fit the base to: it starts at the identity
+            continue
+        fit = rigid_fit(robot.points(data.q, check=False).reshape(-1, 3), measured.reshape(-1, 3))
         if fit is None:
             continue
         new = fit * robot.base
@@ -184,3 +228,13 @@ def initial_values(problem: Problem) -> np.ndarray:
         cols = problem.base if s == 0 else list(range(P + (s - 1) * nb, P + s * nb))
         z0[cols] = twist[components]
     return z0
+
+
+def measured_points(data: MeasurementData) -> np.ndarray | None:
+    """(m, K, 3) the measured positions of the markers: the points, a pose's positions; None for the
+    other kinds."""
+    if data.is_points:
+        return data.points
+    if isinstance(data.kind, Pose):
+        return data.values.reshape(data.m, -1, 6)[:, :, :3]
+    return None

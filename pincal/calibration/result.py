@@ -10,6 +10,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.calibration.measurements import MeasurementData
+from pincal.calibration.problem import Problem
 from pincal.calibration.sanity import OUTLIER_SCORE, Outlier
 from pincal.calibration.state import Rows, Setup, Solution, Verdict
 from pincal.evaluation.accuracy import (
@@ -47,9 +48,10 @@ class IdentificationResult:
             leave no residual degrees of freedom.
         sigma_estimated: True when ``sigma`` was estimated from the residuals.
         residuals: (m, K, 3) measured − calibrated model [m] (sessions stacked, rows rejected
-            as outliers included).
-        residuals_before: (m, K, 3) measured − nominal model [m], each session's base from the
-            initial rigid fit when ``base.*`` is identified.
+            as outliers included); (m, r) for another measurement kind [m, rad or px] (0 where
+            nothing was measured).
+        residuals_before: the same for the nominal model, each session's base from the initial
+            rigid fit when ``base.*`` is identified.
         iterations: Jacobian evaluations of the solver.
         status: one of :data:`STATUSES`.
         message: what happened, in words (why it failed and what to do, if it did).
@@ -237,13 +239,41 @@ class IdentificationResult:
 
     @property
     def residual_rms_before(self) -> float:
-        """RMS distance between measured and nominal points [m] (over configurations and markers)."""
-        return _rms(self.residuals_before[self._used])
+        """RMS distance between measured and nominal points [m] (over configurations and markers);
+        for another kind, of its values of the first unit (:meth:`residual_rms_by_unit`)."""
+        if self.data.is_points:
+            return _rms(self.residuals_before[self._used])
+        return next(iter(self.residual_rms_by_unit(before=True).values()))
 
     @property
     def residual_rms_after(self) -> float:
-        """RMS distance between measured and calibrated points [m] (rejected rows excluded)."""
-        return _rms(self.residuals[self._used])
+        """RMS distance between measured and calibrated points [m] (rejected rows excluded); for
+        another kind, of its values of the first unit (:meth:`residual_rms_by_unit`)."""
+        if self.data.is_points:
+            return _rms(self.residuals[self._used])
+        return next(iter(self.residual_rms_by_unit().values()))
+
+    def residual_rms_by_unit(self, before: bool = False) -> dict[str, float]:
+        """``{unit: RMS}`` of the residuals after (or before) calibration by unit, lengths first:
+        over the rows used, the size of each block of values of that unit (a marker's position, a
+        pose's orientation, a target point's pixels, a distance) [m, rad or px]."""
+        residuals = (self.residuals_before if before else self.residuals).reshape(len(self._used), -1)
+        if self.data.is_points:
+            return {"m": _rms(residuals[self._used].reshape(int(self._used.sum()), -1, 3))}
+        kind, robot = self.data.measure, self.robot
+        units = np.array(kind.units(robot))
+        seen = np.isfinite(self.data.values)[self._used]
+        kept = residuals[self._used]
+        out = {}
+        for unit in sorted(set(units), key=("m", "rad", "px").index):
+            sizes = [
+                np.sqrt(np.sum(kept[:, [i for i in b if units[i] == unit]] ** 2, axis=1))[seen[:, b[0]]]
+                for b in kind.blocks(robot)
+                if units[b[0]] == unit or any(units[i] == unit for i in b)
+            ]
+            flat = np.concatenate(sizes) if sizes else np.zeros(0)
+            out[unit] = float(np.sqrt(np.mean(flat**2))) if flat.size else float("nan")
+        return out
 
     @property
     def _used(self) -> np.ndarray:
@@ -270,6 +300,7 @@ class IdentificationResult:
             "sigma": _num(self.sigma),
             "sigma_estimated": self.sigma_estimated,
             "m": self.data.m,
+            **self._instrument_dict(),
             "markers": self.robot.markers.tolist(),
             "base": _pose(base),
             "bases": [_pose(b) for b in self.bases],
@@ -284,6 +315,16 @@ class IdentificationResult:
             "residual_model": self.residual_model.summary() if self.residual_model is not None else None,
             "expected_error": {k: _num(v) for k, v in self._expected_at_data.items()},
         }
+
+    def _instrument_dict(self) -> dict:
+        """The JSON of what is not points: the kind, the residuals by unit, the fixtures."""
+        out: dict = {}
+        if not self.data.is_points:
+            out["measure"] = self.data.measure.as_dict()
+            out["residual_rms_by_unit"] = {u: _num(v) for u, v in self.residual_rms_by_unit().items()}
+        if self.robot.fixtures:
+            out["fixtures"] = {f.name: _pose(f.placement) | {"on": f.on} for f in self.robot.fixtures}
+        return out
 
     def _sigma_line(self) -> str:
         if not np.isfinite(self.sigma):  # estimated from no residual degrees of freedom
@@ -312,10 +353,18 @@ class IdentificationResult:
         """A human-readable report: status, residuals, data identifiability, estimates ± standard
         errors (mm, mrad), outliers."""
         lines = [f"{self.status}: {self.message}"]  # an implausible one names its likely causes
+        if self.data.is_points:
+            what = f"{self.data.m} configurations, {self.data.n_markers} marker(s)"
+            rms = (
+                f"{self.residual_rms_before * 1e3:.4g} mm before, "
+                f"{self.residual_rms_after * 1e3:.4g} mm after"
+            )
+        else:
+            what = f"{self.data.m} configurations, {self.data.measure.describe()}"
+            before, after = self.residual_rms_by_unit(before=True), self.residual_rms_by_unit()
+            rms = "; ".join(f"{_sized(before[u], u)} before, {_sized(after[u], u)} after" for u in after)
         lines += [
-            f"residual RMS: {self.residual_rms_before * 1e3:.4g} mm before, "
-            f"{self.residual_rms_after * 1e3:.4g} mm after ({self.data.m} configurations, "
-            f"{self.data.n_markers} marker(s), {len(self.params)} parameters, {self.iterations} "
+            f"residual RMS: {rms} ({what}, {len(self.params)} parameters, {self.iterations} "
             f"iterations, {self.method}, loss {self.loss})",
             self._sigma_line(),
         ]
@@ -365,6 +414,26 @@ SHOWN = {
 """How the report shows a value of each unit: (factor, unit shown)."""
 
 
+def _sized(value: float, unit: str) -> str:
+    """A residual for people: mm, mrad or px."""
+    return {"m": f"{value * 1e3:.4g} mm", "rad": f"{value * 1e3:.4g} mrad"}.get(unit, f"{value:.4g} {unit}")
+
+
+def residual_rms(problem: Problem, residual: np.ndarray, used: np.ndarray) -> float:
+    """The RMS of a stacked (N,) residual over the rows ``used``: of the points' distances [m]; for
+    another kind, of its whitened values times the reference σ (a length on the noise's scale)."""
+    if problem.points:
+        return _rms(residual.reshape(problem.m, -1, 3)[used])
+    noise = problem.noise
+    e = noise.whiten(residual[noise.coordinates(used)], used)
+    return float(noise.reference * np.sqrt(np.sum(e**2) / max(noise.count(used), 1)))
+
+
+def distance_unit(problem: Problem) -> str:
+    """The unit of the outliers' distances: ``m``, or the first value's unit of a kind without lengths."""
+    return "m" if problem.points or "m" in problem.value_units else problem.value_units[0]
+
+
 def _pose(placement: pin.SE3) -> dict:
     return {"xyz": placement.translation.tolist(), "rpy": pin.rpy.matrixToRpy(placement.rotation).tolist()}
 
@@ -388,7 +457,7 @@ def identification_result(
     params, sessions = problem.params, list(problem.sessions)
     n, m = len(params), problem.m
     estimated = not noise.known
-    shape = (m, params.robot.n_markers, 3)
+    shape = (m, params.robot.n_markers, 3) if problem.points else (m, noise.row_size)
     z = None if solution is None else solution.z
     if z is None:
         values, std, correlation = np.full(n, np.nan), np.full(n, np.nan), np.full((n, n), np.nan)
@@ -398,9 +467,8 @@ def identification_result(
     else:
         values, robot = z[:n].copy(), problem.robot(z)
         residuals = problem.residual(z).reshape(shape)
-        keep = noise.coordinates(rows.used)
-        dof = int(keep.sum()) - len(setup.free)
-        per_coordinate = float(np.sqrt(np.sum(residuals.reshape(-1)[keep] ** 2) / dof)) if dof > 0 else np.nan
+        dof = noise.count(rows.used) - len(setup.free)
+        per_coordinate = _per_coordinate(problem, residuals.reshape(-1), rows.used, dof)
         sigma_out = per_coordinate if estimated else noise.reference
         std, correlation = _covariance(
             setup, z, rows.used, per_coordinate if estimated and settings.prior is None else None
@@ -443,6 +511,18 @@ def identification_result(
     )
 
 
+def _per_coordinate(problem: Problem, residual: np.ndarray, used: np.ndarray, dof: int) -> float:
+    """σ estimated from the residuals of the rows ``used`` [m] (NaN without degrees of freedom): of the
+    points' coordinates; for another kind, the reference σ times the whitened residuals' RMS."""
+    if dof <= 0:
+        return np.nan
+    keep = problem.noise.coordinates(used)
+    if problem.points:
+        return float(np.sqrt(np.sum(residual[keep] ** 2) / dof))
+    e = problem.noise.whiten(residual[keep], used)
+    return float(problem.noise.reference * np.sqrt(np.sum(e**2) / dof))
+
+
 def _covariance(
     setup: Setup, z: np.ndarray, used: np.ndarray, scale_to: float | None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -473,6 +553,8 @@ def _covariance(
 def _stacked(sessions: list[MeasurementData]) -> MeasurementData:
     if len(sessions) == 1:
         return sessions[0]
+    if not sessions[0].is_points:
+        return _stacked_values(sessions)
     sigma = None
     if any(d.sigma is not None for d in sessions):
         sigma = np.concatenate(
@@ -493,3 +575,23 @@ def _stacked_payload(sessions: list[MeasurementData]) -> np.ndarray | None:
     if all(d.payload is None for d in sessions):
         return None
     return np.concatenate([d.payload if d.payload is not None else np.zeros((d.m, 4)) for d in sessions])
+
+
+def _stacked_values(sessions: list[MeasurementData]) -> MeasurementData:
+    """The sessions of a kind other than points as one MeasurementData (their σ or covariances when
+    every one has them)."""
+
+    def joined(name: str) -> np.ndarray | None:
+        parts = [getattr(d, name) for d in sessions]
+        return None if any(p is None for p in parts) else np.concatenate(parts)
+
+    return MeasurementData(
+        np.concatenate([d.q for d in sessions]),
+        np.concatenate([d.values for d in sessions]),
+        sessions[0].joint_names,
+        source=" + ".join(str(d.source) for d in sessions),
+        sigma=joined("sigma"),
+        payload=_stacked_payload(sessions),
+        kind=sessions[0].kind,
+        covariance=joined("covariance"),
+    )

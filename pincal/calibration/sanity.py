@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.calibration.noise import Noise
-from pincal.calibration.problem import Problem, fit_rms
+from pincal.calibration.problem import Problem, fit_rms, measured_points
 from pincal.model.parameters import ParameterSet
 
 OUTLIER_SCORE = 5.0
@@ -52,18 +52,24 @@ class Outlier:
         label: the file and line (or the row index).
         distance: largest distance between measured and model point in the row [m].
         score: its whitened residual in robust standard deviations (see :func:`robust_scale`).
+        unit: the unit of ``distance``: ``m`` (``rad`` or ``px`` for orientations and pixels
+            alone).
     """
 
     row: int
     label: str
     distance: float
     score: float
+    unit: str = "m"
 
     def __str__(self) -> str:
-        return f"{self.label}: {self.distance * 1e3:.3g} mm ({self.score:.3g} sigma)"
+        sizes = {"m": f"{self.distance * 1e3:.3g} mm", "rad": f"{self.distance * 1e3:.3g} mrad"}
+        size = sizes.get(self.unit, f"{self.distance:.3g} {self.unit}")
+        return f"{self.label}: {size} ({self.score:.3g} sigma)"
 
     def as_dict(self) -> dict:
-        return {"row": self.row, "label": self.label, "distance": self.distance, "score": self.score}
+        out = {"row": self.row, "label": self.label, "distance": self.distance, "score": self.score}
+        return out if self.unit == "m" else out | {"unit": self.unit}
 
 
 def robust_sigma(e: np.ndarray) -> float:
@@ -80,22 +86,42 @@ def robust_scale(e: np.ndarray) -> float:
     return scale if scale >= ZERO_SCALE else 1.0
 
 
-def row_scores(residual: np.ndarray, noise: Noise) -> tuple[np.ndarray, np.ndarray]:
+def row_scores(
+    residual: np.ndarray, noise: Noise, blocks: Sequence[Sequence[int]] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """(distances [m], scores [robust σ, see :func:`robust_scale`]) of each of the m rows of a
-    stacked (N,) residual."""
+    stacked (N,) residual: the largest over the row's markers (three coordinates each) or, for
+    another kind, over its ``blocks`` of values (a distance is then the size of a block's values
+    of its first value's unit)."""
     m = len(noise.std)
-    r = residual.reshape(m, -1, 3)
-    e = noise.whiten(residual).reshape(m, -1, 3)
-    return np.linalg.norm(r, axis=-1).max(axis=1), np.linalg.norm(e, axis=-1).max(axis=1) / robust_scale(e)
+    if blocks is None:
+        r = residual.reshape(m, -1, 3)
+        e = noise.whiten(residual).reshape(m, -1, 3)
+        return np.linalg.norm(r, axis=-1).max(axis=1), np.linalg.norm(e, axis=-1).max(axis=1) / robust_scale(
+            e
+        )
+    r, e = residual.reshape(m, -1), noise.whiten(residual).reshape(m, -1)
+    measured = e if noise.seen is None else e[noise.seen]
+    scale = robust_scale(measured)
+    head = [list(b[: 3 if len(b) == 6 else len(b)]) for b in blocks]  # a pose's size is its position's
+    distance = np.stack([np.linalg.norm(r[:, h], axis=1) for h in head], axis=1).max(axis=1)
+    score = np.stack([np.linalg.norm(e[:, list(b)], axis=1) for b in blocks], axis=1).max(axis=1) / scale
+    return distance, score
 
 
 def find_outliers(
-    residual: np.ndarray, noise: Noise, labels: Sequence[str], threshold: float = OUTLIER_SCORE
+    residual: np.ndarray,
+    noise: Noise,
+    labels: Sequence[str],
+    threshold: float = OUTLIER_SCORE,
+    blocks: Sequence[Sequence[int]] | None = None,
+    unit: str = "m",
 ) -> tuple[Outlier, ...]:
-    """The rows whose residual exceeds ``threshold`` robust σ, worst first."""
-    distance, score = row_scores(residual, noise)
+    """The rows whose residual exceeds ``threshold`` robust σ, worst first (``blocks`` as
+    :func:`row_scores`; ``unit`` that of the distances)."""
+    distance, score = row_scores(residual, noise, blocks)
     rows = sorted(np.flatnonzero(score > threshold), key=lambda i: -score[i])
-    return tuple(Outlier(int(i), labels[int(i)], float(distance[i]), float(score[i])) for i in rows)
+    return tuple(Outlier(int(i), labels[int(i)], float(distance[i]), float(score[i]), unit) for i in rows)
 
 
 def implausible(params: ParameterSet, x: np.ndarray, before: float, after: float, sigma: float) -> list[str]:
@@ -134,6 +160,18 @@ def implausible(params: ParameterSet, x: np.ndarray, before: float, after: float
     return problems
 
 
+def implausible_noise(before: float, after: float) -> list[str]:
+    """What no real robot does, in words, for measurements other than points, from the RMS of
+    their whitened residuals (in the instrument's standard deviations) before and after calibration."""
+    problems = []
+    for what, value in (("before", before), ("after", after)):
+        if value > RESIDUAL_FACTOR:
+            problems.append(
+                f"the residual {what} calibration is {value:.3g} times the instrument's sigma (RMS)"
+            )
+    return problems
+
+
 def _spread(points: np.ndarray) -> float:
     p = points.reshape(-1, 3)
     return float(np.sqrt(np.mean(np.sum((p - p.mean(axis=0)) ** 2, axis=1))))
@@ -142,8 +180,15 @@ def _spread(points: np.ndarray) -> float:
 def likely_causes(problem: Problem, z: np.ndarray, problems: list[str]) -> list[str]:
     """The usual reasons for an implausible result, most likely first (at least one)."""
     params, data = problem.params, problem.sessions[0]
+    points = measured_points(data)
+    if points is None:  # no positions measured: nothing to compare the robot's points with
+        return [
+            "joint columns or units: check that the joint columns hold the joints named in the header and "
+            "their unit (--deg), the measured columns' units (--mm), and the instrument's nominal set-up "
+            "(--anchor, --camera)"
+        ]
     nominal = params.robot.points(data.q, check=False).reshape(-1, 3)
-    measured = data.points.reshape(-1, 3)
+    measured = points.reshape(-1, 3)
     causes = []
     spread_measured, spread_nominal = _spread(measured), _spread(nominal)
     # one point (or all at one place) has no spread: units cannot be told from it
@@ -170,7 +215,7 @@ def likely_causes(problem: Problem, z: np.ndarray, problems: list[str]) -> list[
             "frame: a rigid motion explains most of the difference: the points are in the instrument's "
             "frame; pass --base (identify base.*)"
         )
-    marker = None if causes else _marker_offset(problem, z)
+    marker = None if causes or not problem.points else _marker_offset(problem, z)
     if not causes and (any("tool frame" in p or "marker" in p for p in problems) or marker is not None):
         where = f" (the data put it {marker * 1e3:.4g} mm from where the model has it)" if marker else ""
         causes.append(

@@ -29,6 +29,7 @@ from pincal.calibration.problem import Problem
 from pincal.calibration.sanity import Outlier
 from pincal.evaluation.data_check import DataCheck
 from pincal.evaluation.prior import Prior
+from pincal.instruments.error_model import ErrorModel
 
 
 def _read_only(array: np.ndarray) -> np.ndarray:
@@ -52,6 +53,8 @@ class Settings:
         reject: rows beyond this many robust σ are dropped and the fit repeated; None: none are.
         prior: the prior of a MAP fit, or None.
         sanity: judge the result's plausibility.
+        instrument: the instrument's error model (:mod:`pincal.instruments.error_model`), or None
+            (``sigma``, or the default, per unit).
     """
 
     sigma: float | None
@@ -62,6 +65,7 @@ class Settings:
     reject: float | None
     prior: Prior | None
     sanity: bool
+    instrument: ErrorModel | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -23,6 +23,9 @@ from pincal.arguments import DEFAULT_SIGMA, angle, generator, length, positive_s
 from pincal.calibration.measurements import MeasurementData
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
+from pincal.instruments.error_model import ErrorModel, PerCoordinate
+from pincal.instruments.kind import Kind
+from pincal.instruments.point import Point
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.model.statics import payload_rows
@@ -159,23 +162,31 @@ def simulate_measurements(
     seed: SeedLike = None,
     payload: PayloadLike = None,
     unmodelled: SmoothField | None = None,
+    measure: Kind | None = None,
+    instrument: ErrorModel | None = None,
 ) -> MeasurementData:
-    """What an instrument with i.i.d. Gaussian noise ``sigma`` per coordinate would measure.
+    """What an instrument with Gaussian noise would measure: i.i.d. ``sigma`` per coordinate, or the
+    error model ``instrument``.
 
     Args:
         true_robot: the robot measured (a :class:`~pincal.Robot`, or :class:`RandomErrors`).
         plan: (m, nq) configurations [rad or m] or a :class:`~pincal.Plan`, within the limits.
-        sigma: noise standard deviation per coordinate [m] (0: exact points).
+        sigma: noise standard deviation per coordinate [m] (0: exact points); the lengths' σ of
+            another kind (its angles and pixels take pincal's defaults: give ``instrument``).
         seed: an int, a numpy Generator, or None for fresh entropy.
         payload: the payload at each configuration (:func:`~pincal.model.statics.payload_rows`;
             default a Plan's own); the data then carry it (the payload columns), and a compliant
             robot bends under it.
         unmodelled: a smooth error added to every measured point (rotated into the instrument's
             frame), as real robots have.
+        measure: what is measured (:mod:`pincal.instruments`: a pose, part of one, distances,
+            pixels); default the markers' points.
+        instrument: the error model the noise is drawn from (:class:`pincal.instruments.PerCoordinate`,
+            :class:`pincal.instruments.Tracker`, taken at the true points); default ``sigma`` per length.
 
     Returns:
-        the measurements (points in the true robot's base frame, i.e. the instrument's frame
-        when ``true_robot.base`` is set).
+        the measurements (in the true robot's base frame, i.e. the instrument's frame when
+        ``true_robot.base`` is set); an image's points out of the camera's view are NaN.
     """
     robot = true_robot.robot if isinstance(true_robot, RandomErrors) else true_robot
     if not isinstance(robot, Robot):
@@ -184,9 +195,44 @@ def simulate_measurements(
     qs = robot.configurations(plan)
     payload = getattr(plan, "payload", None) if payload is None else payload  # a Plan's own payloads
     loads = None if payload is None else payload_rows(payload, len(qs))
+    if (measure is not None and not isinstance(measure, Point)) or instrument is not None:
+        if unmodelled is not None:
+            raise BadArgument("unmodelled errors are simulated for points only (no measure or instrument)")
+        return _simulate_kind(robot, qs, loads, sigma, seed, measure or Point(), instrument)
     points = robot.points(qs, payload=loads)
     if unmodelled is not None:
         points = points + (unmodelled(qs) @ robot.base.rotation.T)[:, None, :]
     if sigma > 0:
         points = points + sigma * generator(seed).standard_normal(points.shape)
     return MeasurementData(qs, points, robot.joint_names, payload=loads)
+
+
+def _simulate_kind(
+    robot: Robot,
+    qs: np.ndarray,
+    loads: np.ndarray | None,
+    sigma: float,
+    seed: SeedLike,
+    kind: Kind,
+    error: ErrorModel | None,
+) -> MeasurementData:
+    """:func:`simulate_measurements` of any kind at configurations ``qs`` under payload rows
+    ``loads``, noise drawn from the error model's covariance."""
+    if not isinstance(kind, Kind):
+        raise BadArgument(
+            f"measure must be a pincal measurement kind (pincal.instruments.Pose(), ...), got {kind!r}"
+        )
+    kind.check(robot)
+    values = kind.predict(robot, qs, loads)
+    if error is not None or sigma > 0:
+        model = error if error is not None else PerCoordinate(sigma)
+        covariance = model.covariance(kind, robot, qs)
+        white = generator(seed).standard_normal(values.shape)
+        if covariance.std is not None:
+            values = values + covariance.std * white
+        else:
+            values = values + np.einsum("mij,mj->mi", covariance.factor, white)
+    values = np.where(kind.seen(robot, qs, loads), values, np.nan)
+    if isinstance(kind, Point):
+        return MeasurementData(qs, values.reshape(len(qs), -1, 3), robot.joint_names, payload=loads)
+    return MeasurementData(qs, values, robot.joint_names, payload=loads, kind=kind)

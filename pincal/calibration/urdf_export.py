@@ -95,6 +95,15 @@ def sidecar(calibrated: IdentificationResult | Robot, urdf: str | os.PathLike) -
         out["joint_gains"] = dict(zip(robot.joint_names, robot.joint_gains.tolist()))
         out["joint_compliances"] = dict(zip(robot.joint_names, robot.joint_compliances.tolist()))
         out["units"] += "; joint gains dimensionless, compliances rad/(N·m) or m/N (prismatic)"
+    if robot.fixtures:  # the instrument's parts identified with the robot (camera, target, anchors)
+        out["fixtures"] = {
+            f.name: {
+                "on": f.on,
+                "xyz": f.placement.translation.tolist(),
+                "rpy": pin.rpy.matrixToRpy(f.placement.rotation).tolist(),
+            }
+            for f in robot.fixtures
+        }
     if result is not None:
         summary = result.as_dict()
         out.update(

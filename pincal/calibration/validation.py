@@ -3,7 +3,8 @@
 The position error of each held-out measured point — the distance between what the instrument
 measured and what the model predicts — before calibration (nominal robot, the base of the initial
 rigid fit when the base is identified) and after (the calibrated robot), summarised by RMS, max
-and 95th percentile.
+and 95th percentile. For another measurement kind, the error of each block of values in its first
+unit: a pose's position, a distance, a target point's pixels.
 
 * :func:`validate`: a fitted result on other data (another file measured from the same
   instrument placement as the result's first data file, or from session ``session``).
@@ -26,6 +27,7 @@ from pincal.calibration.measurements import MeasurementData
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, warn
 from pincal.model.parameters import ParameterSet
+from pincal.model.robot import Robot
 
 MIN_COORDINATES_PER_UNKNOWN = 2
 """A fit behind a validation (a holdout's, a k-fold fold's) with fewer measured coordinates than
@@ -55,6 +57,9 @@ class Validation:
             honest about what it cannot explain.
         residual_model: True when the fits had a residual model (its mean corrects ``after``, its
             variance is in ``expected``).
+        unit: the errors' unit: ``m`` (points; a pose's or a partial pose's position, a
+            distance), or ``px`` for images (``rad`` when only orientations are measured); ``expected``
+            is computed for points only.
     """
 
     before: np.ndarray
@@ -64,6 +69,7 @@ class Validation:
     statuses: tuple[str, ...] = ("converged",)
     expected: np.ndarray | None = None
     residual_model: bool = False
+    unit: str = "m"
 
     @staticmethod
     def _stats(errors: np.ndarray) -> dict[str, float]:
@@ -94,6 +100,7 @@ class Validation:
     def as_dict(self) -> dict:
         return {
             "how": self.how,
+            **({} if self.unit == "m" else {"unit": self.unit}),
             "n_points": int(self.before.size),
             "before": self.stats_before,
             "after": self.stats_after,
@@ -108,9 +115,11 @@ class Validation:
     def report(self) -> str:
         b, a = self.stats_before, self.stats_after
 
+        scale, unit = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}.get(self.unit, (1.0, self.unit))
+
         def row(what: str, s: dict[str, float]) -> str:
-            rms, p95, top = (s[k] * 1e3 for k in ("rms", "p95", "max"))
-            return f"  {what:7s} RMS {rms:8.4g} mm, 95% {p95:8.4g} mm, max {top:8.4g} mm"
+            rms, p95, top = (s[k] * scale for k in ("rms", "p95", "max"))
+            return f"  {what:7s} RMS {rms:8.4g} {unit}, 95% {p95:8.4g} {unit}, max {top:8.4g} {unit}"
 
         lines = [
             f"validation on {self.before.size} held-out point(s), {self.how}:",
@@ -135,15 +144,32 @@ class Validation:
 
 def _errors(
     result: IdentificationResult, data: MeasurementData, session: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, list[str]]:
+    """(before, after, expected, labels): the error of each held-out point (of another kind: of each
+    block of values measured, in its first value's unit) before and after calibration, and the
+    error the fit predicts for it (points only, else None)."""
     data = data.for_robot(result.params.robot)
     before_robot = result.initial_robot or result.params.robot
     if result.bases:
         before_robot = before_robot.replace(base=result.initial_bases[session])
-    before = np.linalg.norm(data.points - before_robot.points(data.q, check=False), axis=-1).reshape(-1)
-    predicted = result.predict(data.q, payload=data.payload, session=session if result.bases else 0)
-    after = np.linalg.norm(data.points - predicted, axis=-1).reshape(-1)
-    return before, after, _expected(result, data)
+    session = session if result.bases else 0
+    if data.is_points:
+        before = np.linalg.norm(data.points - before_robot.points(data.q, check=False), axis=-1).reshape(-1)
+        predicted = result.predict(data.q, payload=data.payload, session=session)
+        after = np.linalg.norm(data.points - predicted, axis=-1).reshape(-1)
+        labels = [label for label in data.labels() for _ in range(data.n_markers)]
+        return before, after, _expected(result, data), labels
+    after_robot = result.robot.replace(base=result.bases[session]) if result.bases else result.robot
+    kind, heads = data.measure, _heads(data, result.robot)
+
+    def sizes(robot: Robot) -> np.ndarray:
+        r = kind.difference(data.values, kind.predict(robot, data.q, data.payload))
+        return np.stack([np.linalg.norm(r[:, h], axis=1) for h in heads], axis=1)  # (m, blocks)
+
+    before, after = sizes(before_robot), sizes(after_robot)
+    measured = np.isfinite(before)
+    labels = [label for i, label in enumerate(data.labels()) for b in range(len(heads)) if measured[i, b]]
+    return before[measured], after[measured], None, labels
 
 
 def _expected(result: IdentificationResult, data: MeasurementData) -> np.ndarray:
@@ -155,8 +181,20 @@ def _expected(result: IdentificationResult, data: MeasurementData) -> np.ndarray
     return np.sqrt(parameters + gp + 3 * noise**2).reshape(-1)
 
 
-def _point_labels(data: MeasurementData) -> list[str]:
-    return [label for label in data.labels() for _ in range(data.n_markers)]
+def _joined(parts: list[np.ndarray | None]) -> np.ndarray | None:
+    """The parts concatenated, or None when any is None (not computed for that kind)."""
+    return None if any(p is None for p in parts) else np.concatenate(parts)
+
+
+def _heads(data: MeasurementData, robot: Robot) -> list[list[int]]:
+    """Each block's values of its first value's unit (a pose's position, a point's pixels)."""
+    units = data.measure.units(robot)
+    return [[i for i in b if units[i] == units[b[0]]] for b in data.measure.blocks(robot)]
+
+
+def _unit(data: MeasurementData, robot: Robot) -> str:
+    """The unit of the validation errors of ``data``."""
+    return "m" if data.is_points else data.measure.units(robot)[0]
 
 
 @keywords_after(2)
@@ -167,16 +205,17 @@ def validate(result: IdentificationResult, data: MeasurementData, *, session: in
         raise BadArgument(f"validate needs a MeasurementData, got {type(data).__name__}")
     if not 0 <= session < max(len(result.sessions), 1):
         raise BadArgument(f"session must be between 0 and {len(result.sessions) - 1}, got {session}")
-    before, after, expected = _errors(result, data, session)
+    before, after, expected, labels = _errors(result, data, session)
     source = data.source or "other data"
     return Validation(
         before,
         after,
-        tuple(_point_labels(data)),
+        tuple(labels),
         f"file {source}",
         (result.status,),
         expected,
         result.residual_model is not None,
+        _unit(data, result.robot),
     )
 
 
@@ -190,14 +229,12 @@ def _warn_if_thin(
     """Warn when a fit behind a validation (a holdout of ``fraction``, or the k-fold ``fits``) has
     fewer than :data:`MIN_COORDINATES_PER_UNKNOWN` measured coordinates per unknown it estimated,
     saying the numbers and what to do."""
-    counts = [
-        (fit, (fit.data.m - len(fit.rejected)) * 3 * fit.data.n_markers, _unknowns(fit)) for fit in fits
-    ]
+    counts = [(fit, (fit.data.m - len(fit.rejected)) * fit.data.row_size, _unknowns(fit)) for fit in fits]
     fit, coordinates, unknowns = min(counts, key=lambda c: c[1] / max(c[2], 1))
     if coordinates >= MIN_COORDINATES_PER_UNKNOWN * unknowns:
         return
     total = sum(d.m for d in sessions)
-    needed = -(-MIN_COORDINATES_PER_UNKNOWN * unknowns // (3 * fit.data.n_markers))  # configurations
+    needed = -(-MIN_COORDINATES_PER_UNKNOWN * unknowns // fit.data.row_size)  # configurations
     if fraction is not None:
         how, what = f"holdout {fraction:g}", "the fit"
         todo = (
@@ -243,7 +280,7 @@ def _folds(sessions: list[MeasurementData], needed: int) -> int | None:
 
 def _fit_and_test(
     params: ParameterSet, sessions: list[MeasurementData], test_rows: list[np.ndarray], kwargs: dict
-) -> tuple[IdentificationResult, np.ndarray, np.ndarray, np.ndarray, list[str]]:
+) -> tuple[IdentificationResult, np.ndarray, np.ndarray, np.ndarray | None, list[str]]:
     train = [
         d.subset(np.setdiff1d(np.arange(d.m), rows)) for d, rows in zip(sessions, test_rows, strict=True)
     ]
@@ -252,13 +289,12 @@ def _fit_and_test(
     for s, (d, rows) in enumerate(zip(sessions, test_rows, strict=True)):
         if len(rows) == 0:
             continue
-        held = d.subset(rows)
-        b, a, e = _errors(result, held, s)
+        b, a, e, held = _errors(result, d.subset(rows), s)
         before.append(b)
         after.append(a)
         expected.append(e)
-        labels += _point_labels(held)
-    return result, np.concatenate(before), np.concatenate(after), np.concatenate(expected), labels
+        labels += held
+    return result, np.concatenate(before), np.concatenate(after), _joined(expected), labels
 
 
 @keywords_after(3)
@@ -288,8 +324,8 @@ def holdout(
     _warn_if_thin([result], sessions, fraction)
     trained = sum(d.m for d in sessions) - sum(map(len, rows))
     how = f"{fraction:.0%} held out (seed {seed}), fitted on the other {trained} configurations"
-    gp = result.residual_model is not None
-    return result, Validation(before, after, tuple(labels), how, (result.status,), expected, gp)
+    gp, unit = result.residual_model is not None, _unit(sessions[0], params.robot)
+    return result, Validation(before, after, tuple(labels), how, (result.status,), expected, gp, unit)
 
 
 @keywords_after(3)
@@ -332,6 +368,7 @@ def kfold(
         tuple(labels),
         how,
         tuple(statuses),
-        np.concatenate(expected),
+        _joined(expected),
         any(fit.residual_model is not None for fit in fits),
+        _unit(sessions[0], params.robot),
     )

@@ -98,6 +98,7 @@ def report_accuracy(
     pool=None,
     task_payload=None,
     residual_model=None,
+    **measuring,
 ):
     """The accuracy report the command prints (None with --no-accuracy or without a test pose), and
     the --accuracy-plot saved; ``reference`` defaults to a D-optimal plan of the same size (without
@@ -108,11 +109,13 @@ def report_accuracy(
             raise BadArgument("--accuracy-plot needs a test pose or region, and no --no-accuracy")
         return None
     if reference is None:
-        reference = d_optimal_plan(params, len(plan), constraints, pool, getattr(args, "seed", 0))
+        reference = d_optimal_plan(
+            params, len(plan), constraints, pool, getattr(args, "seed", 0), **measuring
+        )
     try:
         report = accuracy_report(
             params, plan, test_pose, sigma, prior, reference, task_payload=task_payload,
-            residual_model=residual_model,
+            residual_model=residual_model, **measuring,
         )  # fmt: skip
     except SingularPlan:
         if args.accuracy_plot:
@@ -120,7 +123,9 @@ def report_accuracy(
         return None  # the command says the plan is singular its own way
     if args.accuracy_plot:
         plans = {"plan": plan} if reference is None else {"plan": plan, "D-optimal": reference}
-        save_accuracy_plot(args.accuracy_plot, params, plans, test_pose, sigma, prior, task_payload)
+        save_accuracy_plot(
+            args.accuracy_plot, params, plans, test_pose, sigma, prior, task_payload, **measuring
+        )
     return report
 
 
@@ -245,7 +250,7 @@ def test_poses_of(robot, test_pose) -> np.ndarray:
     return resolve_test_poses(robot, test_pose)[0]
 
 
-def d_optimal_plan(params, m: int, constraints=(), pool=None, seed: int = 0):
+def d_optimal_plan(params, m: int, constraints=(), pool=None, seed: int = 0, **measuring: object):
     """A D-optimal plan of m configurations (exchange, 4 starts, no polish; the reports' reference),
     or None when there is none (too few configurations)."""
     with warnings.catch_warnings():
@@ -262,6 +267,7 @@ def d_optimal_plan(params, m: int, constraints=(), pool=None, seed: int = 0):
                 seed=seed,
                 workers=1,
                 polish=False,
+                **_without_orientation(measuring),
             ).plan
         except PincalError:
             return None
@@ -277,6 +283,7 @@ def accuracy_report(
     seed: int = 0,
     task_payload=None,
     residual_model=None,
+    **measuring: object,
 ) -> AccuracyReport:
     """The accuracy report of ``plan`` next to ``reference`` (the D-optimal plan, if any)."""
     compare = {} if reference is None else {"D-optimal": reference}
@@ -290,14 +297,24 @@ def accuracy_report(
         seed=seed,
         task_payload=task_payload,
         residual_model=residual_model,
+        **_without_orientation(measuring),
     )
     assert isinstance(report, AccuracyReport)  # one plan, one report
     return report
 
 
 def save_accuracy_plot(
-    path: str, params, plans: dict, test_pose, sigma: float, prior, task_payload=None
+    path: str, params, plans: dict, test_pose, sigma: float, prior, task_payload=None, **measuring: object
 ) -> None:
     """The predicted error against the distance from the test pose, for each plan, saved."""
-    profiles = error_profile(params, plans, test_pose, sigma=sigma, prior=prior, task_payload=task_payload)
+    profiles = error_profile(
+        params, plans, test_pose, sigma=sigma, prior=prior, task_payload=task_payload,
+        **_without_orientation(measuring),
+    )  # fmt: skip
     save_figure(error_vs_distance(profiles), path)
+
+
+def _without_orientation(measuring: dict) -> dict:
+    """The instrument's options without the test-pose criterion's orientation length (the
+    position-only reports and the D-optimal reference do not take it)."""
+    return {k: v for k, v in measuring.items() if k != "orientation_length"}

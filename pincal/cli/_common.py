@@ -15,6 +15,9 @@ import numpy as np
 from pincal.arguments import DEFAULT_SIGMA, joint_range, positive_int, positive_sigma, sigma_note
 from pincal.errors import BadArgument, BadConfiguration
 from pincal.files import check_output
+from pincal.instruments.identifiability import identifiable
+from pincal.instruments.instrument import Instrument
+from pincal.model.base_parameters import Identifiability
 from pincal.model.loading import load_robot
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
@@ -50,7 +53,17 @@ def recorded_warnings():
 
 # Options whose value may start with "-" (negative numbers): "--test-pose -45,20" is rewritten
 # "--test-pose=-45,20" before argparse sees it.
-VALUE_OPTIONS = ("--test-pose", "--marker", "--base-pose", "--instrument", "--around", "--test-box")
+VALUE_OPTIONS = (
+    "--test-pose",
+    "--marker",
+    "--base-pose",
+    "--instrument",
+    "--around",
+    "--test-box",
+    "--instrument-at",
+    "--anchor",
+    "--place-instrument",
+)
 
 
 # Options naming a file pincal writes ("figure": an image whose format is its suffix). Every other
@@ -315,20 +328,42 @@ def mentions_base(spec: str | None) -> bool:
     return any(_is_base(t.strip()) for t in (spec or "").split(","))
 
 
-def params_from_args(robot: Robot, args: argparse.Namespace) -> tuple[ParameterSet, str]:
+def params_from_args(
+    robot: Robot, args: argparse.Namespace, instrument: Instrument | None = None
+) -> tuple[ParameterSet, str]:
     """The parameter set asked for, and a description of where it came from (see
     :func:`parameters_with_base`)."""
-    params, source, _ = parameters_with_base(robot, args)
+    params, source, _ = parameters_with_base(robot, args, instrument)
     return params, source
 
 
-def parameters_with_base(robot: Robot, args: argparse.Namespace) -> tuple[ParameterSet, str, list[str]]:
+def _identifiable(params: ParameterSet, instrument: Instrument | None, prefer: str = "") -> Identifiability:
+    """What the instrument (points when None) can identify of ``params``."""
+    if instrument is None or instrument.is_default:
+        return params.identifiable(prefer=prefer)
+    return identifiable(params, instrument, prefer=prefer)
+
+
+def _with_fixtures(robot: Robot, spec: str) -> str:
+    """``spec`` and the instrument's fixtures (identified with the robot) when it names none."""
+    names = ["instrument"] + [f.name for f in robot.fixtures]
+    tokens = [t.strip().split(".")[0] for t in spec.split(",")]
+    if not robot.fixtures or any(t in names for t in tokens):
+        return spec
+    return spec + ",instrument"
+
+
+def parameters_with_base(
+    robot: Robot, args: argparse.Namespace, instrument: Instrument | None = None
+) -> tuple[ParameterSet, str, list[str]]:
     """The set asked for, plus base.* when the data are in the instrument's frame.
 
     Without --params: the identifiable base set of ``full,offsets``. With --params: that set,
     which must be identifiable (the error names the dropped parameters and the fix). With --base,
     or base names in --params: the chain set plus the whole base, the base kept first and the
     chain parameters it makes redundant dropped — the set identify uses on instrument-frame data.
+    The instrument's fixtures (--anchor, --camera) are added unless --params names them, and what
+    is identifiable is what ``instrument`` measures (points when None).
 
     Returns:
         (parameters, description, chain parameters dropped as redundant with the base).
@@ -336,26 +371,29 @@ def parameters_with_base(robot: Robot, args: argparse.Namespace) -> tuple[Parame
     spec = getattr(args, "params", None)
     tokens = [t.strip() for t in (spec or "").split(",") if t.strip()]
     if not (getattr(args, "base", False) or mentions_base(spec)):
-        return _chain_params(robot, spec, args.robot) + ([],)
+        return _chain_params(robot, spec, args.robot, instrument) + ([],)
     rest = ",".join(t for t in tokens if not _is_base(t)) or None
-    chain, source = _chain_params(robot, rest, args.robot)
-    params = robot.parameters(list(chain.names) + ["base"]).identifiable(prefer="base").identifiable
+    chain, source = _chain_params(robot, rest, args.robot, instrument)
+    params = _identifiable(robot.parameters(list(chain.names) + ["base"]), instrument, "base").identifiable
     dropped = [n for n in chain.names if n not in params.names]
     note = f"; {len(dropped)} chain parameter(s) redundant with it dropped" if dropped else ""
     return params, f"{source}, with the base frame{note}", dropped
 
 
-def _chain_params(robot: Robot, spec: str | None, robot_arg: str) -> tuple[ParameterSet, str]:
+def _chain_params(
+    robot: Robot, spec: str | None, robot_arg: str, instrument: Instrument | None = None
+) -> tuple[ParameterSet, str]:
     if spec is None:
-        ident = robot.parameters(DEFAULT_PARAMS).identifiable()
-        return ident.identifiable, f"identifiable base set of {DEFAULT_PARAMS}"
-    params = robot.parameters(spec)
-    ident = params.identifiable()
+        default = _with_fixtures(robot, DEFAULT_PARAMS)
+        ident = _identifiable(robot.parameters(default), instrument)
+        return ident.identifiable, f"identifiable base set of {default}"
+    params = robot.parameters(_with_fixtures(robot, spec))
+    ident = _identifiable(params, instrument)
     if ident.dropped:
         names = list(ident.dropped)
         shown = ", ".join(names[:8]) + (f", ... ({len(names)} in all)" if len(names) > 8 else "")
         raise BadArgument(
-            f"--params {spec}: {len(names)} parameter(s) cannot be identified from position "
+            f"--params {spec}: {len(names)} parameter(s) cannot be identified from {ident.measured} "
             f"measurements ({shown}); use the identifiable set --params "
             f"{','.join(ident.identifiable.names)} (see 'pincal params {robot_arg}')"
         )

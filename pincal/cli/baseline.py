@@ -17,6 +17,7 @@ from pincal.cli._common import (
     robot_from_args,
     sigma_from_args,
 )
+from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
 from pincal.cli._safety import safe_constraints_from_args
 from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
 from pincal.planning.baselines import random_plans
@@ -36,7 +37,10 @@ Random plans: configurations drawn uniformly within the joint limits, kept if th
 configurations of the pool (plan CSV format, e.g. taught poses) per plan, and the D-optimal plan
 is made of pool configurations too. Singular plans (no finite rho0) are counted, not averaged.
 rho0 in metres for --sigma.
+
+{instrument}
 """
+EXAMPLES = EXAMPLES.replace("{instrument}", INSTRUMENT_HELP)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -63,14 +67,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--workers", type=count("--workers"), help="processes for the --d-optimal search (default: all CPUs)"
     )
+    add_instrument_arguments(p, test_pose=True)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     sigma, sigma_text = sigma_from_args(args)
-    robot = robot_from_args(args)
-    params, source = params_from_args(robot, args)
+    measuring = measuring_from_args(args, robot_from_args(args), sigma if args.sigma is not None else None)
+    robot = measuring.robot
+    sigma_text = measuring.text or sigma_text
+    params, source = params_from_args(robot, args, measuring.instrument)
     q0 = test_region_from_args(robot, args)
     prior = prior_from_args(args)
     constraints = safe_constraints_from_args(robot, args)  # the design's safe defaults too
@@ -88,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
             constraints=constraints,
             seed=args.seed,
             pool=pool,
+            **measuring.options,
         )
         d_opt = None
         if args.d_optimal:
@@ -104,6 +112,7 @@ def run(args: argparse.Namespace) -> int:
                 seed=args.seed,
                 starts=args.starts,
                 workers=args.workers,
+                **measuring.options,
             )
     print_warnings(records)
     if args.json:

@@ -44,6 +44,7 @@ from pincal.cli._common import (
     sigma_from_args,
     sigma_type,
 )
+from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
 from pincal.cli._plot import add_plot_argument, save_design_plot
 from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
 from pincal.cli.campaign import (
@@ -54,13 +55,17 @@ from pincal.cli.campaign import (
 )
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0_split
+from pincal.instruments.error_model import Tracker
+from pincal.instruments.instrument import Instrument
 from pincal.model.statics import Payload
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
 from pincal.planning.objectives import CRITERIA
+from pincal.planning.placement import STEPS, Placement, place_instrument
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans
 from pincal.planning.safety import safety_margins
+from pincal.viewing import plots
 
 HELP = COMMANDS["design"].help
 EXAMPLES = """\
@@ -77,6 +82,12 @@ examples:
   pincal design kr270 -m 15 --test-pose=0,-60,60,0,45,0 --deg --marker 0.1,0.05,0.2 \
       --params lengths,offsets,gains,compliance --payloads 0,135,270 --task-payload 270 \
       --payload-centre 0,0,0.25 --out plan.csv      # choose a payload per configuration
+  pincal design ur10 -m 8 --test-pose=0,-1.2,1.5,-1,-1.5,0 --measure pose --sigma 1e-4 --sigma-rot 2e-3
+  pincal design panda -m 10 --test-pose=0,-0.3,0,-2.2,0,2,0.8 --camera rig.yaml   # a camera and a grid
+  pincal design kr270 -m 12 --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 \
+      --instrument tracker --instrument-at 4,0,1    # a tracker's radial/transverse error, 4 m away
+  pincal design ur10 -m 12 --test-pose=0,-1.2,1.5,-1,-1.5,0 --marker 0.05,0.02,0.1 \
+      --place-instrument 1.5,-2,0.75,9,2,0.75 --placement-plot placement.png   # where the tracker goes
 
 Payloads (--payloads KG,KG,...; --task-payload KG; --payload-centre X,Y,Z): the exchange chooses a
 payload for each configuration of a generated pool (--pool-size) or of your --pool; the plan CSV
@@ -95,9 +106,19 @@ gives your own, e.g. taught poses, in the plan CSV format, and keeps the plan on
 (all joint values at once, L-BFGS-B from many random starts).
 --baseline N: rho0 of N random feasible plans (drawn from --pool when given, else within the joint
 limits and --constraints) and of the D-optimal plan, next to the designed plan's.
+--place-instrument X0,Y0,Z0,X1,Y1,Z1: choose the tracker's position in that box (instrument frame,
+metres) together with the plan: a grid of --place-steps per axis (default 3), then the best
+position's neighbours at half the step; at each position the plan is designed with the tracker
+there (--instrument tracker, --tracker-sigma: its error; default the AT500's), under its range (1 to
+40 m), a 30-degree acceptance angle about the reflector's normal (the tip frame's z) and the line of
+sight (nothing of the robot's collision geometry within 1 cm of the beam; unchecked, and said so,
+when the URDF has none). With --camera (eye-to-hand), the camera is placed, aimed at the target at
+the test pose, counting the target points in its field of view. The report (and JSON 'instrument_at',
+'placement') gives the position chosen, rho0 there and at the default position (--instrument-at, or
+the box's centre) and their factor; --placement-plot FILE.png maps rho0 over the box.
 --base: the tracker measures in its own frame, so base.* are identified too (as 'identify --base').
---constraints FILE.yaml: joint_limits, workspace_box, half_space, visibility, self_collision,
-min_spacing (see pincal.constraints.load_constraints for the layout).
+--constraints FILE.yaml: joint_limits, workspace_box, half_space, visibility, line_of_sight,
+self_collision, min_spacing (see pincal.planning.constraints.load_constraints for the layout).
 --min-conditioning X: no plan whose conditioning is below X (default 1e-2, none with --prior); a
 plan below 1e-3 is warned about whatever the floor, and so is a floor below 1e-3 that stops the
 search.
@@ -121,6 +142,7 @@ EXAMPLES = (
     .replace("{safety}", SAFETY_HELP.rstrip())
     .replace("{tradeoff}", TRADEOFF_HELP.rstrip())
 )
+EXAMPLES += "\n" + INSTRUMENT_HELP + "\n"
 
 
 def add_design_arguments(p: argparse.ArgumentParser) -> None:
@@ -212,9 +234,26 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="a top-up plan: the residual model of an earlier calibration (its sidecar) values measuring "
         "where the residual is correlated with the test pose's",
     )
+    p.add_argument(
+        "--place-instrument",
+        metavar="X0,Y0,Z0,X1,Y1,Z1",
+        help="choose the tracker's (or a fixed camera's) position in this box [m] with the plan",
+    )
+    p.add_argument(
+        "--place-steps",
+        type=count("--place-steps"),
+        metavar="N",
+        help=f"grid positions per axis of the --place-instrument box (default {STEPS})",
+    )
+    p.add_argument(
+        "--placement-plot",
+        metavar="FILE.png",
+        help="save the map of rho0 against the instrument's position over the box (--place-instrument)",
+    )
     add_plot_argument(p)
     add_report_arguments(p)
     add_tradeoff_arguments(p)
+    add_instrument_arguments(p, test_pose=True)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -226,8 +265,10 @@ def print_warnings(records: list) -> None:
 
 def run(args: argparse.Namespace) -> int:
     sigma, sigma_text = sigma_from_args(args)
-    robot = robot_from_args(args)
-    params, source = params_from_args(robot, args)
+    measuring = measuring_from_args(args, robot_from_args(args), sigma if args.sigma is not None else None)
+    robot = measuring.robot
+    params, source = params_from_args(robot, args, measuring.instrument)
+    sigma_text = measuring.text or sigma_text
     criterion = "test-pose-worst" if args.worst else args.criterion
     q0 = test_region_from_args(robot, args, required=criterion.lower().startswith("test"))
     prior = prior_from_args(args)
@@ -252,6 +293,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         workers=args.workers,
         progress=progress,
+        **measuring.options,
     )
     loads = _payload_options(args)
     if args.residual_model:
@@ -260,8 +302,16 @@ def run(args: argparse.Namespace) -> int:
         _check_payload_design(args, loads)
         options = {k: v for k, v in options.items() if k not in ("method", "polish", "workers", "progress")}
         options.update(loads)
+    placement = None
+    if args.place_instrument is not None:
+        placement, options = _placed(args, params, q0, criterion, options, taught, loads)
+    elif args.placement_plot or args.place_steps is not None:
+        raise BadArgument("--placement-plot and --place-steps go with --place-instrument X0,Y0,Z0,X1,Y1,Z1")
     with recorded_warnings() as records:
-        result = design(params, args.m, q0, criterion=criterion, **options)
+        if placement is None:
+            result = design(params, args.m, q0, criterion=criterion, **options)
+        else:
+            result = placement.result
         baseline = None
         if args.baseline is not None:
             baseline = _baseline(params, args, q0, criterion, taught, options)
@@ -278,10 +328,15 @@ def run(args: argparse.Namespace) -> int:
             pool,
             loads.get("task_payload"),
             loads.get("residual_model"),
+            **measuring.options,
         )
         campaign = report_tradeoff(args, params, q0, result.plan, options)  # --campaign
     safety = safety_margins(robot, result.plan, constraints)
-    _write_and_print(args, robot, params, source, result, baseline, report, sigma_text, safety, campaign)
+    if placement is not None and args.placement_plot:
+        plots.save_figure(plots.placement_map(placement), args.placement_plot)
+    _write_and_print(
+        args, robot, params, source, result, baseline, report, sigma_text, safety, campaign, placement
+    )
     print_warnings(records)  # last, where they are seen
     return 0
 
@@ -303,6 +358,39 @@ def _check_payload_design(args: argparse.Namespace, loads: dict) -> None:
             f"{what}: the design is an exchange over (configuration, payload) pairs; it does not take "
             + "; ".join(given)
         )
+
+
+def _placed(args, params, q0, criterion: str, options: dict, taught, loads: dict):
+    """(the :class:`Placement` of --place-instrument, the options of the rest of the command: its
+    instrument where the placement put it)."""
+    if args.baseline is not None or taught is not None or loads:
+        raise BadArgument(
+            "--place-instrument designs over a generated pool: no --baseline, --pool, --payloads or "
+            "--residual-model with it"
+        )
+    box = parse_floats(args.place_instrument, "--place-instrument")
+    if len(box) != 6:
+        raise BadArgument(
+            f"--place-instrument {args.place_instrument!r}: expected X0,Y0,Z0,X1,Y1,Z1 (six numbers, metres)"
+        )
+    kind, error = options.get("measure"), options.get("instrument")
+    rest = {k: v for k, v in options.items() if k not in ("measure", "instrument", "constraints", "progress")}
+    default_at = getattr(error, "at", None) if getattr(args, "instrument_at", None) else None
+    with recorded_warnings() as records:
+        placement = place_instrument(
+            params, args.m, q0, (box[:3], box[3:]), criterion=criterion, measure=kind, instrument=error,
+            constraints=options["constraints"], steps=args.place_steps or STEPS, default_at=default_at,
+            **rest,
+        )  # fmt: skip
+    print_warnings(records)
+    options = dict(options)
+    if isinstance(placement.result.instrument, Instrument) and isinstance(
+        placement.result.instrument.error, Tracker
+    ):
+        options["instrument"] = placement.result.instrument.error
+    else:  # a camera: its fixture moved; the accuracy report would be of the nominal camera
+        args.no_accuracy = True
+    return placement, options
 
 
 CONTINUOUS_WHY = "the continuous search cannot choose among discrete payloads"
@@ -337,6 +425,7 @@ def _baseline(
         constraints=options["constraints"],
         seed=args.seed,
         pool=taught,
+        **{k: options[k] for k in ("measure", "instrument", "orientation_length") if k in options},
     )
     return randoms, design(params, args.m, q0, criterion="D", **options)
 
@@ -352,6 +441,7 @@ def _write_and_print(
     sigma_text: str,
     safety=None,
     campaign=(None, None),
+    placement: Placement | None = None,
 ) -> None:
     """--out, --plot, then the JSON object or the text report."""
     if args.out:
@@ -366,6 +456,7 @@ def _write_and_print(
         if campaign[0] is not None:
             payload["campaign"] = {"time": campaign[0].total, "order": list(campaign[0].order)}
             payload["tradeoff"] = campaign[1].as_dict()
+        payload["placement"] = None if placement is None else placement.as_dict()
         emit_json(payload)
     else:
         print_design(robot, params, source, result, args.deg, sigma_text, _split(params, result, args))
@@ -374,6 +465,8 @@ def _write_and_print(
         if campaign[0] is not None:
             print(f"this plan's campaign: {campaign[0].summary()}")
             print("\n".join(campaign[1].lines()))
+        if placement is not None:
+            print("\n".join(placement.lines()))
         if baseline is not None:
             print_baseline(baseline[0], baseline[1], pool=args.pool)
         if report is not None:

@@ -34,6 +34,7 @@ from pincal.cli._common import (
     robot_from_args,
     sigma_from_args,
 )
+from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
 from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
 from pincal.errors import BadArgument, SingularPlan
 from pincal.evaluation.classic import criteria
@@ -54,6 +55,10 @@ examples:
       --prior 1mm,1mrad --accuracy-plot accuracy.png
   pincal evaluate kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 \
       --params lengths,offsets,gains,compliance --task-payload 270 --payload-centre 0,0,0.25
+  pincal evaluate ur10 --plan plan.csv --test-pose=0,-1.2,1.5,-1,-1.5,0 --measure pose --sigma 1e-4 \\
+      --sigma-rot 2e-3 --orientation-length 0.2     # motion capture; the tool's orientation counts
+  pincal evaluate kr270 --plan plan.csv --deg --test-pose=0,-90,90,0,45,0 --marker 0.1,0.05,0.2 \\
+      --instrument tracker --instrument-at 4,0,1    # a tracker 4 m away, radial/transverse sigma
 
 PLAN.csv: a header row of joint names, one configuration per row, radians (degrees with --deg).
 rho0 is in metres for --sigma (noise per coordinate, metres; default 3e-5, a laser tracker).
@@ -70,7 +75,7 @@ with gains or compliances among --params, rho0^2 is split into its geometric and
 error at the test pose(s) when the parameters and that residual are estimated from the plan, and
 the accuracy report of it (the residual model's variance included).
 """
-EXAMPLES += "\n" + CONDITIONING_HELP + "\n\n" + SAFETY_HELP + "\n" + REGION_HELP
+EXAMPLES += "\n" + CONDITIONING_HELP + "\n\n" + SAFETY_HELP + "\n" + REGION_HELP + "\n\n" + INSTRUMENT_HELP
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -97,22 +102,26 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_safety_arguments(p)
     add_report_arguments(p)
+    add_instrument_arguments(p, test_pose=True)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     sigma, sigma_text = sigma_from_args(args)
-    robot = robot_from_args(args)
-    params, source = params_from_args(robot, args)
+    measuring = measuring_from_args(args, robot_from_args(args), sigma if args.sigma is not None else None)
+    robot, options = measuring.robot, measuring.options
+    sigma_text = measuring.text or sigma_text
+    params, source = params_from_args(robot, args, measuring.instrument)
     plan = read_plan(robot, args.plan, args.deg)
     q0 = test_region_from_args(robot, args)
     prior = prior_from_args(args)
     task = task_payload_from_args(args)
-    each = rho0_each(params, plan, q0, sigma=sigma, prior=prior, task_payload=task)
+    each = rho0_each(params, plan, q0, sigma=sigma, prior=prior, task_payload=task, **options)
     value = float(each.max()) if args.worst else float(np.sqrt(np.mean(each**2)))
+    classic = {k: v for k, v in options.items() if k != "orientation_length"}
     try:
-        crit = criteria(params, plan)
+        crit = criteria(params, plan, **classic)
         assert not isinstance(crit, tuple)  # one plan, one set of criteria
     except SingularPlan:
         if prior is None:
@@ -124,11 +133,13 @@ def run(args: argparse.Namespace) -> int:
         if prior is not None:
             raise BadArgument("--residual-model: the expected error with a residual model takes no --prior")
         with_model = expected_error(params, plan, q0, model, sigma=sigma, task_payload=task)
-    report = report_accuracy(args, params, plan, q0, sigma, prior, task_payload=task, residual_model=model)
+    report = report_accuracy(
+        args, params, plan, q0, sigma, prior, task_payload=task, residual_model=model, **options
+    )
     split = None
     if prior is None and any(p.kind in ("gain", "compliance") for p in params):
         split = rho0_split(params, plan, q0, sigma=sigma, task_payload=task)
-    check = check_plan(params, plan, sigma=sigma)
+    check = check_plan(params, plan, sigma=sigma, instrument=measuring.instrument if options else None)
     safety = safety_margins(robot, plan, safe_constraints_from_args(robot, args))
     if args.json:
         emit_json(
@@ -137,7 +148,8 @@ def run(args: argparse.Namespace) -> int:
                 "tip": robot.tip,
                 "markers": robot.markers.tolist(),
                 "m": len(plan),
-                "sigma": sigma,
+                "sigma": measuring.instrument.reference if options else sigma,
+                **({"instrument": measuring.instrument.as_dict()} if options else {}),
                 "rho0": value,
                 "rho0_aggregate": "worst" if args.worst else "mean",
                 "rho0_per_test_pose": each.tolist(),

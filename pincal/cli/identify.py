@@ -31,6 +31,14 @@ from pincal.cli._common import (
     seed_type,
     sigma_type,
 )
+from pincal.cli._instrument import (
+    INSTRUMENT_HELP,
+    add_instrument_arguments,
+    error_from_args,
+    instrument_from_args,
+    rig_from_args,
+    robot_with_fixtures,
+)
 from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused
 from pincal.evaluation.prior import Prior
 from pincal.viewing.plots import save_figure, validation_errors
@@ -48,6 +56,12 @@ examples:
   pincal identify planar_2r --data meas.csv --params joint2.tx,tip.tx --loss soft_l1
   pincal identify kr270 --data loaded.csv --marker 0.1,0.05,0.2 --params full,offsets,gains,compliance \
       --residual-model gp --holdout 0.3 --out cal.urdf        # beyond geometry
+  pincal identify ur10 --data mocap.csv --base --sigma 1e-4 --sigma-rot 2e-3 --out ur10_cal.urdf  # poses
+  pincal identify kr270 --data heights.csv --marker 0.1,0.05,0.2          # z alone: a height gauge
+  pincal identify ur10 --data wires.csv --anchor 1,1,0 --anchor -1,1.5,0.5 --anchor 1.5,-1,1 \
+      --anchor 0.5,-1.5,0.2                                  # draw-wires; the anchors are identified
+  pincal identify panda --data corners.csv --camera rig.yaml --out panda_cal.urdf   # a camera
+  pincal identify kr270 --data tracker.csv --base --marker 0.1,0.05,0.2 --instrument tracker
 
 MEAS.csv: a header row, then one configuration per row: one column per joint, named as in the URDF
 (radians; degrees with --deg), and the measured point(s): x,y,z for one marker or x0,y0,z0,x1,y1,z1,...
@@ -58,6 +72,8 @@ Rows with a missing or non-numeric cell, NaN, or a joint outside its limits are 
 (base.*) is identified too, starting from a rigid fit (the "before" residual is the one after it),
 and the chain parameters it makes redundant are dropped. Several --data files, each measured from its
 own instrument placement, share the robot's parameters with one base each (base2.*, base3.*, ...).
+
+{{instrument}}
 
 The report gives the data's identifiability first: rank and conditioning (see below) of YOUR
 configurations, the weakest parameter combinations, and the parameters the data
@@ -93,6 +109,7 @@ joint space (hyperparameters from these data only), whose mean corrects the pred
 --holdout/--kfold errors). The sidecar holds gains, compliances, gravity and the residual model:
 'pincal compensate' uses them to correct a program's joint targets.
 """
+EXAMPLES = EXAMPLES.replace("{instrument}", INSTRUMENT_HELP)
 EXAMPLES += "\n" + CONDITIONING_HELP + "\n"
 
 
@@ -169,6 +186,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--task-payload", type=float, metavar="KG", help="the task's payload at the test pose(s) (compliance)"
     )
     p.set_defaults(test_box=None)
+    add_instrument_arguments(p, measure=False)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -183,9 +201,10 @@ def _check_outputs(args: argparse.Namespace, robot) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    robot = robot_from_args(args)
-    params, source, dropped = parameters_with_base(robot, args)
+    robot = robot_with_fixtures(robot_from_args(args), args)
     sigma = None if args.sigma is None else positive_sigma(args.sigma, "--sigma")
+    rig = rig_from_args(args)
+    error = error_from_args(args, sigma)
     positive_int(args.maxiter, "--maxiter")
     prior = Prior.parse(args.prior) if args.prior else None
     if sum(x is not None for x in (args.validate, args.holdout, args.kfold)) > 1:
@@ -196,18 +215,33 @@ def run(args: argparse.Namespace) -> int:
     if args.task_payload is not None and not args.test_pose and not args.test_path:
         raise BadArgument("--task-payload is the load at the test pose(s): give --test-pose or --test-path")
     test_region = test_region_from_args(robot, args, required=False)
-    sessions = [MeasurementData.from_csv(d, robot, degrees=args.deg, millimetres=args.mm) for d in args.data]
+    kind = rig.kind if rig is not None else None
+    sessions = [
+        MeasurementData.from_csv(d, robot, degrees=args.deg, millimetres=args.mm, kind=kind)
+        for d in args.data
+    ]
+    kinds = {type(d.measure).__name__ for d in sessions}
+    if len(kinds) > 1:
+        raise BadArgument(
+            f"the --data files measure different things ({', '.join(sorted(kinds))}); give one kind"
+        )
+    instrument = instrument_from_args(args, sessions[0].measure, sigma)
+    params, source, dropped = parameters_with_base(robot, args, instrument)
     options = dict(
         sigma=sigma, maxiter=args.maxiter, prior=prior, loss=args.loss, method=args.method,
         reject=args.reject, residual_model=args.residual_model,
     )  # fmt: skip
+    if error is not None:
+        options["instrument"] = error
     validation = None
     if args.holdout is not None:
         result, validation = holdout(params, sessions, args.holdout, seed=args.seed, **options)
     else:
         result = identify(params, sessions, **options)
         if args.validate:
-            other = MeasurementData.from_csv(args.validate, robot, degrees=args.deg, millimetres=args.mm)
+            other = MeasurementData.from_csv(
+                args.validate, robot, degrees=args.deg, millimetres=args.mm, kind=sessions[0].measure
+            )
             validation = validate(result, other)
         elif args.kfold is not None:
             validation = kfold(params, sessions, args.kfold, seed=args.seed, **options)
@@ -238,6 +272,9 @@ def run(args: argparse.Namespace) -> int:
     kinds = {q.kind for q in params}
     if "marker" in kinds:
         print(f"calibrated markers in {robot.tip} [m]: {result.robot.markers.tolist()}")
+    for name, pose in result.as_dict().get("fixtures", {}).items():
+        frame = robot.tip if pose["on"] == "tip" else "the instrument frame"
+        print(f"{name} in {frame}: xyz {pose['xyz']} m, rpy {pose['rpy']} rad")
     if "base" in kinds:
         for i, base in enumerate(result.as_dict()["bases"]):
             which = "" if len(sessions) == 1 else f" ({args.data[i]})"

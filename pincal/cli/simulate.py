@@ -27,6 +27,7 @@ from pincal.cli._common import (
     sigma_type,
     test_poses_from_args,
 )
+from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
 from pincal.cli._plot import add_simulation_plot_arguments, save_simulation_plot
 from pincal.errors import BadArgument
 from pincal.typing import ConfigurationsLike
@@ -42,6 +43,8 @@ examples:
       --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2
   pincal simulate kr270 --plan loaded.csv --test-pose=0,-60,60,0,45,0 --deg --marker 0.1,0.05,0.2 \
       --params lengths,offsets,gains,compliance --task-payload 270 --payload-centre 0,0,0.25
+  pincal simulate ur10 --plan plan.csv --test-pose=0,-1.2,1.5,-1,-1.5,0 --measure pose --sigma 1e-4 \
+      --sigma-rot 2e-3 --trials 100                  # 6-D motion capture
 
 Each trial draws a "true" robot with random errors of the parameters (Gaussian, std LEN metres for
 lengths and ANG radians for angles; default 1e-3,1e-3), simulates measurements at the plan with
@@ -56,7 +59,14 @@ A plan with payload columns (design --payloads) is measured under its payloads a
 under --task-payload KG (--payload-centre X,Y,Z in the tip frame); with gains or compliances among
 --params the true robots carry random ones (gains 5e-4, compliances of about 1 mrad at each joint's
 reference torque).
+With --measure (and the instrument's
+options below) the trials simulate and identify that instrument's data, its noise drawn from its
+error model; the error at the test pose is still the markers' (with --orientation-length, plus L
+times the tool's orientation error).
+
+{instrument}
 """
+EXAMPLES = EXAMPLES.replace("{instrument}", INSTRUMENT_HELP)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -78,6 +88,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
     add_task_payload_arguments(p)
     add_simulation_plot_arguments(p)
+    add_instrument_arguments(p, test_pose=True)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -96,8 +107,10 @@ def parse_error_std(text: str) -> dict[str, float]:
 def run(args: argparse.Namespace) -> int:
     sigma, sigma_text = sigma_from_args(args)
     error_std = parse_error_std(args.error_std)
-    robot = robot_from_args(args)
-    params, source = params_from_args(robot, args)
+    measuring = measuring_from_args(args, robot_from_args(args), sigma if args.sigma is not None else None)
+    robot = measuring.robot
+    sigma_text = measuring.text or sigma_text
+    params, source = params_from_args(robot, args, measuring.instrument)
     plan = read_plan(robot, args.plan, args.deg)
     others = [(path, read_plan(robot, path, args.deg)) for path in args.compare or ()]
     q0 = test_poses_from_args(robot, args)
@@ -106,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     def simulated(configurations: ConfigurationsLike) -> MonteCarloResult:  # the same trials, errors and seed
         return monte_carlo(
             params, configurations, q0, sigma=sigma, trials=args.trials, seed=args.seed, error_std=error_std,
-            task_payload=task,
+            task_payload=task, **measuring.options,
         )  # fmt: skip
 
     mc = simulated(plan)

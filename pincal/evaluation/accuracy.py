@@ -33,6 +33,9 @@ from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import Neighbourhood, ResolvedRegion, resolve_test_poses, width_text
 from pincal.evaluation.residual_criterion import ResidualCriterion
 from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.instruments.error_model import ErrorModel
+from pincal.instruments.instrument import Instrument, optional_instrument
+from pincal.instruments.kind import Kind
 from pincal.lapack import trtrs
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
@@ -66,6 +69,8 @@ class PredictedError:
             :class:`~pincal.Payload`), or None; the plan's own payloads (:attr:`Plan.payload`)
             enter its information.
         payload: the plan's payload rows (m, 4), instead of its own.
+        instrument: what the plan measures and how well (its whitened rows; ``sigma`` is then its
+            reference σ), or None: points with ``sigma``. ρ is the markers' position error.
 
     Raises:
         SingularPlan: the plan cannot identify ``params`` (never with a prior on every parameter).
@@ -79,22 +84,24 @@ class PredictedError:
         prior: Prior | None = None,
         task_payload: PayloadLike = None,
         payload: PayloadLike = None,
+        instrument: Instrument | None = None,
     ) -> None:
         self.params = params
-        self.sigma = positive_sigma(sigma)
+        self.sigma = positive_sigma(sigma) if instrument is None else instrument.reference
         self.prior = prior
         self.task_payload = task_payload
         self.engine = engine_for(params)
+        measured = engine_for(params, instrument)
         qs = params.robot.configurations(plan)
         if payload is None:
             payload = getattr(plan, "payload", None)
-        J = self.engine.jacobian(qs, frame="tip", payload=payload).reshape(-1, len(params))
+        J = measured.jacobian(qs, frame="tip", payload=payload).reshape(-1, len(params))
         self.information = J.T @ J  # M, of the measurements alone
         self.m = len(qs)
         posterior = (
             self.information if prior is None else self.information + prior.information(params, self.sigma)
         )
-        self.L = factor(posterior, self.engine.rows, self.m)
+        self.L = factor(posterior, measured.rows, self.m)
 
     def squared(self, qs: np.ndarray, chunk: int = 4096) -> np.ndarray:
         """(n,) ρ² [m²] at configurations ``qs`` (trusted: within the limits)."""
@@ -428,6 +435,8 @@ def accuracy(
     seed: int = 0,
     task_payload: PayloadLike = None,
     residual_model: ResidualModel | None = None,
+    measure: Kind | None = None,
+    instrument: ErrorModel | None = None,
 ) -> AccuracyReport | tuple[AccuracyReport, ...]:
     """Predicted error after calibrating with ``plan`` (and each plan of ``compare``), at the
     test pose(s), over neighbourhoods of them, and over the workspace; for a batch of plans
@@ -458,8 +467,12 @@ def accuracy(
             expected error when the parameters and the residual are estimated together from the
             plan (sqrt tr Σ₀ at each configuration, docs/method.md §11.5), the residual model's
             variance included; no prior, no worst-found search.
+        measure, instrument: what the plans measure and the instrument's error model (see
+            :func:`pincal.rho0`); ``sigma`` is then the error model's reference σ.
     """
     sigma = positive_sigma(sigma)
+    inst = optional_instrument(measure, instrument, sigma)
+    sigma = sigma if inst is None else inst.reference
     robot = params.robot
     batch, batched = plan_batch(params, plan)
     sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
@@ -473,7 +486,7 @@ def accuracy(
             (where, engine.jacobian(qs, frame="tip", payload=_loads(task_payload, len(qs))).copy())
             for where, qs in sets
         ]
-        at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior, task_payload)
+        at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior, task_payload, instrument=inst)
         loads = plan_payloads(plan, batch.shape)
         plans = [
             (q, None if loads is None else loads[i * len(q) : (i + 1) * len(q)]) for i, q in enumerate(batch)
@@ -485,7 +498,9 @@ def accuracy(
         compared = [
             (
                 name,
-                _plan_accuracy(name, q, params, sigma, prior, jacobians, region, at_test_poses, task_payload),
+                _plan_accuracy(
+                    name, q, params, sigma, prior, jacobians, region, at_test_poses, task_payload, inst=inst
+                ),
             )
             for name, q in (compare or {}).items()
         ]
@@ -493,7 +508,17 @@ def accuracy(
             AccuracyReport(
                 (
                     _plan_accuracy(
-                        "plan", q, params, sigma, prior, jacobians, region, at_test_poses, task_payload, load
+                        "plan",
+                        q,
+                        params,
+                        sigma,
+                        prior,
+                        jacobians,
+                        region,
+                        at_test_poses,
+                        task_payload,
+                        load,
+                        inst,
                     ),
                 )
                 + tuple(c for _, c in compared),
@@ -558,11 +583,11 @@ def _loads(task_payload: PayloadLike, n: int) -> np.ndarray | None:
 
 
 def _plan_accuracy(
-    name, q, params, sigma, prior, jacobians, region, at_test_poses, task_payload=None, load=None
+    name, q, params, sigma, prior, jacobians, region, at_test_poses, task_payload=None, load=None, inst=None
 ) -> PlanAccuracy:
     """One plan's accuracy on the sets of configurations (their Jacobians given); ``load`` the
     plan's payload rows (default its own, if it is a Plan)."""
-    predicted = PredictedError(params, q, sigma, prior, task_payload, load)
+    predicted = PredictedError(params, q, sigma, prior, task_payload, load, inst)
     rows = tuple(ErrorSummary.of(where, np.sqrt(predicted.squared_at(J))) for where, J in jacobians)
     worst = None if region is None else worst_found(predicted, region)
     noise, bias = at_test_poses.split(predicted.information, predicted.m)
@@ -602,11 +627,15 @@ def error_profile(
     samples: int = 128,
     seed: int = 0,
     task_payload: PayloadLike = None,
+    measure: Kind | None = None,
+    instrument: ErrorModel | None = None,
 ) -> tuple[ErrorProfile, ...]:
     """Median and 95th percentile of ρ on shells at distance d = max_j |q_j − q0_j| from the test
     pose(s), for d in [0, max_distance] (``samples`` configurations per shell, the same for every
-    plan; a test pose drawn per sample; clipped to the joint limits)."""
+    plan; a test pose drawn per sample; clipped to the joint limits). ``measure`` and
+    ``instrument`` as for :func:`accuracy`."""
     sigma = positive_sigma(sigma)
+    inst = optional_instrument(measure, instrument, sigma)
     max_distance = angle(max_distance, "max_distance")
     steps = positive_int(steps, "steps", 2)
     samples = positive_int(samples, "samples")
@@ -623,7 +652,7 @@ def error_profile(
         shells.append(np.clip(centres + step * u, robot.lower, robot.upper))
     out = []
     for name, plan in plans.items():
-        predicted = PredictedError(params, plan, sigma, prior, task_payload)
+        predicted = PredictedError(params, plan, sigma, prior, task_payload, instrument=inst)
         rho = np.array([np.sqrt(predicted.squared(s)) for s in shells])
         out.append(ErrorProfile(name, distance, np.median(rho, axis=1), np.percentile(rho, 95, axis=1)))
     return tuple(out)

@@ -17,12 +17,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pincal.arguments import DEFAULT_SIGMA
 from pincal.evaluation.a_optimal import AOptimal
 from pincal.evaluation.condition import Condition
 from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.e_optimal import EOptimal
 from pincal.evaluation.information import factor, factor_batch
 from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch, plan_payloads
+from pincal.instruments.error_model import ErrorModel
+from pincal.instruments.instrument import optional_instrument
+from pincal.instruments.kind import Kind
 from pincal.model.parameters import ParameterSet
 from pincal.typing import PlansLike
 
@@ -88,12 +92,20 @@ def criteria_from_singular_values(s: np.ndarray, m: int, rows: int) -> Criteria:
     )
 
 
-def criteria(params: ParameterSet, plan: PlansLike) -> Criteria | tuple[Criteria, ...]:
+def criteria(
+    params: ParameterSet,
+    plan: PlansLike,
+    *,
+    measure: Kind | None = None,
+    instrument: ErrorModel | None = None,
+) -> Criteria | tuple[Criteria, ...]:
     """The classic criteria (D, A, E, cond, O1–O4) of ``plan`` for ``params``; of each plan of a
-    batch ((k, m, nq) or a sequence of Plans: a tuple of k, see :mod:`pincal.evaluation.plans`)."""
+    batch ((k, m, nq) or a sequence of Plans: a tuple of k, see :mod:`pincal.evaluation.plans`).
+    With ``measure`` or ``instrument`` (see :func:`pincal.rho0`), of the whitened rows the
+    instrument measures, scaled by its reference σ (σ·L⁻¹J): points with one σ are unchanged."""
     qs, batched = plan_batch(params, plan)
     k, m, _ = qs.shape
-    engine = engine_for(params)
+    engine = engine_for(params, optional_instrument(measure, instrument, DEFAULT_SIGMA))
     with blas_for(k * m):
         J = jacobians(engine, qs, plan_payloads(plan, qs.shape))  # a Plan's own payloads
         if not batched:

@@ -41,6 +41,7 @@ from pincal.evaluation.information import (
     rank,
     weakest,
 )
+from pincal.instruments.instrument import Instrument
 from pincal.model.base_parameters import preference_order
 from pincal.model.jacobian import ZERO_COLUMN
 from pincal.model.parameters import ParameterSet
@@ -304,8 +305,9 @@ def check_parameters(
 ) -> DataCheck:
     """The data check identification makes: which of ``params`` data of whitened information
     ``M`` determine, taken in the order :func:`~pincal.model.base_parameters.preference_order`
-    prefers them, the base (``base.*``, if in ``params``) first and always kept: an instrument's
-    placement is never left at the nominal identity. :func:`pincal.identify`, :func:`check_plan`
+    prefers them, the base (``base.*``, if in ``params``) and the instrument's fixtures (a camera,
+    its target, anchors) first and always kept: an instrument's placement is never left at its
+    nominal value. :func:`pincal.identify`, :func:`check_plan`
     and a design's check of its plan all go through here.
 
     Args:
@@ -318,7 +320,7 @@ def check_parameters(
     """
     extra = {} if extra is None else extra
     P = len(params)
-    base = [i for i, p in enumerate(params) if p.kind == "base"]
+    base = [i for i, p in enumerate(params) if p.kind in ("base", "fixture")]
     always = base + list(range(P, P + len(extra)))
     order = preference_order(params, frozenset(params.names[i] for i in base)) + always[len(base) :]
     names, units = params.names + tuple(extra), params.units + tuple(extra.values())
@@ -326,16 +328,22 @@ def check_parameters(
 
 
 @keywords_after(2)
-def check_plan(params: ParameterSet, plan: ConfigurationsLike, *, sigma: float) -> DataCheck:
+def check_plan(
+    params: ParameterSet, plan: ConfigurationsLike, *, sigma: float, instrument: Instrument | None = None
+) -> DataCheck:
     """The data check of ``params`` on configurations ``plan`` (a Plan, (m, nq) array, or the
     ``q`` of measurements) for noise ``sigma`` per coordinate [m], as identify makes it
-    (:func:`check_parameters`)."""
+    (:func:`check_parameters`); with ``instrument``, of what it measures, weighted by its error
+    model (``sigma`` is then ignored)."""
     sigma = positive_sigma(sigma)
     qs = params.robot.configurations(plan)
-    M = (
-        information_matrix(params.jacobian(qs, frame="tip", payload=getattr(plan, "payload", None)))
-        / sigma**2
-    )
+    payload = getattr(plan, "payload", None)
+    if instrument is not None and not instrument.is_default:
+        sigma = instrument.reference
+        rows = instrument.engine(params).jacobian(qs, frame="tip", payload=payload)
+        M = information_matrix(rows) / sigma**2
+        return check_parameters(params, M, len(qs), sigma)
+    M = information_matrix(params.jacobian(qs, frame="tip", payload=payload)) / sigma**2
     return check_parameters(params, M, len(qs), sigma)
 
 

@@ -22,6 +22,7 @@ import numpy as np
 
 from pincal.blas import single_threaded
 from pincal.errors import BadConfiguration
+from pincal.instruments.instrument import Instrument, RowsEngine
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.typing import PlansLike
@@ -29,15 +30,25 @@ from pincal.typing import PlansLike
 _LOCAL = threading.local()
 
 
-def engine_for(params: ParameterSet) -> JacobianEngine:
+def engine_for(params: ParameterSet, instrument: Instrument | None = None) -> JacobianEngine | RowsEngine:
     """The Jacobian engine of ``params`` for this thread, built on first use and kept while
-    ``params`` lives."""
+    ``params`` lives: the markers' positions, or with ``instrument`` the rows it measures,
+    whitened (:class:`~pincal.instruments.instrument.RowsEngine`)."""
     cache = getattr(_LOCAL, "engines", None)
     if cache is None:
         cache = _LOCAL.engines = weakref.WeakKeyDictionary()
-    engine = cache.get(params)
+    if instrument is None:
+        engine = cache.get(params)
+        if engine is None:
+            engine = cache[params] = JacobianEngine(params)
+        return engine
+    rows = getattr(_LOCAL, "rows", None)
+    if rows is None:
+        rows = _LOCAL.rows = weakref.WeakKeyDictionary()
+    by_instrument = rows.setdefault(params, weakref.WeakKeyDictionary())
+    engine = by_instrument.get(instrument)
     if engine is None:
-        engine = cache[params] = JacobianEngine(params)
+        engine = by_instrument[instrument] = instrument.engine(params)
     return engine
 
 
@@ -86,7 +97,9 @@ def plan_payloads(plan: PlansLike, shape: tuple[int, int, int]) -> np.ndarray | 
     return np.vstack([np.zeros((shape[1], 4)) if w is None else w for w in loads])
 
 
-def jacobians(engine: JacobianEngine, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
+def jacobians(
+    engine: JacobianEngine | RowsEngine, qs: np.ndarray, payload: np.ndarray | None = None
+) -> np.ndarray:
     """(k, m·r, P) tip-frame Jacobians of k plans (k, m, nq), in one pass (under the payload rows
     (k·m, 4) of their configurations, if any)."""
     k, m, nq = qs.shape

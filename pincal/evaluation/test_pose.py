@@ -45,6 +45,9 @@ from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestRegion, resolve_test_poses
 from pincal.evaluation.test_pose_worst import TestPoseWorst
 from pincal.evaluation.weighted_trace import WeightedTrace
+from pincal.instruments.error_model import ErrorModel
+from pincal.instruments.instrument import Instrument, optional_instrument, orientation_length_of, tool_rows
+from pincal.instruments.kind import Kind
 from pincal.lapack import trsm
 from pincal.model.parameters import ParameterSet
 from pincal.model.statics import payload_rows
@@ -113,6 +116,10 @@ class TestPoseCriterion:
         prior: the errors' prior (Bayesian criterion), or None.
         task_payload: the payload at the test pose(s) (a mass [kg], a :class:`~pincal.Payload`,
             or one per test pose); default none.
+        instrument: what is measured and how well (:class:`~pincal.instruments.Instrument`): the plan's rows
+            are its whitened rows and ``sigma`` its reference σ; None: points with ``sigma``.
+        orientation_length: L [m]: ρ0² also counts L² times the expected squared orientation
+            error of the tool at the test poses [rad²] (docs/method.md §13.3); None: positions.
     """
 
     __test__ = False  # not a pytest class
@@ -125,17 +132,21 @@ class TestPoseCriterion:
         aggregate: str = "mean",
         prior: Prior | None = None,
         task_payload: PayloadLike = None,
+        instrument: Instrument | None = None,
+        orientation_length: float | None = None,
     ) -> None:
         if aggregate not in AGGREGATES:
             raise BadArgument(f"unknown aggregate {aggregate!r}; valid: {', '.join(AGGREGATES)}")
-        sigma = positive_sigma(sigma)
+        sigma = positive_sigma(sigma) if instrument is None else instrument.reference
         self.params = params
-        self.engine = engine_for(params)
+        self.instrument = instrument
+        self.orientation_length = orientation_length_of(orientation_length)
+        self.engine = engine_for(params, instrument)
         self.test_poses, self.region = resolve_test_poses(params.robot, test_poses)
         self.sigma = float(sigma)
         self.aggregate = aggregate
         self.task_payload = payload_rows(task_payload, len(self.test_poses))
-        J0 = self.engine.jacobian(self.test_poses, frame="tip", payload=self.task_payload)
+        J0 = tool_rows(engine_for(params), self.test_poses, self.orientation_length, self.task_payload)
         self.k = len(self.test_poses)
         self.prior = prior
         self.prior_information = None if prior is None else prior.information(params, self.sigma)
@@ -206,6 +217,9 @@ def rho0(
     aggregate: str = "mean",
     prior: Prior | None = None,
     task_payload: PayloadLike = None,
+    measure: Kind | None = None,
+    instrument: ErrorModel | None = None,
+    orientation_length: float | None = None,
 ) -> float:
     """Expected position error at the test pose(s) after calibrating with ``plan``.
 
@@ -226,6 +240,13 @@ def rho0(
             σ²(M + σ²Σp⁻¹)⁻¹, finite for every plan (σ must then be the real noise in metres).
         task_payload: the payload at the test pose(s) (matters with compliance parameters); the
             plan's own payloads are its :attr:`~pincal.Plan.payload`.
+        measure: what the instrument measures (:mod:`pincal.instruments`: ``Pose``, ``Partial``,
+            ``Distance``, ``Image``); default points. ρ0 is still the
+            error of the markers' positions at the test pose(s).
+        instrument: its error model (:mod:`pincal.instruments`: ``PerCoordinate``, ``Tracker``):
+            M = Σ JᵢᵀΣᵢ⁻¹Jᵢ; ``sigma`` is then not used. Default ``sigma`` per coordinate.
+        orientation_length: L [m]: add L² times the expected squared orientation error of the
+            tool (ρ0² = E‖δp‖² + L²·E‖δθ‖²), for a user who works with the tool's orientation.
 
     Returns:
         ρ0 [m], a Python float; (k,) for a batch of plans.
@@ -242,7 +263,10 @@ def rho0(
             value=aggregate,
             valid=("mean", "worst"),
         )
-    return _evaluate(params, plan, test_pose, sigma, aggregate, prior, task_payload)
+    instrument = optional_instrument(measure, instrument, positive_sigma(sigma))
+    return _evaluate(
+        params, plan, test_pose, sigma, aggregate, prior, task_payload, instrument, orientation_length
+    )
 
 
 @keywords_after(3)
@@ -254,10 +278,16 @@ def rho0_each(
     sigma: float = DEFAULT_SIGMA,
     prior: Prior | None = None,
     task_payload: PayloadLike = None,
+    measure: Kind | None = None,
+    instrument: ErrorModel | None = None,
+    orientation_length: float | None = None,
 ) -> np.ndarray:
     """(n,) ρ0 [m] at each of n test poses, or (k, n) for a batch of k plans (arguments as
     :func:`rho0`)."""
-    return _evaluate(params, plan, test_pose, sigma, "each", prior, task_payload)
+    instrument = optional_instrument(measure, instrument, positive_sigma(sigma))
+    return _evaluate(
+        params, plan, test_pose, sigma, "each", prior, task_payload, instrument, orientation_length
+    )
 
 
 SMALL = 64
@@ -267,12 +297,27 @@ triangular solve is BLAS trsm, not LAPACK trtrs, which OpenBLAS splits over its 
 27 unknowns), and setting and restoring the thread count would cost more than the evaluation."""
 
 
-def _evaluate(params, plan, test_pose, sigma, aggregate, prior, task_payload=None):
+def _evaluate(
+    params,
+    plan,
+    test_pose,
+    sigma,
+    aggregate,
+    prior,
+    task_payload=None,
+    instrument=None,
+    orientation_length=None,
+):
     qs, batched = plan_batch(params, plan)
     n = qs.shape[0] * qs.shape[1] + len(np.atleast_2d(getattr(test_pose, "q", test_pose)))
     small = len(qs) == 1 and aggregate == "mean" and n <= SMALL and not isinstance(test_pose, TestRegion)
     with nullcontext() if small else blas_for(n):
-        criterion = _criterion(params, test_pose, sigma, aggregate, prior, task_payload)
+        if instrument is None and orientation_length is None:
+            criterion = _criterion(params, test_pose, sigma, aggregate, prior, task_payload)
+        else:  # an instrument's criterion is built for the call
+            criterion = TestPoseCriterion(
+                params, test_pose, sigma, aggregate, prior, task_payload, instrument, orientation_length
+            )
         values = criterion.plans(qs, plan_payloads(plan, qs.shape))
     if batched:
         return values

@@ -1,13 +1,14 @@
 """The kinematic model: the robot (:mod:`.robot`, loaded by :mod:`.loading`), its parameters
 (:mod:`.parameters`, named in :mod:`.catalogue`), which of them measurements can identify
 (:mod:`.base_parameters`), the parameter Jacobians (:mod:`.jacobian`), gravity and payloads
-(:mod:`.statics`), the residual model (:mod:`.residual`) and robots given by DH tables
-(:mod:`.dh`). The first stage of robot → parameters → Jacobians → criteria → design →
-(simulate | identify) → export / view."""
+(:mod:`.statics`), the residual model (:mod:`.residual`), robots given by DH tables (:mod:`.dh`)
+and the instrument's parts identified with the robot (:mod:`.fixtures`). The first stage of robot →
+parameters → Jacobians → criteria → design → (simulate | identify) → export / view."""
 
 from pincal.model.base_parameters import Identifiability, identifiability
 from pincal.model.catalogue import Parameter
 from pincal.model.dh import DHTable, urdf_from_dh
+from pincal.model.fixtures import Fixture
 from pincal.model.loading import load_robot, shipped_robots
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
@@ -16,6 +17,7 @@ from pincal.model.statics import Payload
 
 __all__ = [
     "DHTable",
+    "Fixture",
     "Identifiability",
     "Parameter",
     "ParameterSet",

@@ -26,7 +26,7 @@ payloads are given, with a payload drawn for each configuration.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -117,6 +117,7 @@ class Identifiability:
             alone (no payload); near 0, it cannot be told from them.
         separation_with_payloads: the same with the payloads given (one drawn per
             configuration), or None when none were given.
+        measured: what the measurements are (``position``, ``pose``, ...), for the report.
     """
 
     params: ParameterSet
@@ -129,11 +130,12 @@ class Identifiability:
     n_configurations: int
     separation: dict[str, float] = field(default_factory=dict)
     separation_with_payloads: dict[str, float] | None = None
+    measured: str = "position"
 
     def report(self) -> str:
         """A human-readable text report."""
         lines = [
-            f"{len(self.params)} parameters, {self.rank} identifiable from position measurements "
+            f"{len(self.params)} parameters, {self.rank} identifiable from {self.measured} measurements "
             f"({self.n_configurations} random configurations):",
             "  identifiable: " + ", ".join(self.identifiable.names),
         ]
@@ -174,7 +176,7 @@ def preference_order(params: ParameterSet, prefer: frozenset[str] = frozenset())
             return 1 if length else 2
         if p.kind == "placement":
             return 3
-        return {"marker": 4, "base": 5, "gain": 6}.get(p.kind, 7)
+        return {"marker": 4, "base": 5, "fixture": 5, "gain": 6}.get(p.kind, 7)
 
     def key(i: int) -> tuple:
         p = params.parameters[i]
@@ -197,6 +199,9 @@ def identifiability(
     tol: float = NEARLY_REDUNDANT,
     prefer: str | Iterable[str] = (),
     payloads: Sequence[PayloadLike] | None = None,
+    rows: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None,
+    measured: str = "position",
+    configurations: np.ndarray | None = None,
 ) -> Identifiability:
     """Identifiability report of ``params`` (see module doc).
 
@@ -215,14 +220,21 @@ def identifiability(
             :class:`~pincal.model.statics.Payload`), one drawn at random for each configuration:
             the report then also gives each compliance's separation with them. Without, the
             arm's own weight alone loads the joints.
+        rows: ``rows(qs, payloads)`` the (m, r, P) Jacobian of what is measured at configurations
+            qs, whitened (:mod:`pincal.instruments`); default the markers' positions.
+        measured: what ``rows`` measure, in words, for the report.
+        configurations: (n, nq) the configurations to use instead of random ones (where an
+            instrument sees what it measures); ``n_configurations`` is then ignored.
     """
     robot = params.robot
     n_configurations = positive_int(n_configurations, "n_configurations")
     tol = fraction(tol, "tol")
     rng = generator(seed)
-    qs = robot.random_configurations(n_configurations, rng)
+    qs = robot.random_configurations(n_configurations, rng) if configurations is None else configurations
+    n_configurations = len(qs)
     loads = _drawn_payloads(payloads, n_configurations, rng)
-    J = params.jacobian(qs, frame="tip", payload=loads).reshape(-1, len(params))
+    rows = rows or _positions(params)
+    J = rows(qs, loads).reshape(-1, len(params))
     A, visible = unit_columns(J)
     singular_values = np.linalg.svd(A, compute_uv=False)
 
@@ -267,9 +279,9 @@ def identifiability(
     separation, with_payloads = {}, None
     if compliant:
         kept_order = [i for i in order if i in kept or i in compliant]
-        separation = _separation(params, qs, None, kept_order, compliant, visible, tol)
+        separation = _separation(params, rows(qs, None), kept_order, compliant, visible, tol)
         if payloads is not None:
-            with_payloads = _separation(params, qs, loads, kept_order, compliant, visible, tol)
+            with_payloads = _separation(params, rows(qs, loads), kept_order, compliant, visible, tol)
     return Identifiability(
         params=params,
         identifiable=replace(params, parameters=tuple(params.parameters[i] for i in kept)),
@@ -281,7 +293,17 @@ def identifiability(
         n_configurations=n_configurations,
         separation=separation,
         separation_with_payloads=with_payloads,
+        measured=measured,
     )
+
+
+def _positions(params: ParameterSet) -> Callable[[np.ndarray, np.ndarray | None], np.ndarray]:
+    """The rows of the markers' positions (in the tip frame) as a ``rows`` function."""
+
+    def rows(qs: np.ndarray, loads: np.ndarray | None) -> np.ndarray:
+        return params.jacobian(qs, frame="tip", payload=loads)
+
+    return rows
 
 
 def _drawn_payloads(
@@ -300,16 +322,15 @@ def _drawn_payloads(
 
 def _separation(
     params: ParameterSet,
-    qs: np.ndarray,
-    loads: np.ndarray | None,
+    J: np.ndarray,
     order: list[int],
     compliant: list[int],
     visible: np.ndarray,
     tol: float,
 ) -> dict[str, float]:
-    """Each visible compliance's distance (sine) to the span of the parameters kept before it."""
-    J = params.jacobian(qs, frame="tip", payload=loads).reshape(-1, len(params))
-    A, shown = unit_columns(J)
+    """Each visible compliance's distance (sine) to the span of the parameters kept before it, in
+    the rows J (m, r, P)."""
+    A, shown = unit_columns(J.reshape(-1, len(params)))
     _, distance = independent_columns(A, [i for i in order if shown[i] and visible[i]], tol)
     return {params.names[i]: float(distance[i]) for i in compliant if shown[i] and visible[i]}
 

@@ -2,7 +2,9 @@
 (``"lengths,offsets,joint2.tx"``) splits (conventions: :mod:`pincal.model.parameters`).
 
 Beside the geometric parameters, each joint has a gain and a compliance (how its reading scales and
-how it yields to gravity: :mod:`pincal.model.statics`); they come last in the canonical order."""
+how it yields to gravity: :mod:`pincal.model.statics`); they come after them in the canonical
+order, and the fixtures of the measurement set-up (:mod:`pincal.model.fixtures`: group
+``instrument``, or one fixture by its name) come last."""
 
 from __future__ import annotations
 
@@ -14,7 +16,7 @@ if TYPE_CHECKING:
     from pincal.model.robot import Robot
 
 COMPONENTS = ("tx", "ty", "tz", "rx", "ry", "rz")
-GROUPS = ("offsets", "lengths", "full", "base", "markers", "gains", "compliance")
+GROUPS = ("offsets", "lengths", "full", "base", "markers", "gains", "compliance", "instrument")
 LENGTH_TOLERANCE = 1e-9
 """An origin component counts as a length when |xyz component| exceeds this [m]."""
 
@@ -25,11 +27,14 @@ class Parameter:
 
     Attributes:
         name: stable readable name, e.g. ``joint_a2.tx``.
-        kind: ``"placement"``, ``"offset"``, ``"marker"``, ``"base"``, ``"gain"`` or
-            ``"compliance"``.
+        kind: ``"placement"``, ``"offset"``, ``"marker"``, ``"base"``, ``"gain"``,
+            ``"compliance"`` or ``"fixture"`` (a part of the measurement set-up:
+            :mod:`pincal.model.fixtures`).
         index: origin index (placement: joints in chain order, then the tip), joint index
-            (offset, gain, compliance: 0-based in configuration order), marker index, or 0 (base).
-        component: 0..5 for tx ty tz rx ry rz; 0..2 for a marker's x y z; 0 otherwise.
+            (offset, gain, compliance: 0-based in configuration order), marker index, fixture
+            index (in ``robot.fixtures``), or 0 (base).
+        component: 0..5 for tx ty tz rx ry rz (a fixture's too); 0..2 for a marker's or a point
+            fixture's x y z; 0 otherwise.
         unit: ``"m"``, ``"rad"``, ``"1"`` (a gain), ``"rad/(N·m)"`` or ``"m/N"`` (the compliance
             of a revolute or a prismatic joint).
     """
@@ -68,6 +73,10 @@ def catalogue(robot: Robot) -> list[Parameter]:
         Parameter(f"{names[j]}.compliance", "compliance", j, 0, "rad/(N·m)" if robot.revolute[j] else "m/N")
         for j in range(n_joints)
     ]
+    for f, fixture in enumerate(robot.fixtures):
+        for c, comp in enumerate(fixture.components):
+            unit = "rad" if comp.startswith("r") else "m"
+            out.append(Parameter(f"{fixture.name}.{comp}", "fixture", f, c, unit))
     return out
 
 
@@ -92,6 +101,11 @@ def group(robot: Robot, every: list[Parameter], name: str) -> list[Parameter]:
         return [p for p in every if p.kind == "gain"]
     if name == "compliance":
         return [p for p in every if p.kind == "compliance"]
+    if name == "instrument":
+        return [p for p in every if p.kind == "fixture"]
+    fixtures = [f.name for f in robot.fixtures]
+    if name in fixtures:
+        return [p for p in every if p.kind == "fixture" and p.index == fixtures.index(name)]
     raise AssertionError(name)
 
 

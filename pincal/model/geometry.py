@@ -86,3 +86,19 @@ def urdf_geometry(
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise UrdfError(f"cannot read the {tag} geometry of {str(path)!r}: {first}") from None
     return UrdfGeometry(geometry, tuple(sorted(missing)))
+
+
+def convex_hulls(geometry: pin.GeometryModel) -> pin.GeometryModel:
+    """A copy of ``geometry`` whose meshes are replaced by their convex hulls (qhull, through coal):
+    fast, smooth distances that never exceed the true ones (a hull contains its mesh); primitive
+    shapes are kept as they are."""
+    import coal
+
+    hulls = pin.GeometryModel()
+    for obj in geometry.geometryObjects:
+        obj = obj.copy()
+        if isinstance(obj.geometry, coal.BVHModelBase):
+            obj.geometry.buildConvexHull(True, "Qt")
+            obj.geometry = obj.geometry.convex
+        hulls.addGeometryObject(obj)
+    return hulls

@@ -70,6 +70,7 @@ class JacobianEngine:
 
     def __init__(self, params) -> None:
         robot = params.robot
+        self.params = params
         self.robot = robot
         self.model = robot.model
         self.data = robot.model.createData()
@@ -105,9 +106,11 @@ class JacobianEngine:
                     joint_terms[p.kind].append((col, p.index))
             elif p.kind == "marker":
                 const[3 * p.index + p.component, col] = 1.0
-            else:
+            elif p.kind == "base":
                 base_cols.append((col, p.component))
+            # a fixture does not move the markers: its columns are zero (pincal.instruments)
         self.G = np.vstack([np.hstack([np.eye(3), -_skew(m)]) for m in robot.markers])
+        self.tip_twist = tip_twist
         self.C = C
         self.const = self.G @ tip_twist + const
         self.base_cols = base_cols
@@ -228,6 +231,72 @@ class JacobianEngine:
             K = self.robot.n_markers
             J = np.einsum("mij,mkjp->mkip", world, J.reshape(len(qs), K, 3, -1)).reshape(J.shape)
         return J
+
+    def frame_rows(
+        self, qs: np.ndarray, placement: pin.SE3 | None = None, payload: object = None, pose: bool = True
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """Twist rows of a frame fixed to the tip, and the frame's poses, at joint readings ``qs``.
+
+        The frame F sits at ``placement`` in the tip frame (default: the tip frame itself). A
+        parameter error δΠ moves it by the twist ξ = J δΠ expressed in F's own axes,
+        F' = F·exp(ξ), ξ = (v, ω): its origin by v and its axes by the rotation ω (docs/method.md
+        §3.1 and §13.1). The markers' and the fixtures' columns are zero (a marker does not carry
+        F; a fixture's columns belong to the measurement kind that uses it).
+
+        Args:
+            qs: (m, nq) joint readings (validated by the caller).
+            placement: F in the tip frame.
+            payload: the payload at each configuration (:func:`~pincal.model.statics.payload_rows`).
+            pose: also return F's poses (else None, None, unless the set has ``base.*``): cheaper.
+
+        Returns:
+            (J, R, p): (m, 6, P) rows in F's axes [m or rad per parameter unit], and F's
+            orientations (m, 3, 3) and positions (m, 3) [m] in the instrument's frame.
+        """
+        frame = self.placement if placement is None else self.placement * placement
+        inner = pin.SE3.Identity() if placement is None else placement
+        configurations, tau = self.joint_values(qs, payload)
+        model, data, joint = self.model, self.data, self.joint
+        m = len(configurations)
+        reg = np.empty((m, 6, 6 * model.nq))
+        pose = pose or bool(self.base_cols)
+        rot, pos = (np.empty((m, 3, 3)), np.empty((m, 3))) if pose else (None, None)
+        fk, regressor, local = pin.forwardKinematics, pin.computeJointKinematicRegressor, pin.LOCAL
+        for i, q in enumerate(configurations):
+            fk(model, data, q)
+            reg[i] = regressor(model, data, joint, local, frame)
+            if pose:
+                placed = data.oMi[joint] * frame
+                rot[i], pos[i] = placed.rotation, placed.translation
+        const = inner.inverse().toActionMatrix() @ self.tip_twist  # a tip twist seen from F
+        J = (reg.reshape(-1, reg.shape[2]) @ self.C).reshape(m, 6, self.n_params) + const
+        if self.gain_cols.size:
+            J[:, :, self.gain_cols] *= qs[:, None, self.gain_joints]
+        if self.compliance_cols.size:
+            J[:, :, self.compliance_cols] *= tau[:, None, self.compliance_joints]
+        base = self.robot.base
+        for col, c in self.base_cols:
+            # F = B·X; a base twist (Rᵦᵀδt, δω) on the left is Ad(X⁻¹) of it in F's axes.
+            if c < 3:
+                J[:, :3, col] = np.einsum("mji,j->mi", rot, base.rotation[c])
+                J[:, 3:, col] = 0.0
+            else:
+                axis = np.eye(3)[c - 3]
+                J[:, :3, col] = np.einsum("mji,mj->mi", rot, np.cross(axis, pos))
+                J[:, 3:, col] = rot[:, c - 3, :]
+        if not pose:
+            return J, None, None
+        world = np.matmul(base.rotation, rot)
+        return J, world, pos @ base.rotation.T + base.translation
+
+    def marker_columns(self) -> np.ndarray:
+        """(K, 3, P) how each marker's own parameters move it in the tip frame's axes (the
+        identity on its ``marker<k>.x|y|z`` columns, zero elsewhere)."""
+        out = np.zeros((self.robot.n_markers, 3, self.n_params))
+        for col, p in enumerate(self.params.parameters):
+            if p.kind == "marker":
+                out[p.index, p.component, col] = 1.0
+        return out
 
 
 def analytic_jacobian(

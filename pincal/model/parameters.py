@@ -13,6 +13,10 @@ Conventions (docs/method.md §2, chosen to match URDF):
   instrument's coordinates, rotation about the base's own axes) — for measurements expressed in
   the instrument's frame.
 
+* ``<fixture>.tx ... rz`` (``<fixture>.x|y|z`` for a point): the placement of a part of the
+  measurement set-up (a camera, its target, a draw-wire's anchor: :mod:`pincal.model.fixtures`),
+  with the conventions of a joint origin, in the frame it is fixed to (the tip or the instrument's).
+
 * ``<joint>.gain``: the joint moves by q·(1 + gain) for a reading q (dimensionless; method §11.1).
 * ``<joint>.compliance``: the joint yields by compliance·τ to the torque τ gravity applies on it
   through the links and the payload [rad/(N·m), or m/N for a prismatic joint]
@@ -21,9 +25,10 @@ Conventions (docs/method.md §2, chosen to match URDF):
 
 Groups: ``offsets`` (one per joint), ``lengths`` (each non-zero component of each origin's xyz on
 the chain, the tip's included), ``full`` (all six of every origin, the tip's included), ``base``,
-``markers``, ``gains``, ``compliance``; any mix of groups and names, separated by commas. Whatever
-the order asked, a set keeps the canonical order: chain order, tx ty tz rx ry rz offset per joint,
-then tip, markers, base, gains, compliances.
+``markers``, ``gains``, ``compliance``, ``instrument`` (every fixture's), and each fixture by its
+name; any mix of groups and names, separated by commas. Whatever the order asked, a set keeps the
+canonical order: chain order, tx ty tz rx ry rz offset per joint, then tip, markers, base, gains,
+compliances, fixtures.
 
 Compliance columns of the Jacobian are large (a torque of 1e3 N·m times a lever of 1 m) and their
 values small (1e-6 rad/(N·m)): :attr:`ParameterSet.scales` gives each parameter a natural scale, a
@@ -33,7 +38,7 @@ and the columns / scales all of the size of the geometric ones.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING
@@ -82,17 +87,18 @@ class ParameterSet:
         """Parameters named by groups and/or names, comma-separated (see module doc)."""
         every = catalogue(robot)
         by_name = {p.name: p for p in every}
+        groups = GROUPS + tuple(f.name for f in robot.fixtures)
         chosen: set[str] = set()
         tokens = split_spec(spec)
         if not tokens:
-            raise UnknownParameter("", list(GROUPS) + list(by_name))
+            raise UnknownParameter("", list(groups) + list(by_name))
         for token in tokens:
-            if token in GROUPS:
+            if token in groups:
                 chosen.update(p.name for p in group(robot, every, token))
             elif token in by_name:
                 chosen.add(token)
             else:
-                raise UnknownParameter(token, list(GROUPS) + list(by_name))
+                raise UnknownParameter(token, list(groups) + list(by_name))
         if not chosen:
             raise BadArgument(f"parameter set {spec!r} is empty for robot {robot.name!r}")
         parameters = tuple(p for p in every if p.name in chosen)
@@ -193,6 +199,7 @@ class ParameterSet:
         compliances = np.array(robot.joint_compliances)
         markers = np.array(robot.markers)
         base = np.zeros(6)
+        fixtures = np.zeros((len(robot.fixtures), 6))
         for p, v in zip(self.parameters, dx):
             if p.kind == "placement":
                 placement[p.index, p.component] += v
@@ -204,6 +211,8 @@ class ParameterSet:
                 gains[p.index] += v
             elif p.kind == "compliance":
                 compliances[p.index] += v
+            elif p.kind == "fixture":
+                fixtures[p.index, p.component] += v
             else:
                 base[p.component] += v
         model = pin.Model(robot.model)
@@ -222,6 +231,7 @@ class ParameterSet:
             joint_compliances=compliances,
             markers=markers,
             base=_perturb(robot.base, base),
+            fixtures=tuple(f.moved(d) if d.any() else f for f, d in zip(robot.fixtures, fixtures)),
         )
 
     # ---------------------------------------------------------------- derivatives
@@ -268,13 +278,25 @@ class ParameterSet:
         tol: float = NEARLY_REDUNDANT,
         prefer: str | Iterable[str] = (),
         payloads: Sequence[PayloadLike] | None = None,
+        rows: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None,
+        measured: str = "position",
+        configurations: np.ndarray | None = None,
     ):
-        """Which of these parameters position measurements can identify.
+        """Which of these parameters the measurements can identify (by default, the markers'
+        positions; ``rows`` gives another instrument's, see :func:`pincal.instruments.identifiable`).
 
         See :func:`pincal.model.base_parameters.identifiability`.
         """
         return identifiability(
-            self, n_configurations=n_configurations, seed=seed, tol=tol, prefer=prefer, payloads=payloads
+            self,
+            n_configurations=n_configurations,
+            seed=seed,
+            tol=tol,
+            prefer=prefer,
+            payloads=payloads,
+            rows=rows,
+            measured=measured,
+            configurations=configurations,
         )
 
 

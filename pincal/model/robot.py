@@ -25,8 +25,9 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.arguments import angle, generator, positive_int
-from pincal.errors import BadConfiguration
+from pincal.errors import BadArgument, BadConfiguration
 from pincal.model.chain import frame_id
+from pincal.model.fixtures import Fixture, checked_fixtures
 from pincal.model.parameters import ParameterSet
 from pincal.model.statics import Gravity, chain_mass, mounted, payload_rows
 from pincal.typing import ArrayLike, ConfigurationsLike, PayloadLike, SeedLike
@@ -106,6 +107,8 @@ class Robot:
         package_dirs: ``((package name, folder), ...)`` resolving the URDF's ``package://NAME/``
             mesh paths (``load_robot``'s ``package_dirs``; a mapping is accepted): the 3-D view
             and the self-collision constraint load the meshes from there.
+        fixtures: the parts of the measurement set-up identified with the robot (a camera, its
+            target, a draw-wire's anchor; :mod:`pincal.model.fixtures`); none by default.
         floating: the robot has a floating base, held fixed at the chain's root (its base plane
             means nothing: a design keeps no mount plane by default).
     """
@@ -121,9 +124,11 @@ class Robot:
     package_dirs: tuple[tuple[str, str], ...] = ()
     joint_gains: np.ndarray = field(default=None)  # type: ignore[arg-type]  # None: zeros (__post_init__)
     joint_compliances: np.ndarray = field(default=None)  # type: ignore[arg-type]  # None: zeros (__post_init__)
+    fixtures: tuple[Fixture, ...] = ()
     floating: bool = False
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "fixtures", checked_fixtures(self.fixtures))
         dirs = tuple((str(name), str(folder)) for name, folder in dict(self.package_dirs).items())
         object.__setattr__(self, "package_dirs", dirs)
         markers = np.array(self.markers, dtype=float, copy=True).reshape(-1, 3)
@@ -469,10 +474,28 @@ class Robot:
             "package_dirs": self.package_dirs,
             "joint_gains": self.joint_gains,
             "joint_compliances": self.joint_compliances,
+            "fixtures": self.fixtures,
             "floating": self.floating,
         }
         fields.update(changes)
         return Robot(**fields)
+
+    def fixture(self, name: str) -> Fixture:
+        """The fixture named ``name``.
+
+        Raises:
+            BadArgument: no fixture has that name (the message lists them).
+        """
+        for fixture in self.fixtures:
+            if fixture.name == name:
+                return fixture
+        names = ", ".join(f.name for f in self.fixtures) or "none"
+        raise BadArgument(f"{self.name} has no fixture {name!r} (fixtures: {names})", argument="fixture")
+
+    def with_fixtures(self, *fixtures: Fixture) -> Robot:
+        """A new Robot with ``fixtures`` added (one of the same name is replaced)."""
+        names = {f.name for f in fixtures}
+        return self.replace(fixtures=tuple(f for f in self.fixtures if f.name not in names) + fixtures)
 
     def parameters(self, spec: str | Iterable[str] = "full,offsets") -> ParameterSet:
         """The geometric parameters named by ``spec`` (see :class:`pincal.ParameterSet`)."""

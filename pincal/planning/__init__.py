@@ -2,23 +2,28 @@
 (:mod:`.constraints`, :mod:`.feasibility`), the test poses of a design (:mod:`.objectives`; the
 criteria are :mod:`pincal.evaluation`'s), the search methods (:mod:`.exchange`,
 :mod:`.continuous`, run by :mod:`.multistart`), the search stage (:mod:`.search`), the driver
-:func:`~pincal.planning.driver.design`, what it returns (:mod:`.results`) and the random-plan
-baseline (:mod:`.baselines`), the smallest safety margins of a plan (:mod:`.safety`).
-The constraints' names are public in :mod:`pincal.planning.constraints`."""
+:func:`~pincal.planning.driver.design`, what it returns (:mod:`.results`), the random-plan
+baseline (:mod:`.baselines`), the instrument's position chosen with the plan (:mod:`.placement`)
+and the smallest safety margins of a plan (:mod:`.safety`). The constraints' names are public in
+:mod:`pincal.planning.constraints`."""
 
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import design
+from pincal.planning.placement import Placement, Sight, place_instrument
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans, StartRecord
 from pincal.planning.safety import SafetyReport, safety_margins
 
 __all__ = [
     "DesignResult",
+    "Placement",
     "Plan",
     "RandomPlans",
     "SafetyReport",
+    "Sight",
     "StartRecord",
     "design",
+    "place_instrument",
     "random_plans",
     "safety_margins",
 ]

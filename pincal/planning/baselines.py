@@ -11,7 +11,9 @@ from pincal.arguments import DEFAULT_SIGMA, generator, positive_int, positive_si
 from pincal.errors import Infeasible
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.registry import make_criterion
-from pincal.model.jacobian import JacobianEngine
+from pincal.instruments.error_model import ErrorModel
+from pincal.instruments.instrument import optional_instrument, orientation_length_of, rows_engine, tool_rows
+from pincal.instruments.kind import Kind
 from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint
 from pincal.planning.feasibility import Feasibility
@@ -35,6 +37,9 @@ def random_plans(
     constraints: Iterable[AnyConstraint] = (),
     seed: SeedLike = 0,
     pool: PoolLike = None,
+    measure: Kind | None = None,
+    instrument: ErrorModel | None = None,
+    orientation_length: float | None = None,
 ) -> RandomPlans:
     """The distribution of a criterion over ``n`` random feasible plans of m configurations.
 
@@ -56,6 +61,8 @@ def random_plans(
         seed: seed of the draws (an int, a numpy Generator, or None for fresh entropy).
         pool: (N, nq) configurations or a Plan (e.g. taught poses) to draw the plans from, as
             :func:`design` searches them (infeasible ones are dropped); default: the joint limits.
+        measure, instrument, orientation_length: what is measured, the instrument's error model
+            and the test-pose criterion's orientation length, as for :func:`design`.
 
     Returns:
         the values (ρ0 [m] for the test-pose criteria) and their min / mean / median / max.
@@ -68,18 +75,23 @@ def random_plans(
         >>> randoms.n, randoms.n_singular
         (50, 0)
     """
+    sigma = positive_sigma(sigma)
+    inst = optional_instrument(measure, instrument, sigma)
+    length = orientation_length_of(orientation_length)
     with single_threaded_blas():
-        return _random_plans(params, m, n, test_pose, criterion, sigma, tuple(constraints), seed, pool, prior)
+        return _random_plans(
+            params, m, n, test_pose, criterion, sigma, tuple(constraints), seed, pool, prior, inst, length
+        )
 
 
 def _random_plans(
-    params, m, n, test_pose, criterion, sigma, constraints, seed, pool, prior=None
+    params, m, n, test_pose, criterion, sigma, constraints, seed, pool, prior=None, inst=None, length=None
 ) -> RandomPlans:
     criterion = criterion_name(criterion)
     m = positive_int(m, "m (number of configurations)")
     n = positive_int(n, "n (number of random plans)")
     test_poses = checked_test_poses(params, test_pose, criterion)
-    sigma = positive_sigma(sigma)
+    sigma = sigma if inst is None else inst.reference
     feasibility = Feasibility(params.robot, constraints)
     rng = generator(seed)
     if pool is None:
@@ -100,9 +112,9 @@ def _random_plans(
         qs[bad] = draw(len(bad))
     else:
         raise Infeasible(f"random plans of {m} configurations rarely satisfy min_spacing; lower it")
-    engine = JacobianEngine(params)
+    engine = rows_engine(params, inst)
     P, rows = len(params), engine.rows
-    J0 = engine.jacobian(test_poses, frame="tip").copy() if test_poses is not None else None
+    J0 = tool_rows(engine, test_poses, length).copy() if test_poses is not None else None
     information = None if prior is None else prior.information(params, sigma)
     objective = make_criterion(
         criterion, P, rows, J0 if criterion in TEST_POSE_CRITERIA else None, sigma, information

@@ -19,6 +19,7 @@ from pincal.evaluation.classic import criteria_from_jacobian
 from pincal.evaluation.data_check import MIN_DATA_CONDITIONING, DataCheck, check_parameters
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
 from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.instruments.instrument import RowsEngine
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning.plan import Plan
@@ -45,7 +46,10 @@ class Choice:
 
 # ---------------------------------------------------------------------------- choose
 def choose(
-    settings: Settings, params: ParameterSet, engine: JacobianEngine, outcomes: tuple[Outcome, ...]
+    settings: Settings,
+    params: ParameterSet,
+    engine: JacobianEngine | RowsEngine,
+    outcomes: tuple[Outcome, ...],
 ) -> Choice:
     """The best usable start above the conditioning floor.
 
@@ -112,7 +116,7 @@ def choose(
 def design_result(
     settings: Settings,
     params: ParameterSet,
-    engine: JacobianEngine,
+    engine: JacobianEngine | RowsEngine,
     pooled: Pool,
     outcomes: tuple[Outcome, ...],
     choice: Choice,
@@ -121,9 +125,7 @@ def design_result(
     """The design result of the winning start, its value and ρ0 computed by the core's functions."""
     s, q = settings, _plan(outcomes[choice.winner])
     plan = Plan.for_robot(params.robot, q)
-    value, rho0, rho0_each = _report(
-        params, plan, s.criterion, s.test_poses, s.sigma, engine.jacobian(q, frame="tip"), s.prior
-    )
+    value, rho0, rho0_each = _report(params, plan, s, engine.jacobian(q, frame="tip"))
     continued = sum(h.continued for h in choice.history)
     n_starts = len(outcomes)
     message = (
@@ -158,16 +160,26 @@ def design_result(
         conditioning=choice.conditioning,
         message=message,
         prior=s.prior,
+        instrument=s.instrument,
+        orientation_length=s.orientation_length,
     )
 
 
-def _report(
-    params, plan, criterion, test_poses, sigma, J, prior=None
-) -> tuple[float, float | None, np.ndarray | None]:
+def _report(params, plan, settings: Settings, J) -> tuple[float, float | None, np.ndarray | None]:
     """(value, ρ0, ρ0 per test pose) of the final plan, from the core's own functions."""
+    s = settings
+    criterion, test_poses, sigma, prior = s.criterion, s.test_poses, s.sigma, s.prior
     rho0 = each = None
     if test_poses is not None:
-        each = TestPoseCriterion(params, test_poses, sigma, aggregate="each", prior=prior)(plan.q)
+        each = TestPoseCriterion(
+            params,
+            test_poses,
+            sigma,
+            "each",
+            prior,
+            instrument=s.instrument,
+            orientation_length=s.orientation_length,
+        )(plan.q)
         rho0 = float(each.max()) if criterion == "test-pose-worst" else float(np.sqrt(np.mean(each**2)))
     if criterion in TEST_POSE_CRITERIA:
         assert rho0 is not None  # the settings checked the test poses are given
@@ -184,7 +196,7 @@ def _report(
 
 
 def identification_check(
-    params: ParameterSet, engine: JacobianEngine, q: np.ndarray, sigma: float
+    params: ParameterSet, engine: JacobianEngine | RowsEngine, q: np.ndarray, sigma: float
 ) -> DataCheck:
     """The data check :func:`pincal.identify` makes of one session's data measured at the plan q
     with noise σ: which parameters it would identify

@@ -49,7 +49,15 @@ from pincal.errors import (
 )
 from pincal.evaluation.data_check import MIN_DATA_CONDITIONING
 from pincal.evaluation.prior import Prior
-from pincal.model.jacobian import JacobianEngine
+from pincal.instruments.error_model import ErrorModel
+from pincal.instruments.instrument import (
+    Instrument,
+    optional_instrument,
+    orientation_length_of,
+    pool_rows,
+    rows_engine,
+)
+from pincal.instruments.kind import Kind
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.planning import multistart as _multistart
@@ -114,6 +122,9 @@ def design(
     payloads: Sequence[PayloadLike] | None = None,
     task_payload: PayloadLike = None,
     residual_model: ResidualModel | None = None,
+    measure: Kind | None = None,
+    instrument: ErrorModel | None = None,
+    orientation_length: float | None = None,
     joint_margin: JointMargin = None,
     mount: MountSpec = None,
 ) -> DesignResult:
@@ -179,6 +190,14 @@ def design(
             plan minimises the expected error at the test pose(s) with it (tr Σ₀,
             :mod:`pincal.evaluation.residual_criterion`), through the same exchange; ``value`` is
             that error [m], ``rho0`` the plain ρ0 of the plan.
+        measure: what the instrument measures (:mod:`pincal.instruments`: ``Pose``, ``Partial``,
+            ``Distance``, ``Image``; default points): every criterion is
+            of the information of its rows. ρ0 stays the markers' position error at the test pose.
+        instrument: the instrument's error model (:mod:`pincal.instruments`: ``PerCoordinate``,
+            ``Tracker``): the rows are weighted by Σᵢ⁻¹; ``sigma`` is then not used
+            (the model's own reference σ scales the reports). Default ``sigma`` per coordinate.
+        orientation_length: L [m]: the test-pose criteria also count L² times the expected
+            squared orientation error of the tool (docs/method.md §13.3).
         joint_margin: kept inside every joint limit: a number [rad, or m on prismatic joints], an
             (angle [rad], length [m]) pair or a
             :class:`~pincal.planning.constraints.JointLimits`; default (None) 2°, 1 cm on prismatic
@@ -216,6 +235,11 @@ def design(
                 "configurations (generated, or yours: pool=): leave method, init and polish at their "
                 "defaults (the continuous polish cannot choose among discrete payloads)"
             )
+        if measure is not None or instrument is not None or orientation_length is not None:
+            raise BadArgument(
+                "a design with payloads or a residual model is of points with one sigma: "
+                "no measure, instrument or orientation_length with it"
+            )
         with _multistart.single_threaded_blas():
             return _payloads.design_with_payloads(
                 params, m, test_pose, [0.0] if payloads is None else payloads, task_payload=task_payload,
@@ -244,11 +268,13 @@ def design(
             maxiter=maxiter,
             min_conditioning=min_conditioning,
             prior=prior,
+            instrument=optional_instrument(measure, instrument, positive_sigma(sigma)),
+            orientation_length=orientation_length,
             safety=(joint_margin, mount),
         )
         pooled = _pool(params, settings, pool, init)
-        engine = JacobianEngine(params)
-        J_pool = engine.jacobian(pooled.candidates, frame="tip")
+        engine = rows_engine(params, settings.instrument)
+        J_pool = pool_rows(engine, pooled.candidates)
         outcomes = None
         while outcomes is None:
             try:
@@ -291,6 +317,8 @@ def _validate(
     maxiter: object,
     min_conditioning: object,
     prior: Prior | None = None,
+    instrument: Instrument | None = None,
+    orientation_length: float | None = None,
     safety: tuple[JointMargin, MountSpec] = (None, None),
 ) -> Settings:
     """Check every argument (in the order of the signature) and settle the defaults."""
@@ -299,9 +327,11 @@ def _validate(
         raise BadArgument(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
     if prior is not None and not isinstance(prior, Prior):
         raise BadArgument(f"prior must be a pincal.Prior (e.g. Prior.parse('1mm,1mrad')), got {prior!r}")
-    sigma = positive_sigma(sigma)
+    sigma = positive_sigma(sigma) if instrument is None else instrument.reference
+    if instrument is not None:
+        instrument.kind.check(params.robot)
     information = None if prior is None else prior.information(params, sigma)
-    m = _check_m(params, m, information)
+    m = _check_m(params, m, information, instrument)
     test_poses = checked_test_poses(params, test_pose, criterion)
     if criterion == "test-pose-worst" and test_poses is not None and len(test_poses) > MAX_WORST_POSES:
         raise BadArgument(
@@ -350,12 +380,16 @@ def _validate(
         entropy=entropy,
         prior=prior,
         prior_information=information,
+        instrument=instrument,
+        orientation_length=orientation_length_of(orientation_length),
     )
 
 
-def _check_m(params: ParameterSet, m: object, prior: np.ndarray | None = None) -> int:
+def _check_m(
+    params: ParameterSet, m: object, prior: np.ndarray | None = None, instrument: Instrument | None = None
+) -> int:
     m = positive_int(m, "m (number of configurations)")
-    rows = 3 * params.robot.n_markers
+    rows = 3 * params.robot.n_markers if instrument is None else instrument.kind.size(params.robot)
     unknown = len(params) if prior is None else int(np.sum(np.diag(prior) == 0))
     if m * rows < unknown:
         raise SingularPlan(len(params), rows, m)

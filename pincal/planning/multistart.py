@@ -26,7 +26,7 @@ from pincal.blas import single_threaded
 from pincal.errors import PincalError
 from pincal.evaluation.criterion import Criterion
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
-from pincal.model.jacobian import JacobianEngine
+from pincal.instruments.instrument import Instrument, pool_rows, rows_engine, tool_rows
 from pincal.model.parameters import ParameterSet
 from pincal.planning import continuous as _continuous
 from pincal.planning import exchange as _exchange
@@ -52,6 +52,8 @@ class ProblemSpec:
         prior: (P, P) the prior's information Λ = σ²Σp⁻¹, or None.
         entropy: the design's seed, from which a worker draws a start (see
             :func:`pincal.planning.starts.start_seed`).
+        instrument: what is measured and how well, or None: points with ``sigma``.
+        orientation_length: L [m] of the test-pose criterion's orientation part, or None.
         key: identifies the spec in the workers' caches.
     """
 
@@ -65,6 +67,8 @@ class ProblemSpec:
     floor: float = 1e-6
     prior: np.ndarray | None = None
     entropy: int = 0
+    instrument: Instrument | None = None
+    orientation_length: float | None = None
     key: str = field(default_factory=lambda: uuid.uuid4().hex)
 
 
@@ -73,10 +77,10 @@ class Problem:
 
     def __init__(self, spec: ProblemSpec) -> None:
         self.spec = spec
-        self.engine = JacobianEngine(spec.params)
+        self.engine = rows_engine(spec.params, spec.instrument)
         J0 = None
         if spec.test_poses is not None and spec.criterion in TEST_POSE_CRITERIA:
-            J0 = self.engine.jacobian(spec.test_poses, frame="tip").copy()
+            J0 = tool_rows(self.engine, spec.test_poses, spec.orientation_length).copy()
         self.objective: Criterion = make_criterion(
             spec.criterion, len(spec.params), self.engine.rows, J0, spec.sigma, spec.prior
         )
@@ -88,7 +92,7 @@ class Problem:
     @cached_property
     def pool_jacobians(self) -> np.ndarray:
         assert self.spec.pool is not None  # an exchange's spec
-        return self.engine.jacobian(self.spec.pool, frame="tip").copy()
+        return pool_rows(self.engine, self.spec.pool).copy()
 
 
 _LOCAL = threading.local()

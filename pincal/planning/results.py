@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.evaluation.prior import Prior
+from pincal.instruments.instrument import Instrument
 from pincal.planning.plan import Plan
 
 __all__ = ["DesignResult", "RandomPlans", "StartRecord"]
@@ -72,6 +73,11 @@ class DesignResult:
             information matrix (in (0, 1]; see ``min_conditioning`` of :func:`design`).
         message: a one-line summary.
         prior: the prior the design used (ρ0 is then the Bayesian one), or None.
+        instrument: what the plan is measured with and how well (``sigma`` is then its reference
+            σ), or None: points with ``sigma``.
+        orientation_length: L [m] of the test-pose criterion's orientation part, or None.
+        instrument_at: (x, y, z) the instrument's position chosen with the plan
+            (:func:`pincal.planning.place_instrument`) [m], or None.
     """
 
     plan: Plan
@@ -91,6 +97,9 @@ class DesignResult:
     conditioning: float
     message: str
     prior: Prior | None = None
+    instrument: Instrument | None = None
+    orientation_length: float | None = None
+    instrument_at: tuple[float, float, float] | None = None
 
     @property
     def m(self) -> int:
@@ -118,8 +127,20 @@ class DesignResult:
             "conditioning": self.conditioning,
             "message": self.message,
             "prior": None if self.prior is None else self.prior.as_dict(),
+            **self._instrument_dict(),
             "history": [h.as_dict() for h in self.history],
         }
+
+    def _instrument_dict(self) -> dict:
+        """The instrument and the orientation length, when the design had them."""
+        out: dict = {}
+        if self.instrument is not None:
+            out["instrument"] = self.instrument.as_dict()
+        if self.orientation_length is not None:
+            out["orientation_length"] = self.orientation_length
+        if self.instrument_at is not None:
+            out["instrument_at"] = list(self.instrument_at)
+        return out
 
 
 @dataclass(frozen=True)

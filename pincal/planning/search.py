@@ -19,6 +19,7 @@ from pincal.evaluation.criterion import Criterion
 from pincal.evaluation.information import conditioning
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
+from pincal.instruments.instrument import Instrument, RowsEngine, pool_rows, tool_rows
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning import multistart as _multistart
@@ -52,6 +53,8 @@ class Settings:
     entropy: int
     prior: Prior | None = None
     prior_information: np.ndarray | None = None  # Λ = σ²Σp⁻¹, added to M by every criterion
+    instrument: Instrument | None = None  # what is measured and how well; None: points with sigma
+    orientation_length: float | None = None  # [m]: ρ0 counts the tool's orientation error too
 
     def seed_sequence(self, *key: int) -> np.random.SeedSequence:
         """The child ``key`` of the design's seed sequence: (0,) draws the pool, (1, i) start i
@@ -117,7 +120,7 @@ def draw_starts(
 def search(
     settings: Settings,
     params: ParameterSet,
-    engine: JacobianEngine,
+    engine: JacobianEngine | RowsEngine,
     pooled: Pool,
     first: tuple[np.ndarray, ...],
     executor: Executor | None,
@@ -144,10 +147,12 @@ def search(
         s.floor,
         s.prior_information,
         s.entropy,
+        instrument=s.instrument,
+        orientation_length=s.orientation_length,
     )
     J0 = None
     if s.criterion in TEST_POSE_CRITERIA and s.test_poses is not None:  # the settings checked they are given
-        J0 = engine.jacobian(s.test_poses, frame="tip").copy()
+        J0 = tool_rows(engine, s.test_poses, s.orientation_length).copy()
     objective = make_criterion(s.criterion, len(params), engine.rows, J0, s.sigma, s.prior_information)
     n_starts, n_keep = pooled.n_starts(s), pooled.n_keep(s)
     bar = Progress(progress, s.criterion, objective)
@@ -157,7 +162,7 @@ def search(
     try:
         with _multistart.executor_for(executor, s.workers, n_starts) as ex:
             if s.method == "continuous":
-                J_pool = engine.jacobian(pooled.candidates, frame="tip")
+                J_pool = pool_rows(engine, pooled.candidates)
                 indices = first + draw_starts(s, J_pool, pooled.candidates, len(first))
                 x0s = list(pooled.init) + [pooled.candidates[i] for i in indices]
                 return _continuous(spec, ex, x0s, n_keep, s.screen_iterations, s.maxiter, objective, bar)
@@ -271,7 +276,7 @@ def _report_value(objective: Criterion, F: float) -> float:
     return float(objective.report(F)) if np.isfinite(F) else math.inf
 
 
-def plan_conditioning(engine: JacobianEngine, q: np.ndarray) -> float:
+def plan_conditioning(engine: JacobianEngine | RowsEngine, q: np.ndarray) -> float:
     """Conditioning of the plan q (see :func:`pincal.evaluation.information.conditioning`)."""
     J = engine.jacobian(q, frame="tip").reshape(-1, engine.n_params)
     return conditioning(J.T @ J)

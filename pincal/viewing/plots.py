@@ -15,6 +15,8 @@ function is called, never when pincal is imported.
   as histograms.
 * :func:`accuracy_vs_time`: predicted error after calibration against the campaign's minutes,
   one point per plan size.
+* :func:`placement_map`: the predicted error at the test region against the instrument's position
+  over the box searched (:func:`pincal.planning.placement.place_instrument`).
 """
 
 from __future__ import annotations
@@ -385,4 +387,68 @@ def accuracy_vs_time(
     ax.set_ylabel(f"predicted error over the test region [{unit}]")
     ax.set_title(title or "accuracy against campaign time")
     ax.grid(True, alpha=0.3)
+    return fig
+
+
+def placement_map(placement: Any, unit: str = "mm", title: str | None = None) -> Figure:
+    """The predicted error at the test region against the instrument's position: the box seen from
+    above (x, y) and from the side (x, z), each position tried coloured by the criterion of the plan
+    designed with the instrument there (the best over the hidden coordinate where positions
+    overlap); the chosen position a star, the default one a square, positions without a feasible
+    plan a cross.
+
+    Args:
+        placement: a :class:`pincal.planning.placement.Placement` (``positions`` (n, 3) [m],
+            ``values`` (n,) [m], inf where infeasible; ``at``, ``default_at``).
+        unit: length unit of the colour scale.
+        title: the figure's title (default: the factor over the default placement).
+    """
+    factor = _factor(unit)
+    positions = np.asarray(placement.positions, dtype=float)
+    values = np.asarray(placement.values, dtype=float)
+    feasible = np.isfinite(values)
+    if not feasible.any():
+        raise BadArgument("placement_map: no position of the box has a feasible plan")
+    from matplotlib.colors import LogNorm
+
+    low, high = values[feasible].min() * factor, values[feasible].max() * factor
+    norm = LogNorm(vmin=low, vmax=high if high > low else low * 1.001)
+    fig = _figure((9.0, 4.0))
+    axes = fig.subplots(1, 2)
+    mappable = None
+    for ax, (i, j, name) in zip(axes, ((0, 1, "from above"), (0, 2, "from the side")), strict=True):
+        best: dict[tuple[float, float], float] = {}
+        for p, v in zip(positions[feasible], values[feasible], strict=True):
+            key = (round(p[i], 9), round(p[j], 9))
+            best[key] = min(best.get(key, np.inf), v)
+        xy = np.array(list(best))
+        mappable = ax.scatter(
+            xy[:, 0], xy[:, 1], c=np.array(list(best.values())) * factor, norm=norm, cmap="viridis_r", s=90
+        )
+        if (~feasible).any():
+            ax.scatter(positions[~feasible, i], positions[~feasible, j], marker="x", color="#d62728",
+                       label="no feasible plan")  # fmt: skip
+        ax.scatter(*placement.default_at[[i, j]], marker="s", s=160, facecolors="none", edgecolors="k",
+                   label="default")  # fmt: skip
+        ax.scatter(*np.asarray(placement.at)[[i, j]], marker="*", s=260, color="#d62728", edgecolors="k",
+                   label="chosen")  # fmt: skip
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("yz"[j - 1] + " [m]")
+        ax.set_title(name)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(True, alpha=0.3)
+    axes[0].legend(fontsize=8, loc="best")
+    fig.colorbar(mappable, ax=axes, label=f"predicted error at the test region [{unit}]")
+    ratio = placement.factor
+    fig.suptitle(
+        title
+        or (
+            "Instrument placement: the chosen position is "
+            + (
+                f"{ratio:.3g} times better than the default"
+                if np.isfinite(ratio)
+                else "the only feasible one"
+            )
+        )
+    )
     return fig

@@ -14,6 +14,8 @@ the robot has a base placement); angles in radians. :func:`load_constraints` rea
 * :class:`Visibility` — a laser tracker at a known position sees every marker: distance within
   [min_range, max_range] and, if the marker's normal is given, the angle between that normal and
   the line of sight at most ``max_angle``.
+* :class:`LineOfSight` — nothing of the chain crosses the line from an instrument to a marker (the
+  URDF's collision geometry through coal).
 * :class:`SelfCollision` — no two links of the chain closer than ``min_distance`` (the URDF's
   collision geometry through Pinocchio and coal; pairs of adjacent links are not checked).
 * :class:`Workcell` — the robot's collision geometry (the URDF's, or capsules derived from the
@@ -52,6 +54,7 @@ from pincal.planning.constraints.defaults import (
 )
 from pincal.planning.constraints.half_space import HalfSpace
 from pincal.planning.constraints.joint_limits import DEFAULT_JOINT_LIMITS, JointLimits, LimitsBound
+from pincal.planning.constraints.line_of_sight import LineOfSight
 from pincal.planning.constraints.loading import constraints_from_dict, load_constraints
 from pincal.planning.constraints.min_spacing import MinSpacing
 from pincal.planning.constraints.mount import MOUNTS, Mount, MountBound
@@ -77,6 +80,7 @@ __all__ = [
     "JointMargin",
     "Kinematics",
     "LimitsBound",
+    "LineOfSight",
     "MinSpacing",
     "Mount",
     "MountBound",

@@ -13,6 +13,7 @@ from pincal.files import read_yaml
 from pincal.planning.constraints.base import number
 from pincal.planning.constraints.half_space import HalfSpace
 from pincal.planning.constraints.joint_limits import JointLimits
+from pincal.planning.constraints.line_of_sight import LineOfSight
 from pincal.planning.constraints.min_spacing import MinSpacing
 from pincal.planning.constraints.mount import MOUNTS, Mount
 from pincal.planning.constraints.self_collision import SelfCollision
@@ -30,6 +31,7 @@ _KEYS = (
     "workspace_box",
     "half_space",
     "visibility",
+    "line_of_sight",
     "self_collision",
     "workcell",
     "min_spacing",
@@ -118,6 +120,14 @@ def constraints_from_dict(data: dict, folder: str | os.PathLike | None = None) -
                 _angle(e, "max_angle", "visibility", None),
             )
         )
+    for e in _entries(data.get("line_of_sight", [])):
+        e = _check_keys(e, "line_of_sight", ("instrument", "clearance", "skip", "package_dirs"))
+        if "instrument" not in e:
+            raise BadConstraint("line_of_sight needs instrument: [x, y, z] (metres)")
+        dirs = _entries(e.get("package_dirs", []))
+        if not all(isinstance(d, str) for d in dirs):
+            raise BadConstraint(f"line_of_sight package_dirs must be folder names, got {dirs!r}")
+        out.append(LineOfSight(e["instrument"], e.get("clearance", 0.01), e.get("skip", 0.05), tuple(dirs)))
     if "self_collision" in data and data["self_collision"] is not False:
         e = _check_keys(data["self_collision"], "self_collision", ("min_distance", "package_dirs"))
         dirs = _entries(e.get("package_dirs", []))
@@ -152,6 +162,9 @@ def load_constraints(path: str | os.PathLike) -> tuple[AnyConstraint, ...]:
           min_range: 1.0
           normal: [0, 0, 1]              # marker normal in the tip frame
           max_angle_deg: 60
+        line_of_sight:                   # one mapping or a list: needs collision geometry
+          instrument: [4.0, 0.0, 1.2]
+          clearance: 0.01                # the beam's radius with a margin
         self_collision: {min_distance: 0.01}   # or: self_collision: true
         workcell:                        # obstacles, base frame (pincal.planning.constraints.workcell)
           min_distance: 0.02

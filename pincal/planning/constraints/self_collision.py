@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import BadConstraint, UrdfError
-from pincal.model.geometry import urdf_geometry
+from pincal.model.geometry import convex_hulls, urdf_geometry
 from pincal.model.robot import Robot
 from pincal.model.urdf import few
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number
@@ -46,29 +46,35 @@ class SelfCollision(Constraint):
         return CollisionBound(robot, self)
 
 
+def collision_geometry(robot: Robot, package_dirs: tuple[str, ...], what: str) -> pin.GeometryModel:
+    """The chain's collision geometry from its URDF (Pinocchio's geometry model, meshes found as
+    :func:`~pincal.load_robot` finds them).
+
+    Raises:
+        BadConstraint: no URDF, an unreadable one, or mesh files not found, in one line naming the
+            constraint ``what``.
+    """
+    if robot.urdf_path is None:
+        raise BadConstraint(f"{what} needs the robot's URDF (load the robot from a URDF file or name)")
+    try:
+        loaded = urdf_geometry(robot, pin.COLLISION, package_dirs)
+    except UrdfError as exc:
+        raise BadConstraint(f"{what}: {exc}") from None
+    if loaded.missing:
+        raise BadConstraint(
+            f"{what}: {len(loaded.missing)} collision mesh file(s) of {Path(robot.urdf_path).name} not "
+            f"found ({few(loaded.missing)}); give --package-dir NAME=PATH (load_robot's package_dirs) "
+            f"to find them"
+        )
+    return loaded.model
+
+
 class CollisionBound(Bound):
     reach = 0.02
 
     def __init__(self, robot: Robot, spec: SelfCollision) -> None:
-        import coal
-
-        if robot.urdf_path is None:
-            raise BadConstraint(
-                "self_collision needs the robot's URDF (load the robot from a URDF file or name)"
-            )
-        urdf = Path(robot.urdf_path)
-        model = robot.model
-        try:
-            loaded = urdf_geometry(robot, pin.COLLISION, spec.package_dirs)
-        except UrdfError as exc:
-            raise BadConstraint(f"self_collision: {exc}") from None
-        if loaded.missing:
-            raise BadConstraint(
-                f"self_collision: {len(loaded.missing)} collision mesh file(s) of {urdf.name} not found "
-                f"({few(loaded.missing)}); give "
-                f"--package-dir NAME=PATH (load_robot's package_dirs) to find them"
-            )
-        geom = loaded.model
+        geom = collision_geometry(robot, spec.package_dirs, "self_collision")
+        urdf, model = Path(robot.urdf_path), robot.model
         objects = geom.geometryObjects
         pairs = []
         for a in range(len(objects)):
@@ -89,14 +95,7 @@ class CollisionBound(Bound):
         self.exact, self.exact_data = geom, geom.createData()
         for request in self.exact_data.collisionRequests:
             request.security_margin = spec.min_distance
-        # Convex hulls: fast, smooth distances that never exceed the true ones.
-        hulls = pin.GeometryModel()
-        for obj in objects:
-            obj = obj.copy()
-            if isinstance(obj.geometry, coal.BVHModelBase):
-                obj.geometry.buildConvexHull(True, "Qt")  # qhull: the true hull of the mesh
-                obj.geometry = obj.geometry.convex
-            hulls.addGeometryObject(obj)
+        hulls = convex_hulls(geom)  # fast, smooth distances that never exceed the true ones
         for a, b in pairs:
             hulls.addCollisionPair(pin.CollisionPair(a, b))
         self.hulls, self.hull_data = hulls, hulls.createData()

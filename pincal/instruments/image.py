@@ -1,0 +1,187 @@
+"""Images: the pixels of a target's known points seen by a calibrated camera (docs/method.md §13.1).
+
+A target (a checkerboard, a grid of circles, fiducials) carries N points at known positions t_j
+in its own frame. A camera (:class:`~pincal.instruments.camera.Camera`) reads the pixel (u, v) of
+each point it sees: 2N values per configuration, empty (NaN) where a point is not seen.
+
+* eye-in-hand: the camera is fixed to the tool (fixture ``camera``, ``on="tip"``) and the target
+  in the cell (fixture ``target``, ``on="world"``);
+* eye-to-hand: the camera is fixed in the cell and the target on the tool.
+
+Both placements are identified with the robot (``camera.tx ... rz``, ``target.tx ... rz``: group
+``instrument``). With p_c a target point in the camera's frame, the rows are ∂(u, v)/∂p_c (the
+camera's projection) times ∂p_c/∂Π: for a frame F fixed to the tool that moves by the twist
+(v, ω) in its own axes, a point fixed in the cell moves in F's axes by −v + p × ω, and a point
+fixed to F by v + ω × p.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from pincal.errors import BadArgument
+from pincal.instruments.camera import Camera
+from pincal.instruments.kind import Kind
+from pincal.model.fixtures import Fixture
+from pincal.model.jacobian import JacobianEngine, _skew
+from pincal.model.robot import Robot
+
+
+@dataclass(frozen=True, eq=False)
+class Image(Kind):
+    """Pixels of a target's points (see module doc).
+
+    Args:
+        camera: the camera's intrinsics.
+        points: (N, 3) the target's points in its own frame [m].
+        eye_in_hand: the camera is on the tool (else the target is).
+    """
+
+    camera: Camera
+    points: np.ndarray = field(default_factory=lambda: np.zeros((1, 3)))
+    eye_in_hand: bool = True
+    name: ClassVar[str] = "image"
+
+    def __post_init__(self) -> None:
+        try:
+            points = np.array(self.points, dtype=float).reshape(-1, 3)
+        except (TypeError, ValueError):
+            raise BadArgument("target points must be (N, 3) numbers [m]", argument="target") from None
+        if not len(points) or not np.all(np.isfinite(points)):
+            raise BadArgument("target points must be finite, and at least one", argument="target")
+        points.flags.writeable = False
+        object.__setattr__(self, "points", points)
+        if not isinstance(self.camera, Camera):
+            raise BadArgument("image measurements need a pincal Camera (intrinsics)", argument="camera")
+
+    # ------------------------------------------------------------------- set-up
+    @property
+    def on_tool(self) -> str:
+        """The fixture fixed to the tool: ``camera`` (eye-in-hand) or ``target``."""
+        return "camera" if self.eye_in_hand else "target"
+
+    @property
+    def in_cell(self) -> str:
+        """The fixture fixed in the cell: ``target`` (eye-in-hand) or ``camera``."""
+        return "target" if self.eye_in_hand else "camera"
+
+    def fixtures(self, camera_at: object, target_at: object) -> tuple[Fixture, Fixture]:
+        """The camera's and the target's fixtures at their nominal placements (the camera's in the
+        tip frame for eye-in-hand, in the instrument's frame otherwise; the target's the other way)."""
+        camera_on, target_on = ("tip", "world") if self.eye_in_hand else ("world", "tip")
+        return Fixture("camera", camera_at, on=camera_on), Fixture("target", target_at, on=target_on)
+
+    def check(self, robot: Robot) -> None:
+        have = {f.name: f for f in robot.fixtures}
+        for name, on in ((self.on_tool, "tip"), (self.in_cell, "world")):
+            if name not in have or have[name].on != on or have[name].point:
+                raise BadArgument(
+                    f"image measurements ({'eye-in-hand' if self.eye_in_hand else 'eye-to-hand'}) need a "
+                    f"{name} fixture on the {'tool' if on == 'tip' else 'cell'} with its nominal placement "
+                    f"(--camera RIG.yaml; robot.with_fixtures(*kind.fixtures(camera_at, target_at)))",
+                    argument="camera",
+                )
+
+    def describe(self) -> str:
+        mount = "eye-in-hand" if self.eye_in_hand else "eye-to-hand"
+        return f"image ({mount}, {len(self.points)} target points)"
+
+    def as_dict(self) -> dict:
+        return {
+            "kind": self.name,
+            "eye_in_hand": self.eye_in_hand,
+            "camera": self.camera.as_dict(),
+            "points": self.points.tolist(),
+        }
+
+    def coordinates(self, robot: Robot) -> tuple[str, ...]:
+        return tuple(f"{c}{j}" for j in range(len(self.points)) for c in "uv")
+
+    def units(self, robot: Robot) -> tuple[str, ...]:
+        return ("px",) * (2 * len(self.points))
+
+    def blocks(self, robot: Robot) -> tuple[tuple[int, ...], ...]:
+        return tuple((2 * j, 2 * j + 1) for j in range(len(self.points)))
+
+    # --------------------------------------------------------------- the geometry
+    def camera_points(self, robot: Robot, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
+        """(m, N, 3) the target's points in the camera's frame [m]."""
+        tool = robot.fixture(self.on_tool).placement
+        cell = robot.fixture(self.in_cell).placement
+        R_t, p_t = robot.tip_poses(qs, check=False, payload=payload)
+        R_f = np.matmul(R_t, tool.rotation)  # the tool fixture in the instrument's frame
+        p_f = p_t + R_t @ tool.translation
+        if self.eye_in_hand:
+            world = self.points @ cell.rotation.T + cell.translation  # (N, 3)
+            return np.einsum("mji,mnj->mni", R_f, world[None] - p_f[:, None])
+        world = np.einsum("mij,nj->mni", R_f, self.points) + p_f[:, None]
+        return (world - cell.translation) @ cell.rotation
+
+    def predict(self, robot: Robot, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
+        return self.camera.project(self.camera_points(robot, qs, payload)).reshape(len(qs), -1)
+
+    def seen(self, robot: Robot, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
+        return np.repeat(self.camera.in_view(self.camera_points(robot, qs, payload)), 2, axis=1)
+
+    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
+        robot = engine.robot
+        tool = robot.fixture(self.on_tool).placement
+        cell = robot.fixture(self.in_cell).placement
+        J, R_f, _ = engine.frame_rows(qs, tool, payload)  # (m, 6, P): the tool fixture's twist
+        names = [f.name for f in robot.fixtures]
+        tool_cols = self._fixture_columns(engine, names.index(self.on_tool))
+        cell_cols = self._fixture_columns(engine, names.index(self.in_cell))
+        # The tool fixture's own errors: a twist (R_ᵀδt, δω) of the fixture frame.
+        for c, col in tool_cols:
+            J[:, :3, col] = tool.rotation[c] if c < 3 else 0.0
+            J[:, 3:, col] = 0.0 if c < 3 else np.eye(3)[c - 3]
+        pc = self.camera_points(robot, qs, payload)  # (m, N, 3)
+        m, N, P = len(qs), len(self.points), J.shape[2]
+        dpc = np.empty((m, N, 3, P))
+        if self.eye_in_hand:  # the target's points are fixed in the cell, the camera is F
+            dpc[...] = -J[:, None, :3] + np.einsum("mnij,mjp->mnip", _skews(pc), J[:, 3:])
+            for c, col in cell_cols:  # the target's own errors move its points in the cell
+                move = np.eye(3)[c] if c < 3 else cell.rotation @ np.cross(np.eye(3)[c - 3], self.points).T
+                world = np.broadcast_to(move if c >= 3 else move[:, None], (3, N))
+                dpc[:, :, :, col] = np.einsum("mji,jn->mni", R_f, world)
+        else:  # the target's points are fixed to F, the camera is in the cell
+            lever = np.stack([np.hstack([np.eye(3), -_skew(t)]) for t in self.points])  # (N, 3, 6)
+            world = np.einsum("mij,njk,mkp->mnip", R_f, lever, J)
+            dpc[...] = np.einsum("ji,mnjp->mnip", cell.rotation, world)
+            for c, col in cell_cols:  # the camera's own errors
+                dpc[:, :, :, col] = -cell.rotation[c] if c < 3 else np.cross(pc, np.eye(3)[c - 3])
+        rows = np.einsum("mnij,mnjp->mnip", self.camera.jacobian(pc), dpc)
+        return rows.reshape(m, 2 * N, P)
+
+    @staticmethod
+    def _fixture_columns(engine: JacobianEngine, index: int) -> list[tuple[int, int]]:
+        """(component, column) of the parameters of fixture ``index`` in the engine's set."""
+        return [
+            (p.component, col)
+            for col, p in enumerate(engine.params.parameters)
+            if p.kind == "fixture" and p.index == index
+        ]
+
+
+def _skews(p: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) [p]× of vectors (..., 3)."""
+    out = np.zeros(p.shape + (3,))
+    out[..., 0, 1], out[..., 0, 2] = -p[..., 2], p[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = p[..., 2], -p[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -p[..., 1], p[..., 0]
+    return out
+
+
+def grid(columns: int, rows: int, spacing: float) -> np.ndarray:
+    """(columns·rows, 3) the inner corners of a checkerboard (a grid of points) in its plane z = 0,
+    row by row from the origin [m]."""
+    if columns < 1 or rows < 1 or not (np.isfinite(spacing) and spacing > 0):
+        raise BadArgument(
+            f"a grid needs positive columns, rows and spacing, got {columns}, {rows}, {spacing}",
+            argument="target",
+        )
+    jj, ii = np.meshgrid(np.arange(rows), np.arange(columns), indexing="ij")
+    return np.column_stack([ii.ravel() * spacing, jj.ravel() * spacing, np.zeros(columns * rows)])

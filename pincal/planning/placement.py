@@ -1,0 +1,326 @@
+"""Where to put the instrument, chosen with the plan (docs/method.md §13.4).
+
+A laser tracker's transverse error grows with the distance and depends on the direction of its
+beam, and what it can see depends on where it stands; a camera fixed in the cell sees the target
+only from some places. :func:`place_instrument` searches a box of positions for the instrument
+together with the plan: at each position of a grid over the box (and then at the neighbours of the
+best one, half a step away) it designs the plan with the instrument there, under the constraints
+that position brings —
+
+* a tracker: every marker within its range and, the reflector's normal given, within its
+  acceptance angle (:class:`~pincal.planning.constraints.Visibility`), and nothing of the robot on
+  the line of sight (:class:`~pincal.planning.constraints.LineOfSight`, when the URDF has
+  collision geometry);
+* a camera fixed in the cell (eye-to-hand): it looks at the target where the test pose holds it,
+  and a configuration counts only the target points it sees in its image (its field of view);
+
+— and keeps the position whose plan is best. The criterion of every position tried is kept: the
+map of the predicted error at the test region against the instrument's position
+(:func:`pincal.viewing.plots.placement_map`). A default placement (the box's centre unless given)
+is designed the same way, so the gain of placing the instrument is a measured factor.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pinocchio as pin
+
+from pincal.errors import BadArgument, BadConstraint, DegenerateOptimum, Infeasible, SingularPlan, warn
+from pincal.evaluation.region import resolve_test_poses
+from pincal.instruments.error_model import ErrorModel, Tracker
+from pincal.instruments.image import Image
+from pincal.instruments.kind import Kind
+from pincal.model.parameters import ParameterSet
+from pincal.planning.constraints import AnyConstraint, LineOfSight, Visibility
+from pincal.planning.driver import design
+from pincal.planning.results import DesignResult
+
+TRACKER_RANGE = (1.0, 40.0)
+"""Default (min, max) distance from a tracker to a reflector [m]: a tracker measures from about a
+metre; 40 m is far beyond any robot cell (give yours with ``Sight``)."""
+
+STEPS = 3
+"""Default grid positions per axis of the box searched."""
+
+ACCEPTANCE = math.radians(30.0)
+"""Default acceptance half-angle of a tracker's reflector [rad]: a 1.5" red-ring reflector's ±30°."""
+
+
+@dataclass(frozen=True)
+class Sight:
+    """What an instrument placed at a position must see, and how.
+
+    Attributes:
+        min_range, max_range: a tracker's distance limits to every marker [m].
+        normal: the reflector's normal in the tip frame (one for every marker), or None (no
+            acceptance-angle limit).
+        max_angle: the reflector's acceptance half-angle [rad].
+        line_of_sight: refuse configurations where the robot's collision geometry crosses the
+            line from the instrument to a marker (when the URDF has collision geometry).
+        clearance: the line of sight's radius [m].
+    """
+
+    min_range: float = TRACKER_RANGE[0]
+    max_range: float = TRACKER_RANGE[1]
+    normal: tuple[float, float, float] | None = (0.0, 0.0, 1.0)
+    max_angle: float = ACCEPTANCE
+    line_of_sight: bool = True
+    clearance: float = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class Placement:
+    """The instrument's position chosen with the plan (see :func:`place_instrument`).
+
+    Attributes:
+        at: (3,) the chosen position in the instrument's frame [m].
+        result: the plan designed with the instrument there (``result.instrument_at`` is ``at``).
+        positions: (n, 3) every position tried [m].
+        values: (n,) the criterion of the plan designed at each (ρ0 [m] for the test-pose
+            criteria; inf where no feasible plan was found).
+        default_at: (3,) the default placement compared with [m].
+        default: the plan designed at the default placement, or None if none was feasible.
+        box: ((x0, y0, z0), (x1, y1, z1)) the box searched [m].
+        notes: what was not checked, in words (line of sight without collision geometry).
+    """
+
+    at: np.ndarray
+    result: DesignResult
+    positions: np.ndarray
+    values: np.ndarray
+    default_at: np.ndarray
+    default: DesignResult | None
+    box: tuple[tuple[float, float, float], tuple[float, float, float]]
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def factor(self) -> float:
+        """The default placement's criterion over the chosen one's (inf: no plan at the default)."""
+        return math.inf if self.default is None else self.default.value / self.result.value
+
+    def lines(self) -> list[str]:
+        """The placement in words: where, the criterion there and at the default, their factor."""
+
+        def value(v: float) -> str:
+            if self.result.criterion in ("test-pose", "test-pose-worst"):
+                return f"rho0 {v * 1e3:.4g} mm"
+            return f"{self.result.criterion} {v:.4g}"
+
+        def where(p: np.ndarray) -> str:
+            return "(" + ", ".join(f"{v:.3g}" for v in p) + ") m"
+
+        tried = len(self.values)
+        infeasible = int(np.sum(~np.isfinite(self.values)))
+        out = [
+            f"instrument placed at {where(self.at)}: {value(self.result.value)} "
+            f"({tried} positions of the box tried, {infeasible} without a feasible plan)"
+        ]
+        if self.default is None:
+            out.append(f"  at the default position {where(self.default_at)}: no feasible plan")
+        else:
+            out.append(
+                f"  at the default position {where(self.default_at)}: {value(self.default.value)}, "
+                f"{self.factor:.3g} times the chosen position's"
+            )
+        out += [f"  note: {n}" for n in self.notes]
+        return out
+
+    def as_dict(self) -> dict:
+        return {
+            "instrument_at": self.at.tolist(),
+            "box": [list(self.box[0]), list(self.box[1])],
+            "positions": self.positions.tolist(),
+            "values": [None if not np.isfinite(v) else float(v) for v in self.values],
+            "default_at": self.default_at.tolist(),
+            "default_value": None if self.default is None else self.default.value,
+            "factor": None if not np.isfinite(self.factor) else self.factor,
+            "notes": list(self.notes),
+        }
+
+
+def place_instrument(
+    params: ParameterSet,
+    m: int,
+    test_pose: object,
+    box: object,
+    *,
+    criterion: str = "test-pose",
+    measure: Kind | None = None,
+    instrument: ErrorModel | None = None,
+    constraints: tuple[AnyConstraint, ...] = (),
+    sight: Sight = Sight(),
+    steps: int = STEPS,
+    refine: int = 1,
+    default_at: object = None,
+    **options: object,
+) -> Placement:
+    """The instrument's position in ``box`` and the plan that together minimise the criterion.
+
+    Args:
+        params: the parameters identified (on the robot, with the camera's fixture for a camera).
+        m, test_pose, criterion: as for :func:`pincal.design`.
+        box: ((x0, y0, z0), (x1, y1, z1)) the positions allowed [m], instrument frame.
+        measure: what is measured: points or poses with a tracker, or an eye-to-hand
+            :class:`~pincal.instruments.Image` (its camera is placed, looking at the target at the test pose).
+        instrument: the error model; a :class:`~pincal.instruments.Tracker` is moved to each position (its
+            ``at``); default a tracker with pincal's defaults for points and poses.
+        constraints: the workcell's other constraints.
+        sight: what a tracker at a position must see (range, acceptance angle, line of sight).
+        steps: grid positions per axis of the box (an axis of zero width has one).
+        refine: rounds of the best position's six neighbours at half the previous step.
+        default_at: the placement compared with (default: the box's centre).
+        options: more arguments of :func:`pincal.design` (``starts``, ``seed``, ``pool``,
+            ``workers``, ``orientation_length``, ...).
+
+    Raises:
+        BadArgument: a bad box, or an instrument pincal cannot place (a camera on the tool, a
+            distance sensor).
+        Infeasible: no position of the box gives a feasible plan.
+    """
+    lower, upper = _box(box)
+    kind = measure
+    camera = isinstance(kind, Image)
+    if camera and kind.eye_in_hand:
+        raise BadArgument(
+            "a camera on the tool moves with it: place_instrument places a camera fixed in the cell"
+        )
+    if not camera and not (instrument is None or isinstance(instrument, Tracker)):
+        raise BadArgument(
+            "place_instrument places a laser tracker (instrument=pincal.instruments.Tracker(...)) or a camera"
+        )
+    tracker = None if camera else (instrument or Tracker())
+    base_constraints, notes = tuple(constraints), _sight_notes(params, sight, camera)
+
+    def designed(at: np.ndarray) -> DesignResult | None:
+        placed, extra = _placed(params, kind, tracker, at, test_pose, sight, notes)
+        error = instrument if camera else replace(tracker, at=tuple(at))
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                result = design(placed, m, test_pose, criterion=criterion, measure=measure, instrument=error,
+                                constraints=base_constraints + extra, **options)  # fmt: skip
+        except (Infeasible, SingularPlan, DegenerateOptimum) as failure:  # nothing it can see there
+            reasons.setdefault(type(failure).__name__, str(failure))
+            return None
+        return replace(result, instrument_at=tuple(float(v) for v in at))
+
+    reasons: dict[str, str] = {}
+    tried: dict[tuple[float, ...], DesignResult | None] = {}
+    for at in _grid(lower, upper, steps):
+        tried[tuple(at)] = designed(at)
+    step = (upper - lower) / max(steps - 1, 1)
+    for _ in range(refine):
+        best = _best(tried)
+        if best is None:
+            break
+        step = step / 2
+        for axis in range(3):
+            for sign in (-1, 1):
+                at = np.clip(np.array(best) + sign * step * np.eye(3)[axis], lower, upper)
+                if tuple(at) not in tried:
+                    tried[tuple(at)] = designed(at)
+    best = _best(tried)
+    if best is None:
+        raise Infeasible(
+            f"no position of the box {lower.tolist()} - {upper.tolist()} lets the instrument see a feasible "
+            f"plan of {m} configurations: move or grow the box, or relax the sight limits "
+            f"({'; '.join(reasons.values())})"
+        )
+    default = (lower + upper) / 2 if default_at is None else _point(default_at, "default_at")
+    default_result = tried.get(tuple(default)) if tuple(default) in tried else designed(default)
+    positions = np.array(list(tried))
+    values = np.array([math.inf if r is None else r.value for r in tried.values()])
+    for note in notes:
+        warn(note)
+    return Placement(np.array(best), tried[best], positions, values, default, default_result,
+                     (tuple(lower.tolist()), tuple(upper.tolist())), tuple(notes))  # fmt: skip
+
+
+def _box(box: object) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        arr = np.array(box, dtype=float).reshape(2, 3)
+    except (TypeError, ValueError):
+        raise BadArgument(f"the instrument's box must be X0,Y0,Z0,X1,Y1,Z1 [m], got {box!r}") from None
+    lower, upper = arr.min(axis=0), arr.max(axis=0)
+    if not np.all(np.isfinite(arr)):
+        raise BadArgument(f"the instrument's box must be finite, got {box!r}")
+    return lower, upper
+
+
+def _point(value: object, what: str) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=float).reshape(3)
+    except (TypeError, ValueError):
+        raise BadArgument(f"{what} must be X,Y,Z [m], got {value!r}") from None
+    return arr
+
+
+def _grid(lower: np.ndarray, upper: np.ndarray, steps: int) -> list[np.ndarray]:
+    """The grid's positions: ``steps`` per axis of the box (one on an axis of zero width)."""
+    if not isinstance(steps, int) or steps < 1:
+        raise BadArgument(f"steps must be a positive integer, got {steps!r}")
+    axes = [np.linspace(lo, hi, steps) if hi > lo else np.array([lo]) for lo, hi in zip(lower, upper)]
+    return [np.array(p) for p in np.array(np.meshgrid(*axes, indexing="ij")).reshape(3, -1).T]
+
+
+def _best(tried: dict[tuple[float, ...], DesignResult | None]) -> tuple[float, ...] | None:
+    feasible = [(r.value, at) for at, r in tried.items() if r is not None]
+    return min(feasible)[1] if feasible else None
+
+
+def _sight_notes(params: ParameterSet, sight: Sight, camera: bool) -> list[str]:
+    """What the placement cannot check, in words."""
+    if camera or not sight.line_of_sight:
+        return []
+    try:
+        LineOfSight((0.0, 0.0, 0.0)).bind(params.robot)
+    except BadConstraint as error:
+        return [f"the line of sight is not checked: {error}"]
+    return []
+
+
+def _placed(
+    params: ParameterSet,
+    kind: Kind | None,
+    tracker: Tracker | None,
+    at: np.ndarray,
+    test_pose: object,
+    sight: Sight,
+    notes: list[str],
+) -> tuple[ParameterSet, tuple[AnyConstraint, ...]]:
+    """(parameters on the robot with the instrument at ``at``, the constraints it brings)."""
+    robot = params.robot
+    if isinstance(kind, Image):
+        target = robot.fixture("target").placement
+        poses, _ = resolve_test_poses(robot, test_pose)
+        R, p = robot.tip_poses(poses)
+        centre = target.translation + target.rotation @ kind.points.mean(axis=0)  # in the tip frame
+        aim = np.mean(p + np.einsum("mij,j->mi", R, centre), axis=0)
+        camera = robot.fixture("camera")
+        moved = robot.with_fixtures(replace(camera, placement=look_at(at, aim)))
+        return params.on(moved), ()
+    angle = sight.max_angle if sight.normal else None
+    extra: list[AnyConstraint] = [
+        Visibility(tuple(at), sight.max_range, sight.min_range, sight.normal, angle)
+    ]
+    if sight.line_of_sight and not notes:
+        extra.append(LineOfSight(tuple(at), sight.clearance))
+    return params, tuple(extra)
+
+
+def look_at(eye: np.ndarray, target: np.ndarray) -> pin.SE3:
+    """A camera's placement at ``eye`` whose optical axis (z) points at ``target``, its image's x
+    axis horizontal (z up in the instrument's frame)."""
+    z = np.asarray(target, dtype=float) - np.asarray(eye, dtype=float)
+    if np.linalg.norm(z) < 1e-9:
+        raise BadArgument("a camera cannot look at the point it stands on")
+    z /= np.linalg.norm(z)
+    up = np.array([0.0, 0.0, 1.0]) if abs(z[2]) < 0.99 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(z, up)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return pin.SE3(np.column_stack([x, y, z]), np.asarray(eye, dtype=float))
