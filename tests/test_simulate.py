@@ -119,6 +119,7 @@ def test_large_errors_are_reported_as_nonlinearity():
         params, plan, [0.3, 1.2], sigma=3e-5, trials=60, seed=5, error_std={"length": 0.2, "angle": 1.0}
     )
     assert mc.nonlinear
+    assert mc.error_std == {"length": 0.2, "angle": 1.0}  # the geometric errors drawn, not a tool length
     assert mc.failures + mc.local_minima > 0
     assert "nonlinearity" in mc.note and "did not converge" in mc.note
 

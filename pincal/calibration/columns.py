@@ -83,6 +83,13 @@ def kind_of(measured: list[str], robot: Robot, given: Kind | None, where: str) -
     return _pose_kind(measured, robot.n_markers, where)
 
 
+def _groups(pattern: re.Pattern[str], column: str) -> tuple[str, ...]:
+    """The groups of a measured ``column`` that kind_of sorted into ``pattern``'s kind."""
+    match = pattern.match(column)
+    assert match is not None  # kind_of only passes columns of this pattern
+    return match.groups()
+
+
 def _distance_kind(distances: list[str], measured: list[str], where: str) -> Kind:
     if len(distances) != len(measured) or (len(distances) > 1 and "d" in distances):
         raise BadMeasurementData(
@@ -90,7 +97,7 @@ def _distance_kind(distances: list[str], measured: list[str], where: str) -> Kin
         )
     if distances == ["d"]:
         return Distance()
-    indices = sorted(int(_DISTANCE.match(c).group(1)) for c in distances)
+    indices = sorted(int(_groups(_DISTANCE, c)[0]) for c in distances)
     if indices != list(range(len(indices))):
         raise BadMeasurementData(f"{where}: distance columns must be d0,d1,...,d{len(indices) - 1}")
     return Distance.to_anchors(len(indices))
@@ -99,7 +106,7 @@ def _distance_kind(distances: list[str], measured: list[str], where: str) -> Kin
 def _pose_kind(measured: list[str], K: int, where: str) -> Kind:
     per_marker: dict[int, set[str]] = {}
     for c in measured:
-        name, index = _POSE.match(c).groups()
+        name, index = _groups(_POSE, c)
         if (index == "") != (K == 1):
             raise BadMeasurementData(
                 f"{where}: column {c}: with {K} marker(s) the measured columns are "
@@ -134,7 +141,7 @@ def _with_quaternions(kind: Kind, robot: Robot) -> tuple[str, ...]:
 
 
 def values_of(
-    kind: Kind, robot: Robot, header: list[str], rows: np.ndarray, where: str, lines: list[int]
+    kind: Kind, robot: Robot, header: list[str], rows: np.ndarray, where: str, lines: np.ndarray
 ) -> np.ndarray:
     """(m, r) the measured values, orientations from quaternions turned into rotation vectors."""
     names = kind.coordinates(robot)

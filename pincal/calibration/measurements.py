@@ -42,6 +42,7 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from pincal.arguments import MAX_LENGTH, SIGMA_RANGE, check_lengths
 from pincal.calibration import columns as _columns
@@ -272,6 +273,7 @@ class MeasurementData:
         if self.is_points:
             _check_markers(self.n_markers, robot, self._where())
         else:
+            assert self.kind is not None  # not points: another kind
             self.kind.check(robot)
             if self.row_size != self.kind.size(robot):
                 raise BadMeasurementData(
@@ -423,6 +425,7 @@ class MeasurementData:
         if self.is_points:
             coords, values = self._point_columns(millimetres)
         else:
+            assert self.kind is not None  # not points: another kind
             if robot is None:
                 raise BadArgument(
                     f"writing {self.kind.describe()} data needs the robot (robot=)", argument="robot"
@@ -451,6 +454,7 @@ class MeasurementData:
 
     def _kind_columns(self, robot: Robot, millimetres: bool) -> tuple[list[str], list[np.ndarray]]:
         """(names, (m, ·) blocks) of another kind's columns: its values, their σ and covariances."""
+        assert self.kind is not None  # not points: another kind
         names = list(self.kind.coordinates(robot))
         scale = 1.0 / _columns.unit_scale(self.kind.units(robot), millimetres)
         coords, values = list(names), [self.values * scale]
@@ -605,7 +609,9 @@ def _kind_of(measured: list[str], robot: Robot, given: Kind | None, where: str) 
     return None if isinstance(kind, Point) else kind
 
 
-def _checked_spread(value: object, shape: tuple[int, ...], labels: list[str], what: str) -> np.ndarray | None:
+def _checked_spread(
+    value: npt.ArrayLike | None, shape: tuple[int, ...], labels: list[str], what: str
+) -> np.ndarray | None:
     """σ (m, r) or covariances (m, r, r) of another kind's values, checked: positive σ, symmetric
     positive definite covariances; a new array, or None."""
     if value is None:

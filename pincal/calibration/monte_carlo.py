@@ -162,7 +162,7 @@ def monte_carlo(
     """
     sigma = positive_sigma(sigma)
     trials = positive_int(trials, "trials", 2)
-    length, angle = error_std_pair(error_std)
+    length_std, angle_std = error_std_pair(error_std)
     robot = params.robot
     qs = robot.configurations(plan)
     q0 = robot.configurations(test_pose, what="test pose")
@@ -170,9 +170,19 @@ def monte_carlo(
     loads = None if loads is None else payload_rows(loads, len(qs))
     task = None if task_payload is None else payload_rows(task_payload, len(q0))
     inst = optional_instrument(measure, instrument, sigma)
-    kinds = {"measure": measure, "instrument": instrument, "orientation_length": orientation_length}
-    predicted = float(rho0(params, _planned(robot, qs, loads), q0, sigma=sigma, task_payload=task, **kinds))
-    errors = {"length": length, "angle": angle}
+    predicted = float(
+        rho0(
+            params,
+            _planned(robot, qs, loads),
+            q0,
+            sigma=sigma,
+            task_payload=task,
+            measure=measure,
+            instrument=instrument,
+            orientation_length=orientation_length,
+        )
+    )
+    errors = {"length": length_std, "angle": angle_std}
     length = orientation_length_of(orientation_length)
     check = _Check(params, qs, q0, float(sigma), errors, int(trials), loads, task, inst, length)
     runs = _run_trials(check, generator(seed))
@@ -180,9 +190,9 @@ def monte_carlo(
     if n < 2:
         raise BadArgument(
             f"monte carlo: {runs.failures + runs.local_minima} of {trials} identifications failed or found "
-            f"local minima; the geometric errors (std {length:g} m, {angle:g} rad) are too large",
+            f"local minima; the geometric errors (std {length_std:g} m, {angle_std:g} rad) are too large",
             argument="error_std",
-            value={"length": length, "angle": angle},
+            value={"length": length_std, "angle": angle_std},
         )
     squared = runs.errors**2
     empirical = float(np.sqrt(squared.mean()))
@@ -200,7 +210,7 @@ def monte_carlo(
         failures=runs.failures,
         local_minima=runs.local_minima,
         sigma=float(sigma),
-        error_std={"length": length, "angle": angle},
+        error_std={"length": length_std, "angle": angle_std},
         nonlinear=bool(abs(empirical - predicted) > AGREEMENT * se or runs.failures or runs.local_minima),
         note="",
     )
@@ -258,9 +268,19 @@ def _run_trials(check: _Check, rng: np.random.Generator) -> _Runs:
             continue
         errors.append(_error_at(result.robot, truth.robot, q0, length, task))
         before.append(_error_at(params.robot, truth.robot, q0, length, task))
-        kinds = {"measure": kind, "instrument": error, "orientation_length": length}
         at_truth.append(
-            float(rho0(params.on(truth.robot), plan, q0, sigma=sigma, task_payload=task, **kinds))
+            float(
+                rho0(
+                    params.on(truth.robot),
+                    plan,
+                    q0,
+                    sigma=sigma,
+                    task_payload=task,
+                    measure=kind,
+                    instrument=error,
+                    orientation_length=length,
+                )
+            )
         )
     return _Runs(np.array(errors), np.array(before), at_truth, failures, local_minima)
 

@@ -86,7 +86,10 @@ class Noise:
             )
         plain = isinstance(error, PerCoordinate) and sessions[0].is_points and sigma is None
         if sessions[0].is_points and (error is None or plain):
-            return cls._of_points(sessions, error.sigma if plain else sigma, plain)
+            if plain:
+                assert isinstance(error, PerCoordinate)  # what plain means
+                sigma = error.sigma
+            return cls._of_points(sessions, sigma, plain)
         return cls._of_kind(sessions, sigma, error, robots, all(per_point))
 
     @classmethod
@@ -187,11 +190,16 @@ def _own(sessions: Sequence[MeasurementData]) -> RowCovariance:
     """The sessions' own σ or covariances, stacked."""
     if all(d.covariance is None for d in sessions):
         return RowCovariance(std=np.concatenate([d.sigma for d in sessions]))
-    matrices = [
-        d.covariance if d.covariance is not None else np.einsum("mi,ij->mij", d.sigma**2, np.eye(d.row_size))
-        for d in sessions
-    ]
+    matrices = [_matrices(d) for d in sessions]
     return RowCovariance(factor=np.linalg.cholesky(np.concatenate(matrices)))
+
+
+def _matrices(data: MeasurementData) -> np.ndarray:
+    """(m, r, r) one session's covariances: its own, or its σ's on the diagonal."""
+    if data.covariance is not None:
+        return data.covariance
+    assert data.sigma is not None  # _own's sessions all have σ or covariances
+    return np.einsum("mi,ij->mij", data.sigma**2, np.eye(data.row_size))
 
 
 def _stacked(parts: list[RowCovariance]) -> RowCovariance:

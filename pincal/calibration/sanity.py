@@ -95,11 +95,10 @@ def row_scores(
     of its first value's unit)."""
     m = len(noise.std)
     if blocks is None:
-        r = residual.reshape(m, -1, 3)
-        e = noise.whiten(residual).reshape(m, -1, 3)
-        return np.linalg.norm(r, axis=-1).max(axis=1), np.linalg.norm(e, axis=-1).max(axis=1) / robust_scale(
-            e
-        )
+        r3 = residual.reshape(m, -1, 3)  # (m, K, 3) points
+        e3 = noise.whiten(residual).reshape(m, -1, 3)
+        distances = np.linalg.norm(r3, axis=-1).max(axis=1)
+        return distances, np.linalg.norm(e3, axis=-1).max(axis=1) / robust_scale(e3)
     r, e = residual.reshape(m, -1), noise.whiten(residual).reshape(m, -1)
     measured = e if noise.seen is None else e[noise.seen]
     scale = robust_scale(measured)

@@ -231,6 +231,7 @@ def _simulate_kind(
         if covariance.std is not None:
             values = values + covariance.std * white
         else:
+            assert covariance.factor is not None  # one of std and factor is given
             values = values + np.einsum("mij,mj->mi", covariance.factor, white)
     values = np.where(kind.seen(robot, qs, loads), values, np.nan)
     if isinstance(kind, Point):

@@ -183,7 +183,8 @@ def _expected(result: IdentificationResult, data: MeasurementData) -> np.ndarray
 
 def _joined(parts: list[np.ndarray | None]) -> np.ndarray | None:
     """The parts concatenated, or None when any is None (not computed for that kind)."""
-    return None if any(p is None for p in parts) else np.concatenate(parts)
+    present = [p for p in parts if p is not None]
+    return None if len(present) < len(parts) else np.concatenate(present)
 
 
 def _heads(data: MeasurementData, robot: Robot) -> list[list[int]]:

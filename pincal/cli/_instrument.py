@@ -27,6 +27,7 @@ from pincal.instruments.kind import Kind
 from pincal.instruments.point import Point
 from pincal.instruments.pose import Pose, partial_from_text
 from pincal.instruments.rig import Rig, load_rig
+from pincal.model.fixtures import Fixture
 from pincal.model.robot import Robot
 
 KINDS = ("point", "pose", "distance", "image")
@@ -95,7 +96,7 @@ def rig_from_args(args: argparse.Namespace) -> Rig | None:
 
 def robot_with_fixtures(robot: Robot, args: argparse.Namespace) -> Robot:
     """``robot`` with the fixtures of --anchor and --camera (their nominal placements)."""
-    fixtures = []
+    fixtures: list[Fixture] = []
     if getattr(args, "anchor", None):
         points = [parse_floats(text, "--anchor") for text in args.anchor]
         if any(len(p) != 3 for p in points):
@@ -166,11 +167,12 @@ def error_from_args(args: argparse.Namespace, sigma: float | None) -> ErrorModel
         raise BadArgument(f"--instrument {name!r}; valid: tracker", argument="--instrument", value=name)
     at = (0.0, 0.0, 0.0)
     if getattr(args, "instrument_at", None):
-        at = tuple(parse_floats(args.instrument_at, "--instrument-at"))
-        if len(at) != 3:
+        xyz = parse_floats(args.instrument_at, "--instrument-at")
+        if len(xyz) != 3:
             raise BadArgument(
                 "--instrument-at: expected X,Y,Z (three numbers, metres)", argument="--instrument-at"
             )
+        at = (xyz[0], xyz[1], xyz[2])
     radial, transverse = TRACKER_RADIAL, TRACKER_TRANSVERSE
     if getattr(args, "tracker_sigma", None):
         values = parse_floats(args.tracker_sigma, "--tracker-sigma")

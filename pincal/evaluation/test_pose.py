@@ -263,10 +263,8 @@ def rho0(
             value=aggregate,
             valid=("mean", "worst"),
         )
-    instrument = optional_instrument(measure, instrument, positive_sigma(sigma))
-    return _evaluate(
-        params, plan, test_pose, sigma, aggregate, prior, task_payload, instrument, orientation_length
-    )
+    inst = optional_instrument(measure, instrument, positive_sigma(sigma))
+    return _evaluate(params, plan, test_pose, sigma, aggregate, prior, task_payload, inst, orientation_length)
 
 
 @keywords_after(3)
@@ -284,10 +282,8 @@ def rho0_each(
 ) -> np.ndarray:
     """(n,) ρ0 [m] at each of n test poses, or (k, n) for a batch of k plans (arguments as
     :func:`rho0`)."""
-    instrument = optional_instrument(measure, instrument, positive_sigma(sigma))
-    return _evaluate(
-        params, plan, test_pose, sigma, "each", prior, task_payload, instrument, orientation_length
-    )
+    inst = optional_instrument(measure, instrument, positive_sigma(sigma))
+    return _evaluate(params, plan, test_pose, sigma, "each", prior, task_payload, inst, orientation_length)
 
 
 SMALL = 64

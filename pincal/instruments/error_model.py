@@ -32,6 +32,7 @@ from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.errors import BadArgument
 from pincal.instruments.kind import Kind, marker_poses
 from pincal.model.robot import Robot
+from pincal.typing import PayloadLike
 
 DEFAULT_SIGMA_ROT = 1e-4
 """Default orientation noise [rad] (0.006°): a 6-DoF tracker probe's order; motion capture is
@@ -65,6 +66,7 @@ class RowCovariance:
         if self.std is not None:
             out = v / (self.std if v.ndim == 2 else self.std[..., None])
         else:
+            assert self.factor is not None  # one of std and factor is given
             out = np.linalg.solve(self.factor, v if v.ndim == 3 else v[..., None])
             out = out if v.ndim == 3 else out[..., 0]
         if seen is not None and not seen.all():
@@ -75,6 +77,7 @@ class RowCovariance:
         """(m, r, r) Σᵢ."""
         if self.std is not None:
             return np.einsum("mi,ij->mij", self.std**2, np.eye(self.std.shape[1]))
+        assert self.factor is not None  # one of std and factor is given
         return np.matmul(self.factor, np.swapaxes(self.factor, 1, 2))
 
 
@@ -93,7 +96,7 @@ class ErrorModel(ABC):
 
     @abstractmethod
     def covariance(
-        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: np.ndarray | None = None
+        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: PayloadLike = None
     ) -> RowCovariance:
         """The covariance of the rows ``kind`` measures on ``robot`` at ``qs`` (m, nq)."""
 
@@ -148,7 +151,7 @@ class PerCoordinate(ErrorModel):
         return np.array([{"m": self.sigma, "rad": self.sigma_rot, "px": self.sigma_px}[u] for u in units])
 
     def covariance(
-        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: np.ndarray | None = None
+        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: PayloadLike = None
     ) -> RowCovariance:
         return RowCovariance(std=np.tile(self.std(kind.units(robot)), (len(qs), 1)))
 
@@ -219,10 +222,11 @@ class Tracker(ErrorModel):
         return (sr**2)[..., None, None] * uu + (st**2)[..., None, None] * (np.eye(3) - uu)
 
     def covariance(
-        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: np.ndarray | None = None
+        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: PayloadLike = None
     ) -> RowCovariance:
-        components = kind.components(robot)
-        if any(c is None for c in components):
+        every = kind.components(robot)
+        components = [c for c in every if c is not None]  # all of them, or refused here
+        if len(components) < len(every):
             raise BadArgument(
                 f"a laser tracker measures points and poses, not {kind.describe()}: give the instrument's "
                 f"sigma instead (--sigma)",

@@ -20,7 +20,7 @@ from pincal.errors import Infeasible
 from pincal.model.base_parameters import NEARLY_REDUNDANT, Identifiability
 from pincal.model.catalogue import split_spec
 from pincal.model.parameters import ParameterSet
-from pincal.typing import SeedLike
+from pincal.typing import PayloadLike, SeedLike
 
 if TYPE_CHECKING:  # Instrument.identifiable calls this module: instrument.py imports it
     from pincal.instruments.instrument import Instrument
@@ -64,7 +64,7 @@ def identifiable(
     seed: SeedLike = 0,
     tol: float = NEARLY_REDUNDANT,
     prefer: str | Iterable[str] = (),
-    payloads: Sequence[object] | None = None,
+    payloads: Sequence[PayloadLike] | None = None,
 ) -> Identifiability:
     """Which of ``params`` the ``instrument``'s measurements can identify (arguments as
     :meth:`pincal.ParameterSet.identifiable`), at random configurations where it reads what it

@@ -28,6 +28,7 @@ from pincal.instruments.kind import Kind
 from pincal.model.fixtures import Fixture
 from pincal.model.jacobian import JacobianEngine, _skew
 from pincal.model.robot import Robot
+from pincal.typing import PayloadLike
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,7 +108,7 @@ class Image(Kind):
         return tuple((2 * j, 2 * j + 1) for j in range(len(self.points)))
 
     # --------------------------------------------------------------- the geometry
-    def camera_points(self, robot: Robot, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
+    def camera_points(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
         """(m, N, 3) the target's points in the camera's frame [m]."""
         tool = robot.fixture(self.on_tool).placement
         cell = robot.fixture(self.in_cell).placement
@@ -120,17 +121,18 @@ class Image(Kind):
         world = np.einsum("mij,nj->mni", R_f, self.points) + p_f[:, None]
         return (world - cell.translation) @ cell.rotation
 
-    def predict(self, robot: Robot, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
+    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
         return self.camera.project(self.camera_points(robot, qs, payload)).reshape(len(qs), -1)
 
-    def seen(self, robot: Robot, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
+    def seen(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
         return np.repeat(self.camera.in_view(self.camera_points(robot, qs, payload)), 2, axis=1)
 
-    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: np.ndarray | None = None) -> np.ndarray:
+    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
         robot = engine.robot
         tool = robot.fixture(self.on_tool).placement
         cell = robot.fixture(self.in_cell).placement
         J, R_f, _ = engine.frame_rows(qs, tool, payload)  # (m, 6, P): the tool fixture's twist
+        assert R_f is not None  # pose=True (the default): the fixture's orientations too
         names = [f.name for f in robot.fixtures]
         tool_cols = self._fixture_columns(engine, names.index(self.on_tool))
         cell_cols = self._fixture_columns(engine, names.index(self.in_cell))

@@ -34,7 +34,7 @@ from pincal.instruments.point import Point
 from pincal.model.base_parameters import NEARLY_REDUNDANT, Identifiability
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
-from pincal.typing import SeedLike
+from pincal.typing import PayloadLike, SeedLike
 
 POOL_ROWS = 6
 """Configurations with more rows than this are compressed to their rank for the exchange search
@@ -83,7 +83,7 @@ class Instrument:
         seed: SeedLike = 0,
         tol: float = NEARLY_REDUNDANT,
         prefer: str | Iterable[str] = (),
-        payloads: Sequence[object] | None = None,
+        payloads: Sequence[PayloadLike] | None = None,
     ) -> Identifiability:
         """Which of ``params`` this instrument's measurements identify (arguments as
         :meth:`pincal.ParameterSet.identifiable`; see
@@ -138,7 +138,7 @@ class RowsEngine:
         )
 
     def jacobian(
-        self, qs: np.ndarray, frame: str = "tip", payload: np.ndarray | None = None, masked: bool = True
+        self, qs: np.ndarray, frame: str = "tip", payload: PayloadLike = None, masked: bool = True
     ) -> np.ndarray:
         """(m, r, P) whitened rows at joint readings ``qs`` (validated by the caller).
 
@@ -159,7 +159,7 @@ class RowsEngine:
         return self.scale * covariance.whiten(J, seen)
 
     def tool_rows(
-        self, qs: np.ndarray, orientation_length: float | None = None, payload: np.ndarray | None = None
+        self, qs: np.ndarray, orientation_length: float | None = None, payload: PayloadLike = None
     ) -> np.ndarray:
         """(k, 3K [+ 3], P) the rows of the test poses ``qs`` (see :func:`tool_rows`)."""
         return tool_rows(self.points, qs, orientation_length, payload)
@@ -190,7 +190,7 @@ def tool_rows(
     engine: JacobianEngine | RowsEngine,
     qs: np.ndarray,
     orientation_length: float | None = None,
-    payload: np.ndarray | None = None,
+    payload: PayloadLike = None,
 ) -> np.ndarray:
     """(k, 3K [+ 3], P) the rows of test poses ``qs``: the markers' positions in the tip frame (ρ0's
     J₀, whatever the instrument), and with ``orientation_length`` L [m], L times the tip frame's

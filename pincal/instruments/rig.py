@@ -113,7 +113,9 @@ def _number(entry: dict, key: str, where: str) -> float:
 
 def _numbers(value: object, where: str, size: int | None = None) -> list[float]:
     try:
-        out = [float(v) for v in value]  # type: ignore[union-attr]
+        # value is whatever the YAML held (an object to mypy): a value that is not a list of
+        # numbers raises TypeError or ValueError, refused just below.
+        out = [float(v) for v in value]  # type: ignore[attr-defined]
     except (TypeError, ValueError):
         raise BadArgument(f"{where} must be a list of numbers, got {value!r}") from None
     if (size is not None and len(out) != size) or not all(math.isfinite(v) for v in out):
@@ -142,6 +144,11 @@ def _points(target: dict, where: str) -> np.ndarray:
         return np.array(points)
     g = _mapping(target["grid"], f"{where}: target grid", ("columns", "rows", "spacing"))
     columns, rows = g.get("columns"), g.get("rows")
-    if not all(isinstance(v, int) and not isinstance(v, bool) for v in (columns, rows)):
+    if (
+        not isinstance(columns, int)
+        or not isinstance(rows, int)
+        or isinstance(columns, bool)
+        or isinstance(rows, bool)
+    ):
         raise BadArgument(f"{where}: target grid columns and rows must be integers")
     return grid(columns, rows, _number(g, "spacing", f"{where}: target grid"))

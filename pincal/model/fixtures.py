@@ -22,6 +22,7 @@ of the point Jacobian are zero, and the measurement kinds of :mod:`pincal.instru
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -130,7 +131,7 @@ def placement_of(value: object, what: str) -> pin.SE3:
     return placement
 
 
-def checked_fixtures(fixtures: object) -> tuple[Fixture, ...]:
+def checked_fixtures(fixtures: Iterable[Fixture] | None) -> tuple[Fixture, ...]:
     """A tuple of Fixtures with distinct names.
 
     Raises:

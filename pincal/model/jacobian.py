@@ -233,7 +233,7 @@ class JacobianEngine:
         return J
 
     def frame_rows(
-        self, qs: np.ndarray, placement: pin.SE3 | None = None, payload: object = None, pose: bool = True
+        self, qs: np.ndarray, placement: pin.SE3 | None = None, payload: PayloadLike = None, pose: bool = True
     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         """Twist rows of a frame fixed to the tip, and the frame's poses, at joint readings ``qs``.
 
@@ -260,7 +260,7 @@ class JacobianEngine:
         m = len(configurations)
         reg = np.empty((m, 6, 6 * model.nq))
         pose = pose or bool(self.base_cols)
-        rot, pos = (np.empty((m, 3, 3)), np.empty((m, 3))) if pose else (None, None)
+        rot, pos = np.empty((m, 3, 3)), np.empty((m, 3))  # filled only with ``pose``
         fk, regressor, local = pin.forwardKinematics, pin.computeJointKinematicRegressor, pin.LOCAL
         for i, q in enumerate(configurations):
             fk(model, data, q)
@@ -273,6 +273,7 @@ class JacobianEngine:
         if self.gain_cols.size:
             J[:, :, self.gain_cols] *= qs[:, None, self.gain_joints]
         if self.compliance_cols.size:
+            assert tau is not None  # joint_values gives the torques when the set has compliances
             J[:, :, self.compliance_cols] *= tau[:, None, self.compliance_joints]
         base = self.robot.base
         for col, c in self.base_cols:

@@ -28,6 +28,7 @@ import numpy as np
 from pincal.errors import SingularPlan
 from pincal.evaluation.criterion import Criterion
 from pincal.evaluation.information import conditioning, jacobi_scaled
+from pincal.instruments.instrument import RowsEngine
 from pincal.model.jacobian import JacobianEngine
 from pincal.planning.feasibility import Feasibility
 
@@ -90,7 +91,7 @@ class PlanFunction:
     m·nq joint values.
 
     Args:
-        engine: the Jacobian engine of the parameter set.
+        engine: the Jacobian engine of the parameter set (or the instrument's rows engine).
         objective: the criterion (of M).
         feasibility: the constraints.
         m: number of configurations.
@@ -99,7 +100,7 @@ class PlanFunction:
 
     def __init__(
         self,
-        engine: JacobianEngine,
+        engine: JacobianEngine | RowsEngine,
         objective: Criterion,
         feasibility: Feasibility,
         m: int,

@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -38,6 +39,7 @@ from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint, LineOfSight, Visibility
 from pincal.planning.driver import design
 from pincal.planning.results import DesignResult
+from pincal.typing import TestPoseLike
 
 TRACKER_RANGE = (1.0, 40.0)
 """Default (min, max) distance from a tracker to a reflector [m]: a tracker measures from about a
@@ -145,7 +147,7 @@ class Placement:
 def place_instrument(
     params: ParameterSet,
     m: int,
-    test_pose: object,
+    test_pose: TestPoseLike,
     box: object,
     *,
     criterion: str = "test-pose",
@@ -156,7 +158,7 @@ def place_instrument(
     steps: int = STEPS,
     refine: int = 1,
     default_at: object = None,
-    **options: object,
+    **options: Any,
 ) -> Placement:
     """The instrument's position in ``box`` and the plan that together minimise the criterion.
 
@@ -184,20 +186,23 @@ def place_instrument(
     lower, upper = _box(box)
     kind = measure
     camera = isinstance(kind, Image)
-    if camera and kind.eye_in_hand:
+    if isinstance(kind, Image) and kind.eye_in_hand:
         raise BadArgument(
             "a camera on the tool moves with it: place_instrument places a camera fixed in the cell"
         )
-    if not camera and not (instrument is None or isinstance(instrument, Tracker)):
-        raise BadArgument(
-            "place_instrument places a laser tracker (instrument=pincal.instruments.Tracker(...)) or a camera"
-        )
-    tracker = None if camera else (instrument or Tracker())
+    tracker: Tracker | None = None  # none when a camera is placed
+    if not camera:
+        if not (instrument is None or isinstance(instrument, Tracker)):
+            raise BadArgument(
+                "place_instrument places a laser tracker (instrument=pincal.instruments.Tracker(...)) "
+                "or a camera"
+            )
+        tracker = instrument or Tracker()
     base_constraints, notes = tuple(constraints), _sight_notes(params, sight, camera)
 
     def designed(at: np.ndarray) -> DesignResult | None:
         placed, extra = _placed(params, kind, tracker, at, test_pose, sight, notes)
-        error = instrument if camera else replace(tracker, at=tuple(at))
+        error = instrument if tracker is None else replace(tracker, at=tuple(at))
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -206,7 +211,7 @@ def place_instrument(
         except (Infeasible, SingularPlan, DegenerateOptimum) as failure:  # nothing it can see there
             reasons.setdefault(type(failure).__name__, str(failure))
             return None
-        return replace(result, instrument_at=tuple(float(v) for v in at))
+        return replace(result, instrument_at=(float(at[0]), float(at[1]), float(at[2])))
 
     reasons: dict[str, str] = {}
     tried: dict[tuple[float, ...], DesignResult | None] = {}
@@ -236,7 +241,9 @@ def place_instrument(
     values = np.array([math.inf if r is None else r.value for r in tried.values()])
     for note in notes:
         warn(note)
-    return Placement(np.array(best), tried[best], positions, values, default, default_result,
+    chosen = tried[best]
+    assert chosen is not None  # _best picks a position with a feasible plan
+    return Placement(np.array(best), chosen, positions, values, default, default_result,
                      (tuple(lower.tolist()), tuple(upper.tolist())), tuple(notes))  # fmt: skip
 
 
@@ -288,7 +295,7 @@ def _placed(
     kind: Kind | None,
     tracker: Tracker | None,
     at: np.ndarray,
-    test_pose: object,
+    test_pose: TestPoseLike,
     sight: Sight,
     notes: list[str],
 ) -> tuple[ParameterSet, tuple[AnyConstraint, ...]]:

@@ -438,6 +438,7 @@ def placement_map(placement: Any, unit: str = "mm", title: str | None = None) ->
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(True, alpha=0.3)
     axes[0].legend(fontsize=8, loc="best")
+    assert mappable is not None  # two panels, each with a feasible position
     fig.colorbar(mappable, ax=axes, label=f"predicted error at the test region [{unit}]")
     ratio = placement.factor
     fig.suptitle(

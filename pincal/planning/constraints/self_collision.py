@@ -74,6 +74,7 @@ class CollisionBound(Bound):
 
     def __init__(self, robot: Robot, spec: SelfCollision) -> None:
         geom = collision_geometry(robot, spec.package_dirs, "self_collision")
+        assert robot.urdf_path is not None  # collision_geometry refuses a robot without one
         urdf, model = Path(robot.urdf_path), robot.model
         objects = geom.geometryObjects
         pairs = []
