@@ -79,6 +79,12 @@ class BadArgument(PincalError, ValueError):
         line: its line number in ``file`` (1-based), or None.
     """
 
+    argument: object
+    value: object
+    valid: object
+    file: object
+    line: int | None
+
     def __init__(
         self,
         message: str = "",

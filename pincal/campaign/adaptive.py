@@ -26,6 +26,7 @@ import math
 import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -41,6 +42,7 @@ from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint, AvoidPoses, JointMargin, MountSpec, with_safety
 from pincal.planning.driver import design
 from pincal.planning.plan import Plan
+from pincal.typing import ConfigurationsLike, PoolLike, TestPoseLike
 
 MATCH_TOLERANCE = 1e-3
 """A planned pose counts as measured when a measured configuration is within this of it on every
@@ -138,9 +140,8 @@ class NextPoses:
             out.append("stop: the predicted error is below the target with the data so far")
             return out
         out.append(f"next {len(self.plan)} poses, predicted error after them: {mm(self.predicted_after)}")
-        values = (
-            self.plan.q if not degrees else np.where(self.plan.revolute, np.degrees(self.plan.q), self.plan.q)
-        )
+        revolute = np.asarray(self.plan.revolute, dtype=bool)
+        values = self.plan.q if not degrees else np.where(revolute, np.degrees(self.plan.q), self.plan.q)
         for row in values:
             out.append("  " + " ".join(f"{v:10.4f}" for v in row))
         return out
@@ -183,9 +184,9 @@ class Assessment:
 def assess(
     params: ParameterSet,
     data: MeasurementData,
-    test_pose: object,
+    test_pose: TestPoseLike,
     *,
-    plan: object = None,
+    plan: ConfigurationsLike | None = None,
     sigma: float | None = None,
     prior: Prior | None = None,
     reject: float = OUTLIER_SCORE,
@@ -219,10 +220,10 @@ def assess(
 def next_poses(
     params: ParameterSet,
     data: MeasurementData,
-    test_pose: object,
+    test_pose: TestPoseLike,
     k: int = 3,
     *,
-    plan: object = None,
+    plan: ConfigurationsLike | None = None,
     target: float | None = None,
     sigma: float | None = None,
     prior: Prior | None = None,
@@ -233,7 +234,7 @@ def next_poses(
     starts: int = 8,
     seed: Seed = 0,
     workers: int | None = 1,
-    pool: object = None,
+    pool: PoolLike = None,
     polish: bool | None = None,
 ) -> NextPoses:
     """The next ``k`` poses to measure given the data so far, or stop (see the module doc).
@@ -264,7 +265,7 @@ def next_poses(
     if target is not None:
         target = positive_sigma(target, "target")
     a = assess(params, data, test_pose, plan=plan, sigma=sigma, prior=prior, reject=reject)
-    common = dict(
+    common: dict[str, Any] = dict(  # NextPoses' fields shared by both outcomes
         target=target, sigma=a.sigma, sigma_source=a.sigma_source, measured=data.m, used=int(a.used.sum()),
         outliers=a.outliers, unreachable=a.unreachable, identification=a.identification,
     )  # fmt: skip
@@ -284,8 +285,10 @@ def next_poses(
             params, k, test_pose, prior=a.measured, sigma=a.sigma, constraints=cell, starts=starts, seed=seed,
             workers=workers, pool=pool, polish=polish,
         )  # fmt: skip
-    message = f"measure the next {k} poses (predicted error after them: {result.rho0 * 1e3:.4g} mm)"
-    return NextPoses(result.plan, False, a.predicted, float(result.rho0), message=message, **common)
+    rho0 = result.rho0
+    assert rho0 is not None  # a design for a test pose reports its rho0
+    message = f"measure the next {k} poses (predicted error after them: {rho0 * 1e3:.4g} mm)"
+    return NextPoses(result.plan, False, a.predicted, float(rho0), message=message, **common)
 
 
 def _identified(
@@ -307,7 +310,7 @@ def _identified(
     return fit, used, rejected
 
 
-def _predicted(params: ParameterSet, test_pose: object, sigma: float, measured: MeasuredPrior) -> float:
+def _predicted(params: ParameterSet, test_pose: TestPoseLike, sigma: float, measured: MeasuredPrior) -> float:
     """The predicted error over the test region with the measured information only [m] (inf when it
     does not determine every parameter)."""
     criterion = TestPoseCriterion(params, test_pose, sigma, "mean", measured)

@@ -33,6 +33,7 @@ from pincal.evaluation.region import resolve_test_poses
 from pincal.model.parameters import ParameterSet
 from pincal.planning.driver import design
 from pincal.planning.plan import Plan
+from pincal.typing import TestPoseLike
 
 
 @dataclass(frozen=True)
@@ -110,7 +111,7 @@ class _Instrument:
 
 
 def _true_error(
-    params: ParameterSet, test_pose: object, qs: np.ndarray, s: np.ndarray, used: np.ndarray
+    params: ParameterSet, test_pose: TestPoseLike, qs: np.ndarray, s: np.ndarray, used: np.ndarray
 ) -> float:
     rows = 3 * params.robot.n_markers
     measured = MeasuredPrior.from_measurements(params, qs[used], np.repeat(s[used], rows))
@@ -118,7 +119,7 @@ def _true_error(
 
 
 def one_shot_plan(
-    params: ParameterSet, test_pose: object, target: float, sigma: float, max_m: int = 60, **options
+    params: ParameterSet, test_pose: TestPoseLike, target: float, sigma: float, max_m: int = 60, **options
 ) -> Plan:
     """The smallest plan whose predicted error over the test region (at ``sigma``) meets ``target``
     (``options``: :func:`pincal.design`'s)."""
@@ -126,15 +127,17 @@ def one_shot_plan(
     m = -(-len(params) // rows) + 1
     while True:
         result = design(params, m, test_pose, sigma=sigma, **options)
-        if result.rho0 <= target or m >= max_m:
+        rho0 = result.rho0
+        assert rho0 is not None  # a design for a test pose reports its rho0
+        if rho0 <= target or m >= max_m:
             return result.plan
         # ρ² falls roughly as 1/m: jump close to the size that meets the target, then step.
-        m = max(m + 1, min(max_m, int(m * (result.rho0 / target) ** 2 * 0.9)))
+        m = max(m + 1, min(max_m, int(m * (rho0 / target) ** 2 * 0.9)))
 
 
 def rehearse(
     params: ParameterSet,
-    test_pose: object,
+    test_pose: TestPoseLike,
     target: float,
     *,
     sigma: float = DEFAULT_SIGMA,

@@ -43,6 +43,7 @@ from pincal.planning.constraints import (
 )
 from pincal.planning.constraints.collision_world import CollisionWorld
 from pincal.planning.plan import Plan
+from pincal.typing import ConfigurationsLike, JointValues
 
 HOME = -1
 """The index that stands for the home configuration in :attr:`Move.start` and :attr:`Move.end`."""
@@ -168,6 +169,7 @@ class Campaign:
         """The poses (0-based plan rows) closer than their clearance to something."""
         if self.pose_clearance is None:
             return ()
+        assert self.pose_required is not None  # set with pose_clearance (a checked campaign)
         return tuple(int(i) for i in np.flatnonzero(self.pose_clearance < self.pose_required - 1e-12))
 
     def _name(self, index: int) -> str:
@@ -302,6 +304,7 @@ class Campaign:
             if self.home_short:
                 out.append(f"  home itself is too close: {self.home_short}")
             for i in self.unsafe_poses:
+                assert self.pose_clearance is not None  # unsafe_poses are empty without it
                 out.append(
                     f"  pose {i + 1} itself is too close: {self.pose_closest[i]} "
                     f"{self.pose_clearance[i] * 1e3:.3g} mm"
@@ -327,9 +330,9 @@ def default_home(robot: Robot, qs: np.ndarray, clear=None) -> tuple[np.ndarray, 
 
 def plan_campaign(
     robot: Robot,
-    plan: object,
+    plan: ConfigurationsLike,
     *,
-    home: object = None,
+    home: JointValues | None = None,
     timing: Timing | None = None,
     constraints: Iterable[AnyConstraint] = (),
     joint_margin: JointMargin = None,
@@ -385,12 +388,13 @@ def plan_campaign(
     order = tuple(i - 1 for i in tour.order)
     route = [HOME, *order, HOME]
     if not check:
-        moves = tuple(
+        unchecked = tuple(
             Move(a, b, float(cost[a + 1, b + 1])) for a, b in zip(route[:-1], route[1:], strict=True)
         )
         return Campaign(
-            robot, plan, home_q, order, moves, timing, tour.exact, given_time, home_source=home_source
+            robot, plan, home_q, order, unchecked, timing, tour.exact, given_time, home_source=home_source
         )
+    assert world is not None and need is not None  # check: _world built them above
     at = {i: world.distances(q) for i, q in enumerate(qs)}
     at[HOME] = world.distances(home_q)
     rng = generator(seed)
@@ -401,7 +405,7 @@ def plan_campaign(
     def q_of(i: int) -> np.ndarray:
         return home_q if i == HOME else qs[i]
 
-    moves = []
+    moves: list[Move] = []
     for a, b in zip(route[:-1], route[1:], strict=True):
         straight = float(cost[a + 1, b + 1])
         c = certify_move(world, q_of(a), q_of(b), need, (at[a], at[b]))
@@ -413,16 +417,16 @@ def plan_campaign(
             )
         time = straight
         if detour is not None:
-            time = timing.move_time(q_of(a), detour.via) + timing.move_time(detour.via, q_of(b))
+            time = float(timing.move_time(q_of(a), detour.via) + timing.move_time(detour.via, q_of(b)))
         moves.append(Move(a, b, float(time), c, detour))
     worst = [int(np.argmin(at[i] - need)) if world.size else -1 for i in range(m)]
     closest = tuple(world.names[k] if k >= 0 else "" for k in worst)
     pose_distance = np.array([at[i][k] if k >= 0 else np.inf for i, k in enumerate(worst)])
     required_at = np.array([need[k] if k >= 0 else 0.0 for k in worst])
     blocked_sight = []
-    for c in constraints:
-        if isinstance(c, Visibility):
-            tracker = robot.base.inverse() * np.array(c.tracker)
+    for con in constraints:
+        if isinstance(con, Visibility):
+            tracker = robot.base.inverse() * np.array(con.tracker)
             blocked_sight += occlusions(world, qs, tracker)
     kinds = np.array(world.kinds)
     required = {

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 from pincal.arguments import DEFAULT_SIGMA, positive_int
 from pincal.campaign.schedule import plan_campaign
@@ -23,6 +24,7 @@ from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint, JointMargin, MountSpec, with_safety
 from pincal.planning.driver import design
 from pincal.planning.plan import Plan
+from pincal.typing import JointValues, TestPoseLike
 
 DEFAULT_SIZES = (6, 8, 10, 12, 15, 18, 21, 24, 27, 30)
 """The plan sizes of the trade-off by default (m = 6 … 30)."""
@@ -108,17 +110,17 @@ def parse_sizes(text: str) -> tuple[int, ...]:
 
 def accuracy_vs_time(
     params: ParameterSet,
-    test_pose: object,
+    test_pose: TestPoseLike,
     sizes: Iterable[int] = DEFAULT_SIZES,
     *,
     timing: Timing | None = None,
-    home: object = None,
+    home: JointValues | None = None,
     sigma: float = DEFAULT_SIGMA,
     prior: Prior | None = None,
     constraints: Iterable[AnyConstraint] = (),
     joint_margin: JointMargin = None,
     mount: MountSpec = None,
-    **options: object,
+    **options: Any,  # passed on to design(), which checks each
 ) -> Tradeoff:
     """The predicted error over the test region and the campaign time for each plan size.
 

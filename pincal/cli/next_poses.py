@@ -115,6 +115,7 @@ def parse_length(text: str, what: str) -> float:
         value = math.nan
     if not (math.isfinite(value) and value > 0):
         raise BadArgument(f"{what} {text!r}: expected a positive length, e.g. 0.02mm, 20um or 2e-5 (metres)")
+    assert match is not None  # no match gives a NaN value, refused above
     unit = (match.group(2) or "m").replace("µ", "u")
     return value * {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6}[unit]
 

@@ -24,6 +24,7 @@ from pincal.planning.constraints import (
     Workcell,
     joint_margins,
 )
+from pincal.typing import ConfigurationsLike
 
 __all__ = ["Closest", "SafetyReport", "safety_margins"]
 
@@ -139,7 +140,9 @@ def _mm(metres: float) -> str:
     return f"{metres * 1e3:.4g} mm" if abs(metres) < 1 else f"{metres:.4g} m"
 
 
-def safety_margins(robot: Robot, plan: object, constraints: Iterable[AnyConstraint] = ()) -> SafetyReport:
+def safety_margins(
+    robot: Robot, plan: ConfigurationsLike, constraints: Iterable[AnyConstraint] = ()
+) -> SafetyReport:
     """The smallest margins of ``plan`` to the joint limits, the floor and the obstacles.
 
     Args:
@@ -158,7 +161,7 @@ def safety_margins(robot: Robot, plan: object, constraints: Iterable[AnyConstrai
     kept = joint_margins(robot, constraints)
     lower, upper = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
     margin = np.minimum(qs - lower, upper - qs)  # (m, nq) to the hard limits
-    kinds = []
+    kinds: list[Closest | None] = []  # revolute, then prismatic; None: no such joint
     for mask in (robot.revolute, ~robot.revolute):
         if not mask.any():
             kinds.append(None)

@@ -35,6 +35,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -42,6 +43,9 @@ import pinocchio as pin
 from pincal.errors import UrdfError
 from pincal.model.geometry import urdf_geometry
 from pincal.model.robot import Robot
+
+if TYPE_CHECKING:  # annotations only: mount imports no collision code
+    from pincal.planning.constraints.mount import MountBound
 
 LINK_RADIUS = 0.04
 """Radius of the capsules derived from the kinematics, as a fraction of the robot's reach (the sum
@@ -236,7 +240,7 @@ class CollisionWorld:
         obstacles: Sequence[pin.GeometryObject] = (),
         *,
         self_collision: bool = True,
-        mount_points: object = None,
+        mount_points: MountBound | None = None,
         link_radius: float | None = None,
         search: Iterable[str] = (),
     ) -> None:
@@ -370,7 +374,8 @@ class CollisionWorld:
                 near = np.flatnonzero(self.refinable & (out[: len(self.pairs)] < REFINE_BELOW))
                 out[near] = with_exact(out[near], self.exact_distances(q, near))
         if self.n_points:
-            out[len(self.pairs) :] = self.mount._heights(q[None])[0, self.mount.keep]
+            assert self.mount is not None  # n_points counts the mount's points
+            out[len(self.pairs) :] = self.mount._heights(q[None])[0][self.mount.keep]
         return out
 
     def exact_distances(self, q: np.ndarray, pairs: np.ndarray) -> np.ndarray:

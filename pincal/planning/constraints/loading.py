@@ -62,7 +62,7 @@ def _entries(value: object) -> list:
     return list(value) if isinstance(value, list) else [value]
 
 
-def constraints_from_dict(data: dict, folder: str | os.PathLike | None = None) -> tuple[AnyConstraint, ...]:
+def constraints_from_dict(data: object, folder: str | os.PathLike | None = None) -> tuple[AnyConstraint, ...]:
     """Constraints from a mapping with the layout of the YAML file (see :func:`load_constraints`);
     the workcell's relative paths are taken from ``folder`` (default: the working folder)."""
     if data is None:

@@ -93,7 +93,7 @@ class Mount(Constraint):
                 f"mount {text!r}: expected {', '.join(MOUNTS)} or a plane NX,NY,NZ,OFFSET "
                 f"(normal towards the robot, offset in metres: normal·p >= offset)"
             )
-        return cls("plane", tuple(values[:3]), values[3])
+        return cls("plane", (values[0], values[1], values[2]), values[3])
 
     def describe(self) -> str:
         """``floor (z ≥ 0 of the base frame)``: the mount in words."""

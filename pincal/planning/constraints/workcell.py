@@ -36,6 +36,7 @@ from pincal.errors import BadConstraint
 from pincal.model.robot import Robot
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number, vector
 from pincal.planning.constraints.collision_world import CollisionWorld
+from pincal.planning.constraints.mount import MountBound
 
 SHAPES = ("box", "cylinder", "sphere", "capsule", "mesh")
 """The kinds of obstacle a workcell takes (and ``urdf``: a whole cell)."""
@@ -190,7 +191,7 @@ class Workcell(Constraint):
         return out
 
     def world(
-        self, robot: Robot, self_collision: bool = False, mount_points: object = None
+        self, robot: Robot, self_collision: bool = False, mount_points: MountBound | None = None
     ) -> CollisionWorld:
         """The robot and this cell as one collision world."""
         return CollisionWorld(
