@@ -142,76 +142,54 @@ _HOMES = {
 """The module defining each public name, imported on first use (the imports above). Each name is
 also public in its stage (``pincal.model``, ...)."""
 
-_MOVED = {
-    "pincal.arguments": ("DEFAULT_SIGMA",),
-    "pincal.model": ("DHTable", "Identifiability", "Parameter", "identifiability", "urdf_from_dh"),
-    "pincal.evaluation": (
-        "AccuracyReport",
-        "CartesianBox",
-        "Criteria",
-        "DataCheck",
-        "ErrorProfile",
-        "Neighbourhood",
-        "PredictedError",
-        "TestPoseCriterion",
-        "TestRegion",
-        "WorstFound",
-        "check_plan",
-        "error_profile",
-        "information_matrix",
-        "position_covariance",
-        "rho0_each",
-        "worst_found",
-    ),
-    "pincal.planning": ("RandomPlans", "StartRecord"),
-    "pincal.planning.constraints": (
-        "HalfSpace",
-        "JointLimits",
-        "MinSpacing",
-        "SelfCollision",
-        "Visibility",
-        "WorkspaceBox",
-        "load_constraints",
-    ),
-    "pincal.calibration": ("MonteCarloResult", "Outlier", "RandomErrors", "Validation", "holdout", "kfold"),
-    "pincal.viewing": ("Scene",),
-    "pincal.errors": (
-        "AmbiguousTip",
-        "BadArgument",
-        "BadConfiguration",
-        "BadConstraint",
-        "BadDHTable",
-        "BadMeasurementData",
-        "BadPlanFile",
-        "CannotWrite",
-        "DataCheckWarning",
-        "DegenerateOptimum",
-        "DegenerateOptimumWarning",
-        "FloorUnreachable",
-        "FrameNotFound",
-        "IdentificationFailed",
-        "Infeasible",
-        "MissingDependency",
-        "NoInertias",
-        "OverwriteRefused",
-        "RobotNotFound",
-        "SingularPlan",
-        "UnknownName",
-        "UnknownParameter",
-        "UnsupportedJoint",
-        "UrdfError",
-    ),
-}
-"""Names that were top-level in pincal 0.1 and now live only in their stage: they still work here,
-with a DeprecationWarning naming the new home, until pincal 0.3."""
+_TOP_LEVEL_0_1 = frozenset(
+    """
+    DEFAULT_SIGMA AccuracyReport AmbiguousTip BadArgument BadConfiguration BadConstraint BadDHTable
+    BadMeasurementData BadPlanFile CannotWrite CartesianBox Criteria DHTable DataCheck
+    DataCheckWarning DegenerateOptimum DegenerateOptimumWarning DesignResult ErrorProfile
+    FloorUnreachable FrameNotFound HalfSpace Identifiability IdentificationFailed
+    IdentificationResult Infeasible JointLimits MeasurementData MinSpacing MissingDependency
+    MonteCarloResult Neighbourhood NoInertias Outlier OverwriteRefused Parameter ParameterSet
+    PincalError PincalWarning Plan PredictedError Prior RandomErrors RandomPlans Robot
+    RobotNotFound Scene SelfCollision SingularPlan StartRecord TestPath TestPoseCriterion
+    TestRegion UnknownName UnknownParameter UnsupportedJoint UrdfError Validation Visibility
+    WorkspaceBox WorstFound __version__ accuracy around cartesian_box check_plan criteria design
+    error_profile export_urdf holdout identifiability identify information_matrix kfold
+    load_constraints load_robot monte_carlo position_covariance random_errors random_plans rho0
+    rho0_each scene shipped_robots show simulate_measurements urdf_from_dh validate worst_found
+    """.split()
+)
+"""The top level before names moved to their stage: pincal 0.1.0's ``__all__`` (commit 0b3eb34) and
+NoInertias, top-level in 0.2's development until the move. History, never edited: the names here
+that are not in ``__all__`` still work, with a DeprecationWarning naming their home, until pincal
+0.3; each one's home is the stage whose ``__all__`` holds it (written there once)."""
 
+_STAGE_LISTS = (
+    "pincal.errors",
+    "pincal.model",
+    "pincal.instruments",
+    "pincal.evaluation",
+    "pincal.planning",
+    "pincal.planning.constraints",
+    "pincal.calibration",
+    "pincal.compensation",
+    "pincal.campaign",
+    "pincal.viewing",
+)
+"""The stages a moved name is looked up in, in the data flow's order, so that finding a name
+imports little its value does not need (a test checks that exactly one of them holds each name)."""
+
+_NO_LIST = {"DEFAULT_SIGMA": "pincal.arguments"}
+"""Moved names whose home has no ``__all__`` (pincal.arguments holds the argument checks)."""
 
 _STAGES = (
     "model",
+    "instruments",
     "evaluation",
     "planning",
     "calibration",
     "compensation",
+    "campaign",
     "viewing",
     "errors",
     "typing",
@@ -221,7 +199,23 @@ _STAGES = (
 """The public subpackages and modules, imported on first use as attributes (``pincal.model``)."""
 
 _HOME = {name: home for home, names in _HOMES.items() for name in names}
-_MOVED_TO = {name: home for home, names in _MOVED.items() for name in names}
+_MOVED_NAMES = _TOP_LEVEL_0_1.difference(__all__)
+
+
+def _moved_home(name: str) -> str:
+    """The stage holding a name moved out of the top level (imports stages up to that one)."""
+    if name in _NO_LIST:
+        return _NO_LIST[name]
+    for stage in _STAGE_LISTS:
+        if name in importlib.import_module(stage).__all__:
+            return stage
+    raise AttributeError(f"pincal.{name} was removed from every stage: no home to point to")
+
+
+def _moved() -> dict[str, tuple[str, ...]]:
+    """Each stage and the moved names it holds (imports every stage; for tests and tools)."""
+    homes = {name: _moved_home(name) for name in sorted(_MOVED_NAMES)}
+    return {home: tuple(n for n in sorted(homes) if homes[n] == home) for home in sorted(set(homes.values()))}
 
 
 if not TYPE_CHECKING:  # type checkers see the imports above; an unknown name stays an error there
@@ -233,8 +227,8 @@ if not TYPE_CHECKING:  # type checkers see the imports above; an unknown name st
             value = getattr(importlib.import_module(_HOME[name]), name)
             globals()[name] = value
             return value
-        if name in _MOVED_TO:
-            home = _MOVED_TO[name]
+        if name in _MOVED_NAMES:
+            home = _moved_home(name)
             if sys._getframe(1).f_code.co_filename.startswith("<frozen importlib"):
                 # 'from pincal import X' looks X up twice: warn once, at the user's line
                 return getattr(importlib.import_module(home), name)
@@ -247,6 +241,11 @@ if not TYPE_CHECKING:  # type checkers see the imports above; an unknown name st
             return getattr(importlib.import_module(home), name)
         if name in _STAGES:
             return importlib.import_module(f"pincal.{name}")
+        if name in ("_MOVED", "_MOVED_TO"):  # computed on demand: they import every stage
+            moved = _moved()
+            globals()["_MOVED"] = moved
+            globals()["_MOVED_TO"] = {n: home for home, names in moved.items() for n in names}
+            return globals()[name]
         raise AttributeError(f"module 'pincal' has no attribute {name!r}")
 
 

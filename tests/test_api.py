@@ -97,6 +97,29 @@ def test_moved_names_warn_and_name_their_new_home():
         pincal.no_such_name  # noqa: B018
 
 
+def test_each_moved_name_has_one_home_in_a_stage_list():
+    """The moved names are the 0.1 top level less the workflow's, and each one's home is found in
+    the ``__all__`` of exactly one stage (written there once), so the warning names one home."""
+    assert pincal._MOVED_NAMES == pincal._TOP_LEVEL_0_1 - set(pincal.__all__)
+    assert {"rho0_each", "JointLimits", "BadArgument", "DEFAULT_SIGMA"} <= pincal._MOVED_NAMES
+    for name in pincal._MOVED_NAMES - set(pincal._NO_LIST):
+        holders = [s for s in pincal._STAGE_LISTS if name in importlib.import_module(s).__all__]
+        assert holders == [pincal._MOVED_TO[name]], name
+    for name, home in pincal._NO_LIST.items():
+        assert pincal._MOVED_TO[name] == home and hasattr(importlib.import_module(home), name)
+
+
+def test_every_stage_is_an_attribute_of_pincal():
+    """``pincal.campaign`` works after a bare ``import pincal``, as ``pincal.model`` does."""
+    code = "import pincal; print(sorted(m for m in {!r} if getattr(pincal, m) is None))"
+    stages = sorted({m.split(".")[1] for m in PUBLIC_MODULES})
+    out = subprocess.run(
+        [sys.executable, "-c", code.format(stages)], capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == "[]"
+    assert set(stages) <= set(dir(pincal))
+
+
 def test_import_pincal_imports_no_stage():
     """``import pincal`` and ``pincal --help`` import neither NumPy nor Pinocchio (nor SciPy,
     matplotlib, meshcat, scikit-learn): each public name is imported from its stage when used."""
