@@ -109,7 +109,7 @@ class Feasibility:
             idx = np.flatnonzero(ok)
             kin = self.kinematics(qs[idx])
             for _, b in self.bound:
-                ok[idx] &= np.all(b.margins(kin) > 0, axis=1)
+                ok[idx] &= b.strictly_satisfied(kin)
         return ok
 
     # ------------------------------------------------------------------------- barrier
@@ -214,7 +214,7 @@ class Feasibility:
                     sub = kin if len(idx) == size else _subset(kin, idx)
                     s = b.satisfied(sub)
                     if strict:
-                        s &= np.all(b.margins(sub) > 0, axis=1)
+                        s &= b.strictly_satisfied(sub)
                     rejected[key] = rejected.get(key, 0) + int((~s).sum())
                     ok[idx[~s]] = False
             found.append(qs[ok])

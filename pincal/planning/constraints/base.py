@@ -59,6 +59,10 @@ class Bound:
         """(m,) True where the configuration satisfies the constraint exactly."""
         return np.all(self.margins(kin) >= -TOLERANCE, axis=1)
 
+    def strictly_satisfied(self, kin: Kinematics) -> np.ndarray:
+        """(m,) True where every margin is positive (what the search's barrier needs of a start)."""
+        return np.all(self.margins(kin) > 0, axis=1)
+
 
 class Constraint:
     """Base of the per-configuration constraints."""

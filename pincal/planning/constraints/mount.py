@@ -24,8 +24,9 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import BadConstraint
+from pincal.model.placements import JointPlacements
 from pincal.model.robot import Robot
-from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number, vector
+from pincal.planning.constraints.base import TOLERANCE, Bound, Constraint, Kinematics, number, vector
 
 MOUNTS = ("floor", "wall", "ceiling", "none")
 """How a robot can be mounted (``none``: no plane kept, e.g. a robot on a pedestal that reaches
@@ -113,6 +114,15 @@ class Mount(Constraint):
 class MountBound(Bound):
     """The mount bound to a robot: the heights of the moving points above the plane.
 
+    Two paths give the same heights. :meth:`margins` (the values the search's barrier
+    differentiates, the safety report's figures) runs Pinocchio's forward kinematics one
+    configuration at a time, so that a design follows Pinocchio's numbers to the bit. The yes/no
+    checks of many configurations at once (:meth:`satisfied`, :meth:`strictly_satisfied`: the
+    random draws of a pool or of a baseline's plans) read every joint's placement of all the
+    configurations in one batch (:class:`~pincal.model.placements.JointPlacements`), which agrees
+    with Pinocchio to rounding (1e-15 m): a decision could differ only for a height within that
+    of the tolerance, a tie.
+
     Attributes:
         names: what each checked point is (``joint_a3 origin``, ``tool0``, ``marker 0``).
         joints: the Pinocchio joints whose origins are checked.
@@ -124,6 +134,7 @@ class MountBound(Bound):
         self.robot, self.spec = robot, spec
         self.normal, self.offset = np.array(spec.normal), spec.offset
         self.data = robot.model.createData()
+        self.placements = JointPlacements(robot.model)
         joints = list(range(1, robot.model.njoints))
         names = [f"{robot.model.names[j]} origin" for j in joints]
         names += [robot.tip] + [f"marker {k}" for k in range(robot.n_markers)]
@@ -137,7 +148,8 @@ class MountBound(Bound):
         self.names = [names[i] for i in self.keep]
 
     def points(self, qs: np.ndarray) -> np.ndarray:
-        """(m, n, 3) every candidate point (joint origins, tip, markers) in the base frame [m]."""
+        """(m, n, 3) every candidate point (joint origins, tip, markers) in the base frame [m],
+        Pinocchio's forward kinematics one configuration at a time."""
         robot, model, data = self.robot, self.robot.model, self.data
         tip = model.frames[robot.tip_frame].placement
         out = np.empty((len(qs), len(self.joints) + 1 + robot.n_markers, 3))
@@ -150,10 +162,36 @@ class MountBound(Bound):
             out[i, len(self.joints) + 1 :] = robot.markers @ frame.rotation.T + frame.translation
         return out
 
+    def batch_points(self, qs: np.ndarray) -> np.ndarray:
+        """:meth:`points` of all configurations in one batch (agrees to rounding)."""
+        robot = self.robot
+        rotations, translations = self.placements(qs + robot.joint_offsets)
+        tip = robot.model.frames[robot.tip_frame].placement
+        up = rotations[robot.tip_joint].reshape(-1, 3)
+        tip_rotation = (up @ tip.rotation).reshape(-1, 3, 3)
+        tip_position = translations[robot.tip_joint] + (up @ tip.translation).reshape(-1, 3)
+        markers = tip_position[:, None, :] + np.einsum("mij,kj->mki", tip_rotation, robot.markers)
+        origins = translations[self.joints].transpose(1, 0, 2)
+        return np.concatenate([origins, tip_position[:, None, :], markers], axis=1)
+
     def _heights(self, qs: np.ndarray) -> np.ndarray:
         return self.points(qs) @ self.normal - self.offset
+
+    def _batch_heights(self, qs: np.ndarray) -> np.ndarray:
+        """(m, kept) the kept points' heights from :meth:`batch_points`."""
+        return self.batch_points(qs)[:, self.keep] @ self.normal - self.offset
 
     def margins(self, kin: Kinematics) -> np.ndarray:
         if not len(self.keep):
             return np.zeros((len(kin.qs), 0))
         return self._heights(kin.qs)[:, self.keep]
+
+    def satisfied(self, kin: Kinematics) -> np.ndarray:
+        if not len(self.keep):
+            return np.ones(len(kin.qs), dtype=bool)
+        return np.all(self._batch_heights(kin.qs) >= -TOLERANCE, axis=1)
+
+    def strictly_satisfied(self, kin: Kinematics) -> np.ndarray:
+        if not len(self.keep):
+            return np.ones(len(kin.qs), dtype=bool)
+        return np.all(self._batch_heights(kin.qs) > 0, axis=1)
