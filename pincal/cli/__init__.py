@@ -204,6 +204,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.parse_args(argv)
         parser.error("give a COMMAND")
     # The subcommand's modules are imported now (by build_parser): so are the CLI's helpers.
+    from pincal.blas import single_threaded
     from pincal.cli._common import (
         argument_names,
         check_outputs,
@@ -215,7 +216,10 @@ def main(argv: list[str] | None = None) -> int:
     # --help and usage errors exit here through SystemExit (0, or 2 after one line).
     args = parser.parse_args(join_negative_values(argv))
     try:
-        with guard_inputs(), all_or_nothing(), warnings.catch_warnings():
+        # BLAS on one thread: pincal's matrices are small, and a threaded BLAS's spinning threads
+        # make the command's serial work (identifiability, sampling, baselines) several times
+        # slower on a busy machine (pincal.blas); the design's parallelism is its worker processes.
+        with guard_inputs(), all_or_nothing(), single_threaded(), warnings.catch_warnings():
             warnings.showwarning = _show_warning
             trap_floating_point_warnings()  # an overflow is an internal error, not a warning and inf
             check_outputs(args, argument_names(parser.commands[args.command]))

@@ -211,7 +211,7 @@ class Feasibility:
                     idx = np.flatnonzero(ok)
                     if not len(idx):
                         break
-                    sub = kin if len(idx) == size else _subset(kin, idx)
+                    sub = kin if len(idx) == size else kin.subset(idx)
                     s = b.satisfied(sub)
                     if strict:
                         s &= b.strictly_satisfied(sub)
@@ -280,14 +280,3 @@ class _LimitsOnly:
 
     def __init__(self, qs: np.ndarray) -> None:
         self.qs = qs
-
-
-def _subset(kin: Kinematics, idx: np.ndarray) -> Kinematics:
-    sub = Kinematics.__new__(Kinematics)
-    sub.qs, sub.rotations, sub.positions, sub.points = (
-        kin.qs[idx],
-        kin.rotations[idx],
-        kin.positions[idx],
-        kin.points[idx],
-    )
-    return sub

@@ -4,6 +4,8 @@ constraint's numbers."""
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 import pinocchio as pin
 
@@ -30,7 +32,8 @@ def number(value: object, what: str, low: float = -MAX_LENGTH, strict: bool = Fa
 
 
 class Kinematics:
-    """Tip poses and marker positions of a batch of configurations, in the instrument frame.
+    """Tip poses and marker positions of a batch of configurations, in the instrument frame,
+    computed when a constraint first reads them (the joint limits and the mount never do).
 
     Attributes:
         qs: (m, nq) configurations.
@@ -40,9 +43,32 @@ class Kinematics:
     """
 
     def __init__(self, robot: Robot, qs: np.ndarray, data: pin.Data | None = None) -> None:
-        self.qs = qs
-        self.rotations, self.positions = robot.tip_poses(qs, check=False, data=data)
-        self.points = self.positions[:, None, :] + np.einsum("mij,kj->mki", self.rotations, robot.markers)
+        self.robot, self.qs, self.data = robot, qs, data
+
+    @cached_property
+    def _tip(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.robot.tip_poses(self.qs, check=False, data=self.data)
+
+    @property
+    def rotations(self) -> np.ndarray:
+        return self._tip[0]
+
+    @property
+    def positions(self) -> np.ndarray:
+        return self._tip[1]
+
+    @cached_property
+    def points(self) -> np.ndarray:
+        return self.positions[:, None, :] + np.einsum("mij,kj->mki", self.rotations, self.robot.markers)
+
+    def subset(self, idx: np.ndarray) -> Kinematics:
+        """The kinematics of configurations ``idx`` (what is computed already is kept, not redone)."""
+        sub = Kinematics(self.robot, self.qs[idx], self.data)
+        if "_tip" in self.__dict__:
+            sub.__dict__["_tip"] = (self.rotations[idx], self.positions[idx])
+        if "points" in self.__dict__:
+            sub.__dict__["points"] = self.points[idx]
+        return sub
 
 
 class Bound:
