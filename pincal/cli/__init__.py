@@ -15,6 +15,7 @@ import warnings
 from collections.abc import Mapping
 from typing import NamedTuple, NoReturn
 
+from pincal.blas import single_threaded  # light: threadpoolctl is imported on first use
 from pincal.errors import PincalError
 from pincal.version import __version__
 
@@ -204,7 +205,6 @@ def main(argv: list[str] | None = None) -> int:
         parser.parse_args(argv)
         parser.error("give a COMMAND")
     # The subcommand's modules are imported now (by build_parser): so are the CLI's helpers.
-    from pincal.blas import single_threaded
     from pincal.cli._common import (
         argument_names,
         check_outputs,
