@@ -23,7 +23,6 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from xml.sax.saxutils import quoteattr
 
 import numpy as np
 import pinocchio as pin
@@ -437,6 +436,15 @@ def _cos_sin(angle: float) -> tuple[float, float]:
     if abs(quarter - round(quarter)) < 1e-12:
         return [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)][round(quarter) % 4]
     return math.cos(angle), math.sin(angle)
+
+
+def quoteattr(value: str) -> str:
+    """``value`` quoted as an XML attribute value (``xml.sax.saxutils.quoteattr``, imported here on
+    first use: it imports urllib.request, http.client and ssl, a noticeable part of every command's
+    start-up otherwise)."""
+    from xml.sax.saxutils import quoteattr as quoted
+
+    return quoted(value)
 
 
 def _text(values: np.ndarray) -> str:
