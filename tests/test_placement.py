@@ -48,6 +48,60 @@ def test_line_of_sight_is_blocked_by_a_link_between_tracker_and_marker(ur10):
     assert LineOfSight(tuple(outward)).satisfied(ur10, q)[0]
 
 
+def _per_pair_margins(bound, kin):
+    """The line of sight's margins one coal call per (configuration, marker, hull), as before it
+    was screened and batched: the oracle of the batched path."""
+    import coal
+
+    objects = bound.hulls.geometryObjects
+    inverse = bound.base_inverse
+    points = np.einsum("ij,mkj->mki", inverse.rotation, kin.points) + inverse.translation
+    out = np.full((len(kin.qs), points.shape[1] * len(objects)), np.inf)
+    for i, q in enumerate(kin.qs + bound.offsets):
+        pin.updateGeometryPlacements(bound.model, bound.data, bound.hulls, bound.hull_data, q)
+        placed = [coal.Transform3s(p.rotation, p.translation) for p in bound.hull_data.oMg]
+        for k, point in enumerate(points[i]):
+            axis = point - bound.instrument
+            length = float(np.linalg.norm(axis)) - bound.spec.skip
+            if length <= 0:
+                continue
+            z = axis / np.linalg.norm(axis)
+            x = np.cross(np.eye(3)[int(np.argmin(np.abs(z)))], z)
+            x /= np.linalg.norm(x)
+            R = np.column_stack([x, np.cross(z, x), z])
+            where = coal.Transform3s(R, bound.instrument + z * (length / 2))
+            capsule = coal.Capsule(max(bound.spec.clearance, 1e-6), length)
+            for g, obj in enumerate(objects):
+                d = coal.distance(
+                    capsule, where, obj.geometry, placed[g], coal.DistanceRequest(), coal.DistanceResult()
+                )
+                out[i, k * len(objects) + g] = d
+    return np.minimum(out, 1e3)
+
+
+@pytest.mark.parametrize("at", [(3.0, 0.0, 0.75), (0.3, 0.9, 1.2), (-1.5, -0.5, 0.2)])
+def test_line_of_sight_batched_margins_match_the_per_pair_path(at):
+    from pincal.planning.constraints.base import Kinematics
+
+    robot = pincal.load_robot("ur10", markers=[(0.05, 0.02, 0.1), (-0.04, 0.06, 0.05)]).replace(
+        base=pin.SE3(pin.rpy.rpyToMatrix(0, 0, 0.3), np.array([0.2, -0.1, 0.1]))
+    )
+    qs = robot.random_configurations(150, np.random.default_rng(4))
+    kin = Kinematics(robot, qs)
+    bound = LineOfSight(at, 0.01).bind(robot)
+    old, new = _per_pair_margins(bound, kin), bound.margins(kin)
+    near = old < bound.reach
+    assert near.any() and (~near).any()  # both kinds of pair are exercised
+    # Within the barrier's reach the margins are coal's, as before; beyond it a lower bound that
+    # stays beyond it (the barrier, the feasibility checks and so the designs read the same).
+    np.testing.assert_allclose(new[near], old[near], rtol=0, atol=1e-12)
+    assert np.all(new[~near] >= bound.reach) and np.all(new <= old + 1e-12)
+    assert np.array_equal(bound.satisfied(kin), np.all(old >= -1e-9, axis=1))
+    lower = np.minimum(bound.lower_bounds(kin).reshape(len(qs), -1), 1e3)
+    clear = lower > 0  # a bound on a distance (coal's depth of a crossing hull is another measure)
+    assert clear.any() and np.all(lower[clear] <= old[clear] + 1e-12)
+
+
 def test_line_of_sight_needs_collision_geometry():
     with pytest.raises(BadConstraint, match="no collision geometry"):
         LineOfSight((3.0, 0.0, 1.0)).satisfied(

@@ -61,6 +61,16 @@ def hull_geometry(robot: Robot, package_dirs: tuple[str, ...], what: str) -> pin
 
 
 class SightBound(Bound):
+    """The line of sight bound to a robot: the margins of every (configuration, marker, hull).
+
+    The search's barrier and the feasibility checks read a margin only below :attr:`reach` (and
+    its sign), so a hull that a cheap bound keeps at least :attr:`reach` from a sight line is not
+    passed to coal: spheres covering its bounding box (along the box's longest axis) give a lower
+    bound on its distance to the segment, and that bound is its margin. Each configuration's
+    hulls are placed once (Pinocchio), the segments of every marker are built at once (NumPy),
+    and coal measures only the pairs within reach of a sphere.
+    """
+
     reach = 0.02
 
     def __init__(self, robot: Robot, spec: LineOfSight) -> None:
@@ -75,40 +85,81 @@ class SightBound(Bound):
         self.instrument = self.base_inverse.act(np.array(spec.instrument))  # in the robot's base frame
         self.spec = spec
         self.request = coal.DistanceRequest()
+        self.radius = max(spec.clearance, 1e-6)  # the sight capsule's
+        self.spheres = [_covering_spheres(obj.geometry) for obj in self.hulls.geometryObjects]
 
-    def _segment(self, point: np.ndarray) -> tuple[object, object] | None:
-        """The sight line to ``point`` (robot base frame) as a coal capsule and its placement, or
-        None when the instrument is within ``skip`` of the point."""
-        axis = point - self.instrument
-        length = float(np.linalg.norm(axis)) - self.spec.skip
-        if length <= 0:
-            return None
-        z = axis / np.linalg.norm(axis)
-        helper = np.eye(3)[int(np.argmin(np.abs(z)))]
+    def _segments(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The sight lines to ``points`` (..., 3) (robot base frame): (lengths, directions,
+        rotations (..., 3, 3) whose z is the direction, centres); a length ≤ 0 when the instrument
+        is within ``skip`` of the point (nothing to check)."""
+        axis = points - self.instrument
+        norm = np.linalg.norm(axis, axis=-1)
+        length = norm - self.spec.skip
+        z = axis / np.where(norm > 0, norm, 1.0)[..., None]
+        helper = np.eye(3)[np.argmin(np.abs(z), axis=-1)]
         x = np.cross(helper, z)
-        x /= np.linalg.norm(x)
-        R = np.column_stack([x, np.cross(z, x), z])
-        centre = self.instrument + z * (length / 2)
-        capsule = self.coal.Capsule(max(self.spec.clearance, 1e-6), length)
-        return capsule, self.coal.Transform3s(R, centre)
+        x /= np.linalg.norm(x, axis=-1)[..., None]
+        R = np.stack([x, np.cross(z, x), z], axis=-1)
+        centre = self.instrument + z * (length / 2)[..., None]
+        return length, z, R, centre
 
-    def margins(self, kin: Kinematics) -> np.ndarray:
-        objects = self.hulls.geometryObjects
+    def _placements(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(m, G, 3, 3), (m, G, 3) the hulls' placements at each configuration (one geometry update
+        each)."""
+        H = np.empty((len(qs), len(self.hulls.geometryObjects), 4, 4))
+        for i, q in enumerate(qs + self.offsets):
+            pin.updateGeometryPlacements(self.model, self.data, self.hulls, self.hull_data, q)
+            H[i] = [placed.homogeneous for placed in self.hull_data.oMg]
+        return H[:, :, :3, :3], H[:, :, :3, 3]
+
+    def lower_bounds(self, kin: Kinematics) -> np.ndarray:
+        """(m, K, G) bounds [m] from the hulls' covering spheres: where positive, never more than
+        the margin (the sight capsule's distance to the hull); inf where there is no sight line."""
+        return self._bounds(kin)[0]
+
+    def _bounds(self, kin: Kinematics) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
         points = (
             np.einsum("ij,mkj->mki", self.base_inverse.rotation, kin.points) + self.base_inverse.translation
         )
-        out = np.full((len(kin.qs), points.shape[1] * len(objects)), np.inf)
-        for i, q in enumerate(kin.qs + self.offsets):
-            pin.updateGeometryPlacements(self.model, self.data, self.hulls, self.hull_data, q)
-            placed = [self.coal.Transform3s(p.rotation, p.translation) for p in self.hull_data.oMg]
-            for k, point in enumerate(points[i]):
-                segment = self._segment(point)
-                if segment is None:
-                    continue
-                for g, obj in enumerate(objects):
-                    result = self.coal.DistanceResult()
-                    d = self.coal.distance(
-                        segment[0], segment[1], obj.geometry, placed[g], self.request, result
-                    )
-                    out[i, k * len(objects) + g] = d
-        return np.minimum(out, 1e3)
+        length, z, R, centre = self._segments(points)
+        rotations, translations = self._placements(kin.qs)
+        bounds = np.full(points.shape[:2] + (len(self.spheres),), np.inf)
+        for g, (centres, radius) in enumerate(self.spheres):
+            c = np.einsum("mij,sj->msi", rotations[:, g], centres) + translations[:, g, None]  # (m, S, 3)
+            along = np.einsum("mki,msi->mks", z, c - self.instrument)  # (m, K, S)
+            t = np.clip(along, 0.0, length[..., None])
+            nearest = self.instrument + z[:, :, None, :] * t[..., None]
+            gap = np.linalg.norm(c[:, None] - nearest, axis=-1) - radius - self.radius
+            bounds[:, :, g] = np.where(length > 0, gap.min(axis=-1), np.inf)
+        return bounds, (length, R, centre, rotations, translations)
+
+    def margins(self, kin: Kinematics) -> np.ndarray:
+        bounds, (length, R, centre, rotations, translations) = self._bounds(kin)
+        out = bounds.copy()
+        objects = self.hulls.geometryObjects
+        coal, request = self.coal, self.request
+        for i, k, g in zip(*(int_.tolist() for int_ in np.nonzero(bounds < self.reach)), strict=True):
+            capsule = coal.Capsule(self.radius, float(length[i, k]))
+            result = coal.DistanceResult()
+            out[i, k, g] = coal.distance(
+                capsule, coal.Transform3s(R[i, k], centre[i, k]), objects[g].geometry,
+                coal.Transform3s(rotations[i, g], translations[i, g]), request, result,
+            )  # fmt: skip
+        return np.minimum(out.reshape(len(kin.qs), -1), 1e3)
+
+
+def _covering_spheres(geometry) -> tuple[np.ndarray, float]:
+    """((S, 3) centres, radius) [m, geometry frame] of S equal spheres that together cover the
+    geometry's bounding box: the box cut into S slabs across its longest axis, a sphere round
+    each slab (S about the longest half-extent over the other two's diagonal, at most 8)."""
+    geometry.computeLocalAABB()
+    lo, hi = np.array(geometry.aabb_local.min_), np.array(geometry.aabb_local.max_)
+    half, middle = (hi - lo) / 2, (hi + lo) / 2
+    axis = int(np.argmax(half))
+    across = float(np.linalg.norm(np.delete(half, axis)))
+    count = int(min(8, max(1, np.ceil(half[axis] / max(across, 1e-9)))))
+    slab = half[axis] / count
+    offsets = (2 * np.arange(count) - (count - 1)) * slab
+    centres = np.tile(middle, (count, 1))
+    centres[:, axis] += offsets
+    return centres, float(np.sqrt(slab**2 + across**2))
