@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.errors import PincalError, SingularPlan
+from pincal.errors import BadConfiguration, PincalError, SingularPlan
 from pincal.evaluation.test_pose import TestPoseCriterion
 
 SIGMA = 3e-5
@@ -284,3 +284,23 @@ def test_repeated_single_evaluations_follow_their_arguments(kr270_marker):
             assert pincal.rho0(p, plan, q, sigma=s, aggregate=a) == pytest.approx(expected, rel=1e-12)
     loaded = pincal.rho0(params, plan, poses[0], task_payload=50.0)
     assert loaded == pytest.approx(fresh[0], rel=1e-12)  # no compliance: the payload changes nothing
+
+
+def test_a_test_pose_changed_in_place_is_a_new_test_pose(kr270_marker):
+    """rho0 keeps the criterion of the test pose's values, not of the array: the same array
+    changed in place gives the new pose's ρ0, and a value moved outside its limits is refused."""
+    params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
+    rng = np.random.default_rng(10)
+    plan = kr270_marker.random_configurations(12, rng)
+    q0 = kr270_marker.random_configurations(1, rng)[0]
+    first = pincal.rho0(params, plan, q0, sigma=SIGMA)
+    q0[1] = 0.5 * (q0[1] + kr270_marker.upper[1])
+    moved = pincal.rho0(params, plan, q0, sigma=SIGMA)
+    assert moved != first
+    assert moved == pytest.approx(TestPoseCriterion(params, q0, SIGMA)(plan), rel=1e-12)
+    q0[1] = kr270_marker.upper[1] + 0.1
+    with pytest.raises(BadConfiguration, match="test pose 0: joint"):
+        pincal.rho0(params, plan, q0, sigma=SIGMA)
+    q0[1] = np.inf
+    with pytest.raises(BadConfiguration, match="must be finite"):
+        pincal.rho0(params, plan, q0, sigma=SIGMA)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pincal.evaluation.criterion import singular_value_result
 from pincal.evaluation.weighted_trace import WeightedTrace
 
 
@@ -36,6 +37,7 @@ class AOptimal(WeightedTrace):
     def describe(self, value: float) -> str:
         return f"{self.label} {value:.4g}"
 
-    def from_singular_values(self, s: np.ndarray) -> float:
-        """tr M⁻¹ from the singular values of the stacked Jacobian (no prior)."""
-        return float(np.sum(1.0 / s**2))
+    def from_singular_values(self, s: np.ndarray) -> float | np.ndarray:
+        """tr M⁻¹ from the singular values of the stacked Jacobian (no prior): a float, or (k,)
+        for the singular values (k, P) of k plans."""
+        return singular_value_result(np.sum(1.0 / s**2, axis=-1))

@@ -77,18 +77,27 @@ def criteria_from_jacobian(J: np.ndarray, m: int) -> Criteria:
 def criteria_from_singular_values(s: np.ndarray, m: int, rows: int) -> Criteria:
     """Classic criteria from the singular values s (descending) of a regular plan's stacked
     Jacobian (m configurations, ``rows`` measured coordinates each)."""
-    n = len(s)
-    return Criteria(
-        log_det=DOptimal(rows).from_singular_values(s),
-        trace=AOptimal(n, rows).from_singular_values(s),
-        max_eig=EOptimal(rows).from_singular_values(s),
-        cond=Condition(rows).from_singular_values(s),
-        O1=float(np.exp(np.mean(np.log(s))) / np.sqrt(m)),
-        O2=float(s[-1] / s[0]),
-        O3=float(s[-1]),
-        O4=float(s[-1] ** 2 / s[0]),
-        n_params=n,
-        m=m,
+    return criteria_of_plans(s[None], m, rows)[0]
+
+
+def criteria_of_plans(S: np.ndarray, m: int, rows: int) -> tuple[Criteria, ...]:
+    """Classic criteria of k regular plans from the singular values S (k, P) (each row
+    descending) of their stacked Jacobians, every criterion computed for all k at once."""
+    n = S.shape[1]
+    smallest, largest = S[:, -1], S[:, 0]
+    columns = (
+        DOptimal(rows).from_singular_values(S),
+        AOptimal(n, rows).from_singular_values(S),
+        EOptimal(rows).from_singular_values(S),
+        Condition(rows).from_singular_values(S),
+        np.exp(np.mean(np.log(S), axis=1)) / np.sqrt(m),
+        smallest / largest,
+        smallest,
+        smallest**2 / largest,
+    )
+    return tuple(
+        Criteria(d, a, e, c, o1, o2, o3, o4, n, m)
+        for d, a, e, c, o1, o2, o3, o4 in zip(*(np.asarray(c).tolist() for c in columns))
     )
 
 
@@ -108,9 +117,6 @@ def criteria(
     engine = engine_for(params, optional_instrument(measure, instrument, DEFAULT_SIGMA))
     with blas_for(k * m):
         J = jacobians(engine, qs, plan_payloads(plan, qs.shape))  # a Plan's own payloads
-        if not batched:
-            return criteria_from_jacobian(J[0], m)
-        factor_batch(informations(J), engine.rows, m)
-        return tuple(
-            criteria_from_singular_values(s, m, engine.rows) for s in np.linalg.svd(J, compute_uv=False)
-        )
+        factor_batch(informations(J), engine.rows, m)  # raises SingularPlan like ρ0 does
+        found = criteria_of_plans(np.linalg.svd(J, compute_uv=False), m, engine.rows)
+    return found if batched else found[0]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pincal.evaluation.criterion import singular_value_result
 from pincal.evaluation.spectral import Spectral
 
 
@@ -28,6 +29,7 @@ class Condition(Spectral):
         G = -np.outer(lo, lo) / w[0]
         return 0.5 * (G + np.outer(hi, hi) / w[-1])
 
-    def from_singular_values(self, s: np.ndarray) -> float:
-        """σ_max/σ_min from the singular values of the stacked Jacobian (no prior)."""
-        return float(s[0] / s[-1])
+    def from_singular_values(self, s: np.ndarray) -> float | np.ndarray:
+        """σ_max/σ_min from the singular values of the stacked Jacobian (no prior): a float, or
+        (k,) for the singular values (k, P) of k plans."""
+        return singular_value_result(s[..., 0] / s[..., -1])

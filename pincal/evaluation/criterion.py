@@ -187,3 +187,9 @@ def scaled_eigh(
     w, V = np.linalg.eigh(scaled) if vectors else (np.linalg.eigvalsh(scaled), None)
     singular = w[:, 0] <= RCOND * np.maximum(w[:, -1], 1e-300)
     return d, w, V, singular
+
+
+def singular_value_result(value: np.ndarray) -> float | np.ndarray:
+    """A criterion from singular values: a float for one plan's (P,), the (k,) array for k plans'
+    (k, P) (the ``from_singular_values`` of the criteria)."""
+    return float(value) if np.ndim(value) == 0 else value

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pincal.evaluation.criterion import Criterion, scaled_eigh
+from pincal.evaluation.criterion import Criterion, scaled_eigh, singular_value_result
 from pincal.evaluation.information import factor
 from pincal.lapack import trtrs
 
@@ -37,9 +37,10 @@ class DOptimal(Criterion):
     def report(self, F):
         return F
 
-    def from_singular_values(self, s: np.ndarray) -> float:
-        """log det M⁻¹ from the singular values of the stacked Jacobian (no prior)."""
-        return float(-2.0 * np.sum(np.log(s)))
+    def from_singular_values(self, s: np.ndarray) -> float | np.ndarray:
+        """log det M⁻¹ from the singular values of the stacked Jacobian (no prior): a float, or
+        (k,) for the singular values (k, P) of k plans."""
+        return singular_value_result(-2.0 * np.sum(np.log(s), axis=-1))
 
     def batch_values(self, Ms: np.ndarray) -> np.ndarray:
         d, w, _, singular = scaled_eigh(self.posterior(Ms), vectors=False)

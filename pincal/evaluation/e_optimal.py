@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pincal.evaluation.criterion import singular_value_result
 from pincal.evaluation.spectral import Spectral
 
 
@@ -26,6 +27,7 @@ class EOptimal(Spectral):
         lo = V[:, 0]
         return -np.outer(lo, lo) / w[0]
 
-    def from_singular_values(self, s: np.ndarray) -> float:
-        """λ_max(M⁻¹) from the singular values of the stacked Jacobian (no prior)."""
-        return float(1.0 / s[-1] ** 2)
+    def from_singular_values(self, s: np.ndarray) -> float | np.ndarray:
+        """λ_max(M⁻¹) from the singular values of the stacked Jacobian (no prior): a float, or
+        (k,) for the singular values (k, P) of k plans."""
+        return singular_value_result(1.0 / s[..., -1] ** 2)

@@ -32,7 +32,6 @@ A plan whose M is singular (too few configurations, or degenerate ones) has no f
 from __future__ import annotations
 
 import threading
-from contextlib import nullcontext
 
 import numpy as np
 
@@ -48,7 +47,7 @@ from pincal.evaluation.weighted_trace import WeightedTrace
 from pincal.instruments.error_model import ErrorModel
 from pincal.instruments.instrument import Instrument, optional_instrument, orientation_length_of, tool_rows
 from pincal.instruments.kind import Kind
-from pincal.lapack import trsm
+from pincal.lapack import trsm, trsm_batch
 from pincal.model.parameters import ParameterSet
 from pincal.model.statics import payload_rows
 from pincal.typing import ConfigurationsLike, PayloadLike, PlansLike, TestPoseLike
@@ -199,7 +198,7 @@ class TestPoseCriterion:
         Ms = informations(jacobians(self.engine, qs, payload))
         L = factor_batch(self.posterior(Ms), self.rows, m)
         weights = self.weight_factor if self.aggregate == "mean" else self.J0T
-        X = np.linalg.solve(L, weights)
+        X = trsm_batch(L, weights)
         squares = np.einsum("kpr,kpr->kr", X, X)
         if self.aggregate == "mean":
             return self.sigma * np.sqrt(squares.sum(axis=1))
@@ -305,16 +304,20 @@ def _evaluate(
     orientation_length=None,
 ):
     qs, batched = plan_batch(params, plan)
-    n = qs.shape[0] * qs.shape[1] + len(np.atleast_2d(getattr(test_pose, "q", test_pose)))
-    small = len(qs) == 1 and aggregate == "mean" and n <= SMALL and not isinstance(test_pose, TestRegion)
-    with nullcontext() if small else blas_for(n):
-        if instrument is None and orientation_length is None:
+    payload = plan_payloads(plan, qs.shape)
+    plain = instrument is None and orientation_length is None
+    if plain and not batched and aggregate == "mean" and not isinstance(test_pose, TestRegion):
+        n = qs.shape[1] + len(np.atleast_2d(getattr(test_pose, "q", test_pose)))
+        if n <= SMALL:  # one small plan: see SMALL
+            return float(_criterion(params, test_pose, sigma, aggregate, prior, task_payload)(qs[0], payload))
+    with blas_for(qs.shape[0] * qs.shape[1]):
+        if plain:
             criterion = _criterion(params, test_pose, sigma, aggregate, prior, task_payload)
         else:  # an instrument's criterion is built for the call
             criterion = TestPoseCriterion(
                 params, test_pose, sigma, aggregate, prior, task_payload, instrument, orientation_length
             )
-        values = criterion.plans(qs, plan_payloads(plan, qs.shape))
+        values = criterion.plans(qs, payload)
     if batched:
         return values
     return np.asarray(values[0], dtype=float) if aggregate == "each" else float(values[0])
@@ -390,23 +393,28 @@ def _criterion(params, test_pose, sigma, aggregate, prior, task_payload) -> Test
     if prior is not None:
         return TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
     sigma = positive_sigma(sigma)
-    poses, _ = resolve_test_poses(params.robot, test_pose)  # checked, as the criterion would
-    rows = payload_rows(task_payload, len(poses))
-    key = (
-        id(params),
-        poses.shape,
-        poses.tobytes(),
-        float(sigma),
-        aggregate,
-        None if rows is None else rows.tobytes(),
-        type(test_pose).__name__,
-    )
     kept = getattr(_LOCAL, "criteria", None)
     if kept is None:
         kept = _LOCAL.criteria = {}
+    if type(test_pose) is np.ndarray and test_pose.dtype == np.float64 and task_payload is None:
+        # The values as given: equal bytes are equal test poses, checked when first seen (a
+        # changed array is a new key, so nothing kept goes stale).
+        key: tuple = (id(params), test_pose.shape, test_pose.tobytes(), sigma, aggregate)
+    else:
+        poses, _ = resolve_test_poses(params.robot, test_pose)  # checked, as the criterion would
+        rows = payload_rows(task_payload, len(poses))
+        key = (
+            id(params),
+            poses.shape,
+            poses.tobytes(),
+            sigma,
+            aggregate,
+            None if rows is None else rows.tobytes(),
+            type(test_pose).__name__,
+        )
     criterion = kept.pop(key, None)
     if criterion is None or criterion.params is not params:
-        with blas_for(len(poses)):
+        with blas_for(0):  # J₀ of a region's samples is a large product
             criterion = TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
         if len(kept) >= _KEPT:
             kept.pop(next(iter(kept)))

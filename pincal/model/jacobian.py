@@ -115,9 +115,8 @@ class JacobianEngine:
         self.const = self.G @ tip_twist + const
         self.base_cols = base_cols
         self.needs_pose = bool(base_cols)
-        # J_i = [Reg_i, I] @ [C; const]: one matrix product for all configurations.
-        self.C_ext = np.vstack([C, self.const])
-        self._buffers: dict[int, tuple] = {}
+        # J_i = Reg_i·C + const: one matrix product for all configurations, then the constant.
+        self.has_const = bool(self.const.any())
         # Gain and compliance columns: the joint's column times q_j or τ_j, per configuration.
         self.gain_cols, self.gain_joints = _split(joint_terms["gain"])
         self.compliance_cols, self.compliance_joints = _split(joint_terms["compliance"])
@@ -140,56 +139,59 @@ class JacobianEngine:
         assert self.gravity is not None  # built when the set has compliances
         return theta, self.gravity.torques(theta, loads)
 
-    def _buffer(self, m: int) -> tuple[np.ndarray, list[list[np.ndarray]]]:
-        """A reusable (m, 3K, 6·nq + 3K) regressor buffer and views of its per-marker blocks."""
-        cached = self._buffers.get(m)
-        if cached is None:
-            n = 6 * self.model.nq
-            buf = np.zeros((m, self.rows, n + self.rows))
-            buf[:, :, n:] = np.eye(self.rows)
-            views = [[buf[i, 3 * k : 3 * k + 3, :n] for k in range(self.rows // 3)] for i in range(m)]
-            if len(self._buffers) > 16:
-                self._buffers.clear()
-            cached = self._buffers[m] = (buf, views)
-        return cached
-
     def regressors(self, qs: np.ndarray, pose: bool = False, payload: PayloadLike = None):
         """Linear rows of the kinematic regressor at each marker, in the tip frame's axes, at the
         joint readings ``qs`` (under ``payload`` on a compliant robot).
 
         Returns:
-            (m, 3K, 6·nq + 3K) regressors: a twist of joint placement j moves marker k by
-            ``reg[i, 3k:3k+3, 6(j-1):6j] @ twist``; the last 3K columns are an identity (they carry
-            the constant columns). With ``pose``, also the tip's world rotations (m, 3, 3) and
-            positions (m, 3) in the robot base frame, else None, None. The array is a buffer of
-            the engine's, overwritten by the next call.
+            (m, 3K, 6·nq) regressors: a twist of joint placement j moves marker k by
+            ``reg[i, 3k:3k+3, 6(j-1):6j] @ twist``. With ``pose``, also the tip's world rotations
+            (m, 3, 3) and positions (m, 3) in the robot base frame, else None, None.
         """
         return self._regressors(self.joint_values(qs, payload)[0], pose)
 
     def _regressors(self, configurations: np.ndarray, pose: bool):
-        """:meth:`regressors` at the joints' actual values."""
+        """:meth:`regressors` at the joints' actual values (one forward kinematics and one
+        kinematic regressor per configuration and marker)."""
         model, data, joint = self.model, self.data, self.joint
         m = len(configurations)
-        reg, views = self._buffer(m)
-        rot = np.empty((m, 3, 3)) if pose else None
-        pos = np.empty((m, 3)) if pose else None
         regressor, fk, local = pin.computeJointKinematicRegressor, pin.forwardKinematics, pin.LOCAL
         points = self.points
-        if not pose and len(points) == 1:  # the hot path of searches: one marker, no pose
-            point = points[0]
-            for q, (view,) in zip(configurations, views):
-                fk(model, data, q)
-                view[...] = regressor(model, data, joint, local, point)[:3]
-            return reg, None, None
-        for i, (q, row) in enumerate(zip(configurations, views)):
+        if not pose and len(points) == 1 and m:  # the hot path: one marker, no pose
+            return self._single(configurations), None, None
+        reg = np.empty((m, self.rows, 6 * model.nq))
+        rot = np.empty((m, 3, 3)) if pose else None
+        pos = np.empty((m, 3)) if pose else None
+        for i, q in enumerate(configurations):
             fk(model, data, q)
-            for view, point in zip(row, points):
-                view[...] = regressor(model, data, joint, local, point)[:3]
+            for k, point in enumerate(points):
+                reg[i, 3 * k : 3 * k + 3] = regressor(model, data, joint, local, point)[:3]
             if rot is not None and pos is not None:
                 tip = data.oMi[joint] * self.placement
                 rot[i] = tip.rotation
                 pos[i] = tip.translation
         return reg, rot, pos
+
+    def _single(self, configurations: np.ndarray) -> np.ndarray:
+        """(m, 3, 6·nq) the linear rows of the one marker's kinematic regressors: the bare
+        Pinocchio work, each regressor's rows kept as Pinocchio returns them and one array made of
+        them at the end (about half the cost of writing each into a buffer)."""
+        model, data, joint, point = self.model, self.data, self.joint, self.points[0]
+        regressor, fk, local = pin.computeJointKinematicRegressor, pin.forwardKinematics, pin.LOCAL
+        out: list[np.ndarray] = []
+        keep = out.append
+        for q in configurations:
+            fk(model, data, q)
+            keep(regressor(model, data, joint, local, point)[:3])
+        return np.concatenate(out).reshape(len(out), 3, -1)
+
+    def _columns(self, reg: np.ndarray) -> np.ndarray:
+        """(m, r, P) Reg·C + const for contiguous regressor rows (m, r, 6·nq)."""
+        m, r, n = reg.shape
+        J = (reg.reshape(-1, n) @ self.C).reshape(m, r, self.n_params)
+        if self.has_const:
+            J += self.const
+        return J
 
     def jacobian(self, qs: np.ndarray, frame: str = "tip", payload: PayloadLike = None) -> np.ndarray:
         """(m, 3K, P) parameter Jacobian at configurations ``qs`` (validated by the caller).
@@ -205,7 +207,7 @@ class JacobianEngine:
         pose = frame == "world" or self.needs_pose
         configurations, tau = self.joint_values(qs, payload)
         reg, rot, pos = self._regressors(configurations, pose)
-        J = (reg.reshape(-1, reg.shape[2]) @ self.C_ext).reshape(len(qs), self.rows, self.n_params)
+        J = self._columns(reg)
         if self.gain_cols.size:
             J[:, :, self.gain_cols] *= qs[:, None, self.gain_joints]
         if tau is not None:  # the set has compliances

@@ -262,6 +262,15 @@ class Robot:
                 f"{what}: expected {self.nq} joint values ({', '.join(self.joint_names)}), "
                 f"got shape {np.shape(values)}"
             )
+        model = self.model
+        # The common case in one expression: every value finite and within its limits; the slow
+        # path below finds and names the first bad value.
+        if (
+            np.isfinite(arr)
+            & (arr >= model.lowerPositionLimit - LIMIT_TOLERANCE)
+            & (arr <= model.upperPositionLimit + LIMIT_TOLERANCE)
+        ).all():
+            return arr
         bad = ~np.isfinite(arr)
         if bad.any():
             i, j = np.argwhere(bad)[0]
