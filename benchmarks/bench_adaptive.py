@@ -28,8 +28,8 @@ import pincal
 from pincal.campaign.rehearsal import Faults, one_shot_plan, rehearse, summary
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import load, machine  # noqa: E402
 from bench_campaign import write_section  # noqa: E402
-from bench_design import load, machine  # noqa: E402
 
 SIGMA = 3e-5
 TARGET = 2e-5

@@ -32,7 +32,7 @@ from pincal.planning.constraints import Mount, Obstacle, Workcell, with_safety
 from pincal.planning.feasibility import Feasibility
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_design import load, machine  # noqa: E402
+from _common import load, machine  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 Q0 = np.radians([0, -60, 60, 0, 45, 0])

@@ -17,15 +17,13 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import os
-import platform
-import re
 import sys
 import time
 import warnings
 from pathlib import Path
 
 import numpy as np
+from _common import load, machine, write  # benchmarks/ is on sys.path when run as a script
 
 import pincal
 from pincal.planning.baselines import random_plans
@@ -35,22 +33,6 @@ ROOT = Path(__file__).resolve().parents[1]
 Q0 = np.radians([0, -90, 90, 0, 45, 0])
 SIGMA = 3e-5
 TARGET = {4: 10.0, 12: 60.0}
-
-
-def machine() -> str:
-    model = "unknown CPU"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{model}, nproc {os.cpu_count()}, Python {platform.python_version()}, pinocchio {pincal.model.robot.pin.__version__}"
-
-
-def load() -> str:
-    return " / ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 def quiet_design(*args, **kwargs):
@@ -185,19 +167,6 @@ def main() -> list[str]:
     return lines
 
 
-def write(lines: list[str], name: str = "bench_design") -> None:
-    """Replace (or append) the ``## name`` section of RESULTS.md with ``lines``."""
-    path = ROOT / "benchmarks" / "RESULTS.md"
-    text = path.read_text() if path.exists() else "# Benchmark results\n"
-    section = f"## {name}\n\n" + "\n".join(lines).rstrip() + "\n"
-    pattern = re.compile(rf"^## {re.escape(name)}\n.*?(?=^## |\Z)", re.S | re.M)
-    if pattern.search(text):
-        text = pattern.sub(lambda _: section + "\n", text).rstrip() + "\n"
-    else:
-        text = text.rstrip() + "\n\n" + section
-    path.write_text(text)
-
-
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -206,4 +175,4 @@ if __name__ == "__main__":
     args = parser.parse_args()
     figures = main()
     if args.write:
-        write(figures)
+        write(figures, "bench_design")

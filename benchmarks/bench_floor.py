@@ -15,7 +15,6 @@ the joint limits), and whether the design warned (floor binding / effectively si
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 import time
 import warnings
@@ -26,7 +25,7 @@ import numpy as np
 import pincal
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_design import load, machine  # noqa: E402
+from _common import load, machine, write  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SIGMA = 3e-5
@@ -104,18 +103,6 @@ def main() -> list[str]:
     return lines
 
 
-def write(lines: list[str]) -> None:
-    path = ROOT / "benchmarks" / "RESULTS.md"
-    text = path.read_text()
-    section = "## bench_floor\n\n" + "\n".join(lines).rstrip() + "\n"
-    pattern = re.compile(r"## bench_floor\n.*?(?=\n## |\Z)", re.S)
-    if pattern.search(text):
-        text = pattern.sub(lambda _: section, text).rstrip() + "\n"
-    else:
-        text = text.rstrip() + "\n\n" + section
-    path.write_text(text)
-
-
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help="replace the bench_floor section of RESULTS.md")
@@ -123,4 +110,4 @@ if __name__ == "__main__":
     out = main()
     print("\n".join(out))
     if args.write:
-        write(out)
+        write(out, "bench_floor")

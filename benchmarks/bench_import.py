@@ -24,7 +24,7 @@ import sys
 import time
 from pathlib import Path
 
-from bench_design import load, machine, write  # benchmarks/ is on sys.path when run as a script
+from _common import load, machine, write  # benchmarks/ is on sys.path when run as a script
 
 ROOT = Path(__file__).resolve().parents[1]
 

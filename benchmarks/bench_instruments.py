@@ -14,11 +14,10 @@ so wall time says more about the neighbours than about pincal.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 
 import numpy as np
 import pinocchio as pin
+from _common import cpu_seconds, load, machine  # benchmarks/ is on sys.path when run as a script
 
 import pincal
 from pincal.errors import Infeasible, SingularPlan
@@ -46,13 +45,6 @@ class _Printed(list):
         super().append(line)
 
 
-def cpu() -> float:
-    """CPU seconds (user + system) of this process and of its finished children (a design's worker
-    processes)."""
-    t = os.times()
-    return t.user + t.system + t.children_user + t.children_system
-
-
 def recovered(params, truth, plan, measure, error, seed) -> tuple[float, float]:
     """(RMS z, max |z|) of one simulated campaign's estimates against the truth."""
     data = pincal.simulate_measurements(truth, plan, seed=seed, measure=measure, instrument=error)
@@ -64,12 +56,12 @@ def recovered(params, truth, plan, measure, error, seed) -> tuple[float, float]:
 
 def campaign(name, params, m, q0, measure, error, trials, seed, **design):
     """One row: design, recovery, Monte-Carlo."""
-    t = cpu()
+    t = cpu_seconds()
     result = pincal.design(params, m, q0, measure=measure, instrument=error, seed=seed, **design)
-    t_design = cpu() - t
+    t_design = cpu_seconds() - t
     truth = pincal.random_errors(params, error_std=ERRORS, seed=seed + 1)
     z_rms, z_max = recovered(params, truth, result.plan, measure, error, seed + 2)
-    t = cpu()
+    t = cpu_seconds()
     mc = pincal.monte_carlo(
         params,
         result.plan,
@@ -80,7 +72,7 @@ def campaign(name, params, m, q0, measure, error, trials, seed, **design):
         measure=measure,
         instrument=error,
     )
-    t_mc = cpu() - t
+    t_mc = cpu_seconds() - t
     return (
         f"| {name} | {len(params)} | {m} | {result.rho0 * 1e3:.4g} mm | {z_rms:.2f} / {z_max:.2f} | "
         f"{mc.rho0_empirical * 1e3:.4g} ± {mc.rho0_empirical_se * 1e3:.2g} mm ({mc.trials - mc.failures} trials) | "
@@ -159,12 +151,12 @@ def pose_against_point() -> list[str]:
         "| ---: | ---: | ---: | ---: |",
     ]
     for target in (0.1e-3, 0.05e-3, 0.03e-3):
-        t = cpu()
+        t = cpu_seconds()
         m_point, r_point = configurations_for(points, UR10_Q0, target, None, mocap, 1)
         m_pose, r_pose = configurations_for(poses, UR10_Q0, target, Pose(), mocap, 1)
         rows.append(
             f"| {target * 1e3:g} mm | {m_point}, {r_point * 1e3:.4g} mm ({len(points)} parameters) | "
-            f"{m_pose}, {r_pose * 1e3:.4g} mm ({len(poses)} parameters) | {cpu() - t:.0f} s |"
+            f"{m_pose}, {r_pose * 1e3:.4g} mm ({len(poses)} parameters) | {cpu_seconds() - t:.0f} s |"
         )
     return rows
 
@@ -172,12 +164,12 @@ def pose_against_point() -> list[str]:
 def placement() -> list[str]:
     ur10 = pincal.load_robot("ur10", markers=[MARKER])
     params = ur10.parameters("full,offsets").identifiable().identifiable
-    t = cpu()
+    t = cpu_seconds()
     placed = place_instrument(params, 12, UR10_Q0, ((1.5, -2.0, 0.75), (9.0, 2.0, 0.75)), steps=3, refine=1,
                               starts=4, pool=500, seed=5, workers=1)  # fmt: skip
     return [
         f"- Box x 1.5–9 m, y ±2 m, z 0.75 m; {len(placed.values)} positions tried "
-        f"({int(np.sum(~np.isfinite(placed.values)))} without a feasible plan); CPU {cpu() - t:.0f} s.",
+        f"({int(np.sum(~np.isfinite(placed.values)))} without a feasible plan); CPU {cpu_seconds() - t:.0f} s.",
         *[f"- {line.strip()}" for line in placed.lines()],
     ]
 
@@ -187,9 +179,7 @@ def main() -> None:
     parser.add_argument("--trials", type=int, default=100, help="Monte-Carlo trials per campaign")
     parser.add_argument("--only", choices=("campaigns", "pose", "placement"))
     args = parser.parse_args()
-    print(f"- Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores; Python "
-          f"{platform.python_version()}, pinocchio {pin.__version__}, numpy {np.__version__}; load average "
-          f"{' / '.join(f'{v:.1f}' for v in os.getloadavg())} at start.")  # fmt: skip
+    print(f"- Machine: {machine()}; load average {load()} at start.")
     sections = {
         "campaigns": lambda: campaigns(args.trials),
         "pose": pose_against_point,

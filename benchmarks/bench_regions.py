@@ -26,7 +26,8 @@ import timeit
 import warnings
 
 import numpy as np
-from bench_design import load, machine, mm, write  # benchmarks/ is on sys.path when run as a script
+from _common import load, machine, write  # benchmarks/ is on sys.path when run as a script
+from bench_design import mm
 
 import pincal
 

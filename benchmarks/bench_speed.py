@@ -36,7 +36,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from bench_design import load, machine, write  # benchmarks/ is on sys.path when run as a script
+from _common import load, machine, write  # benchmarks/ is on sys.path when run as a script
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (
@@ -62,7 +62,7 @@ print(json.dumps(out))
 """
 
 EVALUATIONS = """
-import json, timeit
+import json, time
 import numpy as np
 import pinocchio as pin
 import pincal
@@ -79,12 +79,12 @@ def bare(qs):
     for q in qs:
         fk(model, data, q)
         regressor(model, data, joint, local, point)
-def best(f, number):
-    return min(timeit.timeit(f, number=number) / number for _ in range(3))
-out = {"P": len(params), "m": 12}
-out["bare"] = best(lambda: bare(plans[0]), 200)
-out["bare_1000"] = best(lambda: bare(plans.reshape(-1, plans.shape[-1])), 1) / 1000
-out["rho0_one"] = best(lambda: pincal.rho0(params, plans[0], q0), 100)
+def cpu(f, number):
+    # CPU time of the process (every thread: a spinning BLAS thread counts) per call
+    t = time.process_time()
+    for _ in range(number):
+        f()
+    return (time.process_time() - t) / number
 def batch(function, k):
     try:
         function(params, plans[:2], q0) if function is pincal.rho0 else function(params, plans[:2])
@@ -93,17 +93,42 @@ def batch(function, k):
             return lambda: [function(params, p, q0) for p in plans[:k]]
         return lambda: [function(params, p) for p in plans[:k]]
     return (lambda: function(params, plans[:k], q0)) if function is pincal.rho0 else (lambda: function(params, plans[:k]))
-for k in (100, 1000):
-    out[f"rho0_batch_{k}"] = best(batch(pincal.rho0, k), max(1, 200 // k)) / k
-out["criteria_one"] = best(lambda: pincal.criteria(params, plans[0]), 50)
-out["criteria_batch_1000"] = best(batch(pincal.criteria, 1000), 1) / 1000
+small = dict(samples=64, workspace=256)
+def accuracy_batch(k):
+    try:
+        pincal.accuracy(params, plans[:2], q0, sigma=3e-5, **small)
+        return lambda: pincal.accuracy(params, plans[:k], q0, sigma=3e-5, **small)
+    except Exception:
+        return lambda: [pincal.accuracy(params, p, q0, sigma=3e-5, **small) for p in plans[:k]]
 region = pincal.around(q0[0], np.radians(10))
-out["rho0_region_one"] = best(lambda: pincal.rho0(params, plans[0], region), 5)
+n_report = 1 + 2 * small["samples"] + small["workspace"]  # the configurations an accuracy report covers
+cases = {
+    "bare": (lambda: bare(plans[0]), 200, 1),
+    "bare_1000": (lambda: bare(plans.reshape(-1, plans.shape[-1])), 1, 1000),
+    "rho0_one": (lambda: pincal.rho0(params, plans[0], q0), 200, 1),
+    "rho0_batch_100": (batch(pincal.rho0, 100), 2, 100),
+    "rho0_batch_1000": (batch(pincal.rho0, 1000), 1, 1000),
+    "criteria_one": (lambda: pincal.criteria(params, plans[0]), 100, 1),
+    "criteria_batch_100": (batch(pincal.criteria, 100), 2, 100),
+    "criteria_batch_1000": (batch(pincal.criteria, 1000), 1, 1000),
+    "rho0_region_one": (lambda: pincal.rho0(params, plans[0], region), 5, 1),
+    "bare_report": (lambda: bare(plans.reshape(-1, plans.shape[-1])[: 12 + n_report]), 5, 1),
+    "accuracy_one": (lambda: pincal.accuracy(params, plans[0], q0, sigma=3e-5, **small), 5, 1),
+    "accuracy_batch_100": (accuracy_batch(100), 1, 100),
+}
+for f, _, _ in cases.values():  # warm-up: imports, engines, the criteria kept
+    f()
+times = {name: [] for name in cases}
+for _ in range(5):  # interleaved, the best of five
+    for name, (f, number, k) in cases.items():
+        times[name].append(cpu(f, number) / k)
+out = {"P": len(params), "m": 12, "n_report": n_report}
+out.update({name: min(t) for name, t in times.items()})
 print(json.dumps(out))
 """
 
 GROWTH = """
-import json, sys, time, warnings
+import json, resource, sys, warnings
 import numpy as np
 import pincal
 warnings.simplefilter("ignore")
@@ -112,17 +137,22 @@ q0 = np.radians([0, -60, 60, 0, 45, 0])
 sweep = np.radians([30, 10, -10, 20, 15, 30])
 def path(n):
     return pincal.TestPath(q0 + np.linspace(-1, 1, n)[:, None] * sweep)
+def cpu():
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 def timed(params, m=12, pool=2000, test=q0):
-    t = time.perf_counter()
+    t = cpu()
     pincal.design(params, m, test, starts=4, seed=0, workers=1, pool=pool, polish=False)
-    return time.perf_counter() - t
+    return cpu() - t
 full = robot.parameters("full,offsets").identifiable().identifiable
-small = robot.parameters("lengths,offsets").identifiable().identifiable
+sets = [robot.parameters(g).identifiable().identifiable for g in ("offsets", "lengths,offsets", "full,offsets", "full,offsets,gains")]
+timed(full)  # warm-up: imports, the engine's first build
 out = {
-    "m": [(m, timed(full, m=m)) for m in (10, 20, 40)],
-    "P": [(len(p), timed(p)) for p in (small, full)],
-    "pool": [(n, timed(full, pool=n)) for n in (500, 1000, 2000, 4000)],
-    "poses": [(n, timed(full, test=path(n))) for n in (1, 100, 10000)],
+    "m": [(m, timed(full, m=m)) for m in (10, 20, 40, 80)],
+    "P": [(len(p), timed(p)) for p in sets],
+    "pool": [(n, timed(full, pool=n)) for n in (500, 1000, 2000, 4000, 8000)],
+    "poses": [(n, timed(full, test=path(n))) for n in (1, 100, 1000, 10000)],
+    "samples": [(n, timed(full, test=pincal.around(q0, np.radians(10), samples=n))) for n in (16, 256, 4096)],
 }
 print(json.dumps(out))
 """
@@ -244,31 +274,40 @@ def main() -> list[str]:
         say("### Public evaluations against the bare Pinocchio work (KR 270, 27 parameters, m = 12)")
         say()
         say(
-            f"BLAS threads as the process starts (OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')})."
+            "CPU time of the process per plan (every thread counted), best of 5 interleaved; BLAS threads as "
+            f"the process starts (OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')})."
         )
         say()
         results = {name: run_python(tree, EVALUATIONS) for name, tree in trees.items()}
         say("| evaluation | " + " | ".join(f"{n} [µs per plan]" for n in results) + " | this / bare |")
         say("| --- |" + " ---: |" * (len(results) + 1))
+        n_report = results["this"]["n_report"]
         rows = [
-            ("bare: FK + regressor, 12 configurations", "bare"),
-            ("bare, per 12 of 12 000 configurations", "bare_1000"),
-            ("rho0, one plan", "rho0_one"),
-            ("rho0, batch of 100 plans (before: a loop)", "rho0_batch_100"),
-            ("rho0, batch of 1000 plans (before: a loop)", "rho0_batch_1000"),
-            ("criteria, one plan", "criteria_one"),
-            ("criteria, batch of 1000 plans (before: a loop)", "criteria_batch_1000"),
-            ("rho0 over a ±10° region, one plan", "rho0_region_one"),
+            ("bare: FK + regressor, 12 configurations", "bare", "bare"),
+            ("bare, per 12 of 12 000 configurations", "bare_1000", "bare"),
+            ("rho0, one plan", "rho0_one", "bare"),
+            ("rho0, batch of 100 plans (before: a loop)", "rho0_batch_100", "bare"),
+            ("rho0, batch of 1000 plans (before: a loop)", "rho0_batch_1000", "bare"),
+            ("criteria, one plan", "criteria_one", "bare"),
+            ("criteria, batch of 100 plans (before: a loop)", "criteria_batch_100", "bare"),
+            ("criteria, batch of 1000 plans (before: a loop)", "criteria_batch_1000", "bare"),
+            ("rho0 over a ±10° region (256 samples), one plan", "rho0_region_one", "bare"),
+            (
+                f"bare: FK + regressor, 12 + {n_report} configurations (an accuracy report's)",
+                "bare_report",
+                "bare_report",
+            ),
+            ("accuracy, one plan (64 + 64 + 256 samples)", "accuracy_one", "bare_report"),
+            ("accuracy, batch of 100 plans (before: a loop)", "accuracy_batch_100", "bare_report"),
         ]
-        for label, key in rows:
+        for label, key, floor in rows:
             cells = [("—" if r.get(key) is None else f"{r[key] * 1e6:.1f}") for r in results.values()]
-            ratio = (
-                results["this"][key] / results["this"]["bare"] if results["this"].get(key) else float("nan")
-            )
-            say(f"| {label} | " + " | ".join(cells) + f" | {ratio:.2f} |")
+            this = results["this"]
+            ratio = this[key] / this[floor] if this.get(key) else float("nan")
+            say(f"| {label} | " + " | ".join(cells) + f" | {ratio:.2f} ({floor}) |")
         say()
     if "growth" not in skip:
-        say("### Growth of the design time (this code; one worker, 4 starts, no polish)")
+        say("### Growth of the design time (this code; CPU time, one worker, 4 starts, no polish)")
         say()
         g = run_python(ROOT, GROWTH)
         for key, what in (
@@ -276,6 +315,7 @@ def main() -> list[str]:
             ("P", "parameters"),
             ("pool", "pool size"),
             ("poses", "test poses (path points)"),
+            ("samples", "region samples (±10°)"),
         ):
             pts = ", ".join(f"{n}: {t:.2f} s" for n, t in g[key])
             say(f"- {what}: {pts}; exponent {exponent(g[key]):.2f}.")
