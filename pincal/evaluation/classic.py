@@ -13,6 +13,7 @@ minimises (:mod:`pincal.evaluation.d_optimal`, ...), here from the singular valu
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,7 +24,15 @@ from pincal.evaluation.condition import Condition
 from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.e_optimal import EOptimal
 from pincal.evaluation.information import factor, factor_batch
-from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch, plan_payloads
+from pincal.evaluation.plans import (
+    SMALL,
+    blas_for,
+    engine_for,
+    informations,
+    jacobians,
+    plan_batch,
+    plan_payloads,
+)
 from pincal.instruments.error_model import ErrorModel
 from pincal.instruments.instrument import optional_instrument
 from pincal.instruments.kind import Kind
@@ -115,7 +124,7 @@ def criteria(
     qs, batched = plan_batch(params, plan)
     k, m, _ = qs.shape
     engine = engine_for(params, optional_instrument(measure, instrument, DEFAULT_SIGMA))
-    with blas_for(k * m):
+    with nullcontext() if k * m <= SMALL else blas_for(k * m):
         J = jacobians(engine, qs, plan_payloads(plan, qs.shape))  # a Plan's own payloads
         factor_batch(informations(J), engine.rows, m)  # raises SingularPlan like ρ0 does
         found = criteria_of_plans(np.linalg.svd(J, compute_uv=False), m, engine.rows)

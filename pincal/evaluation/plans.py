@@ -52,6 +52,13 @@ def engine_for(params: ParameterSet, instrument: Instrument | None = None) -> Ja
     return engine
 
 
+SMALL = 64
+"""One plan with at most this many configurations (and test poses, for ρ0) is evaluated with BLAS as
+the caller has it: every operation on it is on one thread at that size (ρ0's triangular solve is
+BLAS trsm, not LAPACK trtrs, which OpenBLAS splits over its threads even for 27 unknowns), and
+setting and restoring the thread count would cost more than the evaluation."""
+
+
 def blas_for(configurations: int) -> AbstractContextManager:
     """One BLAS thread for an evaluation (of this many configurations: whatever their number)."""
     return single_threaded()

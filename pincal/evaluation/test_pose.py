@@ -39,7 +39,15 @@ from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
 from pincal.evaluation.information import factor, factor_batch, information_matrix
-from pincal.evaluation.plans import blas_for, engine_for, informations, jacobians, plan_batch, plan_payloads
+from pincal.evaluation.plans import (
+    SMALL,
+    blas_for,
+    engine_for,
+    informations,
+    jacobians,
+    plan_batch,
+    plan_payloads,
+)
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestRegion, resolve_test_poses
 from pincal.evaluation.test_pose_worst import TestPoseWorst
@@ -283,13 +291,6 @@ def rho0_each(
     :func:`rho0`)."""
     inst = optional_instrument(measure, instrument, positive_sigma(sigma))
     return _evaluate(params, plan, test_pose, sigma, "each", prior, task_payload, inst, orientation_length)
-
-
-SMALL = 64
-"""One plan's ρ0 (mean over its test poses) with at most this many configurations and test poses
-runs with BLAS as the caller has it: every operation on it is on one thread at that size (its
-triangular solve is BLAS trsm, not LAPACK trtrs, which OpenBLAS splits over its threads even for
-27 unknowns), and setting and restoring the thread count would cost more than the evaluation."""
 
 
 def _evaluate(
