@@ -411,7 +411,7 @@ def test_progress_off_a_terminal_is_a_line_per_interval_counting_the_starts(leng
     """With stderr not a terminal (a CI log, a pipe), a design reports in lines — the starts done of
     the starts asked (the same count the result reports), then the polished ones, the best value
     with its unit."""
-    from pincal.planning import progress
+    from pincal import progress  # the reporter every long command shares
 
     monkeypatch.setattr(progress, "EVERY", 0.0)
     result = design(lengths, 3, test_pose=[0.3, 1.0], starts=4, seed=0, workers=1, sigma=1e-4, progress=True)

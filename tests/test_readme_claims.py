@@ -190,6 +190,7 @@ from pincal.planning.choice import SINGULAR_WARNING  # noqa: E402
 from pincal.planning.constraints import DEFAULT_JOINT_LIMITS  # noqa: E402
 from pincal.planning.constraints.collision_world import LINK_RADIUS, REFINE_BELOW  # noqa: E402
 from pincal.planning.driver import DEFAULT_POOL, MIN_CONDITIONING  # noqa: E402
+from pincal.progress import EVERY as PROGRESS_EVERY  # noqa: E402
 
 MIB, GIB = 2**20, 2**30
 RESULTS = "benchmarks/RESULTS.md"
@@ -418,6 +419,7 @@ CLAIMS: tuple[Claim, ...] = (
     Claim("(2√(|Δq|/a) when", GIVEN),
     Claim("`--speed 0.5` for a 50 % override", GIVEN),
     Claim("(`--settle`, 0.5 s)", equals(DEFAULT_SETTLE)),
+    Claim("else a line every 5 s (`--no-progress`", equals(PROGRESS_EVERY)),
     Claim("(`--dwell tracker`: 2 s,", equals(DWELLS["tracker"])),
     Claim("`probe`: 10 s, a 6-DoF probe", equals(DWELLS["probe"], 6)),
     Claim("IEEE T-RO 2005", GIVEN),

@@ -28,6 +28,7 @@ from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.model.statics import payload_rows
 from pincal.planning.plan import Plan
+from pincal.progress import Steps
 from pincal.typing import ConfigurationsLike, PayloadLike, SeedLike
 
 QUANTILES = (0.5, 0.9, 0.95, 0.99)
@@ -124,6 +125,7 @@ def monte_carlo(
     measure: Kind | None = None,
     instrument: ErrorModel | None = None,
     orientation_length: float | None = None,
+    progress: bool = False,
 ) -> MonteCarloResult:
     """Check a plan by simulation: does calibration deliver the predicted ρ0 at the test pose(s)?
 
@@ -152,6 +154,8 @@ def monte_carlo(
             (default ``sigma`` per length and pincal's default σ of angles and pixels).
         orientation_length: L [m]: the error at the test pose also counts L times the tool's
             orientation error (and the prediction its expectation), as the test-pose criterion does.
+        progress: report the trials done on stderr (a bar on a terminal, else a line every few
+            seconds).
 
     Returns:
         the comparison; ``nonlinear`` and ``note`` say whether the linear prediction held.
@@ -185,7 +189,7 @@ def monte_carlo(
     errors = {"length": length_std, "angle": angle_std}
     length = orientation_length_of(orientation_length)
     check = _Check(params, qs, q0, float(sigma), errors, int(trials), loads, task, inst, length)
-    runs = _run_trials(check, generator(seed))
+    runs = _run_trials(check, generator(seed), Steps(progress, "monte carlo", "trial"))
     n = len(runs.errors)
     if n < 2:
         raise BadArgument(
@@ -246,15 +250,15 @@ class _Runs:
     local_minima: int
 
 
-def _run_trials(check: _Check, rng: np.random.Generator) -> _Runs:
-    """Each trial: draw the truth, simulate, identify, score (see :func:`monte_carlo`)."""
+def _run_trials(check: _Check, rng: np.random.Generator, steps: Steps) -> _Runs:
+    """Each trial: draw the truth, simulate, identify, score (see :func:`monte_carlo`); each a step."""
     params, qs, q0, sigma = check.params, check.qs, check.q0, check.sigma
     task, plan = check.task_payload, _planned(params.robot, qs, check.payload)
     errors, before, at_truth = [], [], []
     failures = local_minima = 0
     inst, length = check.instrument, check.orientation_length
     kind, error = (None, None) if inst is None else (inst.kind, inst.error)
-    for _ in range(check.trials):
+    for _ in steps.each("done", range(check.trials)):
         truth = random_errors(params, error_std=check.error_std, seed=rng)
         data = simulate_measurements(
             truth.robot, qs, sigma, seed=rng, payload=check.payload, measure=kind, instrument=error

@@ -236,6 +236,7 @@ def next_poses(
     workers: int | None = 1,
     pool: PoolLike = None,
     polish: bool | None = None,
+    progress: bool = False,
 ) -> NextPoses:
     """The next ``k`` poses to measure given the data so far, or stop (see the module doc).
 
@@ -253,7 +254,8 @@ def next_poses(
         constraints, joint_margin, mount: the workcell and the safe defaults, as for
             :func:`pincal.design`.
         reject: rows beyond this many robust σ are outliers, dropped.
-        starts, seed, workers, pool, polish: the next design's search (see :func:`pincal.design`).
+        starts, seed, workers, pool, polish, progress: the next design's search (see
+            :func:`pincal.design`).
 
     Raises:
         SingularPlan: ``k`` poses cannot complete what the data leave undetermined (the message
@@ -283,7 +285,7 @@ def next_poses(
         warnings.simplefilter("ignore", DegenerateOptimumWarning)
         result = design(
             params, k, test_pose, prior=a.measured, sigma=a.sigma, constraints=cell, starts=starts, seed=seed,
-            workers=workers, pool=pool, polish=polish,
+            workers=workers, pool=pool, polish=polish, progress=progress,
         )  # fmt: skip
     rho0 = result.rho0
     assert rho0 is not None  # a design for a test pose reports its rho0

@@ -43,6 +43,7 @@ from pincal.planning.constraints import (
 )
 from pincal.planning.constraints.collision_world import CollisionWorld
 from pincal.planning.plan import Plan
+from pincal.progress import Steps
 from pincal.typing import ConfigurationsLike, JointValues
 
 HOME = -1
@@ -340,6 +341,7 @@ def plan_campaign(
     check: bool = True,
     self_collision: bool = True,
     seed: Seed = 0,
+    progress: bool = False,
 ) -> Campaign:
     """The campaign of a plan: ordered, timed, every move checked (see the module doc).
 
@@ -359,6 +361,8 @@ def plan_campaign(
         check: certify the moves and check the poses (False: order and time only).
         self_collision: check the robot against itself too.
         seed: the random draws of the detours.
+        progress: report the moves certified on stderr (a bar on a terminal, else a line every
+            few seconds).
 
     Returns:
         the :class:`Campaign`.
@@ -406,6 +410,8 @@ def plan_campaign(
         return home_q if i == HOME else qs[i]
 
     moves: list[Move] = []
+    steps = Steps(progress, "campaign", "move")
+    steps.stage("certified", len(route) - 1)
     for a, b in zip(route[:-1], route[1:], strict=True):
         straight = float(cost[a + 1, b + 1])
         c = certify_move(world, q_of(a), q_of(b), need, (at[a], at[b]))
@@ -419,6 +425,8 @@ def plan_campaign(
         if detour is not None:
             time = float(timing.move_time(q_of(a), detour.via) + timing.move_time(detour.via, q_of(b)))
         moves.append(Move(a, b, float(time), c, detour))
+        steps.advance()
+    steps.close()
     worst = [int(np.argmin(at[i] - need)) if world.size else -1 for i in range(m)]
     closest = tuple(world.names[k] if k >= 0 else "" for k in worst)
     pose_distance = np.array([at[i][k] if k >= 0 else np.inf for i, k in enumerate(worst)])

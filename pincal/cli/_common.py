@@ -248,6 +248,17 @@ def add_output_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of text")
 
 
+def add_progress_argument(parser: argparse.ArgumentParser) -> None:
+    """--progress / --no-progress, the same on every command that can run for long (``args.progress``)."""
+    parser.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="progress on stderr, never stdout: a bar on a terminal, else a line every few seconds "
+        "(default: on; --no-progress for none)",
+    )
+
+
 def constraints_from_args(args: argparse.Namespace) -> tuple:
     """The constraints of --constraints FILE.yaml (none without it)."""
 

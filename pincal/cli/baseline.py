@@ -9,6 +9,7 @@ from pincal.cli._accuracy import prior_from_args, test_region_from_args
 from pincal.cli._common import (
     add_command,
     add_output_arguments,
+    add_progress_argument,
     count,
     emit_json,
     params_from_args,
@@ -68,6 +69,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--workers", type=count("--workers"), help="processes for the --d-optimal search (default: all CPUs)"
     )
     add_instrument_arguments(p, test_pose=True)
+    add_progress_argument(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -112,6 +114,7 @@ def run(args: argparse.Namespace) -> int:
                 seed=args.seed,
                 starts=args.starts,
                 workers=args.workers,
+                progress=args.progress,
                 **measuring.options,
             )
     print_warnings(records)

@@ -13,6 +13,7 @@ from pincal.cli import COMMANDS
 from pincal.cli._common import (
     add_command,
     add_output_arguments,
+    add_progress_argument,
     add_robot_arguments,
     emit_json,
     parse_configuration,
@@ -112,6 +113,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="FILE.html",
         help="write the campaign as an animation in one self-contained HTML file (poses numbered in order)",
     )
+    add_progress_argument(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -160,6 +162,7 @@ def run(args: argparse.Namespace) -> int:
             check=not args.no_check,
             self_collision=not args.no_self_collision,
             seed=args.seed,
+            progress=args.progress,
         )
         safety = safety_margins(robot, plan, constraints)
         if args.html:
@@ -235,7 +238,7 @@ def report_tradeoff(args: argparse.Namespace, params, test_pose, plan, options: 
         return None, None
     sizes, timing = checked
     robot = params.robot
-    keep = ("method", "starts", "polish", "min_conditioning", "seed", "workers", "pool")
+    keep = ("method", "starts", "polish", "min_conditioning", "seed", "workers", "pool", "progress")
     design_options = {key: options[key] for key in keep if key in options}
     constraints = options.get("constraints", ())
     campaign = plan_campaign(robot, plan, timing=timing, constraints=constraints, check=False)

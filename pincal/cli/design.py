@@ -28,6 +28,7 @@ from pincal.cli._common import (
     add_base_argument,
     add_command,
     add_output_arguments,
+    add_progress_argument,
     add_robot_arguments,
     add_test_pose_argument,
     checked,
@@ -216,11 +217,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help="also report N random feasible plans and the D-optimal plan",
     )
-    p.add_argument(
-        "--no-progress",
-        action="store_true",
-        help="no progress on stderr (a bar on a terminal, else a line every few seconds)",
-    )
+    add_progress_argument(p)
     p.add_argument(
         "--payloads",
         metavar="KG,KG,...",
@@ -280,7 +277,7 @@ def run(args: argparse.Namespace) -> int:
         raise BadArgument("give --pool FILE.csv or --pool-size N, not both")
     taught = read_plan(robot, args.pool, args.deg) if args.pool else None
     pool = taught if taught is not None else args.pool_size
-    progress = not args.no_progress
+    progress = args.progress
     options = dict(
         method=args.method,
         pool=pool,

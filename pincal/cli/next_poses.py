@@ -17,6 +17,7 @@ from pincal.cli._common import (
     add_base_argument,
     add_command,
     add_output_arguments,
+    add_progress_argument,
     add_robot_arguments,
     add_test_pose_argument,
     count,
@@ -102,6 +103,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--seed", type=seed_type(), default=0, help="seed of the next design (default 0)")
     p.add_argument("--out", metavar="NEXT.csv", help="write the next poses (plan CSV), atomically")
+    add_progress_argument(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -144,6 +146,7 @@ def run(args: argparse.Namespace) -> int:
             starts=args.starts,
             seed=args.seed,
             workers=args.workers,
+            progress=args.progress,
         )
     if args.out and not result.stop:
         result.plan.to_csv(args.out, degrees=args.deg)

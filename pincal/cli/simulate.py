@@ -13,6 +13,7 @@ from pincal.cli._common import (
     SIGMA_HELP,
     add_command,
     add_output_arguments,
+    add_progress_argument,
     add_robot_arguments,
     add_test_pose_argument,
     count,
@@ -89,6 +90,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_task_payload_arguments(p)
     add_simulation_plot_arguments(p)
     add_instrument_arguments(p, test_pose=True)
+    add_progress_argument(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -119,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
     def simulated(configurations: ConfigurationsLike) -> MonteCarloResult:  # the same trials, errors and seed
         return monte_carlo(
             params, configurations, q0, sigma=sigma, trials=args.trials, seed=args.seed, error_std=error_std,
-            task_payload=task, **measuring.options,
+            task_payload=task, progress=args.progress, **measuring.options,
         )  # fmt: skip
 
     mc = simulated(plan)

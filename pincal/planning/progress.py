@@ -1,20 +1,15 @@
-"""The progress of a design on stderr, stage by stage: on a terminal a bar (the starts searched,
-then the best of them polished or run to convergence), elsewhere — a CI log, a script's pipe — one
-line every :data:`EVERY` seconds; each with the best value so far, in its units."""
+"""The progress of a design on stderr, stage by stage (the starts searched, then the best of them
+polished or run to convergence), each step with the best value so far in the criterion's units;
+a bar on a terminal, else a line every few seconds (:class:`pincal.progress.Steps`)."""
 
 from __future__ import annotations
 
 import math
-import sys
-import time
-from typing import Any
 
 import numpy as np
 
 from pincal.evaluation.criterion import Criterion
-
-EVERY = 5.0
-"""Seconds between two progress lines when stderr is not a terminal."""
+from pincal.progress import Steps
 
 
 class Progress:
@@ -28,31 +23,13 @@ class Progress:
     """
 
     def __init__(self, on: bool, criterion: str, objective: Criterion, stream=None) -> None:
-        self.on, self.criterion, self.objective = on, criterion, objective
-        self.stream = sys.stderr if stream is None else stream
-        self.tty = on and bool(getattr(self.stream, "isatty", lambda: False)())
+        self.on, self.objective = on, objective
+        self.steps = Steps(on, f"design {criterion}", "start", stream)
         self.best = math.inf
-        self.bar: Any = None  # a tqdm bar on a terminal
-        self.what, self.total, self.done = "", 0, 0
-        self.t0 = self.last = time.perf_counter()
 
     def stage(self, what: str, total: int) -> None:
         """A new stage: ``total`` starts to be ``what`` (``"searched"``, ``"polished"``, ...)."""
-        if not self.on:
-            return
-        self.close()
-        self.what, self.total, self.done = what, total, 0
-        if self.tty:
-            from tqdm import tqdm
-
-            self.bar = tqdm(
-                total=total,
-                desc=f"design: {what}",
-                unit="start",
-                leave=False,
-                dynamic_ncols=True,
-                file=self.stream,
-            )
+        self.steps.stage(what, total)
 
     def __call__(self, outcome: object) -> None:
         """One start of the stage is done (``outcome`` carries its F)."""
@@ -61,23 +38,7 @@ class Progress:
         F = getattr(outcome, "F", math.nan)
         if getattr(outcome, "feasible", True) and np.isfinite(F):
             self.best = min(self.best, float(self.objective.report(F)))
-        self.done += 1
-        best = "" if not np.isfinite(self.best) else f"best {self.objective.describe(self.best)}"
-        if self.bar is not None:
-            self.bar.update(1)
-            self.bar.set_postfix_str(best)
-            return
-        now = time.perf_counter()
-        if now - self.last >= EVERY:
-            self.last = now
-            print(
-                f"pincal: design {self.criterion}: {self.done} of {self.total} starts {self.what}, "
-                f"{best}, {now - self.t0:.0f} s",
-                file=self.stream,
-                flush=True,
-            )
+        self.steps.advance("" if not np.isfinite(self.best) else f"best {self.objective.describe(self.best)}")
 
     def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-            self.bar = None
+        self.steps.close()
