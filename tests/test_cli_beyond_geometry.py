@@ -140,3 +140,34 @@ def test_identify_reports_the_predicted_error_at_the_test_pose(cli, tmp_path):
     assert "standard errors alone (no residual model" in out
     code, _, err = cli.run("identify", *ROBOT, "--data", meas, "--task-payload", 100)
     assert code == 2 and "--task-payload" in err
+
+
+def test_show_takes_the_task_payload_as_evaluate_does(cli, tmp_path):
+    """The scene's ρ0 (trace of its error ellipsoid) under --task-payload, of a plan measured under
+    its payload columns, is evaluate's ρ0 at each test pose; without it, evaluate's without."""
+    robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
+    qs = robot.random_configurations(24, 5)
+    plan = tmp_path / "plan.csv"
+    pincal.Plan.for_robot(robot, qs, [0.0, 135.0, 270.0] * 8).to_csv(plan, degrees=True)
+    poses = ["--test-pose=0,-60,60,0,45,0", "--test-pose=20,-80,90,10,30,0"]
+    common = [*ROBOT, "--plan", plan, "--deg", *poses, "--params", PARAMS, "--no-accuracy"]
+    load = ["--task-payload", 270, "--payload-centre", "0,0,0.25"]
+    evaluated = cli.json("evaluate", *common, *load)["rho0_per_test_pose"]
+    shown = cli.json("show", *common, *load, "--html", tmp_path / "scene.html")
+    np.testing.assert_allclose(shown["rho0"], evaluated, rtol=1e-9)
+    assert shown["task_payload"] == [270.0, 0.0, 0.0, 0.25]
+    bare = cli.json("show", *common, "--html", tmp_path / "bare.html")
+    np.testing.assert_allclose(bare["rho0"], cli.json("evaluate", *common)["rho0_per_test_pose"], rtol=1e-9)
+    assert bare["task_payload"] is None and not np.allclose(bare["rho0"], shown["rho0"], rtol=1e-3)
+    code, out, _ = cli.run("show", *common, *load, "--html", tmp_path / "scene.html")
+    assert code == 0 and "under the task's payload: 270 kg at (0, 0, 0.25) m" in out
+    cli.fails("show", *common, *load, "--plot", tmp_path / "r.png", match="--plot with --task-payload")
+    cli.fails(
+        "show",
+        *common,
+        "--payload-centre",
+        "0,0,0.25",
+        "--html",
+        tmp_path / "s.html",
+        match="--payload-centre",
+    )

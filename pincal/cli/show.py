@@ -16,8 +16,10 @@ from pincal.cli._accuracy import (
     REGION_HELP,
     add_region_arguments,
     add_report_arguments,
+    add_task_payload_arguments,
     prior_from_args,
     report_accuracy,
+    task_payload_from_args,
     test_poses_of,
     test_region_from_args,
 )
@@ -61,6 +63,8 @@ examples:
       --plot rho0.png --baseline 2000         # the plan's rho0 against 2000 random plans
   pincal show kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --around 10deg --marker 0.1,0.05,0.2 \\
       --sigma 3e-5 --error-cloud 500 --html scene.html   # where the plan leaves the robot accurate
+  pincal show kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 \\
+      --params lengths,offsets,gains,compliance --task-payload 270 --payload-centre 0,0,0.25 --html scene.html
 
 The scene: the robot at the test pose (opaque), one translucent numbered ghost per configuration
 with its measured points, the 3-sigma ellipsoid of the predicted error at the test pose after
@@ -68,6 +72,9 @@ calibration (drawn larger than life by the stated factor), the instrument if --i
 with --error-cloud N, the measured point at N random configurations coloured by the predicted error
 after calibration (green: smallest, red: largest, log scale). Of a region or path, the scene draws
 its first configuration (the centre of --around); the report covers the whole region.
+A plan with payload columns (from 'design --payloads') is measured under its payloads, and the test
+pose(s), the error cloud and the report are taken under --task-payload KG (centre --payload-centre,
+tip frame; default none), as evaluate and design take them: the same rho0.
 """
 EXAMPLES += "\n" + REGION_HELP
 
@@ -87,6 +94,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--sigma", type=sigma_type(), default=None, help=SIGMA_HELP)
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
+    add_task_payload_arguments(p)
     p.add_argument(
         "--instrument",
         metavar="X,Y,Z",
@@ -144,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
     plan = read_plan(robot, args.plan, args.deg)
     q0 = test_region_from_args(robot, args, required=False)
     prior = prior_from_args(args)
+    task = task_payload_from_args(args)
     drawn, constraints, instrument = _scene_inputs(args, robot, q0)
 
     serve = not (args.html or args.plot)
@@ -158,9 +167,11 @@ def run(args: argparse.Namespace) -> int:
         viewer=viewer,
         error_samples=args.error_cloud,
         prior=prior,
+        task_payload=task,
     )
-    report = report_accuracy(args, params, plan, q0, sigma, prior)
+    report = report_accuracy(args, params, plan, q0, sigma, prior, task_payload=task)
     summary = _summary(robot.name, len(plan), sigma, built, report)
+    summary["task_payload"] = None if task is None else task.row.tolist()
     safety = safety_margins(robot, plan, safe_constraints_from_args(robot, args))
     summary["safety"] = safety.as_dict()
     if args.html:
@@ -194,6 +205,11 @@ def _check_options(args: argparse.Namespace) -> None:
         raise BadArgument("--plot compares rho0 at the test pose: give --test-pose")
     if args.pool and not args.plot:
         raise BadArgument("--pool is where --plot draws its random plans: give --plot too")
+    if args.plot and args.task_payload is not None:
+        raise BadArgument(
+            "--plot with --task-payload: the random plans it compares with carry no payloads; "
+            "see the plan under its payload without --plot, or compare with 'pincal evaluate'"
+        )
 
 
 def _scene_inputs(args: argparse.Namespace, robot, q0) -> tuple:
@@ -269,6 +285,11 @@ def _plot_baseline(params, plan, q0: np.ndarray, sigma: float, constraints, args
 
 def _print_summary(s: dict, sigma_text: str) -> None:
     print(f"{s['robot']}: {s['m']} configurations, {sigma_text}")
+    if s["task_payload"] is not None:
+        mass, *centre = s["task_payload"]
+        print(
+            f"test pose(s) under the task's payload: {mass:g} kg at ({', '.join(f'{c:g}' for c in centre)}) m"
+        )
     if s["rho0"] is not None:
         for k, (r, radii) in enumerate(zip(s["rho0"], s["ellipsoid_radii"], strict=True)):
             axes = ", ".join(fmt_length(a) for a in np.ravel(radii))

@@ -368,15 +368,19 @@ def position_covariance(
     test_pose: ConfigurationsLike,
     *,
     sigma: float = DEFAULT_SIGMA,
+    task_payload: PayloadLike = None,
 ) -> np.ndarray:
     """(k, 3K, 3K) predicted covariance σ² J₀ M⁻¹ J₀ᵀ of the measured points at each test pose,
-    after calibration, in the instrument frame [m²]. Its trace is ρ0²."""
+    after calibration, in the instrument frame [m²]. Its trace is ρ0² (as :func:`rho0_each`
+    gives it): a :class:`~pincal.Plan` is measured under its payloads, the test poses are taken
+    under ``task_payload`` (a mass [kg], a :class:`~pincal.Payload`, or one per test pose)."""
     sigma = positive_sigma(sigma)
     qs = params.robot.configurations(plan)
     q0 = params.robot.configurations(test_pose, what="test pose")
-    J = params.jacobian(qs, frame="tip")
+    J = params.jacobian(qs, frame="tip", payload=getattr(plan, "payload", None))
     L = factor(information_matrix(J), J.shape[1], len(qs))
-    J0 = params.jacobian(q0, frame="world")  # (k, 3K, P)
+    task = None if task_payload is None else payload_rows(task_payload, len(q0))
+    J0 = params.jacobian(q0, frame="world", payload=task)  # (k, 3K, P)
     X = np.linalg.solve(L, J0.transpose(0, 2, 1))  # (k, P, 3K)
     return sigma**2 * np.einsum("kpi,kpj->kij", X, X)
 

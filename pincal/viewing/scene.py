@@ -46,7 +46,8 @@ from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.optional import require
 from pincal.planning.constraints.collision_world import reach as robot_reach
-from pincal.typing import ConfigurationsLike, InstrumentLike, ViewerLike
+from pincal.planning.plan import Plan
+from pincal.typing import ConfigurationsLike, InstrumentLike, PayloadLike, ViewerLike
 from pincal.viewing.drawing import (
     ROOT,
     add_ellipsoid,
@@ -163,6 +164,7 @@ def show(
     viewer: ViewerLike = None,
     error_samples: int | ConfigurationsLike | None = None,
     prior: Prior | None = None,
+    task_payload: PayloadLike = None,
 ) -> Visualizer:
     """Show a plan in meshcat: ghosts of the measurement poses, the test pose and its error.
 
@@ -183,6 +185,9 @@ def show(
         error_samples: configurations, or a number of random ones, at which the measured point is
             drawn coloured by the predicted error after calibration (green low, red high).
         prior: the errors' prior for that prediction, or None.
+        task_payload: the payload at the test pose(s) and the error cloud's configurations (a
+            mass [kg] or a :class:`~pincal.Payload`), or None; a :class:`~pincal.Plan`'s own
+            payloads enter the prediction too (as :func:`pincal.rho0` takes them).
 
     Returns:
         the ``meshcat.Visualizer``; :func:`scene` returns the full :class:`Scene`.
@@ -201,6 +206,7 @@ def show(
         viewer=viewer,
         error_samples=error_samples,
         prior=prior,
+        task_payload=task_payload,
     ).viewer
 
 
@@ -216,6 +222,7 @@ def scene(
     viewer: ViewerLike = "static",
     error_samples: int | ConfigurationsLike | None = None,
     prior: Prior | None = None,
+    task_payload: PayloadLike = None,
 ) -> Scene:
     """Build the scene of :func:`show` (same arguments) and return it with what it shows.
 
@@ -240,11 +247,16 @@ def scene(
     colors = pose_colors(len(qs))
     visual, ghost = geometry_models(robot, reach)
     points = _draw_ghosts(vis, robot, ghost, qs, colors, reach)
-    cov, note, radii, axes, rho, drawn_scale = _error_ellipsoids(params, qs, q0, sigma, scale, reach)
+    measured = plan if isinstance(plan, Plan) else qs  # a Plan is measured under its payloads
+    cov, note, radii, axes, rho, drawn_scale = _error_ellipsoids(
+        params, measured, q0, sigma, scale, reach, task_payload
+    )
     _draw_test_poses(vis, robot, visual, q0, radii, axes, drawn_scale, reach)
     samples = values = None
     if error_samples is not None:
-        samples, values, cloud_note = _draw_error_cloud(vis, params, qs, sigma, prior, error_samples, reach)
+        samples, values, cloud_note = _draw_error_cloud(
+            vis, params, measured, sigma, prior, error_samples, reach, task_payload
+        )
         if cloud_note:
             note = (note + "; " if note else "") + cloud_note
     if where is not None:
@@ -285,14 +297,20 @@ def _checked_params(params_or_robot: ParameterSet | Robot, sigma: float, scale: 
 
 
 def _error_ellipsoids(
-    params: ParameterSet, qs: np.ndarray, q0: np.ndarray, sigma: float, scale: float | None, reach: float
+    params: ParameterSet,
+    qs: np.ndarray | Plan,
+    q0: np.ndarray,
+    sigma: float,
+    scale: float | None,
+    reach: float,
+    task_payload: PayloadLike = None,
 ) -> tuple[np.ndarray | None, str, np.ndarray | None, np.ndarray | None, np.ndarray | None, float]:
     """(covariance, note, radii, axes, ρ0, drawn scale) of the predicted error at the test poses;
     a singular plan gives no ellipsoid (None) and a note, also warned."""
     cov, note = None, ""
     if len(q0):
         try:
-            cov = position_covariance(params, qs, q0, sigma=sigma)
+            cov = position_covariance(params, qs, q0, sigma=sigma, task_payload=task_payload)
         except SingularPlan as exc:
             note = f"no error ellipsoid: {exc}"
             warn(note, UserWarning)
@@ -309,11 +327,12 @@ def _error_ellipsoids(
 def _draw_error_cloud(
     vis,
     params: ParameterSet,
-    qs: np.ndarray,
+    qs: np.ndarray | Plan,
     sigma: float,
     prior: Prior | None,
     error_samples: int | ConfigurationsLike,
     reach: float,
+    task_payload: PayloadLike = None,
 ) -> tuple[np.ndarray | None, np.ndarray | None, str]:
     """(sample configurations, predicted errors there, note) of the error cloud, drawn: a number of
     samples draws them within the joint limits (seed 0); a singular plan draws none and says why."""
@@ -324,7 +343,7 @@ def _draw_error_cloud(
     else:
         samples = robot.configurations(error_samples, what="error sample")
     try:
-        values = PredictedError(params, qs, sigma, prior)(samples)
+        values = PredictedError(params, qs, sigma, prior, task_payload)(samples)
         add_error_cloud(vis, robot.points(samples)[:, 0], values, reach)
     except SingularPlan as exc:
         return None, values, f"no error cloud: {exc}"
