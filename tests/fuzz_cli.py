@@ -33,10 +33,11 @@ import yaml
 from hypothesis import strategies as st
 
 from pincal.cli import build_parser, main
+from pincal.model import shipped_dh_tables
 
 ROOT = Path(__file__).resolve().parents[1]
 PLANAR_URDF = (ROOT / "robots" / "planar_2r.urdf").read_text()
-DH_TABLE = (ROOT / "docs" / "dh" / "ur5_dh.yaml").read_text() if (ROOT / "docs" / "dh").is_dir() else None
+DH_TABLE = shipped_dh_tables()["ur5_dh"].read_text()
 JOINTS = ("joint1", "joint2")
 LINKS = (1.0, 0.8)
 

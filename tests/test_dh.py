@@ -19,9 +19,10 @@ import yaml
 
 import pincal
 from pincal.cli import main
+from pincal.model import shipped_dh_tables
 
 ROOT = Path(__file__).resolve().parents[1]
-UR5_TABLE = ROOT / "docs" / "dh" / "ur5_dh.yaml"
+UR5_TABLE = shipped_dh_tables()["ur5_dh"]
 
 
 # ------------------------------------------------------------------ the oracle
@@ -386,3 +387,26 @@ def test_dh_table_constructor_validates_and_is_read_only():
     with pytest.raises(pincal.errors.BadDHTable, match=r"\(4, 4\) placement"):
         pincal.model.DHTable("arm", "standard", (joint,), np.eye(3), "tool0", np.eye(4), np.zeros((0, 3)))
     np.testing.assert_allclose(table.forward_kinematics([0.0])[:3, 3], [0.5, 0, 0], atol=1e-15)
+
+
+def test_a_shipped_table_by_name_from_any_folder(tmp_path, cli, monkeypatch):
+    """`pincal urdf-from-dh ur5_dh` works wherever it runs (the table ships in the package, beside
+    the robots), gives the URDF of the table's file, and an unknown name lists the shipped ones."""
+    assert set(shipped_dh_tables()) == {"ur5_dh"} and UR5_TABLE.parent.name == "dh"
+    assert UR5_TABLE.parent.parent == pincal.model.loading.ROBOTS_DIR
+    monkeypatch.chdir(tmp_path)  # no table here
+    for name in ("ur5_dh", "ur5_dh.yaml"):
+        code, out, err = cli.run("urdf-from-dh", name, "--out", f"{name}.urdf")
+        assert code == 0 and "wrote" in out, err
+        assert (tmp_path / f"{name}.urdf").read_text() == pincal.model.urdf_from_dh(UR5_TABLE)
+    assert (
+        pincal.model.DHTable.from_yaml("ur5_dh").to_urdf()
+        == pincal.model.DHTable.from_yaml(UR5_TABLE).to_urdf()
+    )
+    cli.fails("urdf-from-dh", "ur6_dh", match="nor is it a table pincal ships (ur5_dh: give the name alone)")
+    cli.fails("urdf-from-dh", "missing/ur5_dh.yaml", match="does not exist")
+    listed = cli.json("robots")["dh_tables"]
+    assert listed == {"ur5_dh": str(UR5_TABLE)}
+    code, out, _ = cli.run("urdf-from-dh", "--help")
+    words = " ".join(out.split())  # argparse wraps the option's help
+    assert "pincal urdf-from-dh ur5_dh --out ur5_dh.urdf" in words and "pincal ships: ur5_dh" in words

@@ -65,6 +65,7 @@ def _shipped(source: Path) -> set[str]:
             if path.is_file() and not path.name.startswith(".") and path.suffix != ".pyc":
                 expected.add(path.relative_to(source).as_posix())
     expected |= {f"pincal/robots/{p.name}" for p in (source / "robots").glob("*.urdf")}
+    expected |= {f"pincal/robots/dh/{p.name}" for p in (source / "robots" / "dh").glob("*.yaml")}
     return expected
 
 
@@ -76,6 +77,7 @@ def test_the_wheel_holds_every_subpackage_module_and_robot(wheel):
     subpackages = {p.parent.relative_to(source).as_posix() for p in (source / "pincal").rglob("__init__.py")}
     assert "pincal/planning/constraints" in subpackages and len(subpackages) >= 8
     assert {"pincal/py.typed", "pincal/model/xacro_expansion.py", "pincal/robots/kr270.urdf"} <= expected
+    assert "pincal/robots/dh/ur5_dh.yaml" in expected
     missing = sorted(expected - names)
     assert not missing, f"{wheel.name} lacks {missing}"
     packaged = {n for n in names if not n.startswith("pincal-")}

@@ -16,7 +16,7 @@ import pytest
 import pincal
 from pincal.cli import main
 from pincal.files import MAX_CELL_CHARS, MAX_LINE_CHARS, MAX_YAML_DEPTH, atomic_write_text, guard_inputs
-from pincal.model import xacro_expansion
+from pincal.model import shipped_dh_tables, xacro_expansion
 
 ROOT = Path(__file__).resolve().parents[1]
 PLANAR = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
@@ -78,7 +78,7 @@ def test_every_writer_refuses_inputs_before_any_work(cell, cli):
     design = ["design", cell / "robot.urdf", "-m", "3", "--test-pose=0.3,1.2", *PLANAR, "--workers", "1"]
     cli.fails(*design, "--pool", cell / "plan.csv", "--out", cell / "plan.csv", match="is the input --pool")
     cli.fails(*design, "--plot", cell / "plot.xyz", match="valid: ")  # the format, before the design
-    shutil.copy(ROOT / "docs" / "dh" / "ur5_dh.yaml", cell / "table.yaml")
+    shutil.copy(shipped_dh_tables()["ur5_dh"], cell / "table.yaml")
     before["table.yaml"] = (cell / "table.yaml").read_bytes()
     cli.fails("urdf-from-dh", cell / "table.yaml", "--out", cell / "table.yaml", match="is the input TABLE")
     assert snapshot(cell) == before
@@ -190,7 +190,7 @@ def test_urdf_limits_and_native_messages(cell, capfd, edit, fragment):
 
 def test_dh_table_with_a_400_digit_integer_is_refused(cell, cli):
     # The long fuzz run: the YAML reader's finite check formatted the integer as a float (OverflowError)
-    table = (ROOT / "docs" / "dh" / "ur5_dh.yaml").read_text().replace("a: -0.425,", "a: " + "9" * 400 + ",")
+    table = (shipped_dh_tables()["ur5_dh"]).read_text().replace("a: -0.425,", "a: " + "9" * 400 + ",")
     (cell / "table.yaml").write_text(table)
     cli.fails("urdf-from-dh", cell / "table.yaml", match="joints[1].a is an integer of 400 digits")
 
@@ -443,7 +443,7 @@ def test_absurd_lengths_and_sigmas_are_refused_at_the_boundary(cell, cli, argv, 
 
 def test_dh_table_with_an_absurd_length_is_refused_by_name(cell, cli):
     # It was refused, but as 'the URDF written differs from its DH product by 2.2e+284'
-    table = (ROOT / "docs" / "dh" / "ur5_dh.yaml").read_text().replace("a: -0.425,", "a: 1.0e+300,")
+    table = (shipped_dh_tables()["ur5_dh"]).read_text().replace("a: -0.425,", "a: 1.0e+300,")
     (cell / "table.yaml").write_text(table)
     cli.fails("urdf-from-dh", cell / "table.yaml", match="row 2 (shoulder_lift_joint): a is 1e+300 m, over")
 

@@ -121,7 +121,7 @@ a whole calibration, rehearsed on the shipped KUKA KR 270 (joint values in degre
   pincal next kr270 --data meas.csv --plan plan.csv -k 3 --deg --marker 0.1,0.05,0.2 \\
       --test-pose=0,-60,60,0,45,0 --around 10deg --target 0.02mm --out next.csv
   pincal robots
-  pincal urdf-from-dh docs/dh/ur5_dh.yaml --out ur5_dh.urdf     # a robot given by a DH table
+  pincal urdf-from-dh ur5_dh --out ur5_dh.urdf     # a robot given by a DH table (UR5's ships with pincal)
 
 Units: metres and radians; --deg reads and writes joint values in degrees. σ (--sigma, the
 instrument's noise per coordinate) defaults to a laser tracker's 3e-5 m and every report states it.

@@ -7,12 +7,12 @@ import sys
 
 from pincal.cli import COMMANDS
 from pincal.cli._common import add_command, add_output_arguments, emit_json
-from pincal.model.dh import DHTable, self_check, urdf_from_dh
+from pincal.model.dh import DHTable, self_check, shipped_dh_tables, urdf_from_dh
 
 HELP = COMMANDS["urdf-from-dh"].help
 EXAMPLES = """\
 examples:
-  pincal urdf-from-dh docs/dh/ur5_dh.yaml --out ur5_dh.urdf
+  pincal urdf-from-dh ur5_dh --out ur5_dh.urdf          # a table pincal ships, by name ('pincal robots')
   pincal params ur5_dh.urdf --marker 0.05,0,0.1           # then use it like any URDF
   pincal urdf-from-dh table.yaml > robot.urdf               # without --out: the URDF on stdout
 
@@ -44,7 +44,12 @@ atomically, never over the table.
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = add_command(sub, "urdf-from-dh", HELP, EXAMPLES)
-    p.add_argument("table", metavar="TABLE.yaml", help="the DH table (layout below)")
+    p.add_argument(
+        "table",
+        metavar="TABLE.yaml",
+        help="the DH table (layout below), or the name of one pincal ships: "
+        + ", ".join(shipped_dh_tables()),
+    )
     p.add_argument("--out", metavar="ROBOT.urdf", help="write the URDF here (default: print it)")
     add_output_arguments(p)
     p.set_defaults(run=run)

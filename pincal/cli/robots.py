@@ -8,6 +8,7 @@ import warnings
 from pincal.cli import COMMANDS
 from pincal.cli._common import add_command, add_output_arguments, emit_json, joint_ranges_from_args
 from pincal.errors import PincalError, PincalWarning
+from pincal.model.dh import shipped_dh_tables
 from pincal.model.loading import chain_ends, example_robot_data_names, load_robot, shipped_robots
 
 HELP = COMMANDS["robots"].help
@@ -72,16 +73,20 @@ def run(args: argparse.Namespace) -> int:
             print("several chain ends: give --tip FRAME")
         return 0
     shipped = {name: str(path) for name, path in shipped_robots().items()}
+    tables = {name: str(path) for name, path in shipped_dh_tables().items()}
     erd = example_robot_data_names()
     chains = {name: _summary(name) for name in [*shipped, *erd]}
     if args.json:
         for value in chains.values():
             value.pop("text")
-        emit_json({"shipped": shipped, "example_robot_data": erd, "chains": chains})
+        emit_json({"shipped": shipped, "example_robot_data": erd, "chains": chains, "dh_tables": tables})
         return 0
     print("shipped with pincal:")
     for name, path in shipped.items():
         print(f"  {name:26s} {chains[name]['text']}  [{path}]")
+    print("DH tables shipped with pincal ('pincal urdf-from-dh NAME --out NAME.urdf' writes the URDF):")
+    for name, path in tables.items():
+        print(f"  {name:26s} [{path}]")
     print("example-robot-data ('pincal robots NAME' lists a robot's chain ends):")
     for name in erd:
         print(f"  {name:26s} {chains[name]['text']}")

@@ -7,7 +7,7 @@ parameters → Jacobians → criteria → design → (simulate | identify) → e
 
 from pincal.model.base_parameters import Identifiability, identifiability
 from pincal.model.catalogue import Parameter
-from pincal.model.dh import DHTable, urdf_from_dh
+from pincal.model.dh import DHTable, shipped_dh_tables, urdf_from_dh
 from pincal.model.fixtures import Fixture
 from pincal.model.loading import load_robot, shipped_robots
 from pincal.model.parameters import ParameterSet
@@ -26,6 +26,7 @@ __all__ = [
     "Robot",
     "identifiability",
     "load_robot",
+    "shipped_dh_tables",
     "shipped_robots",
     "urdf_from_dh",
 ]

@@ -30,6 +30,7 @@ import pinocchio as pin
 from pincal.arguments import check_lengths, generator, number
 from pincal.errors import BadDHTable, OverwriteRefused
 from pincal.files import atomic_write_text, read_yaml
+from pincal.model.loading import ROBOTS_DIR
 from pincal.typing import ConfigurationsLike
 
 CONVENTIONS = ("standard", "modified")
@@ -107,11 +108,13 @@ class DHTable:
 
     @classmethod
     def from_yaml(cls, path: str | os.PathLike) -> DHTable:
-        """Read a table from a YAML file (the layout is in the README and ``pincal urdf-from-dh --help``).
+        """Read a table from a YAML file (the layout is in the README and ``pincal urdf-from-dh --help``),
+        or the table pincal ships by that name (``"ur5_dh"``, see :func:`shipped_dh_tables`).
 
         Raises:
             BadDHTable: the file is missing, not YAML, or a key or row is wrong (the message names it).
         """
+        path = dh_table_path(path)
         content = read_yaml(path, "DH table", BadDHTable)
         return cls.from_dict(content, f"DH table {str(path)!r}", default_name=Path(path).stem)
 
@@ -233,11 +236,41 @@ class DHTable:
         return "\n".join(lines) + "\n"
 
 
+DH_DIR = ROBOTS_DIR / "dh"
+"""Where the DH tables pincal ships live (``robots/dh`` in a checkout, ``pincal/robots/dh`` installed)."""
+
+
+def shipped_dh_tables() -> dict[str, Path]:
+    """The DH tables pincal ships, by name: ``{name: path to YAML}`` (``ur5_dh``: Universal Robots'
+    published table of the UR5). ``pincal urdf-from-dh NAME`` and :func:`urdf_from_dh` take a name."""
+    return {p.stem: p for p in sorted(DH_DIR.glob("*.yaml"))}
+
+
+def dh_table_path(table: str | os.PathLike) -> Path:
+    """The file of a DH table: ``table`` itself when it exists, else the shipped table of that name
+    (``ur5_dh`` or ``ur5_dh.yaml``), else ``table`` (reading it then says it is missing, and which
+    tables pincal ships)."""
+    path = Path(table)
+    if path.exists() or path.parent != Path("."):
+        return path
+    shipped = shipped_dh_tables()
+    name = path.stem if path.suffix in (".yaml", ".yml") else path.name
+    if name in shipped:
+        return shipped[name]
+    if not shipped:  # pragma: no cover - a broken install
+        return path
+    raise BadDHTable(
+        f"DH table file {str(table)!r} does not exist, nor is it a table pincal ships "
+        f"({', '.join(shipped)}: give the name alone)"
+    )
+
+
 def urdf_from_dh(table: DHTable | Mapping | str | os.PathLike, out: str | os.PathLike | None = None) -> str:
     """The URDF of a robot given by a DH table; written to ``out`` (atomically) when given.
 
     Args:
-        table: a :class:`DHTable`, the mapping a YAML table holds, or the path of a YAML file.
+        table: a :class:`DHTable`, the mapping a YAML table holds, the path of a YAML file, or
+            the name of a table pincal ships (``"ur5_dh"``, see :func:`shipped_dh_tables`).
         out: where to write the URDF (never over the table's file).
 
     Returns:
@@ -257,7 +290,7 @@ def urdf_from_dh(table: DHTable | Mapping | str | os.PathLike, out: str | os.Pat
     """
     source = None
     if isinstance(table, (str, os.PathLike)):
-        source = Path(table)
+        source = dh_table_path(table)
         table = DHTable.from_yaml(source)
     elif isinstance(table, Mapping):
         table = DHTable.from_dict(table)
