@@ -16,6 +16,7 @@ from pincal.planning.constraints import (
     DEFAULT_JOINT_LIMITS,
     JointLimits,
     Mount,
+    SelfCollision,
     constraints_from_dict,
     joint_margins,
     satisfied,
@@ -202,3 +203,67 @@ def test_show_and_evaluate_report_the_margins(tmp_path, cli, kr270_marker):
             expected.floor.value
         )
         assert not safety["ok"] and safety["floor"]["what"] == expected.floor.what
+
+
+# A UR10 folded with its forearm through its shoulder (the pose test_campaign names): its meshes
+# overlap by more than 5 cm; "fine" is clear of itself.
+UR10_FOLDED = np.radians([6.0, -149.4, -178.0, 209.7, -112.7, -49.8])
+UR10_FINE = np.radians([20.5, -64.5, 106.0, -100.3, -123.1, 48.5])
+
+
+@pytest.fixture(scope="module")
+def ur10():
+    return pincal.load_robot("ur10", markers=[(0.1, 0.05, 0.2)])
+
+
+def test_safety_report_names_a_pose_where_the_robot_meets_itself(ur10):
+    with pytest.warns(pincal.PincalWarning, match="pose 2 of the plan: the robot collides with itself") as w:
+        report = safety_margins(ur10, np.vstack([UR10_FINE, UR10_FOLDED]), with_safety(ur10))
+    s = report.self_collision
+    assert s.pose == 1 and s.value < -0.05 and not s.ok and not report.ok
+    assert s.what in str(w[0].message) and s.what.count(" / ") == 1  # the pair, named
+    # The campaign's own check of the pose finds it as deep (the same geometry, the same pairs).
+    campaign = pincal.plan_campaign(ur10, np.vstack([UR10_FINE, UR10_FOLDED]), home=UR10_FINE)
+    assert s.value == pytest.approx(campaign.pose_clearance[1], abs=1e-9)
+    text = "\n".join(report.lines())
+    assert f"self-collision: {s.what} overlap (by at least" in text and "at pose 2" in text
+    assert "collides with itself" in text and "URDF's collision geometry" in text
+    assert json.loads(json.dumps(report.as_dict()))["self_collision"]["pose"] == 1
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no warning for a clear plan
+        clear = safety_margins(ur10, UR10_FINE[None], with_safety(ur10))
+    assert clear.self_collision.value > 0 and clear.self_collision.ok and clear.ok
+    assert safety_margins(ur10, UR10_FINE[None], self_collision=False).self_collision is None
+    # A clearance asked between links is the one required.
+    with pytest.warns(pincal.PincalWarning, match="pose 1 of the plan: two links of the robot come closer"):
+        kept = safety_margins(ur10, UR10_FINE[None], [*with_safety(ur10), SelfCollision(min_distance=0.5)])
+    assert kept.self_collision.required == 0.5 and not kept.ok
+
+
+def test_design_and_evaluate_warn_of_a_folded_pose(tmp_path, cli, ur10):
+    """A design is not kept clear of its own links by default (that costs the search); its report
+    checks the plan's poses and warns, naming the pose and the pair; evaluate likewise."""
+    from pincal.planning.constraints.collision_world import CollisionWorld
+    from pincal.planning.feasibility import Feasibility
+
+    world = CollisionWorld(ur10, ())
+    drawn = Feasibility(ur10, with_safety(ur10)).sample(40, np.random.default_rng(1))
+    clear = drawn[world.distances_many(drawn).min(axis=1) > 0.01][:12]
+    pool = tmp_path / "pool.csv"
+    pincal.Plan.for_robot(ur10, np.vstack([clear, UR10_FOLDED])).to_csv(pool, degrees=True)
+    argv = ["ur10", "--marker", "0.1,0.05,0.2", "--deg", "--test-pose=0,-70,90,-110,-90,0", "--no-accuracy"]
+    code, out, err = cli.run(
+        "design", *argv, "-m", 13, "--pool", pool, "--starts", 2, "--workers", 1, "--json"
+    )  # every pool pose in the plan, the folded one included
+    assert code == 0, err
+    payload = json.loads(out)
+    row = int(np.argmin(np.abs(np.array(payload["plan"]) - UR10_FOLDED).sum(axis=1)))  # radians
+    np.testing.assert_allclose(payload["plan"][row], UR10_FOLDED, atol=1e-9)
+    s = payload["safety"]["self_collision"]
+    assert s["pose"] == row and s["value"] < -0.05 and not payload["safety"]["ok"]
+    assert f"pincal: warning: pose {row + 1} of the plan: the robot collides with itself ({s['what']}" in err
+    evaluated = cli.run("evaluate", *argv, "--plan", pool)
+    assert evaluated.code == 0 and "pose 13 of the plan: the robot collides with itself" in evaluated.err
+    assert f"self-collision: {s['what']} overlap" in evaluated.out and "at pose 13" in evaluated.out

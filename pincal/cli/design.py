@@ -328,7 +328,7 @@ def run(args: argparse.Namespace) -> int:
             **measuring.options,
         )
         campaign = report_tradeoff(args, params, q0, result.plan, options)  # --campaign
-    safety = safety_margins(robot, result.plan, constraints)
+        safety = safety_margins(robot, result.plan, constraints)  # warns of a pose colliding with itself
     if placement is not None and args.placement_plot:
         plots.save_figure(plots.placement_map(placement), args.placement_plot)
     _write_and_print(

@@ -1,11 +1,16 @@
-"""How close a plan comes to what a real cell forbids: the joint limits, the floor, the obstacles.
+"""How close a plan comes to what a real cell forbids: the joint limits, the floor, the obstacles,
+the robot itself.
 
 :func:`safety_margins` names, over every configuration of a plan, the smallest distance to a joint
 limit (the URDF's hard limit; revolute and prismatic joints apart), the smallest height of a
-moving point above the mounting plane and, with a workcell, the smallest distance between the
-robot and an obstacle — with the joint, point or pair and the configuration where each occurs, and
-what the constraints ask (the margin kept, the clearance). Every report that prints a plan
-(design, evaluate, campaign) prints these lines.
+moving point above the mounting plane, with a workcell the smallest distance between the robot and
+an obstacle, and the smallest distance between two links of the robot (its URDF collision
+geometry, else capsules from the kinematics; negative: they overlap) — with the joint, point or
+pair and the configuration where each occurs, and what the constraints ask (the margin kept, the
+clearance). Every report that prints a plan (design, evaluate, show, campaign) prints these lines.
+A design keeps clear of its own links only with a ``self_collision`` constraint (its search checks
+each candidate, which costs); the report checks the plan's m configurations always, and warns
+naming the pose and the pair when two links meet.
 """
 
 from __future__ import annotations
@@ -16,14 +21,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pincal.errors import PincalWarning, warn
 from pincal.model.robot import Robot
 from pincal.planning.constraints import (
     AnyConstraint,
     Kinematics,
     Mount,
+    SelfCollision,
     Workcell,
     joint_margins,
 )
+from pincal.planning.constraints.collision_world import CollisionWorld
 from pincal.typing import ConfigurationsLike
 
 __all__ = ["Closest", "SafetyReport", "safety_margins"]
@@ -66,6 +74,9 @@ class SafetyReport:
         obstacle: the robot's geometry closest to a workcell obstacle (distance [m]).
         mount: the mount the plan was checked against.
         note: how the obstacle distances were computed (which robot geometry), or "".
+        self_collision: the two links of the robot closest to each other (distance [m], negative
+            when they overlap), None when not checked or when no pair of links can meet.
+        self_note: how the links' distances were computed (which geometry), or "".
     """
 
     angle: Closest | None
@@ -74,11 +85,14 @@ class SafetyReport:
     obstacle: Closest | None
     mount: Mount
     note: str = ""
+    self_collision: Closest | None = None
+    self_note: str = ""
 
     @property
     def ok(self) -> bool:
         """Every margin is what the constraints ask."""
-        return all(c is None or c.ok for c in (self.angle, self.length, self.floor, self.obstacle))
+        kinds = (self.angle, self.length, self.floor, self.obstacle, self.self_collision)
+        return all(c is None or c.ok for c in kinds)
 
     def as_dict(self) -> dict:
         def one(c: Closest | None) -> dict | None:
@@ -89,9 +103,11 @@ class SafetyReport:
             "joint_limit_length": one(self.length),
             "floor": one(self.floor),
             "obstacle": one(self.obstacle),
+            "self_collision": one(self.self_collision),
             "mount": self.mount.describe(),
             "ok": self.ok,
             "note": self.note,
+            "self_note": self.self_note,
         }
 
     def lines(self, degrees: bool = True) -> list[str]:
@@ -133,7 +149,20 @@ class SafetyReport:
             out.append("  obstacle: no workcell given (constraints 'workcell:')")
         if self.note:
             out.append(f"  ({self.note})")
+        if self.self_collision is not None:
+            s = self.self_collision
+            collides = "  ** the robot collides with itself **" if s.value <= 0 else flag(s)
+            out.append(f"  self-collision: {_self_line(s)} at pose {s.pose + 1}{collides}")
+            if self.self_note:
+                out.append(f"  ({self.self_note})")
         return out
+
+
+def _self_line(s: Closest) -> str:
+    """The closest pair of links, in words: how far apart, or how deep they overlap."""
+    if s.value <= 0:
+        return f"{s.what} overlap (by at least {_mm(-s.value)})"
+    return f"{s.what} {_mm(s.value)} apart (kept: {_mm(s.required)})"
 
 
 def _mm(metres: float) -> str:
@@ -141,9 +170,13 @@ def _mm(metres: float) -> str:
 
 
 def safety_margins(
-    robot: Robot, plan: ConfigurationsLike, constraints: Iterable[AnyConstraint] = ()
+    robot: Robot,
+    plan: ConfigurationsLike,
+    constraints: Iterable[AnyConstraint] = (),
+    *,
+    self_collision: bool = True,
 ) -> SafetyReport:
-    """The smallest margins of ``plan`` to the joint limits, the floor and the obstacles.
+    """The smallest margins of ``plan`` to the joint limits, the floor, the obstacles and itself.
 
     Args:
         robot: the robot.
@@ -151,7 +184,10 @@ def safety_margins(
         constraints: the constraints the plan was designed with, the safe defaults included (see
             :func:`~pincal.planning.constraints.with_safety`): their JointLimits give the margin
             asked at each joint, their Mount the plane (none: ``none``), their workcell the
-            obstacles.
+            obstacles, their SelfCollision the clearance between links (default 0).
+        self_collision: check each configuration's links against each other (one distance pass
+            per configuration: milliseconds); a pose where two links meet is warned of
+            (:class:`~pincal.errors.PincalWarning`, naming the pose, from 1, and the pair).
 
     Raises:
         BadConfiguration: a configuration of the wrong size or outside the joint limits.
@@ -184,4 +220,39 @@ def safety_margins(
             value, pose, pair, note = c.closest(robot, qs)
             if pose >= 0 and (obstacle is None or value < obstacle.value):
                 obstacle = Closest(value, pose, pair, c.min_distance)
-    return SafetyReport(kinds[0], kinds[1], floor, obstacle, mount, note)
+    itself, self_note = _closest_links(robot, qs, constraints) if self_collision else (None, "")
+    if itself is not None and not itself.ok:
+        warn(
+            f"pose {itself.pose + 1} of the plan: "
+            + (
+                "the robot collides with itself"
+                if itself.value <= 0
+                else "two links of the robot come closer"
+            )
+            + f" ({_self_line(itself)}); a design keeps its links apart with the constraint "
+            "'self_collision:' (--constraints)",
+            PincalWarning,
+        )
+    return SafetyReport(kinds[0], kinds[1], floor, obstacle, mount, note, itself, self_note)
+
+
+def _closest_links(
+    robot: Robot, qs: np.ndarray, constraints: tuple[AnyConstraint, ...]
+) -> tuple[Closest | None, str]:
+    """The closest pair of the robot's own links over ``qs`` (None: no pair can meet) and how the
+    distances were computed; the geometry and clearance of the constraints' SelfCollision and
+    Workcell when given (the campaign's checks use the same)."""
+    selfs = [c for c in constraints if isinstance(c, SelfCollision)]
+    cells = [c for c in constraints if isinstance(c, Workcell)]
+    radius = next((c.link_radius for c in cells if c.link_radius is not None), None)
+    dirs = tuple(d for c in selfs for d in c.package_dirs) + tuple(d for c in cells for d in c.package_dirs)
+    world = CollisionWorld(robot, (), self_collision=True, link_radius=radius, search=dirs)
+    note = f"links checked with {world.geometry.source}"
+    if world.skipped:
+        note += f"; {len(world.skipped)} pair(s) touching at the zero configuration not checked"
+    if not world.pairs or not len(qs):
+        return None, note
+    distances = world.distances_many(qs)
+    i, k = np.unravel_index(int(np.argmin(distances)), distances.shape)
+    required = max((c.min_distance for c in selfs), default=0.0)
+    return Closest(float(distances[i, k]), int(i), world.names[k], required), note
