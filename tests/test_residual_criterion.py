@@ -108,3 +108,33 @@ def test_the_accuracy_report_with_a_residual_model(setup):
     assert report.residual_model and "residual model" in "\n".join(report.lines())
     with pytest.raises(BadArgument, match="no prior"):
         pincal.accuracy(params, plan, q0, sigma=SIGMA, residual_model=model, prior=Prior.parse("1mm,1mrad"))
+
+
+def test_the_accuracy_report_with_a_residual_model_searches_the_worst(setup):
+    """Over a region, the report with a residual model searches the worst expected error as the
+    geometric report searches ρ: no smaller than any sampled value, inside the region, and the
+    expected error recomputed at the pose it names."""
+    robot, params = setup
+    plan = robot.random_configurations(20, 1)
+    q0 = robot.random_configurations(1, 2)[0]
+    region = pincal.around(q0, np.radians(10), samples=30)
+    model = _model(robot, 3e-4)
+    report = pincal.accuracy(
+        params, plan, region, sigma=SIGMA, residual_model=model, samples=40, workspace=60
+    )
+    worst = report.plans[0].worst
+    assert worst is not None and worst.searched
+    sampled = report.plans[0].rows[0]  # the test region's own samples
+    assert worst.sampled == pytest.approx(sampled.max, rel=1e-12) and worst.rho >= worst.sampled
+    assert np.all(np.abs(worst.pose - q0) <= np.radians(10) + 1e-9)
+    assert worst.rho == pytest.approx(
+        expected_error(params, plan, worst.pose[None], model, sigma=SIGMA), rel=1e-9
+    )
+    assert "worst found" in "\n".join(report.lines())
+    assert report.as_dict()["plans"][0]["worst_found"]["searched"]
+    # Plain test poses are the samples themselves: the worst of them, not searched.
+    poses = robot.random_configurations(3, 5)
+    at_poses = pincal.accuracy(
+        params, plan, poses, sigma=SIGMA, residual_model=model, samples=40, workspace=60
+    )
+    assert at_poses.plans[0].worst is None or not at_poses.plans[0].worst.searched

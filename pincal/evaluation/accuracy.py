@@ -466,7 +466,7 @@ def accuracy(
         residual_model: a residual model from an earlier calibration: every row is then the
             expected error when the parameters and the residual are estimated together from the
             plan (sqrt tr Σ₀ at each configuration, docs/method.md §11.5), the residual model's
-            variance included; no prior, no worst-found search.
+            variance included, and the worst found over a region searched on it; no prior.
         measure, instrument: what the plans measure and the instrument's error model (see
             :func:`pincal.rho0`); ``sigma`` is then the error model's reference σ.
     """
@@ -548,13 +548,12 @@ def _with_residual_model(
     loads = plan_payloads(plan, batch.shape)
 
     def rows(q: np.ndarray, load: PayloadLike, name: str) -> PlanAccuracy:
-        J = engine.jacobian(q, frame="world", payload=load)
-        out = []
-        for where, qs in sets:
-            J_at = engine.jacobian(qs, frame="world", payload=_loads(task_payload, len(qs)))
-            each = ResidualCriterion(model, J_at, qs, sigma).each(J, q)
-            out.append(ErrorSummary.of(where, np.sqrt(np.maximum(each, 0.0))))
-        return PlanAccuracy(name, tuple(out), None, out[0].rms, 0.0)
+        error = _ResidualError(
+            engine, model, sigma, q, engine.jacobian(q, frame="world", payload=load), task_payload
+        )
+        out = tuple(ErrorSummary.of(where, np.sqrt(error.squared(qs))) for where, qs in sets)
+        worst = None if region is None else worst_found(error, region)
+        return PlanAccuracy(name, out, worst, out[0].rms, 0.0)
 
     with blas_for(sum(len(qs) for _, qs in sets)):
         compared = tuple(
@@ -575,6 +574,31 @@ def _with_residual_model(
             for i, q in enumerate(batch)
         )
     return reports if batched else reports[0]
+
+
+class _ResidualError:
+    """ρ²(q) = tr Σ₀ at any configurations after calibrating with one plan, the parameters and a
+    residual model's residual estimated together (a :class:`SquaredError`, so that
+    :func:`worst_found` searches it as it searches the geometric ρ²).
+
+    Args:
+        engine: the parameters' Jacobian engine.
+        model: the residual model.
+        sigma: the instrument's noise per coordinate [m].
+        q: (m, nq) the plan; J: (m, r, P) its world-aligned rows (under its payloads).
+        task_payload: the load under which ρ(q) is asked, or None.
+    """
+
+    def __init__(
+        self, engine, model: ResidualModel, sigma: float, q: np.ndarray, J: np.ndarray, task_payload
+    ):
+        self.engine, self.model, self.sigma = engine, model, sigma
+        self.q, self.J, self.task_payload = q, J, task_payload
+
+    def squared(self, qs: np.ndarray) -> np.ndarray:
+        """(n,) ρ² [m²] at the (n, nq) configurations ``qs``."""
+        J_at = self.engine.jacobian(qs, frame="world", payload=_loads(self.task_payload, len(qs)))
+        return np.maximum(ResidualCriterion(self.model, J_at, qs, self.sigma).each(self.J, self.q), 0.0)
 
 
 def _loads(task_payload: PayloadLike, n: int) -> np.ndarray | None:
