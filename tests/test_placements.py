@@ -12,6 +12,7 @@ import pincal
 from pincal.model.placements import JointPlacements
 from pincal.planning.constraints import Kinematics, Mount, MountBound
 from pincal.planning.constraints.base import TOLERANCE
+from pincal.planning.constraints.mount import BATCH
 from pincal.planning.feasibility import Feasibility
 
 MARKERS = [[0.1, 0.05, 0.2], [-0.03, 0.02, 0.08]]
@@ -133,6 +134,17 @@ def test_the_mount_check_agrees_with_pinocchio_one_configuration_at_a_time(name,
         np.testing.assert_array_equal(check(kin)[decided], expected[decided])
         assert decided.sum() >= len(qs) - len(near)
     assert not len(near) or np.all(np.abs(heights[500:]).min(axis=1) < 1e-12)  # near the plane indeed
+    # The ties: configurations on the plane whose strict decision the batch and Pinocchio's loop
+    # make differently, every one with its lowest point within 1e-15 m of the plane.
+    loop = bound.margins(Kinematics(robot, near))
+    batched = (bound.batch_points(near) @ bound.normal - bound.offset)[:, bound.keep]
+    ties = np.flatnonzero(np.all(loop > 0, axis=1) != np.all(batched > 0, axis=1))
+    assert not len(ties) or np.all(np.abs(loop[ties]).min(axis=1) < 1e-15)
+    assert len(ties) >= 1 or name not in ("kr270", "ur10")  # seen on these two: the next check bites
+    # Fewer than BATCH configurations are checked by Pinocchio's loop: the margins' own decisions.
+    few = Kinematics(robot, near[ties[: BATCH - 1]])
+    np.testing.assert_array_equal(bound.strictly_satisfied(few), np.all(bound.margins(few) > 0, axis=1))
+    np.testing.assert_array_equal(bound.satisfied(few), np.all(bound.margins(few) >= -TOLERANCE, axis=1))
 
 
 @pytest.fixture

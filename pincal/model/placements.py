@@ -58,7 +58,7 @@ def _turned(frames: np.ndarray, axis: np.ndarray, aligned: bool, angles: np.ndar
 
 def _times(frames: np.ndarray, matrix: np.ndarray) -> np.ndarray:
     """(m, 3, k) ``frames @ matrix`` for one (3, k) matrix: a single matrix product."""
-    return (frames.reshape(-1, 3) @ matrix).reshape(len(frames), 3, -1)
+    return (frames.reshape(-1, 3) @ matrix).reshape(len(frames), 3, matrix.shape[1])
 
 
 class JointPlacements:

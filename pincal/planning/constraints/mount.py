@@ -36,6 +36,9 @@ MOVING = 1e-6
 """A point whose height above the plane varies by less than this [m] over random configurations
 is not moved by the joints (left out of the check)."""
 
+BATCH = 16
+"""Fewest configurations the mount's yes/no checks compute in one batch (below, one at a time)."""
+
 
 @dataclass(frozen=True)
 class Mount(Constraint):
@@ -121,7 +124,7 @@ class MountBound(Bound):
     random draws of a pool or of a baseline's plans) read every joint's placement of all the
     configurations in one batch (:class:`~pincal.model.placements.JointPlacements`), which agrees
     with Pinocchio to rounding (1e-15 m): a decision could differ only for a height within that
-    of the tolerance, a tie.
+    of the tolerance, a tie. Fewer than :data:`BATCH` configurations are checked one at a time.
 
     Attributes:
         names: what each checked point is (``joint_a3 origin``, ``tool0``, ``marker 0``).
@@ -178,7 +181,12 @@ class MountBound(Bound):
         return self.points(qs) @ self.normal - self.offset
 
     def _batch_heights(self, qs: np.ndarray) -> np.ndarray:
-        """(m, kept) the kept points' heights from :meth:`batch_points`."""
+        """(m, kept) the kept points' heights for a decision: from :meth:`batch_points`, or from
+        :meth:`points` for fewer than :data:`BATCH` configurations (the batch's fixed cost, a few
+        dozen NumPy calls per joint, is more than Pinocchio's loop there: the repair's bisection
+        checks one or two configurations at a time)."""
+        if len(qs) < BATCH:
+            return self._heights(qs)[:, self.keep]
         return self.batch_points(qs)[:, self.keep] @ self.normal - self.offset
 
     def margins(self, kin: Kinematics) -> np.ndarray:
