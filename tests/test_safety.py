@@ -226,7 +226,7 @@ def test_safety_report_names_a_pose_where_the_robot_meets_itself(ur10):
     campaign = pincal.plan_campaign(ur10, np.vstack([UR10_FINE, UR10_FOLDED]), home=UR10_FINE)
     assert s.value == pytest.approx(campaign.pose_clearance[1], abs=1e-9)
     text = "\n".join(report.lines())
-    assert f"self-collision: {s.what} overlap (by at least" in text and "at pose 2" in text
+    assert f"self-collision: {s.what} overlap (by up to" in text and "at pose 2" in text
     assert "collides with itself" in text and "URDF's collision geometry" in text
     assert json.loads(json.dumps(report.as_dict()))["self_collision"]["pose"] == 1
     import warnings
@@ -267,3 +267,21 @@ def test_design_and_evaluate_warn_of_a_folded_pose(tmp_path, cli, ur10):
     evaluated = cli.run("evaluate", *argv, "--plan", pool)
     assert evaluated.code == 0 and "pose 13 of the plan: the robot collides with itself" in evaluated.err
     assert f"self-collision: {s['what']} overlap" in evaluated.out and "at pose 13" in evaluated.out
+
+
+def test_geometry_coal_cannot_take_leaves_the_links_unchecked_and_says_so(ur10, monkeypatch):
+    """Some published meshes have no convex hull coal can build (centauro's: "Too many neighbor"):
+    the report then says the links were not checked, and the rest of it stands."""
+    import pincal.planning.safety as safety
+
+    def refuse(*args, **kwargs):
+        raise RuntimeError("From file: convex.cpp\nat line: 186\nmessage: Too many neighbor")
+
+    monkeypatch.setattr(safety, "CollisionWorld", refuse)
+    report = safety_margins(ur10, UR10_FOLDED[None], with_safety(ur10))
+    assert report.self_collision is None and report.floor is not None
+    assert (
+        report.self_note
+        == "links not checked: coal could not take the collision geometry (Too many neighbor)"
+    )
+    assert f"  ({report.self_note})" in report.lines()

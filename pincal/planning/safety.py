@@ -153,15 +153,15 @@ class SafetyReport:
             s = self.self_collision
             collides = "  ** the robot collides with itself **" if s.value <= 0 else flag(s)
             out.append(f"  self-collision: {_self_line(s)} at pose {s.pose + 1}{collides}")
-            if self.self_note:
-                out.append(f"  ({self.self_note})")
+        if self.self_note:
+            out.append(f"  ({self.self_note})")
         return out
 
 
 def _self_line(s: Closest) -> str:
     """The closest pair of links, in words: how far apart, or how deep they overlap."""
-    if s.value <= 0:
-        return f"{s.what} overlap (by at least {_mm(-s.value)})"
+    if s.value <= 0:  # a depth of the meshes' convex hulls, which the meshes' own does not exceed
+        return f"{s.what} overlap (by up to {_mm(-s.value)})"
     return f"{s.what} {_mm(s.value)} apart (kept: {_mm(s.required)})"
 
 
@@ -246,13 +246,17 @@ def _closest_links(
     cells = [c for c in constraints if isinstance(c, Workcell)]
     radius = next((c.link_radius for c in cells if c.link_radius is not None), None)
     dirs = tuple(d for c in selfs for d in c.package_dirs) + tuple(d for c in cells for d in c.package_dirs)
-    world = CollisionWorld(robot, (), self_collision=True, link_radius=radius, search=dirs)
+    try:
+        world = CollisionWorld(robot, (), self_collision=True, link_radius=radius, search=dirs)
+        distances = world.distances_many(qs) if world.pairs and len(qs) else None
+    except RuntimeError as exc:  # coal on a mesh it cannot take (its convex hull: "Too many neighbor")
+        why = str(exc).strip().splitlines()[-1].removeprefix("message: ") if str(exc).strip() else "an error"
+        return None, f"links not checked: coal could not take the collision geometry ({why})"
     note = f"links checked with {world.geometry.source}"
     if world.skipped:
         note += f"; {len(world.skipped)} pair(s) touching at the zero configuration not checked"
-    if not world.pairs or not len(qs):
+    if distances is None:
         return None, note
-    distances = world.distances_many(qs)
     i, k = np.unravel_index(int(np.argmin(distances)), distances.shape)
     required = max((c.min_distance for c in selfs), default=0.0)
     return Closest(float(distances[i, k]), int(i), world.names[k], required), note
