@@ -303,7 +303,42 @@ def test_same_seed_same_plan_whatever_the_executor(kr_params):
         assert not np.array_equal(serial.plan.q, other.plan.q)
 
 
+def test_the_d_optimal_baseline_is_the_same_whatever_the_executor(kr_params):
+    kw = dict(test_pose=KR_Q0, starts=4, seed=3, with_d_optimal=True)
+    serial = design(kr_params, 5, workers=1, **kw)
+    threads = design(kr_params, 5, executor=ThreadPoolExecutor(2), **kw)
+    processes = design(kr_params, 5, workers=2, **kw)
+    for other in (threads, processes):
+        np.testing.assert_array_equal(serial.plan.q, other.plan.q)
+        np.testing.assert_array_equal(serial.d_optimal.plan.q, other.d_optimal.plan.q)
+        assert (serial.value, serial.d_optimal.value) == (other.value, other.d_optimal.value)
+
+
 # ------------------------------------------------------------------- baselines
+def test_the_d_optimal_baseline_from_the_same_starts_is_the_d_optimal_design(kr_params):
+    kw = dict(test_pose=KR_Q0, starts=4, seed=5, workers=1)
+    both = design(kr_params, 5, with_d_optimal=True, **kw)
+    alone = design(kr_params, 5, **kw)
+    d = design(kr_params, 5, criterion="D", **kw)
+    # Searched together, each is what it is searched alone: the starts, pool and floor are shared.
+    np.testing.assert_array_equal(both.plan.q, alone.plan.q)
+    np.testing.assert_array_equal(both.d_optimal.plan.q, d.plan.q)
+    assert (both.value, both.d_optimal.value, both.d_optimal.rho0) == (alone.value, d.value, d.rho0)
+    assert both.d_optimal.criterion == "D" and both.d_optimal.d_optimal is None
+    # No worse in log det than any of its starts' plans (each exchanged, the best polished).
+    regular = [h.value for h in both.d_optimal.history if "below the conditioning floor" not in h.message]
+    assert both.d_optimal.value == min(regular)
+    J = kr_params.jacobian(both.d_optimal.plan.q).reshape(-1, len(kr_params))
+    assert both.d_optimal.value == pytest.approx(-np.linalg.slogdet(J.T @ J)[1], rel=1e-9)  # log det M⁻¹
+    # A D-optimal design is its own baseline.
+    assert d.value == design(kr_params, 5, criterion="D", with_d_optimal=True, **kw).d_optimal.value
+
+
+def test_the_d_optimal_baseline_needs_the_exchange(kr_params):
+    with pytest.raises(pincal.errors.BadArgument, match="method='exchange'"):
+        design(kr_params, 5, test_pose=KR_Q0, method="continuous", with_d_optimal=True, **FAST)
+
+
 def test_random_plans_statistics(lengths):
     stats = random_plans(lengths, 2, 400, [0.3, 1.0], seed=0, sigma=2.0)
     assert len(stats.values) + stats.n_singular == 400

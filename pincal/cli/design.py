@@ -306,12 +306,14 @@ def run(args: argparse.Namespace) -> int:
         raise BadArgument("--placement-plot and --place-steps go with --place-instrument X0,Y0,Z0,X1,Y1,Z1")
     with recorded_warnings() as records:
         if placement is None:
-            result = design(params, args.m, q0, criterion=criterion, **options)
+            # --baseline's D-optimal plan is searched from the same starts, on the same workers
+            with_d = args.baseline is not None and options.get("method") == "exchange"
+            result = design(params, args.m, q0, criterion=criterion, with_d_optimal=with_d, **options)
         else:
             result = placement.result
         baseline = None
         if args.baseline is not None:
-            baseline = _baseline(params, args, q0, criterion, taught, options)
+            baseline = _baseline(params, args, q0, criterion, taught, options, result.d_optimal)
         reference = None if baseline is None or baseline[1] is None else baseline[1].plan
         report = report_accuracy(
             args,
@@ -407,10 +409,11 @@ def _payload_options(args: argparse.Namespace) -> dict:
 
 
 def _baseline(
-    params, args: argparse.Namespace, q0, criterion: str, taught, options: dict
+    params, args: argparse.Namespace, q0, criterion: str, taught, options: dict, d_optimal=None
 ) -> tuple[RandomPlans, DesignResult | None]:
     """(random feasible plans, the D-optimal plan) of --baseline: the random plans drawn from the
-    taught pool if any, the D-optimal plan designed with the same options as the plan."""
+    taught pool if any, the D-optimal plan designed with the same options as the plan (given:
+    ``d_optimal``, searched with the plan from its starts)."""
     randoms = random_plans(
         params,
         args.m,
@@ -424,7 +427,9 @@ def _baseline(
         pool=taught,
         **{k: options[k] for k in ("measure", "instrument", "orientation_length") if k in options},
     )
-    return randoms, design(params, args.m, q0, criterion="D", **options)
+    if d_optimal is None:
+        d_optimal = design(params, args.m, q0, criterion="D", **options)
+    return randoms, d_optimal
 
 
 def _write_and_print(

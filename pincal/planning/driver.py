@@ -70,7 +70,7 @@ from pincal.planning.objectives import (
     criterion_name,
 )
 from pincal.planning.results import DesignResult
-from pincal.planning.search import Pool, Settings, draw_starts, search
+from pincal.planning.search import D_OPTIMAL, Pool, Settings, draw_starts, search
 from pincal.typing import ConfigurationsLike, PayloadLike, PoolLike, SeedLike, TestPoseLike
 
 METHODS = ("continuous", "exchange")
@@ -127,6 +127,7 @@ def design(
     orientation_length: float | None = None,
     joint_margin: JointMargin = None,
     mount: MountSpec = None,
+    with_d_optimal: bool = False,
 ) -> DesignResult:
     """Find the m measurement configurations that minimise a criterion, within the constraints.
 
@@ -209,6 +210,11 @@ def design(
             :class:`~pincal.planning.constraints.Mount`; default (None) ``floor`` for a fixed-base
             robot measured from its URDF root, ``none`` otherwise (or the Mount among
             ``constraints``).
+        with_d_optimal: also design the D-optimal plan from the same starts, as the baseline to
+            judge this plan against (the CLI's ``--baseline``): ``result.d_optimal`` is the design
+            ``criterion="D"`` with the same arguments returns (the same starts, pool and floor:
+            none of them depends on the criterion), at the cost of its own exchanges from the
+            starts and its polish, which run on the executor with this design's. Exchange method.
 
     Returns:
         the best plan found, with its criterion value, ρ0 and the history of every start.
@@ -228,7 +234,14 @@ def design(
         >>> round(result.rho0**2 / ((1 + math.sin(1.0)) / 2), 9)  # docs/method.md §9.3, σ = 1
         1.0
     """
+    if with_d_optimal and method != "exchange":
+        raise BadArgument(
+            "with_d_optimal searches the D-optimal plan from the exchange's starts: method='exchange' "
+            "(or design with criterion='D' and the continuous method separately)"
+        )
     if payloads is not None or task_payload is not None or residual_model is not None:
+        if with_d_optimal:
+            raise BadArgument("a design with payloads or a residual model has no D-optimal baseline")
         if method != "exchange" or init or polish:
             raise BadArgument(
                 "a design with payloads or a residual model is an exchange over a pool of candidate "
@@ -275,12 +288,15 @@ def design(
         pooled = _pool(params, settings, pool, init)
         engine = rows_engine(params, settings.instrument)
         J_pool = pool_rows(engine, pooled.candidates)
-        outcomes = None
+        d_optimal = with_d_optimal and settings.criterion != D_OPTIMAL  # else the design is its own
+        outcomes = d_outcomes = None
         while outcomes is None:
             try:
                 # Start 0 is drawn here, to adapt the floor before the workers draw the others.
                 first = draw_starts(settings, J_pool, pooled.candidates, 0, 1)
-                outcomes = search(settings, params, engine, pooled, first, executor, progress)
+                outcomes, d_outcomes = search(
+                    settings, params, engine, pooled, first, executor, progress, d_optimal
+                )
             except FloorUnreachable as error:
                 if min_conditioning is not None:  # a floor asked for is honoured, or refused
                     raise
@@ -292,8 +308,17 @@ def design(
                     raise FloorUnreachable(m, MIN_DATA_CONDITIONING, error.reached, for_data=True) from None
                 settings = replace(settings, floor=max(error.reached / 2, MIN_DATA_CONDITIONING))
         choice = choose(settings, params, engine, outcomes)
-        return design_result(
-            settings, params, engine, pooled, outcomes, choice, time.perf_counter() - t_start
+        elapsed = time.perf_counter() - t_start
+        result = design_result(settings, params, engine, pooled, outcomes, choice, elapsed)
+        if not with_d_optimal:
+            return result
+        if d_outcomes is None:  # the design is the D-optimal one
+            return replace(result, d_optimal=result)
+        d_settings = replace(settings, criterion=D_OPTIMAL)
+        d_choice = choose(d_settings, params, engine, d_outcomes)
+        return replace(
+            result,
+            d_optimal=design_result(d_settings, params, engine, pooled, d_outcomes, d_choice, elapsed),
         )
 
 

@@ -17,7 +17,7 @@ import uuid
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -70,6 +70,10 @@ class ProblemSpec:
     instrument: Instrument | None = None
     orientation_length: float | None = None
     key: str = field(default_factory=lambda: uuid.uuid4().hex)
+
+    def for_criterion(self, criterion: str) -> ProblemSpec:
+        """The same problem with another criterion (a spec of its own in the workers' caches)."""
+        return replace(self, criterion=criterion, key=uuid.uuid4().hex)
 
 
 class Problem:
@@ -137,11 +141,12 @@ def polish_task(spec: ProblemSpec, q0: np.ndarray, anchor: np.ndarray, maxiter: 
 
 
 def exchange_task(
-    spec: ProblemSpec, start: int, index: np.ndarray | None
-) -> _exchange.ExchangeOutcome | CarriedError:
+    spec: ProblemSpec, start: int, index: np.ndarray | None, also: ProblemSpec | None = None
+) -> _exchange.ExchangeOutcome | tuple[_exchange.ExchangeOutcome, _exchange.ExchangeOutcome] | CarriedError:
     """The exchange search over the spec's pool from the plan pool[index], or from the plan of
     start ``start`` drawn here (``index`` None); a start that cannot be drawn comes back as a
-    :class:`CarriedError`."""
+    :class:`CarriedError`. With ``also`` (the same problem with another criterion), the pair of
+    both exchange searches from that plan."""
     with single_threaded_blas():
         p = problem(spec)
         spacing, pool = p.feasibility.spacing, spec.pool
@@ -159,7 +164,11 @@ def exchange_task(
                 )
             except PincalError as error:
                 return CarriedError.of(error)
-        return _exchange.fedorov(p.objective, p.pool_jacobians, pool, index, spacing, spec.floor)
+        own = _exchange.fedorov(p.objective, p.pool_jacobians, pool, index, spacing, spec.floor)
+        if also is None:
+            return own
+        other = problem(also).objective  # on this problem's pool Jacobians: the same pool
+        return own, _exchange.fedorov(other, p.pool_jacobians, pool, index, spacing, spec.floor)
 
 
 @dataclass(frozen=True)
@@ -214,24 +223,25 @@ def run(
     executor: Executor | None,
     function: Callable,
     items: Sequence[tuple],
-    done: Callable[[object], None] | None = None,
+    done: Callable[[int, object], None] | None = None,
 ) -> list:
-    """``[function(*item) for item in items]``, on ``executor`` if given; ``done`` sees each result
-    as it arrives. Results are in the order of ``items``."""
+    """``[function(*item) for item in items]``, on ``executor`` if given; ``done(i, result)`` sees
+    each result as it arrives (``i``: its item's index). Results are in the order of ``items``."""
     if executor is None:
         out = []
-        for item in items:
+        for i, item in enumerate(items):
             out.append(function(*item))
             if done is not None:
-                done(out[-1])
+                done(i, out[-1])
         return out
     futures = {executor.submit(function, *item): i for i, item in enumerate(items)}
     results: list = [None] * len(items)
     try:
         for future in as_completed(futures):
-            results[futures[future]] = future.result()
+            i = futures[future]
+            results[i] = future.result()
             if done is not None:
-                done(results[futures[future]])
+                done(i, results[i])
     except BaseException:
         for future in futures:
             future.cancel()

@@ -78,6 +78,8 @@ class DesignResult:
         orientation_length: L [m] of the test-pose criterion's orientation part, or None.
         instrument_at: (x, y, z) the instrument's position chosen with the plan
             (:func:`pincal.planning.place_instrument`) [m], or None.
+        d_optimal: the D-optimal design from the same starts (``design(..., with_d_optimal=True)``),
+            or None; not in :meth:`as_dict`.
     """
 
     plan: Plan
@@ -100,6 +102,7 @@ class DesignResult:
     instrument: Instrument | None = None
     orientation_length: float | None = None
     instrument_at: tuple[float, float, float] | None = None
+    d_optimal: DesignResult | None = None
 
     @property
     def m(self) -> int:

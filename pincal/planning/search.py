@@ -30,6 +30,9 @@ from pincal.planning.progress import Progress
 from pincal.planning.results import StartRecord
 from pincal.planning.starts import draw_start, start_seed
 
+D_OPTIMAL = "D"
+"""The criterion of the D-optimal design searched with another (``with_d_optimal``)."""
+
 
 @dataclass(frozen=True)
 class Settings:
@@ -125,11 +128,21 @@ def search(
     first: tuple[np.ndarray, ...],
     executor: Executor | None,
     progress: bool,
-) -> tuple[Outcome, ...]:
+    with_d_optimal: bool = False,
+) -> tuple[tuple[Outcome, ...], tuple[Outcome, ...] | None]:
     """Every start searched (and the best polished), on the executor; one outcome per start.
 
     ``first`` are the plans of the first starts, drawn by the caller (:func:`draw_starts`); the
     exchange's workers draw the others themselves, in parallel.
+
+    With ``with_d_optimal`` (exchange method), the D-optimal design is searched from the same
+    starts too, in the same tasks: from each start's plan the D criterion's own exchange, then
+    the best ``n_keep`` of those polished, the polishes of both designs on the executor together.
+    Its outcomes are those of a design with ``criterion="D"`` and the same settings (the starts,
+    the pool and the floor do not depend on the criterion), without drawing the starts again.
+
+    Returns:
+        (the outcomes of this design's criterion, those of the D-optimal design or None).
 
     Raises:
         FloorUnreachable: a start found no plan above the conditioning floor (the caller adapts
@@ -154,6 +167,11 @@ def search(
     if s.criterion in TEST_POSE_CRITERIA and s.test_poses is not None:  # the settings checked they are given
         J0 = tool_rows(engine, s.test_poses, s.orientation_length).copy()
     objective = make_criterion(s.criterion, len(params), engine.rows, J0, s.sigma, s.prior_information)
+    d_spec = d_objective = None
+    if with_d_optimal:
+        assert s.method == "exchange"  # the driver checked
+        d_spec = spec.for_criterion(D_OPTIMAL)
+        d_objective = make_criterion(D_OPTIMAL, len(params), engine.rows, None, s.sigma, s.prior_information)
     n_starts, n_keep = pooled.n_starts(s), pooled.n_keep(s)
     bar = Progress(progress, s.criterion, objective)
     if executor is None and min(s.workers, n_starts) > 1 and mp.get_start_method() == "fork":
@@ -165,25 +183,51 @@ def search(
                 J_pool = pool_rows(engine, pooled.candidates)
                 indices = first + draw_starts(s, J_pool, pooled.candidates, len(first))
                 x0s = list(pooled.init) + [pooled.candidates[i] for i in indices]
-                return _continuous(spec, ex, x0s, n_keep, s.screen_iterations, s.maxiter, objective, bar)
+                outcomes = _continuous(spec, ex, x0s, n_keep, s.screen_iterations, s.maxiter, objective, bar)
+                return outcomes, None
             bar.stage("searched", n_starts)
-            outcomes = _exchange(spec, ex, pooled.candidates, first, s.starts, objective, bar)
+            designs = _exchange(
+                spec, ex, pooled.candidates, first, s.starts, objective, bar, d_spec, d_objective
+            )
             if s.polish:
-                bar.stage(f"polished (the best {n_keep} of {n_starts})", n_keep)
-                outcomes = _polish(spec, ex, outcomes, n_keep, s.maxiter, objective, engine, s.floor, bar)
-            return outcomes
+                also = "" if d_spec is None else f", and {n_keep} D-optimal"
+                bar.stage(f"polished (the best {n_keep} of {n_starts}{also})", n_keep * len(designs))
+                designs = _polish(ex, designs, n_keep, s.maxiter, engine, s.floor, bar)
+            return designs[0][1], None if d_spec is None else designs[1][1]
     finally:
         bar.close()
         _multistart.forget(spec)
+        if d_spec is not None:
+            _multistart.forget(d_spec)
 
 
-def _exchange(spec, ex, candidates, first, starts: int, objective: Criterion, bar) -> tuple[Outcome, ...]:
-    """The exchange search from each start's plan (the first given, the others drawn by the workers)."""
-    items = [(spec, i, first[i] if i < len(first) else None) for i in range(starts)]
-    outcomes = _multistart.run(ex, _multistart.exchange_task, items, bar)
-    for o in outcomes:
-        if isinstance(o, _multistart.CarriedError):
-            raise o.error()
+Searched = tuple[_multistart.ProblemSpec, tuple[Outcome, ...], Criterion]
+"""One design's exchange outcomes, with its spec and criterion (for its polish)."""
+
+
+def _exchange(
+    spec, ex, candidates, first, starts: int, objective: Criterion, bar, d_spec=None, d_objective=None
+) -> list[Searched]:
+    """The exchange search from each start's plan (the first given, the others drawn by the
+    workers); with ``d_spec``, the D-optimal design's exchange from the same plans, in the same task."""
+    items = [(spec, i, first[i] if i < len(first) else None, d_spec) for i in range(starts)]
+    results = _multistart.run(ex, _multistart.exchange_task, items, lambda i, r: bar(_first(r)))
+    for r in results:
+        if isinstance(r, _multistart.CarriedError):
+            raise r.error()
+    designs = [(spec, _exchanged(candidates, [_first(r) for r in results], objective), objective)]
+    if d_spec is not None:
+        assert d_objective is not None
+        designs.append((d_spec, _exchanged(candidates, [r[1] for r in results], d_objective), d_objective))
+    return designs
+
+
+def _first(result):
+    """The task's outcome for the design's own criterion (a pair holds the D-optimal one second)."""
+    return result[0] if isinstance(result, tuple) else result
+
+
+def _exchanged(candidates, outcomes, objective: Criterion) -> tuple[Outcome, ...]:
     return tuple(
         Outcome(
             StartRecord(
@@ -205,27 +249,38 @@ def _exchange(spec, ex, candidates, first, starts: int, objective: Criterion, ba
 
 
 def _polish(
-    spec, ex, outcomes: tuple[Outcome, ...], n_keep: int, maxiter: int, objective, engine, floor: float, bar
-) -> tuple[Outcome, ...]:
-    """The best ``n_keep`` exchange plans continued by the continuous search; a polished plan
-    replaces its start's plan if feasible, no worse and above the conditioning floor."""
-    order = sorted(range(len(outcomes)), key=lambda s: (outcomes[s].F, s))[:n_keep]
-    items = [(spec, outcomes[s].q, outcomes[s].q, maxiter) for s in order]
-    polished = _multistart.run(ex, _multistart.polish_task, items, bar)
-    new = list(outcomes)
-    for s, o in zip(order, polished, strict=True):
-        old = outcomes[s]
-        record = replace(
-            old.record,
-            value=float(objective.report(o.F)),
-            iterations=old.record.iterations + o.iterations,
-            time_s=old.record.time_s + o.time_s,
-            feasible=o.feasible,
-            message=old.record.message + "; polished: " + o.message,
-        )
-        better = o.feasible and o.F <= old.F and plan_conditioning(engine, o.q) > floor
-        new[s] = Outcome(record, o.q if better else old.q, o.F if better else old.F, True)
-    return tuple(new)
+    ex, designs: list[Searched], n_keep: int, maxiter: int, engine, floor: float, bar
+) -> list[Searched]:
+    """The best ``n_keep`` exchange plans of each design continued by the continuous search, all
+    on the executor at once (the last design's first: the D-optimal polishes are the longer); a
+    polished plan replaces its start's plan if feasible, no worse and above the conditioning floor."""
+    orders: list[tuple[int, list[int], int]] = []  # (design, its starts polished, where its items begin)
+    items: list[tuple] = []
+    for d in reversed(range(len(designs))):
+        spec, outcomes, _ = designs[d]
+        order = sorted(range(len(outcomes)), key=lambda s: (outcomes[s].F, s))[:n_keep]
+        orders.append((d, order, len(items)))
+        items += [(spec, outcomes[s].q, outcomes[s].q, maxiter) for s in order]
+    own = orders[-1][2]  # this design's items come last; the bar reports its values only
+    polished = _multistart.run(ex, _multistart.polish_task, items, lambda i, r: bar(r if i >= own else None))
+    out = list(designs)
+    for d, order, begin in orders:
+        spec, outcomes, objective = designs[d]
+        new = list(outcomes)
+        for s, o in zip(order, polished[begin : begin + len(order)], strict=True):
+            old = outcomes[s]
+            record = replace(
+                old.record,
+                value=float(objective.report(o.F)),
+                iterations=old.record.iterations + o.iterations,
+                time_s=old.record.time_s + o.time_s,
+                feasible=o.feasible,
+                message=old.record.message + "; polished: " + o.message,
+            )
+            better = o.feasible and o.F <= old.F and plan_conditioning(engine, o.q) > floor
+            new[s] = Outcome(record, o.q if better else old.q, o.F if better else old.F, True)
+        out[d] = (spec, tuple(new), objective)
+    return out
 
 
 def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, bar) -> tuple[Outcome, ...]:
@@ -235,7 +290,7 @@ def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, ba
     if n_keep < n and screen_iterations > 0:
         items = [(spec, x0, screen_iterations) for x0 in x0s]
         bar.stage("screened", n)
-        screened = _multistart.run(ex, _multistart.screen_task, items, bar)
+        screened = _multistart.run(ex, _multistart.screen_task, items, lambda i, r: bar(r))
         order = sorted(range(n), key=lambda s: (screened[s].score, s))
         kept = sorted(order[:n_keep])
         starts_from = [screened[s].q for s in kept]
@@ -246,7 +301,8 @@ def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, ba
     bar.stage(
         "run to convergence" if len(kept) == n else f"run to convergence (the best {len(kept)})", len(kept)
     )
-    finals = dict(zip(kept, _multistart.run(ex, _multistart.polish_task, polish_items, bar), strict=True))
+    runs = _multistart.run(ex, _multistart.polish_task, polish_items, lambda i, r: bar(r))
+    finals = dict(zip(kept, runs, strict=True))
 
     def outcome(s: int) -> Outcome:
         first = None if screened is None else screened[s]
