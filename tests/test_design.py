@@ -29,6 +29,7 @@ from pincal.planning.constraints import (
     with_safety,
 )
 from pincal.planning.driver import design
+from pincal.planning.starts import draw_start, exchange_of, start_seed
 
 KR_Q0 = np.radians([0, -90, 90, 0, 45, 0])
 # Plans at the conditioning floor warn (asserted where it matters, with pytest.warns).
@@ -332,6 +333,28 @@ def test_the_d_optimal_baseline_from_the_same_starts_is_the_d_optimal_design(kr_
     assert both.d_optimal.value == pytest.approx(-np.linalg.slogdet(J.T @ J)[1], rel=1e-9)  # log det M⁻¹
     # A D-optimal design is its own baseline.
     assert d.value == design(kr_params, 5, criterion="D", with_d_optimal=True, **kw).d_optimal.value
+
+
+def test_a_start_drawn_by_a_d_optimal_exchange_is_where_that_exchange_stays(kr_params):
+    # The D-optimal design skips its exchange from such a start: run, it makes no exchange.
+    pool = kr_params.robot.random_configurations(300, np.random.default_rng(0))
+    spec = _multistart.ProblemSpec(kr_params, 5, "D", None, 1.0, (), pool, 0.0)
+    J = _multistart.problem(spec).pool_jacobians
+    objective = _multistart.problem(spec).objective
+    seen = 0
+    for start in range(8):
+        exchanged: dict = {}
+        index = draw_start(J, pool, 5, 0.0, start_seed(7, start), 1e-2, None, exchanged)
+        drawn = exchange_of(index, exchanged)
+        if drawn is None:  # a random plan above twice the floor
+            continue
+        seen += 1
+        again = _exchange.fedorov(objective, J, pool, index, 0.0, 1e-2)
+        assert drawn.converged and again.swaps == 0
+        np.testing.assert_array_equal(again.index, drawn.confirmed().index)
+        assert again.F == drawn.confirmed().F
+    _multistart.forget(spec)
+    assert seen >= 2
 
 
 def test_the_d_optimal_baseline_needs_the_exchange(kr_params):

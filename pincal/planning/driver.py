@@ -290,10 +290,11 @@ def design(
         J_pool = pool_rows(engine, pooled.candidates)
         d_optimal = with_d_optimal and settings.criterion != D_OPTIMAL  # else the design is its own
         outcomes = d_outcomes = None
+        exchanged: dict = {}  # start 0's D-optimal exchange, drawn again if the floor adapts
         while outcomes is None:
             try:
                 # Start 0 is drawn here, to adapt the floor before the workers draw the others.
-                first = draw_starts(settings, J_pool, pooled.candidates, 0, 1)
+                first = draw_starts(settings, J_pool, pooled.candidates, 0, 1, exchanged)
                 outcomes, d_outcomes = search(
                     settings, params, engine, pooled, first, executor, progress, d_optimal
                 )

@@ -26,6 +26,9 @@ from pincal.evaluation.information import conditioning
 TOLERANCE = 1e-10
 """An exchange must lower the objective F (a log) by more than this."""
 
+MAX_SWEEPS = 100
+"""Passes over the plan a search is allowed (it stops earlier once no exchange improves)."""
+
 
 @dataclass(frozen=True)
 class ExchangeOutcome:
@@ -44,6 +47,17 @@ class ExchangeOutcome:
     sweeps: int
     swaps: int
     time_s: float
+
+    @property
+    def converged(self) -> bool:
+        """No exchange improves the plan (the search stopped before :data:`MAX_SWEEPS`): searched
+        again with the same criterion, under any floor it satisfies, it stays as it is."""
+        return self.sweeps < MAX_SWEEPS
+
+    def confirmed(self) -> ExchangeOutcome:
+        """What the search started again from this converged plan returns: the same plan and
+        value after one pass without an exchange."""
+        return ExchangeOutcome(self.index, self.F, 1, 0, 0.0)
 
 
 def _best_regular(values, F, cand, M, J_pool, Ji, floor, tries: int = 32) -> int | None:
@@ -79,7 +93,7 @@ def fedorov(
     index: np.ndarray,
     spacing: float = 0.0,
     floor: float = 0.0,
-    max_sweeps: int = 100,
+    max_sweeps: int = MAX_SWEEPS,
 ) -> ExchangeOutcome:
     """Exchange search from the plan ``pool[index]``.
 

@@ -151,6 +151,7 @@ def exchange_task(
         p = problem(spec)
         spacing, pool = p.feasibility.spacing, spec.pool
         assert pool is not None  # an exchange's spec
+        exchanged: dict = {}  # the D-optimal exchange of the draw, if it made one
         if index is None:
             try:
                 index = _starts.draw_start(
@@ -161,12 +162,18 @@ def exchange_task(
                     _starts.start_seed(spec.entropy, start),
                     spec.floor,
                     spec.prior,
+                    exchanged,
                 )
             except PincalError as error:
                 return CarriedError.of(error)
         own = _exchange.fedorov(p.objective, p.pool_jacobians, pool, index, spacing, spec.floor)
         if also is None:
             return own
+        drawn = _starts.exchange_of(index, exchanged)
+        if also.criterion == "D" and also.prior is None and drawn is not None and drawn.converged:
+            # The plan is where the same D-optimal search (no prior) stopped: no exchange improves it,
+            # and a floor the plan is above only removes exchanges. Searched again it stays.
+            return own, drawn.confirmed()
         other = problem(also).objective  # on this problem's pool Jacobians: the same pool
         return own, _exchange.fedorov(other, p.pool_jacobians, pool, index, spacing, spec.floor)
 

@@ -102,10 +102,16 @@ class Outcome:
 
 # ---------------------------------------------------------------------------- search
 def draw_starts(
-    settings: Settings, J_pool: np.ndarray, pool: np.ndarray, begin: int = 0, end: int | None = None
+    settings: Settings,
+    J_pool: np.ndarray,
+    pool: np.ndarray,
+    begin: int = 0,
+    end: int | None = None,
+    exchanged: dict | None = None,
 ) -> tuple[np.ndarray, ...]:
     """The pool indices of the plans of starts ``begin`` to ``end`` (default: the last), drawn
-    here, each from its own child seed (see :func:`pincal.planning.starts.draw_start`)."""
+    here, each from its own child seed (see :func:`pincal.planning.starts.draw_start`; ``exchanged``
+    keeps their D-optimal exchanges for drawing them again under another floor)."""
     return tuple(
         draw_start(
             J_pool,
@@ -115,6 +121,7 @@ def draw_starts(
             start_seed(settings.entropy, i),
             settings.floor,
             settings.prior_information,
+            exchanged,
         )
         for i in range(begin, settings.starts if end is None else end)
     )

@@ -8,7 +8,7 @@ import numpy as np
 from pincal.errors import FloorUnreachable, Infeasible, SingularPlan
 from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.information import conditioning, factor, jacobi_scaled, rank
-from pincal.planning.exchange import fedorov
+from pincal.planning.exchange import ExchangeOutcome, fedorov
 
 
 def start_seed(entropy: int, start: int) -> np.random.SeedSequence:
@@ -25,9 +25,19 @@ def draw_start(
     seed: np.random.SeedSequence,
     floor: float,
     prior: np.ndarray | None = None,
+    exchanged: dict | None = None,
 ) -> np.ndarray:
     """The pool indices of one start's plan (see :func:`pick`), from its seed."""
-    return pick(J, pool, m, spacing, np.random.default_rng(seed), floor, prior)
+    return pick(J, pool, m, spacing, np.random.default_rng(seed), floor, prior, exchanged)
+
+
+def exchange_of(index: np.ndarray, exchanged: dict) -> ExchangeOutcome | None:
+    """The D-optimal exchange (no prior, no floor) kept in ``exchanged`` by :func:`pick` whose end
+    the plan ``index`` is, or None (a random plan)."""
+    for out in exchanged.values():
+        if np.array_equal(out.index, index):
+            return out
+    return None
 
 
 TRIES = 100
@@ -45,13 +55,16 @@ def pick(
     rng: np.random.Generator,
     floor: float,
     prior: np.ndarray | None = None,
+    exchanged: dict | None = None,
 ) -> np.ndarray:
     """Indices of m pool configurations forming a regular plan (conditioning above ``floor``, spaced),
     at random. With no floor (a prior), any plan whose posterior information is regular.
 
     When no random plan reaches twice the floor, a D-optimal exchange from a random regular one
     does (it spreads the information over every parameter): a floor that a D-optimal plan meets
-    is never refused.
+    is never refused. ``exchanged`` (a dict, for the same ``J``, ``pool`` and ``spacing``) keeps
+    each such exchange by the plan it started from: drawn again under another floor, the same
+    start does not search again.
 
     The random plans are tried in order, :data:`BATCH` at a time: their conditionings in one
     stacked call, the Cholesky test of regularity only where its answer decides (the first
@@ -87,7 +100,12 @@ def pick(
         if failure is not None:
             raise failure
     if regular is not None:
-        out = fedorov(DOptimal(rows), J, pool, regular, spacing)
+        key = tuple(int(i) for i in regular)
+        out = None if exchanged is None else exchanged.get(key)
+        if out is None:
+            out = fedorov(DOptimal(rows), J, pool, regular, spacing)
+            if exchanged is not None:
+                exchanged[key] = out
         stacked = J[out.index].reshape(-1, P)
         reached = conditioning(stacked.T @ stacked)
         if reached > floor:
