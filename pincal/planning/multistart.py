@@ -25,6 +25,7 @@ import numpy as np
 from pincal.blas import single_threaded
 from pincal.errors import PincalError
 from pincal.evaluation.criterion import Criterion
+from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
 from pincal.instruments.instrument import Instrument, pool_rows, rows_engine, tool_rows
 from pincal.model.parameters import ParameterSet
@@ -169,12 +170,12 @@ def exchange_task(
         own = _exchange.fedorov(p.objective, p.pool_jacobians, pool, index, spacing, spec.floor)
         if also is None:
             return own
+        other = problem(also).objective  # on this problem's pool Jacobians: the same pool
         drawn = _starts.exchange_of(index, exchanged)
-        if also.criterion == "D" and also.prior is None and drawn is not None and drawn.converged:
+        if isinstance(other, DOptimal) and also.prior is None and drawn is not None and drawn.converged:
             # The plan is where the same D-optimal search (no prior) stopped: no exchange improves it,
             # and a floor the plan is above only removes exchanges. Searched again it stays.
             return own, drawn.confirmed()
-        other = problem(also).objective  # on this problem's pool Jacobians: the same pool
         return own, _exchange.fedorov(other, p.pool_jacobians, pool, index, spacing, spec.floor)
 
 
