@@ -3,9 +3,12 @@
 For each: the plan designed for the instrument, the parameters recovered from one simulated campaign
 (RMS and largest z-score, (estimate − truth) / standard error), and a Monte-Carlo of the error at the
 test pose against the predicted ρ0. Then the configurations a pose plan needs for a given ρ0 against
-a point plan, and a tracker placed with the plan against its default placement.
+a point plan with one and with three markers (``--only pose``: a sweep of m = 3…30 for each kind on
+a UR10 and a KR 270, the smallest m reaching each target ρ0, a Monte-Carlo of two plans per kind,
+and, with matplotlib, benchmarks/pose_against_point.png), a tracker placed with the plan against
+its default placement, and the line of sight's cost in the continuous polish (``--only sight``).
 
-    python benchmarks/bench_instruments.py            # about 15 CPU minutes; prints Markdown
+    python benchmarks/bench_instruments.py            # about 25 CPU minutes; prints Markdown
 
 Times are CPU seconds (user + sys of this process and of its design workers, ``os.times``): the machine is shared,
 so wall time says more about the neighbours than about pincal.
@@ -14,13 +17,14 @@ so wall time says more about the neighbours than about pincal.
 from __future__ import annotations
 
 import argparse
+import os
 
 import numpy as np
 import pinocchio as pin
 from _common import cpu_seconds, load, machine  # benchmarks/ is on sys.path when run as a script
 
 import pincal
-from pincal.errors import Infeasible, SingularPlan
+from pincal.errors import DegenerateOptimum, Infeasible, SingularPlan
 from pincal.instruments import Camera, Image, Instrument, PerCoordinate, Pose, Tracker, grid
 from pincal.instruments.identifiability import identifiable
 from pincal.planning import place_instrument
@@ -114,51 +118,136 @@ def campaigns(trials: int) -> list[str]:
     return rows
 
 
-def configurations_for(params, q0, target, measure, error, seed) -> tuple[int, float]:
-    """The fewest configurations whose designed plan reaches ρ0 ≤ target (and that ρ0), by
-    bisection over m (a designed plan's ρ0 falls as m grows)."""
+M_SWEEP = (3, 4, 5, 6, 7, 8, 9, 10, 12, 14, 16, 18, 20, 24, 30)
+"""The plan sizes designed for each kind in the pose-against-point section."""
 
-    def designed(m: int) -> float:
-        try:
-            result = pincal.design(params, m, q0, measure=measure, instrument=error, seed=seed, starts=4)
-        except (SingularPlan, Infeasible):
-            return float("inf")
-        return result.rho0
+THREE_MARKERS = (MARKER, (-0.06, 0.05, 0.08), (0.02, -0.07, 0.06))
+"""Three markers on the tool (the first is the one-marker plans' marker) [m, tip frame]."""
 
-    low, high = 2, 8
-    while designed(high) > target:
-        low, high = high, 2 * high
-        if high > 256:
-            return -1, float("nan")
-    best = designed(high)
-    while high - low > 1:
-        mid = (low + high) // 2
-        value = designed(mid)
-        if value <= target:
-            high, best = mid, value
-        else:
-            low = mid
-    return high, best
+SIGMA = 1e-4
+"""Every kind's position σ [m] in the pose-against-point section (mocap's 0.1 mm; its angle σ 2 mrad)."""
 
 
-def pose_against_point() -> list[str]:
-    ur10 = pincal.load_robot("ur10", markers=[MARKER])
-    mocap = PerCoordinate(1e-4, 2e-3)
-    points = ur10.parameters("full,offsets").identifiable().identifiable
-    poses = Instrument(Pose(), mocap).identifiable(ur10.parameters("full,offsets")).identifiable
-    rows = [
-        "| target ρ0 at q0 | point plan (σ 0.1 mm): m, ρ0 | pose plan (0.1 mm, 2 mrad): m, ρ0 | CPU |",
-        "| ---: | ---: | ---: | ---: |",
-    ]
-    for target in (0.1e-3, 0.05e-3, 0.03e-3):
+def rho0_at_marker(params, plan, q0, instrument, single) -> float:
+    """ρ0 [m] at the test pose of the first marker alone, whatever the plan measured (one or three
+    points, or poses): √tr(J₀ M⁻¹ J₀ᵀ), M = Σ JᵢᵀΣᵢ⁻¹Jᵢ the plan's weighted information and J₀ the
+    one marker's position rows (``single``, the same parameters on the one-marker robot)."""
+    from pincal.model.jacobian import JacobianEngine
+
+    J = instrument.engine(params).jacobian(plan.q, frame="world") / instrument.reference
+    M = np.einsum("mri,mrj->ij", J, J)
+    J0 = JacobianEngine(params.on(single)).jacobian(np.asarray(q0)[None], frame="tip")[0]
+    return float(np.sqrt(np.trace(J0 @ np.linalg.solve(M, J0.T))))
+
+
+def sweep(robot_name, q0, seed) -> dict:
+    """For each kind: the designed plan of every m of :data:`M_SWEEP` it can identify with, its ρ0 at
+    the one marker, the design's CPU."""
+    single = pincal.load_robot(robot_name, markers=[MARKER])
+    three = pincal.load_robot(robot_name, markers=list(THREE_MARKERS))
+    mocap = PerCoordinate(SIGMA, 2e-3)
+    kinds = {
+        "point, 1 marker": (single, Instrument(pincal.instruments.Point(), PerCoordinate(SIGMA))),
+        "point, 3 markers": (three, Instrument(pincal.instruments.Point(), PerCoordinate(SIGMA))),
+        "pose (0.1 mm, 2 mrad)": (single, Instrument(Pose(), mocap)),
+    }
+    out = {}
+    for name, (robot, instrument) in kinds.items():
+        params = instrument.identifiable(robot.parameters("full,offsets")).identifiable
+        measure = None if isinstance(instrument.kind, pincal.instruments.Point) else instrument.kind
+        rows = instrument.kind.size(robot)
+        designs = {}
+        for m in M_SWEEP:
+            if m * rows < len(params):
+                continue
+            t = cpu_seconds()
+            try:
+                result = pincal.design(params, m, q0, measure=measure, instrument=instrument.error, seed=seed,
+                                       starts=4, workers=1)  # fmt: skip
+            except (SingularPlan, Infeasible, DegenerateOptimum):
+                continue
+            designs[m] = (result, rho0_at_marker(params, result.plan, q0, instrument, single), cpu_seconds() - t)
+        out[name] = (params, instrument, measure, designs)
+    return out
+
+
+def fewest(designs: dict, target: float) -> int | None:
+    """The smallest m of the sweep whose designed plan reaches ρ0 ≤ target (None: none does)."""
+    reached = [m for m, (_, rho, _) in designs.items() if rho <= target]
+    return min(reached) if reached else None
+
+
+def pose_against_point(trials: int) -> list[str]:
+    """The configurations each kind needs for a given ρ0 at the test pose (issue 19 item 4)."""
+    rows = _Printed([])
+    figure = {}
+    for robot_name, q0, seed in (("ur10", UR10_Q0, 1), ("kr270", KR270_Q0, 2)):
         t = cpu_seconds()
-        m_point, r_point = configurations_for(points, UR10_Q0, target, None, mocap, 1)
-        m_pose, r_pose = configurations_for(poses, UR10_Q0, target, Pose(), mocap, 1)
-        rows.append(
-            f"| {target * 1e3:g} mm | {m_point}, {r_point * 1e3:.4g} mm ({len(points)} parameters) | "
-            f"{m_pose}, {r_pose * 1e3:.4g} mm ({len(poses)} parameters) | {cpu_seconds() - t:.0f} s |"
-        )
+        kinds = sweep(robot_name, q0, seed)
+        figure[robot_name] = kinds
+        reference = kinds["point, 1 marker"][3][30][1]
+        rows.append(f"**{robot_name}** (test pose {np.round(q0, 3).tolist()} rad; sweep CPU {cpu_seconds() - t:.0f} s; "
+                    f"the 30-configuration one-marker point plan reaches ρ0 {reference * 1e3:.4g} mm)")  # fmt: skip
+        rows.append("")
+        rows.append("| ρ0 at the marker, m = | " + " | ".join(str(m) for m in M_SWEEP) + " |")
+        rows.append("| --- | " + " | ".join("---:" for _ in M_SWEEP) + " |")
+        for name, (params, _, _, designs) in kinds.items():
+            cells = [f"{designs[m][1] * 1e3:.4g}" if m in designs else "–" for m in M_SWEEP]
+            rows.append(f"| {name} ({len(params)} parameters) [mm] | " + " | ".join(cells) + " |")
+        rows.append("")
+        targets = [(f"{f:g} × (= {f * reference * 1e3:.3g} mm)", f * reference) for f in (2.0, 1.5, 1.1, 1.0)]
+        targets += [(f"{v * 1e3:g} mm", v) for v in (0.1e-3, 0.05e-3)]
+        rows.append("| target ρ0 | " + " | ".join(kinds) + " |")
+        rows.append("| --- | " + " | ".join("---:" for _ in kinds) + " |")
+        for label, target in targets:
+            cells = []
+            for _, _, _, designs in kinds.values():
+                m = fewest(designs, target)
+                cells.append("> 30" if m is None else str(m))
+            rows.append(f"| {label} | " + " | ".join(cells) + " |")
+        rows.append("")
+        # Monte-Carlo of two plans per kind: the predicted ρ0 (of what the plan measures, at all its
+        # markers) against whole simulated calibrations.
+        rows.append("| Monte-Carlo | m | predicted ρ0 | Monte-Carlo error at q0 | MC / predicted | CPU |")
+        rows.append("| --- | ---: | ---: | ---: | ---: | ---: |")
+        for name, (params, instrument, measure, designs) in kinds.items():
+            for m in (min(designs), 12 if 12 in designs else max(designs)):
+                t = cpu_seconds()
+                mc = pincal.monte_carlo(params, designs[m][0].plan, q0, trials=trials, seed=seed + m,
+                                        error_std=ERRORS, measure=measure, instrument=instrument.error)  # fmt: skip
+                rows.append(
+                    f"| {name} | {m} | {mc.rho0_predicted * 1e3:.4g} mm | {mc.rho0_empirical * 1e3:.4g} ± "
+                    f"{mc.rho0_empirical_se * 1e3:.2g} mm ({mc.trials - mc.failures} trials) | "
+                    f"{mc.rho0_empirical / mc.rho0_predicted:.3f} | {cpu_seconds() - t:.0f} s |"
+                )
+        rows.append("")
+    _plot(figure)
     return rows
+
+
+def _plot(figure: dict, path: str = "benchmarks/pose_against_point.png") -> None:
+    """ρ0 at the marker against m, one panel per robot, one line per kind (matplotlib optional)."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("(matplotlib not installed: no plot)")
+        return
+    fig, axes = plt.subplots(1, len(figure), figsize=(5 * len(figure), 3.8))
+    for ax, (robot_name, kinds) in zip(np.atleast_1d(axes), figure.items()):
+        for name, (_, _, _, designs) in kinds.items():
+            ms = sorted(designs)
+            ax.semilogy(ms, [designs[m][1] * 1e3 for m in ms], "o-", label=name, markersize=3)
+        ax.set_xlabel("configurations m")
+        ax.set_ylabel("designed ρ0 at the marker [mm]")
+        ax.set_title(robot_name)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    print(f"(plot: {path})")
 
 
 def placement() -> list[str]:
@@ -174,16 +263,39 @@ def placement() -> list[str]:
     ]
 
 
+def sight() -> list[str]:
+    """The line of sight in the continuous polish: one design with a tracker's visibility and line of
+    sight, then a placement with the polish (run it with ``PYTHONPATH=OTHER_TREE`` for a before)."""
+    from pincal.planning.constraints import LineOfSight, Visibility
+
+    ur10 = pincal.load_robot("ur10", markers=[MARKER])
+    params = ur10.parameters("full,offsets").identifiable().identifiable
+    at = (3.0, 0.0, 0.75)
+    constraints = (Visibility(at, 40.0, 1.0, (0, 0, 1), np.radians(30)), LineOfSight(at, 0.01))
+    t = cpu_seconds()
+    result = pincal.design(params, 12, UR10_Q0, instrument=Tracker(at), constraints=constraints, starts=2,
+                           pool=500, seed=5, workers=1, polish=True)  # fmt: skip
+    rows = [f"- design with line of sight and polish: CPU {cpu_seconds() - t:.1f} s, rho0 {result.rho0!r} m "
+            f"(pincal from {os.path.dirname(pincal.__file__)})"]  # fmt: skip
+    t = cpu_seconds()
+    placed = place_instrument(params, 12, UR10_Q0, ((1.5, 0.0, 0.75), (9.0, 0.0, 0.75)), steps=3, refine=1,
+                              starts=2, pool=300, polish=True, seed=3, workers=1)  # fmt: skip
+    rows.append(f"- placement on the 1.5-9 m line with polish: CPU {cpu_seconds() - t:.1f} s, at {placed.at.tolist()}, "
+                f"rho0 {placed.result.value!r} m, every position's {placed.values.tolist()}")  # fmt: skip
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=100, help="Monte-Carlo trials per campaign")
-    parser.add_argument("--only", choices=("campaigns", "pose", "placement"))
+    parser.add_argument("--only", choices=("campaigns", "pose", "placement", "sight"))
     args = parser.parse_args()
     print(f"- Machine: {machine()}; load average {load()} at start.")
     sections = {
         "campaigns": lambda: campaigns(args.trials),
-        "pose": pose_against_point,
+        "pose": lambda: pose_against_point(args.trials),
         "placement": placement,
+        "sight": sight,
     }
     for name, run in sections.items():
         if args.only in (None, name):

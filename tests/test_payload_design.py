@@ -10,6 +10,8 @@ import pytest
 import pincal
 from pincal.errors import BadArgument, DegenerateOptimumWarning
 from pincal.evaluation import check_plan, rho0_split
+from pincal.instruments import Instrument, PerCoordinate, Pose
+from pincal.model.jacobian import JacobianEngine
 
 SIGMA = 3e-5
 PAYLOADS = [0.0, 135.0, 270.0]
@@ -163,3 +165,65 @@ def test_bad_payload_designs_are_refused(params):
         pincal.design(params, 15, Q0, payloads=PAYLOADS, method="continuous")
     with pytest.raises(BadArgument, match="mass"):
         pincal.design(params, 15, Q0, payloads=[-5.0])
+
+
+# --------------------------------------------------------------------- other measurement kinds
+MOCAP = PerCoordinate(SIGMA, 1e-4)  # 30 µm and 0.1 mrad
+
+
+@pytest.fixture(scope="module")
+def pose_params():
+    robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
+    spec = robot.parameters("lengths,offsets,gains,compliance")
+    return Instrument(Pose(), MOCAP).identifiable(spec, payloads=PAYLOADS).identifiable
+
+
+def test_pose_rows_under_a_payload_match_finite_differences(pose_params):
+    # The rows of a pose measured under three payloads, differenced, on a robot with geometric
+    # errors (its compliances nominal: on a compliant robot the columns are first order only).
+    params, kind, h = pose_params, Pose(), 1e-6
+    qs = params.robot.random_configurations(3, 5)
+    loads = np.column_stack([PAYLOADS, [[0.0, 0.0, 0.25]] * 3])
+    values = pincal.random_errors(params, seed=2).values.copy()
+    values[[p.kind in ("gain", "compliance") for p in params]] = 0.0
+    on = params.on(params.apply(values))
+    J = kind.rows(JacobianEngine(on), qs, loads)
+    fd = np.empty_like(J)
+    for c in range(len(on)):
+        dx = np.zeros(len(on))
+        dx[c] = h / on.scales[c]  # a compliance's step: a deflection of h at its reference torque
+        plus, minus = (kind.predict(on.apply(s * dx), qs, loads) for s in (1, -1))
+        fd[:, :, c] = kind.difference(plus, minus) / (2 * dx[c])
+    assert np.abs(J - fd).max() < 1e-6 * np.abs(J).max()
+
+
+def test_a_pose_design_with_payloads_recovers_the_parameters(pose_params):
+    params = pose_params
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DegenerateOptimumWarning)
+        result = pincal.design(params, 12, Q0, payloads=PAYLOADS, task_payload=TASK, pool=300, starts=2,
+                               seed=1, measure=Pose(), instrument=MOCAP, orientation_length=0.2)  # fmt: skip
+    plan = result.plan
+    assert plan.payload is not None and len(set(plan.payload[:, 0])) > 1  # it mounts several payloads
+    assert isinstance(result.instrument, Instrument) and isinstance(result.instrument.kind, Pose)
+    # The criterion the exchange minimised is the one pincal.rho0 evaluates on the plan.
+    again = pincal.rho0(
+        params, plan, Q0, task_payload=TASK, measure=Pose(), instrument=MOCAP, orientation_length=0.2
+    )
+    assert result.rho0 == pytest.approx(again, rel=1e-9)
+    # Parameters recovered from one simulated campaign under the plan's payloads, within their
+    # standard errors (z = (estimate - truth) / standard error: RMS about 1).
+    truth = pincal.random_errors(params, seed=7)
+    data = pincal.simulate_measurements(truth, plan, seed=8, measure=Pose(), instrument=MOCAP)
+    fitted = pincal.identify(params, data, instrument=MOCAP)
+    assert fitted.success
+    z = (fitted.values - truth.values) / fitted.std
+    assert np.sqrt(np.mean(z**2)) < 2.0 and np.abs(z).max() < 5.0
+
+
+def test_a_residual_model_design_measures_points(params):
+    with pytest.raises(BadArgument, match="orientations, pixels or distances"):
+        pincal.design(params, 15, Q0, residual_model=object(), measure=Pose())  # type: ignore[arg-type]
+    plan = params.robot.random_configurations(15, 3)
+    with pytest.raises(BadArgument, match="orientations, pixels or distances"):
+        pincal.accuracy(params, plan, Q0, sigma=SIGMA, residual_model=object(), measure=Pose())  # type: ignore[arg-type]

@@ -94,11 +94,15 @@ Payloads (--payloads KG,KG,...; --task-payload KG; --payload-centre X,Y,Z): the 
 payload for each configuration of a generated pool (--pool-size) or of your --pool; the plan CSV
 carries payload columns, rho0 is under the task's payload, split into its geometric and elastic
 parts, and the accuracy report (and --accuracy-plot) is under the task's payload too, next to a
-payload-free D-optimal plan. {limits}.
+payload-free D-optimal plan. Any --measure (poses, partial poses, distances, a camera) and
+--instrument take payloads: each candidate's rows are the instrument's, weighted by its error
+model, under its payload. {limits}.
 --residual-model CAL.urdf: a top-up plan for the residual model of an earlier calibration; the
 report gives its expected error at the test pose(s), and the accuracy table is of that expected
 error (the residual model's variance included) for the plan and a D-optimal plan (no --pool or
---accuracy-plot with it).
+--accuracy-plot with it). It measures points with one --sigma: the residual model is a Gaussian
+process of the markers' positions, fitted to point residuals, and says nothing of orientations,
+pixels or distances.
 
 Criteria (--criterion): test-pose (rho0, root mean square over several --test-pose), test-pose-worst
 (the worst test pose; --worst is the same), D, A, E, cond. Methods: exchange (the default: best m of

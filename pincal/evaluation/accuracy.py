@@ -31,7 +31,7 @@ from pincal.evaluation.information import factor
 from pincal.evaluation.plans import blas_for, engine_for, plan_batch, plan_payloads
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import Neighbourhood, ResolvedRegion, resolve_test_poses, width_text
-from pincal.evaluation.residual_criterion import ResidualCriterion
+from pincal.evaluation.residual_criterion import ResidualCriterion, check_points
 from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.instruments.error_model import ErrorModel
 from pincal.instruments.instrument import Instrument, optional_instrument
@@ -478,6 +478,7 @@ def accuracy(
     sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
     engine = engine_for(params)
     if residual_model is not None:
+        check_points(inst)
         return _with_residual_model(
             params, batch, batched, plan, compare, sets, region, sigma, prior, task_payload, residual_model
         )

@@ -35,6 +35,23 @@ from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.typing import ConfigurationsLike, PayloadLike
 
+POINTS_ONLY = (
+    "a residual model is a Gaussian process of the markers' positions, fitted to point residuals "
+    "with one kernel for every coordinate: it says nothing of orientations, pixels or distances; "
+    "with it, plans measure points (no measure=, one sigma per coordinate)"
+)
+"""Why a residual model goes with points only (designs, accuracy)."""
+
+
+def check_points(instrument: object) -> None:
+    """Refuse an instrument other than points with one σ (None: points) for a residual model.
+
+    Raises:
+        BadArgument: ``instrument`` measures something else (see :data:`POINTS_ONLY`).
+    """
+    if instrument is not None and not getattr(instrument, "is_default", False):
+        raise BadArgument(POINTS_ONLY, argument="measure")
+
 
 class ResidualCriterion(Criterion):
     """tr Σ₀ at the test pose(s) of a plan, with a residual model (see module doc).

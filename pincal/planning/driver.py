@@ -49,6 +49,7 @@ from pincal.errors import (
 )
 from pincal.evaluation.data_check import MIN_DATA_CONDITIONING
 from pincal.evaluation.prior import Prior
+from pincal.evaluation.residual_criterion import check_points
 from pincal.instruments.error_model import ErrorModel
 from pincal.instruments.instrument import (
     Instrument,
@@ -248,18 +249,17 @@ def design(
                 "configurations (generated, or yours: pool=): leave method, init and polish at their "
                 "defaults (the continuous polish cannot choose among discrete payloads)"
             )
-        if measure is not None or instrument is not None or orientation_length is not None:
-            raise BadArgument(
-                "a design with payloads or a residual model is of points with one sigma: "
-                "no measure, instrument or orientation_length with it"
-            )
+        measured = optional_instrument(measure, instrument, positive_sigma(sigma))
+        if residual_model is not None:
+            check_points(measured)
         with _multistart.single_threaded_blas():
             return _payloads.design_with_payloads(
                 params, m, test_pose, [0.0] if payloads is None else payloads, task_payload=task_payload,
                 criterion=criterion, constraints=with_safety(params.robot, constraints, joint_margin, mount),
                 pool=1000 if pool is None else pool,  # type: ignore[arg-type]
                 starts=starts, seed=seed, sigma=sigma, prior=prior, min_conditioning=min_conditioning,
-                residual_model=residual_model,
+                residual_model=residual_model, instrument=measured,
+                orientation_length=orientation_length_of(orientation_length),
             )  # fmt: skip
     with _multistart.single_threaded_blas():  # small matrices: BLAS threads only contend
         t_start = time.perf_counter()

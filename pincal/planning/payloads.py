@@ -32,6 +32,7 @@ from pincal.evaluation.prior import Prior
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, criterion_name, make_criterion
 from pincal.evaluation.residual_criterion import ResidualCriterion
 from pincal.evaluation.test_pose import rho0_each
+from pincal.instruments.instrument import Instrument, rows_engine, tool_rows
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
@@ -76,6 +77,8 @@ def design_with_payloads(
     prior: Prior | None = None,
     min_conditioning: float | None = None,
     residual_model: ResidualModel | None = None,
+    instrument: Instrument | None = None,
+    orientation_length: float | None = None,
 ) -> DesignResult:
     """The m (configuration, payload) pairs that minimise a criterion (see module doc).
 
@@ -91,7 +94,13 @@ def design_with_payloads(
         pool: number of random feasible configurations, each paired with every payload; or your
             own (n, nq) configurations (e.g. taught poses), the infeasible ones left out.
         residual_model: a residual model from an earlier campaign: the criterion is then the
-            expected error with it (tr Σ₀, test-pose criterion only, no prior).
+            expected error with it (tr Σ₀, test-pose criterion only, no prior; points only).
+        instrument: what the plan measures and how well (:class:`~pincal.instruments.Instrument`:
+            poses, partial poses, distances, images; ``sigma`` is then its reference σ), or None:
+            points with ``sigma``. Each candidate's rows are the instrument's whitened rows under
+            its payload, as :func:`~pincal.design` takes them without payloads.
+        orientation_length: L [m]: ρ0² also counts L² times the tool's expected squared
+            orientation error at the test pose(s) (docs/method.md §13.3).
 
     Returns:
         the design; its plan carries the payload of each configuration, and ρ0 is under the task's
@@ -100,10 +109,12 @@ def design_with_payloads(
     t0 = time.perf_counter()
     criterion = criterion_name(criterion)
     rows = payload_rows_of(payloads)
-    sigma = positive_sigma(sigma)
+    sigma = positive_sigma(sigma) if instrument is None else instrument.reference
+    if instrument is not None:
+        instrument.kind.check(params.robot)
     information = None if prior is None else prior.information(params, sigma)
     m = positive_int(m, "m (number of configurations)")
-    per_row = 3 * params.robot.n_markers
+    per_row = 3 * params.robot.n_markers if instrument is None else instrument.kind.size(params.robot)
     if information is None and m * per_row < len(params):
         raise SingularPlan(len(params), per_row, m)
     test_poses = checked_test_poses(params, test_pose, criterion)
@@ -123,14 +134,17 @@ def design_with_payloads(
         candidates = np.vstack([candidates, _near(params.robot, feasibility, test_poses, size // 4, rng)])
     q_pool = np.repeat(candidates, len(rows), axis=0)
     w_pool = np.tile(rows, (len(candidates), 1))
-    engine = JacobianEngine(params)
-    frame = (
-        "tip" if residual_model is None else "world"
-    )  # the residual's covariance is isotropic in the world
+    engine = rows_engine(params, instrument)
+    # The residual's covariance is isotropic in the world.
+    frame = "tip" if residual_model is None else "world"
     J_pool = engine.jacobian(q_pool, frame=frame, payload=w_pool)
     J0 = None
     if test_poses is not None:
-        J0 = engine.jacobian(test_poses, frame=frame, payload=payload_rows(task_payload, len(test_poses)))
+        task = payload_rows(task_payload, len(test_poses))
+        if residual_model is None:
+            J0 = tool_rows(engine, test_poses, orientation_length, payload=task)
+        else:
+            J0 = JacobianEngine(params).jacobian(test_poses, frame=frame, payload=task)
     if residual_model is None:
         objective = make_criterion(criterion, len(params), per_row, J0, sigma, information)
     else:
@@ -163,7 +177,10 @@ def design_with_payloads(
     flat = J.reshape(-1, len(params))
     each = None
     if test_poses is not None:
-        each = rho0_each(params, plan, test_poses, sigma=sigma, prior=prior, task_payload=task_payload)
+        each = rho0_each(params, plan, test_poses, sigma=sigma, prior=prior, task_payload=task_payload,
+                         measure=None if instrument is None else instrument.kind,
+                         instrument=None if instrument is None else instrument.error,
+                         orientation_length=orientation_length)  # fmt: skip
     rho0 = (
         None
         if each is None
@@ -205,6 +222,8 @@ def design_with_payloads(
             f"{chosen}; conditioning floor {floor:.3g}"
         ),
         prior=prior,
+        instrument=instrument,
+        orientation_length=orientation_length,
     )
 
 
