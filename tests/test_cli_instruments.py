@@ -136,3 +136,22 @@ def test_bad_instrument_arguments_are_one_line(cli, tmp_path):
 def test_help_says_how_to_use_each_instrument(cli, command):
     code, out, _ = cli.run(command, "--help")
     assert code == 0 and "--camera" in out and "tracker" in out and "AT500" in out
+
+
+def test_a_pose_design_with_payloads_from_the_command_line(cli, tmp_path):
+    # design chooses a payload per configuration for poses; evaluate reads the plan CSV back and
+    # gives the same rho0.
+    robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
+    spec = robot.parameters("lengths,offsets,gains,compliance")
+    poses = pincal.instruments.Instrument(pincal.instruments.Pose())
+    names = poses.identifiable(spec, payloads=[0, 135, 270])
+    common = ("--test-pose=0,-60,60,0,45,0", "--deg", "--marker", "0.1,0.05,0.2", "--params",
+              ",".join(names.identifiable.names), "--task-payload", "270", "--payload-centre", "0,0,0.25",
+              "--measure", "pose", "--sigma", "3e-5", "--sigma-rot", "1e-4", "--no-accuracy")  # fmt: skip
+    plan = tmp_path / "plan.csv"
+    designed = cli.json("design", "kr270", "-m", "12", "--payloads", "0,135,270", "--pool-size", "200",
+                        "--starts", "2", "--out", plan, "--json", *common)  # fmt: skip
+    assert designed["instrument"]["measure"] == {"kind": "pose"}
+    assert plan.read_text().splitlines()[0].endswith("payload_kg,payload_x,payload_y,payload_z")
+    evaluated = cli.json("evaluate", "kr270", "--plan", plan, "--json", *common)
+    assert evaluated["rho0"] == pytest.approx(designed["rho0"], rel=1e-9)
