@@ -166,7 +166,11 @@ def sweep(robot_name, q0, seed) -> dict:
                                        starts=4, workers=1)  # fmt: skip
             except (SingularPlan, Infeasible, DegenerateOptimum):
                 continue
-            designs[m] = (result, rho0_at_marker(params, result.plan, q0, instrument, single), cpu_seconds() - t)
+            designs[m] = (
+                result,
+                rho0_at_marker(params, result.plan, q0, instrument, single),
+                cpu_seconds() - t,
+            )
         out[name] = (params, instrument, measure, designs)
     return out
 
