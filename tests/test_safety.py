@@ -285,3 +285,16 @@ def test_geometry_coal_cannot_take_leaves_the_links_unchecked_and_says_so(ur10, 
         == "links not checked: coal could not take the collision geometry (Too many neighbor)"
     )
     assert f"  ({report.self_note})" in report.lines()
+
+
+def test_meshes_without_a_convex_hull_are_checked_as_they_are():
+    """centauro ships meshes qhull cannot hull ("Too many neighbors"): they are kept as meshes (their
+    distances their own), so the report and a campaign check its links like any robot's."""
+    from tests.robot_zoo import chain_of
+
+    robot = chain_of("centauro").robot
+    qs = robot.random_configurations(3, 0)
+    report = safety_margins(robot, qs, with_safety(robot))
+    assert report.self_collision is not None and "URDF's collision geometry" in report.self_note
+    campaign = pincal.plan_campaign(robot, qs, home=qs[0])
+    assert campaign.geometry.startswith("the URDF's collision geometry") and campaign.checked

@@ -98,7 +98,17 @@ def convex_hulls(geometry: pin.GeometryModel) -> pin.GeometryModel:
     for obj in geometry.geometryObjects:
         obj = obj.copy()
         if isinstance(obj.geometry, coal.BVHModelBase):
-            obj.geometry.buildConvexHull(True, "Qt")
-            obj.geometry = obj.geometry.convex
+            obj.geometry = convex_hull(obj.geometry)
         hulls.addGeometryObject(obj)
     return hulls
+
+
+def convex_hull(mesh):
+    """The convex hull of a coal mesh (qhull), or the mesh itself when qhull cannot build one (some
+    published meshes: "Too many neighbors"): its distances are then its own, exact where apart and
+    0 where it meets another shape, never more than the true ones either."""
+    try:
+        mesh.buildConvexHull(True, "Qt")
+    except RuntimeError:
+        return mesh
+    return mesh.convex

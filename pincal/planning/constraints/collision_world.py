@@ -41,7 +41,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import UrdfError
-from pincal.model.geometry import urdf_geometry
+from pincal.model.geometry import convex_hull, urdf_geometry
 from pincal.model.robot import Robot
 
 if TYPE_CHECKING:  # annotations only: mount imports no collision code
@@ -260,8 +260,7 @@ class CollisionWorld:
             exact.addGeometryObject(obj.copy())
             mesh.append(isinstance(obj.geometry, coal.BVHModelBase))
             if mesh[-1]:  # a mesh: its convex hull, a lower bound of its distances
-                obj.geometry.buildConvexHull(True, "Qt")
-                obj.geometry = obj.geometry.convex
+                obj.geometry = convex_hull(obj.geometry)
             geom.addGeometryObject(obj)
         objects = geom.geometryObjects
         self.model, self.data = robot.model, robot.model.createData()
