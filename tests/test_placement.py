@@ -171,3 +171,17 @@ def test_design_places_the_tracker_from_the_command_line(cli, tmp_path):
     assert "instrument placed at (1.5, 0, 0.75) m" in text and "times the chosen position's" in text
     cli.fails(*common, "--place-instrument", "1,2,3", match="X0,Y0,Z0,X1,Y1,Z1")
     cli.fails(*common, "--placement-plot", picture, match="--place-instrument")
+
+
+def test_a_polished_placement_keeps_the_line_of_sight(params, ur10):
+    # The continuous polish steers by the line of sight's (screened) margins: its plan still sees
+    # every marker and stays within the reflector's acceptance angle, and the polish keeps a plan
+    # only when it is no worse than the exchange's.
+    box = ((3.0, 0.0, 0.75), (3.0, 0.0, 0.75))
+    options = dict(starts=1, pool=200, seed=3, workers=1)
+    rough = place_instrument(params, 12, Q0, box, polish=False, **options)
+    polished = place_instrument(params, 12, Q0, box, polish=True, **options)
+    plan, at = polished.result.plan.q, tuple(polished.at)
+    assert LineOfSight(at).satisfied(ur10, plan).all()
+    assert Visibility(at, 40.0, 1.0, (0, 0, 1), np.radians(30)).satisfied(ur10, plan).all()
+    assert polished.result.value <= rough.result.value
