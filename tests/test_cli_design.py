@@ -146,3 +146,24 @@ def test_help_has_examples(capsys, command):
     assert info.value.code == 0
     out = capsys.readouterr().out
     assert "examples:" in out and f"pincal {command} kr270" in out
+
+
+def test_help_examples_name_identifiable_parameters(capsys):
+    """Every design example in --help that names --params for a shipped arm names a set the design
+    accepts (an example once listed compliances gravity never loads, which design refuses)."""
+    with pytest.raises(SystemExit):
+        main(["design", "--help"])
+    text = capsys.readouterr().out.replace("\\\n", " ")
+    examples = [line.split() for line in text.splitlines() if line.strip().startswith("pincal design")]
+    checked = 0
+    for words in examples:
+        if "--params" not in words or words[2] not in ("kr270", "ur10"):
+            continue
+        option = dict(zip(words[3::1], words[4::1]))
+        marker = [float(v) for v in option["--marker"].split(",")] if "--marker" in option else None
+        robot = pincal.load_robot(words[2], markers=None if marker is None else [marker])
+        payloads = [float(v) for v in option["--payloads"].split(",")] if "--payloads" in option else None
+        found = robot.parameters(option["--params"]).identifiable(payloads=payloads)
+        assert found.dropped == {}, (" ".join(words), found.dropped)
+        checked += 1
+    assert checked >= 1
