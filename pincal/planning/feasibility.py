@@ -63,14 +63,15 @@ class Feasibility:
     def kinematics(self, qs: np.ndarray) -> Kinematics:
         return Kinematics(self.robot, qs, self.data)
 
-    def feasible(self, qs: np.ndarray) -> np.ndarray:
-        """(m,) True where a configuration satisfies every per-configuration constraint."""
+    def feasible(self, qs: np.ndarray, strict: bool = False) -> np.ndarray:
+        """(m,) True where a configuration satisfies every per-configuration constraint (``strict``:
+        see :meth:`strictly_feasible`)."""
         ok = self.limits.satisfied(_LimitsOnly(qs))  # type: ignore[arg-type]  # the limits read only q
         if self.bound and ok.any():
             idx = np.flatnonzero(ok)
             kin = self.kinematics(qs[idx])
             for _, b in self.bound:
-                ok[idx] &= b.satisfied(kin)
+                ok[idx] &= b.strictly_satisfied(kin) if strict else b.satisfied(kin)
         return ok
 
     def feasible_pool(self, pool: ArrayLike, m: int) -> tuple[np.ndarray, int]:
@@ -104,13 +105,7 @@ class Feasibility:
     def strictly_feasible(self, qs: np.ndarray) -> np.ndarray:
         """(m,) feasible, and every margin the search's barrier reads is positive (for collisions:
         the convex hulls apart too). Starts of the continuous search must be strictly feasible."""
-        ok = self.feasible(qs)
-        if self.bound and ok.any():
-            idx = np.flatnonzero(ok)
-            kin = self.kinematics(qs[idx])
-            for _, b in self.bound:
-                ok[idx] &= b.strictly_satisfied(kin)
-        return ok
+        return self.feasible(qs, strict=True)
 
     # ------------------------------------------------------------------------- barrier
     def _barrier_terms(self, qs: np.ndarray) -> np.ndarray:
@@ -212,9 +207,7 @@ class Feasibility:
                     if not len(idx):
                         break
                     sub = kin if len(idx) == size else kin.subset(idx)
-                    s = b.satisfied(sub)
-                    if strict:
-                        s &= b.strictly_satisfied(sub)
+                    s = b.strictly_satisfied(sub) if strict else b.satisfied(sub)
                     rejected[key] = rejected.get(key, 0) + int((~s).sum())
                     ok[idx[~s]] = False
             found.append(qs[ok])

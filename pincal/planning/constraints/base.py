@@ -86,8 +86,12 @@ class Bound:
         return np.all(self.margins(kin) >= -TOLERANCE, axis=1)
 
     def strictly_satisfied(self, kin: Kinematics) -> np.ndarray:
-        """(m,) True where every margin is positive (what the search's barrier needs of a start)."""
-        return np.all(self.margins(kin) > 0, axis=1)
+        """(m,) :meth:`satisfied`, and every margin positive (what the search's barrier needs of a
+        start; a bound whose margins are lower bounds of an exact check, e.g. convex hulls, needs both)."""
+        ok = self.satisfied(kin)
+        if ok.any():
+            ok[ok] = np.all(self.margins(kin.subset(np.flatnonzero(ok))) > 0, axis=1)
+        return ok
 
 
 class Constraint:
