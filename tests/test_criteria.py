@@ -8,6 +8,7 @@ import pytest
 import pincal
 from pincal.errors import BadConfiguration, PincalError, SingularPlan
 from pincal.evaluation.test_pose import TestPoseCriterion
+from tests.test_low_rank import check_swaps
 
 SIGMA = 3e-5
 
@@ -207,21 +208,7 @@ def test_every_criterion_object_keeps_its_promises(kr270_marker, name, with_prio
     Ms = np.stack([M, M + J_pool[20].T @ J_pool[20]])
     np.testing.assert_allclose(criterion.batch_values(Ms), [F, exact([*index, 20])], rtol=1e-9)
 
-    state = criterion.exchange(J_pool, index.copy())
-    allowed = np.ones(len(pool), dtype=bool)
-    allowed[index] = False
-    for i in (0, 5):
-        cand, values = state.scores(i, allowed)
-        assert len(cand) > 0
-        for c, v in zip(cand, values, strict=True):
-            trial = state.index.copy()
-            trial[i] = c
-            assert v == pytest.approx(exact(trial), rel=1e-8, abs=1e-10)
-        best = int(np.argmin(values))
-        out, into = int(state.index[i]), int(cand[best])
-        state.swap(i, best)
-        allowed[out], allowed[into] = True, False
-        assert state.F == pytest.approx(exact(state.index), rel=1e-9, abs=1e-10)
+    check_swaps(criterion.exchange(J_pool, index.copy()), len(pool), exact, (0, 5), rel=1e-8)
 
 
 # ------------------------------------------------------------ public evaluations on many plans

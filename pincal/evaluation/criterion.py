@@ -161,10 +161,16 @@ class Criterion:
         """The exchange state of the plan ``J_pool[index]`` (see :class:`ExchangeState`)."""
         return InformationExchange(self, J_pool, index)
 
-    def exchange_products(self, Y: np.ndarray, Linv: np.ndarray) -> object:
+    def exchange_products(self, Y: np.ndarray, Linv: np.ndarray, Xinv: np.ndarray) -> object:
         """What :meth:`exchange_values` needs of every pool candidate, from the pool in the basis of
-        the plan's Cholesky factor (M + Λ = LLᵀ): Y = L⁻¹J_cᵀ (P, r, N) and L⁻¹ (P, P);
-        recomputed after each accepted swap (None: nothing)."""
+        the plan's Cholesky factor (M + Λ = LLᵀ): Y = L⁻¹J_cᵀ (P, r, N), L⁻¹ (P, P) and X_c⁻¹
+        (r, r, N), X_c = I + Y_cᵀY_c; recomputed after each accepted swap (None: nothing)."""
+        return None
+
+    def exchange_columns(self, products: object, yi: np.ndarray) -> np.ndarray | None:
+        """(P, s) columns whose products with every Y_c a swap of configuration i needs
+        (:attr:`~pincal.evaluation.low_rank.Swaps.projected`), from :meth:`exchange_products` and
+        yᵢ = L⁻¹Jᵢᵀ (P, r); None: none."""
         return None
 
     def exchange_values(self, swap: object) -> tuple[np.ndarray, object]:

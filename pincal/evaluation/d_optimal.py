@@ -49,4 +49,4 @@ class DOptimal(Criterion):
         return F
 
     def exchange_values(self, swap) -> tuple[np.ndarray, None]:
-        return swap.F - swap.logdet[swap.cand], None
+        return swap.F - np.log(swap.ratio[swap.cand]), None

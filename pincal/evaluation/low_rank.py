@@ -11,13 +11,17 @@ so every candidate is scored from a few 2r×2r operations — no P×P factorisat
 The plan's M + Λ = LLᵀ is factored exactly after every accepted swap, and the pool is kept in that
 basis, Y_c = L⁻¹J_cᵀ (:class:`InformationExchange`): then J_c M⁻¹ J_cᵀ = Y_cᵀY_c, and the blocks of
 H of a swap of configuration i are Gram products of Y_c and yᵢ = L⁻¹Jᵢᵀ. H is factored in blocks,
-H = [[X, B], [Bᵀ, D − I]] with X = Y_cᵀY_c + I = L_xL_xᵀ, V = L_x⁻¹B and the Schur complement
-D − I − VᵀV = −KKᵀ (:func:`swap_blocks`): det M'/det M = det X·det(−Z), and a swap is regular
-exactly when both factors exist. The criterion says what its value is from them
+H = [[X, B], [Bᵀ, D − I]] with X = I + Y_cᵀY_c (what adding candidate c alone does; it depends on
+the plan, not on i, so X⁻¹ and det X are kept with the pool until the next swap), B = Y_cᵀyᵢ,
+D = yᵢᵀyᵢ and the Schur complement D − I − BᵀX⁻¹B = −E: det M'/det M = det X·det E, and a swap
+is regular exactly when E is positive definite (X always is). For r ≤ 3, X⁻¹ and E⁻¹ are the
+closed-form adjugates over the determinants (:func:`inverse`), so a swap of configuration i costs
+one product of the pool with yᵢ (and the columns the criterion asks for) and a few r×r products
+over the pool (:class:`Swaps`). The criterion says what its value is from them
 (:meth:`~pincal.evaluation.criterion.Criterion.exchange_values`): D from the determinant ratio, a
 weighted trace tr(W M'⁻¹) = tr(W M⁻¹) − tr(H⁻¹G) with G the 2r×2r blocks of Uᵀ M⁻¹WM⁻¹ U
-(:meth:`Blocks.trace`; column by column for several weights, :meth:`Blocks.quadratic`), E and cond
-from the eigenvalues of M' itself.
+(see :class:`~pincal.evaluation.weighted_trace.WeightedTrace`), E and cond from the eigenvalues of
+M' itself.
 
 Every stack of small matrices here is held entry by entry, (r, r, n) for n candidates: each entry
 is one contiguous vector over the pool, so that a factorisation or a product of r×r matrices is a
@@ -34,7 +38,7 @@ import numpy as np
 from pincal.evaluation.information import factor
 from pincal.lapack import trtrs
 
-LOG_MIN_RATIO = np.log(1e-12)
+MIN_RATIO = 1e-12
 """Swaps that shrink det M by more than this factor are taken as singular."""
 
 
@@ -84,19 +88,6 @@ def _dot(u: np.ndarray, v: np.ndarray, k: int) -> np.ndarray | float:
     return np.einsum("kn,kn->n", u[:k], v[:k])
 
 
-def forward(L: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """L⁻¹B for lower-triangular (r, r, n) L and right-hand sides B (r, c, n) or (r, c) (the same
-    for every candidate)."""
-    r, n = L.shape[0], L.shape[2]
-    Y = np.empty((r, B.shape[1], n))
-    for i in range(r):
-        row = B[i] if B.ndim == 3 else B[i][:, None]
-        for k in range(i):
-            row = row - L[i, k] * Y[k]
-        Y[i] = row / L[i, i]
-    return Y
-
-
 def lower_inverse(L: np.ndarray) -> np.ndarray:
     """L⁻¹ (lower triangular) of lower-triangular (r, r, n) L."""
     r = L.shape[0]
@@ -114,113 +105,50 @@ def lower_inverse(L: np.ndarray) -> np.ndarray:
 
 def product(A: np.ndarray, B: np.ndarray, transpose_a: bool = False) -> np.ndarray:
     """AB (or AᵀB) of (r, r, n) stacks, entry by entry; B may be (r, s) (the same for every n)."""
-    r = A.shape[0]
-    s = B.shape[1]
-    out = np.empty((r, s, A.shape[2]))
-    for a in range(r):
-        for b in range(s):
-            acc = 0.0
-            for k in range(r):
-                left = A[k, a] if transpose_a else A[a, k]
-                acc = acc + left * B[k, b]
-            out[a, b] = acc
-    return out
+    if B.ndim == 2:
+        return np.einsum("kan,kb->abn" if transpose_a else "akn,kb->abn", A, B)
+    return np.einsum("kan,kbn->abn" if transpose_a else "akn,kbn->abn", A, B)
 
 
-def lower_trace(Q: np.ndarray, G: np.ndarray) -> np.ndarray:
-    """(n,) tr(Q G Qᵀ) for lower-triangular Q and symmetric G, (r, r, n) each."""
-    r = Q.shape[0]
-    total = np.zeros(Q.shape[2])
-    for k in range(r):
-        for a in range(k + 1):
-            for b in range(k + 1):
-                total = total + Q[k, a] * G[a, b] * Q[k, b]
-    return total
+def inverse(E: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(E⁻¹, det E, ok) of symmetric (r, r, n) E, entry by entry; ``ok`` is False where E is not
+    positive definite (its E⁻¹ and det are then meaningless but finite, the det 1). Up to r = 3 in
+    closed form (the adjugate over the determinant; positive definite exactly when the leading
+    minors are positive), beyond through Cholesky factors."""
+    r = E.shape[0]
+    if r > 3:
+        K, ok = cholesky(E)
+        Q = lower_inverse(K)
+        det = np.prod(np.diagonal(K), axis=-1) ** 2
+        np.putmask(det, ~ok, 1.0)
+        return product(Q, Q, transpose_a=True), det, ok
+    adj = np.empty_like(E)
+    if r == 1:
+        det = E[0, 0]
+        ok = det > 0
+        adj[0, 0] = 1.0
+    elif r == 2:
+        adj[0, 0], adj[1, 1] = E[1, 1], E[0, 0]
+        adj[0, 1] = adj[1, 0] = -E[0, 1]
+        det = E[0, 0] * E[1, 1] - E[0, 1] * E[0, 1]
+        ok = (E[0, 0] > 0) & (det > 0)
+    else:
+        e00, e01, e02, e11, e12, e22 = E[0, 0], E[0, 1], E[0, 2], E[1, 1], E[1, 2], E[2, 2]
+        adj[0, 0] = e11 * e22 - e12 * e12
+        adj[0, 1] = adj[1, 0] = e02 * e12 - e01 * e22
+        adj[0, 2] = adj[2, 0] = e01 * e12 - e02 * e11
+        adj[1, 1] = e00 * e22 - e02 * e02
+        adj[1, 2] = adj[2, 1] = e01 * e02 - e00 * e12
+        adj[2, 2] = e00 * e11 - e01 * e01
+        det = e00 * adj[0, 0] + e01 * adj[0, 1] + e02 * adj[0, 2]
+        ok = (e00 > 0) & (adj[2, 2] > 0) & (det > 0)
+    det = np.array(det)
+    np.putmask(det, ~ok, 1.0)
+    adj *= 1.0 / det
+    return adj, det, ok
 
 
-# ------------------------------------------------------------------------- the swaps' blocks
-@dataclass(frozen=True, eq=False)
-class Blocks:
-    """The capacitances H = [[X, B], [Bᵀ, D − I]] of the candidate swaps in block-factored form,
-    entry by entry over the candidates (see module doc): X = LLᵀ (SPD), V = L⁻¹B and the Schur
-    complement Z = D − I − VᵀV = −KKᵀ, negative definite exactly when the swapped posterior
-    information stays positive definite. Then det M'/det M = det X·det(−Z) and
-    qᵀH⁻¹q = ‖L⁻¹a‖² − ‖K⁻¹(b − VᵀL⁻¹a)‖² for q = [a; b].
-
-    Attributes:
-        L: (r, r, n) Cholesky factors of X.
-        V: (r, r, n) L⁻¹B.
-        K: (r, r, n) Cholesky factors of −Z.
-    """
-
-    L: np.ndarray
-    V: np.ndarray
-    K: np.ndarray
-
-    def trace(self, G_cc: np.ndarray, G_ci: np.ndarray, G_ii: np.ndarray) -> np.ndarray:
-        """(n,) tr(H⁻¹G) for the symmetric G = [[G_cc, G_ci], [G_ciᵀ, G_ii]] of each candidate
-        (G_cc, G_ci (r, r, n), G_ii (r, r)): with H = P·diag(X, Z)·Pᵀ, P = [[I, 0], [BᵀX⁻¹, I]],
-        tr(H⁻¹G) = tr(QG_ccQᵀ) − tr(Q_K·low·Q_Kᵀ), Q = L⁻¹, Q_K = K⁻¹ and
-        low = VᵀAV − VᵀC − CᵀV + G_ii with A = QG_ccQᵀ, C = QG_ci: a few dozen vector
-        operations over the candidates, whatever the rank of the weight behind G."""
-        Q = lower_inverse(self.L)
-        QG = product(Q, G_cc)
-        A = product(QG, Q.transpose(1, 0, 2))  # Q G_cc Qᵀ
-        C = product(Q, G_ci)
-        VA = product(self.V, A, transpose_a=True)
-        VC = product(self.V, C, transpose_a=True)
-        r = self.L.shape[0]
-        low = np.empty_like(A)
-        for a in range(r):
-            for b in range(a + 1):
-                acc = G_ii[a, b] - VC[a, b] - VC[b, a]
-                for k in range(r):
-                    acc = acc + VA[a, k] * self.V[k, b]
-                low[a, b] = low[b, a] = acc
-        first = A[0, 0]
-        for k in range(1, r):
-            first = first + A[k, k]
-        return first - lower_trace(lower_inverse(self.K), low)
-
-    def quadratic(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """(c, n) qᵀH⁻¹q column by column, for q = [a; b], a (r, c, n) and b (r, c) or (r, c, n)."""
-        y = forward(self.L, a)
-        r = self.L.shape[0]
-        s = np.empty_like(y)
-        for j in range(r):
-            acc = b[j] if b.ndim == 3 else b[j][:, None]
-            for k in range(r):
-                acc = acc - self.V[k, j] * y[k]
-            s[j] = acc
-        w = forward(self.K, s)
-        return np.einsum("rcn,rcn->cn", y, y) - np.einsum("rcn,rcn->cn", w, w)
-
-
-def swap_blocks(S_cc: np.ndarray, B: np.ndarray, D: np.ndarray) -> tuple[Blocks, np.ndarray, np.ndarray]:
-    """(blocks, logdet, regular) of the capacitances with X = S_cc + I, off-diagonal blocks B
-    (r, r, n) = J_c M⁻¹ Jᵢᵀ and D (r, r) = Jᵢ M⁻¹ Jᵢᵀ: ``logdet`` = log det M'/det M, and ``regular``
-    where M' stays positive definite and its determinant is above :data:`LOG_MIN_RATIO` of M's."""
-    r = D.shape[0]
-    X = S_cc.copy()
-    for j in range(r):
-        X[j, j] += 1.0
-    L, ok_x = cholesky(X)
-    V = forward(L, B)
-    E = gram(V)  # VᵀV + I − D
-    for a in range(r):
-        for b in range(r):
-            E[a, b] -= D[a, b]
-        E[a, a] += 1.0
-    K, ok_z = cholesky(E)
-    det = L[0, 0] * K[0, 0]
-    for j in range(1, r):
-        det = det * L[j, j] * K[j, j]
-    with np.errstate(divide="ignore"):
-        logdet = 2.0 * np.log(det)
-    regular = ok_x & ok_z & (logdet > LOG_MIN_RATIO)
-    return Blocks(L, V, K), logdet, regular
-
-
+# ------------------------------------------------------------------------------ the swaps
 @dataclass(frozen=True, eq=False)
 class Swaps:
     """The candidate swaps of configuration i, for a criterion's
@@ -228,6 +156,8 @@ class Swaps:
 
     Every array over candidates holds the whole pool (entry by entry, (…, N)); ``cand`` says which
     of them count (allowed, and leaving a regular plan): a criterion indexes its values with it.
+    In the blocks of the capacitance H = [[X, B], [Bᵀ, D − I]] (see module doc), X⁻¹B is ``XB``
+    and the Schur complement of X is −E, E = I − D + BᵀX⁻¹B; E⁻¹ is ``Einv``.
 
     Attributes:
         cand: (n,) pool indices of the candidates scored.
@@ -237,9 +167,11 @@ class Swaps:
         L: (P, P) the lower Cholesky factor of M + Λ before the swap.
         Ji: (r, P) the rows of configuration i.
         yi: (P, r) L⁻¹Jᵢᵀ.
-        blocks: the capacitances of every pool candidate in block-factored form (their
-            :meth:`Blocks.quadratic` updates a weighted trace).
-        logdet: (N,) log det M'/det M of each pool candidate.
+        XB: (r, r, N) X⁻¹B of every pool candidate, B = Y_cᵀyᵢ = J_c M⁻¹ Jᵢᵀ.
+        Einv: (r, r, N) E⁻¹ of every pool candidate (symmetric).
+        projected: (r, s, N) Y_cᵀ times the criterion's own columns
+            (:meth:`~pincal.evaluation.criterion.Criterion.exchange_columns`), or None.
+        ratio: (N,) det M'/det M of each pool candidate.
         products: the criterion's :meth:`exchange_products` of every pool candidate.
         state: the exchange state (its pool's information matrices, on demand).
     """
@@ -251,10 +183,30 @@ class Swaps:
     L: np.ndarray
     Ji: np.ndarray
     yi: np.ndarray
-    blocks: Blocks
-    logdet: np.ndarray
+    XB: np.ndarray
+    Einv: np.ndarray
+    projected: np.ndarray | None
+    ratio: np.ndarray
     products: object
     state: InformationExchange
+
+    def inverse_trace(self, G: np.ndarray) -> np.ndarray:
+        """(N,) tr(E⁻¹G) of every pool candidate, for (r, r, N) G (symmetric or not)."""
+        return trace_product(self.Einv, G)
+
+    def inverse_form(self, s: np.ndarray) -> np.ndarray:
+        """(c, N) sᵀE⁻¹s column by column, for s (r, c, N)."""
+        return quadratic_form(self.Einv, s)
+
+
+def trace_product(A: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """(n,) tr(AG) of (r, r, n) stacks."""
+    return np.einsum("abn,ban->n", A, G)
+
+
+def quadratic_form(A: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """(c, n) sᵀAs column by column, for A (r, r, n) and s (r, c, n)."""
+    return np.einsum("acn,acn->cn", s, product(A, s))
 
 
 class InformationExchange:
@@ -295,11 +247,16 @@ class InformationExchange:
         self.stale = True
 
     def _products(self) -> None:
-        N = len(self.J_pool)
-        self.Linv = trtrs(self.L, np.eye(self.P))
-        self.Y = (self.Linv @ self.columns).reshape(self.P, self.r, N)  # L⁻¹J_cᵀ
-        self.S_cc = gram(self.Y)
-        self.products = self.criterion.exchange_products(self.Y, self.Linv)
+        """The pool in the plan's basis, Y_c = L⁻¹J_cᵀ, and what adding candidate c alone does:
+        X_c = I + Y_cᵀY_c, X_c⁻¹ and det X_c = det(M + J_cᵀJ_c)/det M."""
+        N, r, P = len(self.J_pool), self.r, self.P
+        self.Linv = trtrs(self.L, np.eye(P))
+        self.Y = (self.Linv @ self.columns).reshape(P, r, N)  # L⁻¹J_cᵀ
+        X = gram(self.Y)
+        for j in range(r):
+            X[j, j] += 1.0
+        self.Xinv, self.det_x, self.ok_x = inverse(X)
+        self.products = self.criterion.exchange_products(self.Y, self.Linv, self.Xinv)
         self.stale = False
 
     def scores(self, i: int, allowed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -307,8 +264,15 @@ class InformationExchange:
             self._products()
         r, N = self.r, len(self.J_pool)
         yi = np.ascontiguousarray(self.Y[:, :, self.index[i]])  # (P, r)
-        B = (yi.T @ self.Y.reshape(self.P, -1)).reshape(r, r, N).transpose(1, 0, 2)  # J_c M⁻¹ Jᵢᵀ
-        blocks, logdet, regular = swap_blocks(self.S_cc, B, yi.T @ yi)
+        extra = self.criterion.exchange_columns(self.products, yi)
+        rhs = yi.T if extra is None else np.concatenate([yi.T, extra.T])
+        proj = (rhs @ self.Y.reshape(self.P, -1)).reshape(-1, r, N).transpose(1, 0, 2)  # Y_cᵀ[yᵢ, …]
+        XB = product(self.Xinv, proj[:, :r])  # X⁻¹B, B = J_c M⁻¹ Jᵢᵀ
+        E = product(proj[:, :r], XB, transpose_a=True)  # I − D + BᵀX⁻¹B
+        E -= (yi.T @ yi - np.eye(r))[:, :, None]
+        Einv, det_e, ok_e = inverse(E)
+        ratio = self.det_x * det_e  # det M'/det M = det X·det(−Z)
+        regular = self.ok_x & ok_e & (ratio > MIN_RATIO)
         cand = np.flatnonzero(allowed & regular)
         self._last = None
         if not len(cand):
@@ -321,8 +285,10 @@ class InformationExchange:
             self.L,
             self.J_pool[self.index[i]],
             yi,
-            blocks,
-            logdet,
+            XB,
+            Einv,
+            None if extra is None else proj[:, r:],
+            ratio,
             self.products,
             self,
         )

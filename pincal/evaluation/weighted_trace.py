@@ -14,7 +14,7 @@ import numpy as np
 
 from pincal.evaluation.criterion import Criterion, scaled_eigh
 from pincal.evaluation.information import factor
-from pincal.evaluation.low_rank import gram
+from pincal.evaluation.low_rank import gram, product, quadratic_form, trace_product
 from pincal.lapack import trtrs
 
 
@@ -121,31 +121,47 @@ class WeightedTrace(Criterion):
     def exchange_exact(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
         return self.value(M, m), self.traces(M, m)
 
-    def exchange_products(self, Y: np.ndarray, Linv: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Of every candidate c, from Y = L⁻¹J_cᵀ (P, r, N), with Φ = L⁻¹J0ᵀ: for one weight
-        W = J0ᵀJ0 (k = 1), (Z, G_cc, Φ) with Z = ΦᵀY (R, r, N) = (J_c C J0ᵀ)ᵀ and G_cc = ZᵀZ
-        (r, r, N) = J_c CWC J_cᵀ, C = (M + Λ)⁻¹ (the update of the trace is then tr(H⁻¹G) of 2r×2r
-        blocks, whatever the rank of W); for several, (J_c C J0ᵀ (r, c, N), Φ) (the update
-        column by column)."""
+    def exchange_products(self, Y: np.ndarray, Linv: np.ndarray, Xinv: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Of every candidate c, from Y_c = L⁻¹J_cᵀ (P, r, N) and X_c⁻¹ (r, r, N), with Φ = L⁻¹J0ᵀ
+        and Z_c = ΦᵀY_c (R, r, N) = (J0 C J_cᵀ), C = (M + Λ)⁻¹: for one weight W = J0ᵀJ0
+        (k = 1), (G_cc, tr(X_c⁻¹G_cc), ΦΦᵀ) with G_cc = Z_cᵀZ_c = J_c CWC J_cᵀ (r, r, N), what
+        adding c alone takes off the trace being tr(X_c⁻¹G_cc); for several, (Z_c as (r, R, N),
+        the column-wise Z_cᵀX_c⁻¹Z_c (R, N), Φ) (the update column by column)."""
         P, r, N = Y.shape
         Phi = Linv @ self.J0T  # L⁻¹J0ᵀ (P, R)
         Z = (Phi.T @ Y.reshape(P, -1)).reshape(-1, r, N)
         if self.k == 1:
-            return Z, gram(Z), Phi
-        return Z.transpose(1, 0, 2), Phi
+            G = gram(Z)
+            return G, trace_product(Xinv, G), Phi @ Phi.T
+        Z = Z.transpose(1, 0, 2)
+        return Z, quadratic_form(Xinv, Z), Phi
+
+    def exchange_columns(self, products, yi: np.ndarray) -> np.ndarray | None:
+        """ΦΦᵀyᵢ (P, r) for one weight (the swaps' cross terms J_c CWC Jᵢᵀ come out of the state's
+        product with the pool); nothing for several."""
+        return products[2] @ yi if self.k == 1 else None
 
     def exchange_values(self, swap) -> tuple[np.ndarray, np.ndarray]:
-        """F and the traces after each swap (inf where a trace would not stay positive)."""
-        cand, yi = swap.cand, swap.yi
+        """F and the traces after each swap (inf where a trace would not stay positive).
+
+        Swapping configuration i for candidate c takes tr(X⁻¹G_cc) off a trace (adding c) and
+        gives tr(E⁻¹G) back (removing i), G = UᵀΦΦᵀU with U = yᵢ − Y_cX⁻¹B (Jᵢ in the basis of
+        the plan with c added): for one weight G = G_ii − 2(X⁻¹B)ᵀG_ci + (X⁻¹B)ᵀG_cc(X⁻¹B) with
+        G_ci = Z_cᵀΦᵀyᵢ and G_ii = yᵢᵀΦΦᵀyᵢ (under the trace against the symmetric E⁻¹ only G's
+        symmetric part counts); for several, column by column sᵀE⁻¹s with
+        s = ΦᵀU = Φᵀyᵢ − (X⁻¹B)ᵀZ_c."""
+        cand, yi, XB = swap.cand, swap.yi, swap.XB
         if self.k == 1:
-            Z, G_cc, Phi = swap.products
-            R, r, N = Z.shape
-            zi = Phi.T @ yi  # (R, r): L⁻¹J0ᵀ against yᵢ
-            G_ci = (zi.T @ Z.reshape(R, -1)).reshape(r, r, N).transpose(1, 0, 2)  # J_c T Jᵢᵀ
-            red = swap.blocks.trace(G_cc, G_ci, zi.T @ zi)[cand][:, None]
+            G_cc, added, Psi = swap.products
+            T = product(G_cc, XB)
+            T -= 2.0 * swap.projected  # J_c CWC Jᵢᵀ
+            G = product(XB, T, transpose_a=True)
+            G += (yi.T @ Psi @ yi)[:, :, None]
+            red = (added - swap.inverse_trace(G))[cand][:, None]
         else:
-            A0, Phi = swap.products
-            q = swap.blocks.quadratic(A0, yi.T @ Phi)[:, cand]  # (c, n)
+            Z, added, Phi = swap.products
+            s = (yi.T @ Phi)[:, :, None] - product(XB, Z, transpose_a=True)
+            q = (added - swap.inverse_form(s))[:, cand]  # (c, n)
             red = q.reshape(self.k, -1, len(cand)).sum(axis=1).T
         new_t = swap.aux - red
         values = self.from_traces(new_t)

@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.evaluation.criterion import Criterion
-from pincal.evaluation.information import conditioning
+from pincal.evaluation.information import conditioning, jacobi_scaled
+from pincal.lapack import potrf
 
 TOLERANCE = 1e-10
 """An exchange must lower the objective F (a log) by more than this."""
@@ -71,9 +72,23 @@ def _best_regular(values, F, cand, M, J_pool, Ji, floor, tries: int = 32) -> int
         return int(order[0])
     for k in order:
         Jc = J_pool[cand[k]]
-        if conditioning(M + Jc.T @ Jc - Ji.T @ Ji) > floor:
+        if _above(M + Jc.T @ Jc - Ji.T @ Ji, floor):
             return int(k)
     return None
+
+
+def _above(M: np.ndarray, floor: float) -> bool:
+    """conditioning(M) > floor, decided as :func:`~pincal.evaluation.information.conditioning`
+    decides it. A Cholesky factor of the Jacobi-scaled M (unit diagonal) less (1 + 1e-4)·floor·I
+    proves it without the eigenvalues when it exists: its rounding and the eigenvalues' are below
+    P²·1e-16 ≈ 1e-13, far below the margin 1e-4·floor for floors from 1e-8 (the searches use
+    1e-6 and more). Else, or for smaller floors, the smallest eigenvalue decides."""
+    if floor >= 1e-8:
+        S = jacobi_scaled(M)[1]
+        S[np.diag_indices_from(S)] -= (1.0 + 1e-4) * floor
+        if potrf(S)[1] == 0:
+            return True
+    return conditioning(M) > floor
 
 
 def _allowed(used: np.ndarray, dist: np.ndarray | None, i: int, spacing: float) -> np.ndarray:

@@ -1,0 +1,125 @@
+"""The exchange's low-rank scoring (pincal.evaluation.low_rank) against exact values, for every
+number of rows per configuration its algebra has a branch for (closed-form inverses up to 3 rows,
+Cholesky factors beyond)."""
+
+import numpy as np
+import pytest
+
+from pincal.evaluation import low_rank
+from pincal.evaluation.registry import make_criterion
+
+
+def _spd(rng, r, n, scale=1.0):
+    A = rng.standard_normal((n, r, r + 2)) * scale
+    return np.einsum("nak,nbk->abn", A, A)  # (r, r, n), symmetric positive definite
+
+
+@pytest.mark.parametrize("r", [1, 2, 3, 4, 6])
+def test_inverse_of_stacks_matches_numpy(r):
+    rng = np.random.default_rng(r)
+    E = _spd(rng, r, 50)
+    E[..., 7] = -E[..., 7]  # negative definite
+    if r > 1:
+        E[1, 1, 9] = -E[1, 1, 9]  # not positive definite: a negative diagonal entry
+    Einv, det, ok = low_rank.inverse(E)
+    dense = E.transpose(2, 0, 1)
+    pd = np.array([np.all(np.linalg.eigvalsh(M) > 0) for M in dense])
+    np.testing.assert_array_equal(ok, pd)
+    assert not ok[7] and ok.sum() == 50 - 1 - (r > 1)
+    np.testing.assert_allclose(Einv.transpose(2, 0, 1)[ok], np.linalg.inv(dense[ok]), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(det[ok], np.linalg.det(dense[ok]), rtol=1e-10)
+    assert np.all(det[~ok] == 1.0) and np.all(np.isfinite(Einv))
+
+
+def test_products_and_forms_of_stacks():
+    rng = np.random.default_rng(1)
+    A, B = rng.standard_normal((2, 3, 3, 20))
+    s = rng.standard_normal((3, 5, 20))
+    dense_A, dense_B = A.transpose(2, 0, 1), B.transpose(2, 0, 1)
+    np.testing.assert_allclose(low_rank.product(A, B).transpose(2, 0, 1), dense_A @ dense_B, rtol=1e-12)
+    AtB = low_rank.product(A, B, transpose_a=True)
+    np.testing.assert_allclose(AtB.transpose(2, 0, 1), dense_A.transpose(0, 2, 1) @ dense_B, rtol=1e-12)
+    trace = np.trace(dense_A @ dense_B, axis1=1, axis2=2)
+    np.testing.assert_allclose(low_rank.trace_product(A, B), trace, rtol=1e-12)
+    quad = np.einsum("nac,nab,nbc->cn", s.transpose(2, 0, 1), dense_A, s.transpose(2, 0, 1))
+    np.testing.assert_allclose(low_rank.quadratic_form(A, s), quad, rtol=1e-12)
+
+
+@pytest.mark.parametrize("with_prior", [False, True])
+@pytest.mark.parametrize("name", ["test-pose", "test-pose-worst", "D", "A"])
+@pytest.mark.parametrize("r", [1, 2, 4])
+def test_every_swap_scores_the_exact_value_of_the_swapped_plan(name, r, with_prior):
+    """Random Jacobians of r rows (the kr270 test in test_criteria covers r = 3): each candidate
+    swap's score is the criterion of the swapped plan computed from scratch, the swaps the state
+    refuses are those that leave a singular plan, and the state after a swap is exact."""
+    rng = np.random.default_rng(10 * r + len(name))
+    P, N, m = 6, 40, max(2, -(-8 // r))
+    J_pool = rng.standard_normal((N, r, P)) * rng.uniform(0.1, 3.0, P)
+    J_pool[N - 1] = J_pool[0]  # a duplicate of a plan configuration
+    J_pool[N - 2, :, 1:] = 0.0  # a candidate that only sees the first parameter
+    J0 = rng.standard_normal((3, 3, P))
+    prior = np.diag(rng.uniform(0.01, 0.1, P)) if with_prior else None
+    criterion = make_criterion(name, P, r, J0, 1.0, prior)
+
+    def exact(index):
+        J = J_pool[list(index)].reshape(-1, P)
+        return criterion.value(J.T @ J, len(index))
+
+    index = np.arange(m)
+    state = criterion.exchange(J_pool, index.copy())
+    assert state.F == pytest.approx(exact(index), rel=1e-12)
+    check_swaps(state, N, exact, range(m), rel=1e-9)
+
+
+def check_swaps(state, N: int, exact, rows, rel: float) -> None:
+    """For each configuration i of ``rows`` in turn: every candidate swap the exchange state scores
+    has the exact value of the swapped plan (``exact(index)``, within ``rel``); then the best swap
+    is made and the state's F is the exact value of the new plan."""
+    allowed = np.ones(N, dtype=bool)
+    allowed[state.index] = False
+    for i in rows:
+        cand, values = state.scores(i, allowed)
+        assert len(cand) > 0
+        for c, v in zip(cand, values, strict=True):
+            trial = state.index.copy()
+            trial[i] = c
+            assert v == pytest.approx(exact(trial), rel=rel, abs=1e-10)
+        best = int(np.argmin(values))
+        out, into = int(state.index[i]), int(cand[best])
+        state.swap(i, best)
+        allowed[out], allowed[into] = True, False
+        assert state.F == pytest.approx(exact(state.index), rel=1e-9, abs=1e-10)
+
+
+def test_a_swap_that_leaves_a_singular_plan_is_refused():
+    """With as many rows as parameters, swapping a configuration for one that repeats the other's
+    directions leaves M singular: not scored; the others are, exactly."""
+    rng = np.random.default_rng(3)
+    P, r = 4, 2
+    J_pool = rng.standard_normal((5, r, P))
+    J_pool[3] = 2.0 * J_pool[1][::-1]  # the rows of configuration 1 again
+    criterion = make_criterion("D", P, r)
+    state = criterion.exchange(J_pool, np.array([0, 1]))
+    allowed = np.array([False, False, True, True, True])
+    cand, values = state.scores(0, allowed)
+    assert 3 not in cand and 2 in cand and 4 in cand
+    for c, v in zip(cand, values, strict=True):
+        J = J_pool[[c, 1]].reshape(-1, P)
+        assert v == pytest.approx(-np.linalg.slogdet(J.T @ J)[1], rel=1e-10)
+
+
+def test_the_exchange_floor_check_decides_as_the_conditioning():
+    """The exchange's fast floor check (a Cholesky factor) says what the smallest eigenvalue says,
+    also for floors just below and just above the plan's conditioning."""
+    from pincal.evaluation.information import conditioning
+    from pincal.planning.exchange import _above
+
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        J = rng.standard_normal((12, 8)) * rng.uniform(0.01, 10.0, 8)
+        J[:, 0] += 0.999 * J[:, 1] * rng.uniform()  # nearly dependent columns: a small conditioning
+        M = J.T @ J
+        c = conditioning(M)
+        floors = [1e-9, 1e-6, 1e-3, 0.5, c, c * (1 - 1e-12), c * (1 + 1e-12), c * (1 - 1e-5), c * (1 + 1e-5)]
+        for floor in floors:
+            assert _above(M, floor) == (c > floor), (c, floor)
