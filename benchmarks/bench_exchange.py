@@ -36,6 +36,7 @@ CHILD = r"""
 import json, sys, time
 import numpy as np
 import pincal
+assert pincal.__file__.startswith(sys.argv[1]), pincal.__file__  # this tree's, not an installed one
 from pincal.evaluation import low_rank
 from pincal.evaluation.registry import make_criterion
 from pincal.model.jacobian import JacobianEngine
@@ -89,7 +90,14 @@ print(json.dumps(out))
 
 def run(tree: Path) -> dict:
     env = dict(os.environ, PYTHONPATH=str(tree), OPENBLAS_NUM_THREADS="1")
-    done = subprocess.run([sys.executable, "-c", CHILD], env=env, capture_output=True, text=True, check=True)
+    done = subprocess.run(
+        [sys.executable, "-c", CHILD, str(tree)],
+        env=env,
+        cwd=tree,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     return json.loads(done.stdout.splitlines()[-1])
 
 

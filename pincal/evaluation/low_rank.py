@@ -43,21 +43,14 @@ MIN_RATIO = 1e-12
 
 
 # --------------------------------------------------------- stacks of small matrices, entry by entry
-def gram(Y: np.ndarray, Z: np.ndarray | None = None) -> np.ndarray:
-    """(r, s, n) the products Y_cᵀZ_c of every candidate c, for Y (P, r, n) and Z (P, s, n) (Z = Y:
-    the Gram matrices, symmetric)."""
+def gram(Y: np.ndarray) -> np.ndarray:
+    """(r, r, n) the Gram matrices Y_cᵀY_c of every candidate c, for Y (P, r, n)."""
     r, n = Y.shape[1], Y.shape[2]
-    if Z is None:
-        out = np.empty((r, r, n))
-        for a in range(r):
-            for b in range(a + 1):
-                out[a, b] = np.einsum("pn,pn->n", Y[:, a], Y[:, b])
-                out[b, a] = out[a, b]
-        return out
-    out = np.empty((r, Z.shape[1], n))
+    out = np.empty((r, r, n))
     for a in range(r):
-        for b in range(Z.shape[1]):
-            out[a, b] = np.einsum("pn,pn->n", Y[:, a], Z[:, b])
+        row = np.einsum("pn,pbn->bn", Y[:, a], Y[:, a:])
+        out[a, a:] = row
+        out[a:, a] = row
     return out
 
 
