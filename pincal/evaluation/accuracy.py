@@ -18,6 +18,7 @@ D-optimal one in pincal's reports), so the trade-off is visible.
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Protocol
@@ -234,6 +235,26 @@ class ErrorSummary:
             float(np.percentile(rho, 95)),
             float(rho.max()),
         )
+
+    @classmethod
+    def of_rows(cls, rows: list[tuple[str, np.ndarray]]) -> list[ErrorSummary]:
+        """:meth:`of` each ``(where, ρ)`` of ``rows``, the same numbers, the rows of one length
+        summarised together (one median and one percentile along the rows, not one per row)."""
+        out: list[ErrorSummary | None] = [None] * len(rows)
+        by_length: dict[int, list[int]] = {}
+        for i, (_, rho) in enumerate(rows):
+            by_length.setdefault(len(rho), []).append(i)
+        for n, which in by_length.items():
+            R = np.stack([rows[i][1] for i in which])
+            columns = (
+                np.sqrt(np.mean(R**2, axis=1)),
+                np.median(R, axis=1),
+                np.percentile(R, 95, axis=1),
+                R.max(axis=1),
+            )
+            for i, values in zip(which, zip(*(c.tolist() for c in columns)), strict=True):
+                out[i] = cls(rows[i][0], n, *values)
+        return out  # type: ignore[return-value]  # every row summarised
 
     def as_dict(self) -> dict:
         return dict(self.__dict__)
@@ -475,19 +496,17 @@ def accuracy(
     sigma = sigma if inst is None else inst.reference
     robot = params.robot
     batch, batched = plan_batch(params, plan)
-    sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
-    engine = engine_for(params)
     if residual_model is not None:
+        sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
         check_points(inst)
         return _with_residual_model(
             params, batch, batched, plan, compare, sets, region, sigma, prior, task_payload, residual_model
         )
-    with blas_for(sum(len(qs) for _, qs in sets)):
-        jacobians = [
-            (where, engine.jacobian(qs, frame="tip", payload=_loads(task_payload, len(qs))).copy())
-            for where, qs in sets
-        ]
-        at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior, task_payload, instrument=inst)
+    with blas_for(0):
+        report = _report(
+            params, test_pose, neighbourhoods, samples, workspace, seed, sigma, prior, task_payload, inst
+        )
+        _, poses, region, jacobians, at_test_poses = report
         loads = plan_payloads(plan, batch.shape)
         plans = [
             (q, None if loads is None else loads[i * len(q) : (i + 1) * len(q)]) for i, q in enumerate(batch)
@@ -496,42 +515,70 @@ def accuracy(
         if prior is not None and np.all(np.isfinite(prior.std(params))):
             J0 = jacobians[0][1]  # ρ² is unchanged by each pose's rotation to the tip frame
             before = float(np.sqrt(np.einsum("kip,p,kip->", J0, prior.std(params) ** 2, J0) / len(poses)))
-        compared = [
-            (
-                name,
-                _plan_accuracy(
-                    name, q, params, sigma, prior, jacobians, region, at_test_poses, task_payload, inst=inst
-                ),
-            )
-            for name, q in (compare or {}).items()
-        ]
+        shared = (params, sigma, prior, jacobians, region, at_test_poses, task_payload, inst)
+        compared = _plans_accuracy([(name, q, None) for name, q in (compare or {}).items()], *shared)
         reports = tuple(
             AccuracyReport(
-                (
-                    _plan_accuracy(
-                        "plan",
-                        q,
-                        params,
-                        sigma,
-                        prior,
-                        jacobians,
-                        region,
-                        at_test_poses,
-                        task_payload,
-                        load,
-                        inst,
-                    ),
-                )
-                + tuple(c for _, c in compared),
+                (accuracy,) + tuple(compared),
                 float(sigma),
                 prior,
                 before,
                 "test pose" if region is None else region.description,
                 tuple(bool(r) for r in robot.revolute),
             )
-            for q, load in plans
+            for accuracy in _plans_accuracy([("plan", q, load) for q, load in plans], *shared)
         )
     return reports if batched else reports[0]
+
+
+_LOCAL = threading.local()
+_KEPT = 4
+"""Accuracy reports' configurations kept per thread (the most recently used)."""
+
+
+def _report(params, test_pose, neighbourhoods, samples, workspace, seed, sigma, prior, task_payload, inst):
+    """(sets, test poses, region, the sets' tip-frame Jacobians, the test poses' criterion) of an
+    accuracy report: computed once and kept (per thread, the :data:`_KEPT` most recently used) for
+    the same parameter set, test pose array (its values), draws and σ, without a prior, a task
+    payload or an instrument, and with an integer seed: a script that reports on many plans one
+    call at a time pays for the report's configurations once. The kept Jacobians are read-only."""
+    robot = params.robot
+    key: tuple | None = None
+    if (
+        type(test_pose) is np.ndarray
+        and test_pose.dtype == np.float64
+        and type(seed) is int
+        and prior is None
+        and task_payload is None
+        and inst is None
+    ):
+        try:
+            limits = robot.model.lowerPositionLimit.tobytes() + robot.model.upperPositionLimit.tobytes()
+            values = (test_pose.shape, test_pose.tobytes(), tuple(neighbourhoods), samples, workspace, seed)
+            key = (id(params), *values, sigma, limits)
+            hash(key)
+        except TypeError:  # an argument that is not a plain value: computed for the call
+            key = None
+    kept = getattr(_LOCAL, "reports", None)
+    if kept is None:
+        kept = _LOCAL.reports = {}
+    found = None if key is None else kept.pop(key, None)
+    if found is None or found[0] is not params:
+        sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
+        engine = engine_for(params)
+        jacobians = [
+            (where, engine.jacobian(qs, frame="tip", payload=_loads(task_payload, len(qs))).copy())
+            for where, qs in sets
+        ]
+        at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior, task_payload, instrument=inst)
+        for _, J in jacobians:  # kept: read by every later report
+            J.flags.writeable = False
+        found = (params, (sets, poses, region, jacobians, at_test_poses))
+        if key is not None and len(kept) >= _KEPT:
+            kept.pop(next(iter(kept)))
+    if key is not None:
+        kept[key] = found  # last: the most recently used
+    return found[1]
 
 
 def _with_residual_model(
@@ -607,16 +654,33 @@ def _loads(task_payload: PayloadLike, n: int) -> np.ndarray | None:
     return None if task_payload is None else payload_rows(task_payload, n)
 
 
-def _plan_accuracy(
-    name, q, params, sigma, prior, jacobians, region, at_test_poses, task_payload=None, load=None, inst=None
-) -> PlanAccuracy:
-    """One plan's accuracy on the sets of configurations (their Jacobians given); ``load`` the
-    plan's payload rows (default its own, if it is a Plan)."""
-    predicted = PredictedError(params, q, sigma, prior, task_payload, load, inst)
-    rows = tuple(ErrorSummary.of(where, np.sqrt(predicted.squared_at(J))) for where, J in jacobians)
-    worst = None if region is None else worst_found(predicted, region)
-    noise, bias = at_test_poses.split(predicted.information, predicted.m)
-    return PlanAccuracy(name, rows, worst, float(np.sqrt(noise.mean())), float(np.sqrt(bias.mean())))
+SUMMARISED_TOGETHER = 64
+"""Plans of a batch whose errors are summarised together (:meth:`ErrorSummary.of_rows`): a
+median and a percentile cost a NumPy call each whatever the number of rows."""
+
+
+def _plans_accuracy(
+    named, params, sigma, prior, jacobians, region, at_test_poses, task_payload=None, inst=None
+) -> list[PlanAccuracy]:
+    """The accuracy of each ``(name, plan, load)`` of ``named`` on the sets of configurations
+    (their Jacobians given); ``load`` the plan's payload rows (None: its own, if it is a Plan)."""
+    out: list[PlanAccuracy] = []
+    for a in range(0, len(named), SUMMARISED_TOGETHER):
+        group = named[a : a + SUMMARISED_TOGETHER]
+        predicted = [
+            PredictedError(params, q, sigma, prior, task_payload, load, inst) for _, q, load in group
+        ]
+        summaries = ErrorSummary.of_rows(
+            [(where, np.sqrt(p.squared_at(J))) for p in predicted for where, J in jacobians]
+        )
+        for i, ((name, _, _), p) in enumerate(zip(group, predicted, strict=True)):
+            worst = None if region is None else worst_found(p, region)
+            noise, bias = at_test_poses.split(p.information, p.m)
+            rows = tuple(summaries[i * len(jacobians) : (i + 1) * len(jacobians)])
+            out.append(
+                PlanAccuracy(name, rows, worst, float(np.sqrt(noise.mean())), float(np.sqrt(bias.mean())))
+            )
+    return out
 
 
 @dataclass(frozen=True)

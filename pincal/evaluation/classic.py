@@ -19,10 +19,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA
-from pincal.evaluation.a_optimal import AOptimal
-from pincal.evaluation.condition import Condition
-from pincal.evaluation.d_optimal import DOptimal
-from pincal.evaluation.e_optimal import EOptimal
 from pincal.evaluation.information import factor, factor_batch
 from pincal.evaluation.plans import (
     SMALL,
@@ -91,23 +87,48 @@ def criteria_from_singular_values(s: np.ndarray, m: int, rows: int) -> Criteria:
 
 def criteria_of_plans(S: np.ndarray, m: int, rows: int) -> tuple[Criteria, ...]:
     """Classic criteria of k regular plans from the singular values S (k, P) (each row
-    descending) of their stacked Jacobians, every criterion computed for all k at once."""
+    descending) of their stacked Jacobians, every criterion computed for all k at once: the
+    numbers of the criteria's own ``from_singular_values`` (DOptimal, AOptimal, EOptimal,
+    Condition), each logarithm and inverse square formed once (a dozen NumPy calls for one plan
+    instead of forty)."""
     n = S.shape[1]
     smallest, largest = S[:, -1], S[:, 0]
+    log_sum = np.log(S).sum(axis=1)
+    inverse_squares = 1.0 / (S * S)
     columns = (
-        DOptimal(rows).from_singular_values(S),
-        AOptimal(n, rows).from_singular_values(S),
-        EOptimal(rows).from_singular_values(S),
-        Condition(rows).from_singular_values(S),
-        np.exp(np.mean(np.log(S), axis=1)) / np.sqrt(m),
-        smallest / largest,
-        smallest,
-        smallest**2 / largest,
+        -2.0 * log_sum,  # D: log det M⁻¹
+        inverse_squares.sum(axis=1),  # A: tr M⁻¹
+        inverse_squares[:, -1],  # E: 1/σ_P²
+        largest / smallest,  # cond
+        np.exp(log_sum / n) / np.sqrt(m),  # O1
+        smallest / largest,  # O2
+        smallest,  # O3
+        smallest * smallest / largest,  # O4
     )
     return tuple(
         Criteria(d, a, e, c, o1, o2, o3, o4, n, m)
-        for d, a, e, c, o1, o2, o3, o4 in zip(*(np.asarray(c).tolist() for c in columns))
+        for d, a, e, c, o1, o2, o3, o4 in zip(*(c.tolist() for c in columns))
     )
+
+
+EIGEN_CONDITION = 1e3
+"""The singular values of a stacked Jacobian J whose condition number is at most this are taken
+as the square roots of the eigenvalues of M = JᵀJ (about the cost of Pinocchio's own work for the
+plan, against twice that for an SVD of J). Each eigenvalue is then exact to about ε·‖M‖, so each
+σ to a relative ε·cond(J)² ≲ 2e-10 at this bound (measured: at most 0.6·ε·cond² on random plans
+of KR 270 and UR10); plans above it take an SVD of J (ε·cond(J))."""
+
+
+def singular_values(J: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """(k, P) the singular values, descending, of k stacked Jacobians J (k, rows, P) with
+    information matrices M = JᵀJ (k, P, P): from the eigenvalues of M for the plans conditioned
+    within :data:`EIGEN_CONDITION`, from an SVD of J for the others."""
+    w = np.linalg.eigvalsh(M)[:, ::-1]
+    S = np.sqrt(np.maximum(w, 0.0))
+    poor = ~(w[:, -1] * EIGEN_CONDITION**2 >= w[:, 0])  # cond(J)² = λ_max/λ_min; NaN or λ ≤ 0 too
+    if poor.any():
+        S[poor] = np.linalg.svd(J[poor], compute_uv=False)
+    return S
 
 
 def criteria(
@@ -126,6 +147,7 @@ def criteria(
     engine = engine_for(params, optional_instrument(measure, instrument, DEFAULT_SIGMA))
     with nullcontext() if k * m <= SMALL else blas_for(k * m):
         J = jacobians(engine, qs, plan_payloads(plan, qs.shape))  # a Plan's own payloads
-        factor_batch(informations(J), engine.rows, m)  # raises SingularPlan like ρ0 does
-        found = criteria_of_plans(np.linalg.svd(J, compute_uv=False), m, engine.rows)
+        M = informations(J)
+        factor_batch(M, engine.rows, m)  # raises SingularPlan like ρ0 does
+        found = criteria_of_plans(singular_values(J, M), m, engine.rows)
     return found if batched else found[0]

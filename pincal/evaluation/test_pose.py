@@ -31,6 +31,7 @@ A plan whose M is singular (too few configurations, or degenerate ones) has no f
 
 from __future__ import annotations
 
+import math
 import threading
 
 import numpy as np
@@ -102,8 +103,8 @@ class TestPoseMean(WeightedTrace):
 
     def rho0(self, M: np.ndarray, m: int) -> float:
         """ρ0 [m], the root of the mean ρ0² over the test poses, for information M of m configurations."""
-        X = trsm(factor(self.posterior(M), self.rows, m), self.J0T)
-        return self.scale * np.sqrt(np.einsum("ij,ij", X, X))
+        x = trsm(factor(self.posterior(M), self.rows, m), self.J0T).ravel()
+        return self.scale * math.sqrt(x @ x)
 
 
 class TestPoseCriterion:
@@ -304,9 +305,22 @@ def _evaluate(
     instrument=None,
     orientation_length=None,
 ):
+    plain = instrument is None and orientation_length is None
+    if (
+        plain
+        and aggregate == "mean"
+        and type(plan) is np.ndarray
+        and plan.ndim == 2
+        and len(plan) < SMALL
+        and type(test_pose) is np.ndarray
+        and test_pose.ndim <= 2
+        and len(plan) + len(test_pose) <= SMALL
+    ):  # one small plan of joint values (no payloads) at test pose(s) given as an array: see SMALL
+        qs = params.robot.configurations(plan)
+        criterion = _criterion(params, test_pose, sigma, aggregate, prior, task_payload)
+        return float(criterion(qs))
     qs, batched = plan_batch(params, plan)
     payload = plan_payloads(plan, qs.shape)
-    plain = instrument is None and orientation_length is None
     if plain and not batched and aggregate == "mean" and not isinstance(test_pose, TestRegion):
         n = qs.shape[1] + len(np.atleast_2d(getattr(test_pose, "q", test_pose)))
         if n <= SMALL:  # one small plan: see SMALL

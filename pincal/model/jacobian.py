@@ -61,6 +61,18 @@ def _skew(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
+def _selection(C: np.ndarray) -> tuple[np.ndarray, np.ndarray | None] | None:
+    """(rows, scale) when every column of C has at most one non-zero entry: Reg·C is then
+    Reg[:, rows] · scale (scale None when it is all ones), each entry the one product the matrix
+    product forms (the others are exact zeros); else None."""
+    nonzero = C != 0
+    if (nonzero.sum(axis=0) > 1).any():
+        return None
+    rows = np.abs(C).argmax(axis=0)
+    scale = C[rows, np.arange(C.shape[1])]
+    return rows, (None if (scale == 1.0).all() else scale)
+
+
 def _split(pairs: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray]:
     """(columns, joints) as two integer arrays, from (column, joint) pairs."""
     return np.array([c for c, _ in pairs], dtype=int), np.array([j for _, j in pairs], dtype=int)
@@ -116,6 +128,7 @@ class JacobianEngine:
         self.G = np.vstack([np.hstack([np.eye(3), -_skew(m)]) for m in robot.markers])
         self.tip_twist = tip_twist
         self.C = C
+        self.selection = _selection(C)
         self.const = self.G @ tip_twist + const
         self.base_cols = base_cols
         self.needs_pose = bool(base_cols)
@@ -127,6 +140,8 @@ class JacobianEngine:
         self.rigid = not robot.is_elastic and not self.compliance_cols.size
         needs_gravity = self.compliance_cols.size or robot.joint_compliances.any()
         self.gravity = robot.gravity_model() if needs_gravity else None
+        # Rigid, one marker, no pose, no gain: the tip-frame Jacobian is the regressors' columns.
+        self.plain = self.rigid and len(self.points) == 1 and not self.needs_pose and not self.gain_cols.size
 
     def joint_values(
         self, qs: np.ndarray, payload: PayloadLike = None
@@ -183,9 +198,16 @@ class JacobianEngine:
         model, data, joint, point = self.model, self.data, self.joint, self.points[0]
         regressor, fk, local = pin.computeJointKinematicRegressor, pin.forwardKinematics, pin.LOCAL
         m, n = len(configurations), 6 * model.nq
+        if m <= CHUNK:  # one chunk
+            out: list[np.ndarray] = []
+            keep = out.append
+            for q in configurations:
+                fk(model, data, q)
+                keep(regressor(model, data, joint, local, point)[:3])
+            return np.concatenate(out).reshape(m, 3, n) if out else np.empty((0, 3, n))
         reg = np.empty((3 * m, n))
         for a in range(0, m, CHUNK):  # a chunk's regressors stay in cache until copied
-            out: list[np.ndarray] = []
+            out = []
             keep = out.append
             for q in configurations[a : a + CHUNK]:
                 fk(model, data, q)
@@ -194,9 +216,18 @@ class JacobianEngine:
         return reg.reshape(m, 3, n)
 
     def _columns(self, reg: np.ndarray) -> np.ndarray:
-        """(m, r, P) Reg·C + const for contiguous regressor rows (m, r, 6·nq)."""
+        """(m, r, P) Reg·C + const for contiguous regressor rows (m, r, 6·nq): when every column
+        of C has at most one non-zero entry (the URDF origins' axes are the parent's, as on most
+        arms), the regressor's columns picked and scaled, the same numbers as the product for
+        half its time."""
         m, r, n = reg.shape
-        J = (reg.reshape(-1, n) @ self.C).reshape(m, r, self.n_params)
+        if self.selection is not None:
+            picked, scale = self.selection
+            J = np.take(reg, picked, axis=2)
+            if scale is not None:
+                J *= scale
+        else:
+            J = (reg.reshape(-1, n) @ self.C).reshape(m, r, self.n_params)
         if self.has_const:
             J += self.const
         return J
@@ -212,6 +243,8 @@ class JacobianEngine:
             payload: the payload at each configuration
                 (:func:`~pincal.model.statics.payload_rows`; default none).
         """
+        if self.plain and frame == "tip":  # the common case (a rigid robot: no payload matters)
+            return self._columns(self._single(qs + self.offsets if self.has_offsets else qs))
         pose = frame == "world" or self.needs_pose
         configurations, tau = self.joint_values(qs, payload)
         reg, rot, pos = self._regressors(configurations, pose)

@@ -262,14 +262,12 @@ class Robot:
                 f"{what}: expected {self.nq} joint values ({', '.join(self.joint_names)}), "
                 f"got shape {np.shape(values)}"
             )
-        model = self.model
-        # The common case in one expression: every value finite and within its limits; the slow
-        # path below finds and names the first bad value.
-        if (
-            np.isfinite(arr)
-            & (arr >= model.lowerPositionLimit - LIMIT_TOLERANCE)
-            & (arr <= model.upperPositionLimit + LIMIT_TOLERANCE)
-        ).all():
+        # The common case in one expression: every value within its limits (and finite: NaN and
+        # ±inf fail the comparisons when the limits are finite); the slow path below finds and
+        # names the first bad value.
+        lower, upper, finite = self._tolerant_limits()
+        inside = (arr >= lower) & (arr <= upper)
+        if inside.all() and (finite or np.isfinite(arr).all()):
             return arr
         bad = ~np.isfinite(arr)
         if bad.any():
@@ -277,6 +275,21 @@ class Robot:
             raise BadConfiguration(f"{what} {i}: joint {self.joint_names[j]} is {arr[i, j]} (must be finite)")
         self.check_limits(arr, [f"{what} {i}" for i in range(len(arr))])
         return arr
+
+    def _tolerant_limits(self) -> tuple[np.ndarray, np.ndarray, bool]:
+        """(lower − tolerance, upper + tolerance, both finite) of the model's limits as they are
+        now: kept with the limits' bytes, so that a limit changed in the model is seen at the next
+        check (a few byte comparisons instead of four array operations per check)."""
+        model = self.model
+        lower, upper = model.lowerPositionLimit, model.upperPositionLimit
+        key = lower.tobytes() + upper.tobytes()
+        kept = self.__dict__.get("_limits")
+        if kept is None or kept[0] != key:
+            limits = (lower - LIMIT_TOLERANCE, upper + LIMIT_TOLERANCE)
+            finite = bool(np.isfinite(lower).all() and np.isfinite(upper).all())
+            kept = (key, *limits, finite)
+            self.__dict__["_limits"] = kept  # a cache on the frozen dataclass, as cached_property
+        return kept[1], kept[2], kept[3]
 
     def check_limits(self, q: np.ndarray, labels: Sequence[str], degrees: bool | None = None) -> None:
         """Raise :class:`BadConfiguration` naming the first joint value outside its limits.

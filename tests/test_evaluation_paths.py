@@ -1,0 +1,188 @@
+"""The public evaluations' short paths (one small plan, a batch, the kept limits) against the plain
+computations they replace: the same numbers bit for bit where the arithmetic is the same, and
+within the stated precision against an SVD where it is not (the singular values of the criteria)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import pincal
+from pincal.errors import BadConfiguration
+from pincal.evaluation.a_optimal import AOptimal
+from pincal.evaluation.accuracy import ErrorSummary
+from pincal.evaluation.classic import EIGEN_CONDITION, criteria_of_plans, singular_values
+from pincal.evaluation.condition import Condition
+from pincal.evaluation.d_optimal import DOptimal
+from pincal.evaluation.e_optimal import EOptimal
+from pincal.evaluation.plans import engine_for, informations, jacobians
+from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.model.jacobian import JacobianEngine
+
+SIGMA = 3e-5
+
+
+@pytest.mark.parametrize("group", ["full", "full,offsets", "lengths,offsets", "full,offsets,markers,base"])
+def test_the_regressor_columns_picked_are_the_product(kr270_marker, group):
+    """KR 270's origins have their parent's axes: C picks one regressor column per parameter, and
+    the picked (and scaled) columns are the matrix product's numbers, bit for bit; the one-step
+    path of a rigid one-marker set gives the general path's Jacobian."""
+    params = kr270_marker.parameters(group).identifiable().identifiable
+    engine = JacobianEngine(params)
+    assert engine.selection is not None
+    qs = kr270_marker.random_configurations(40, np.random.default_rng(1))
+    reg = engine.regressors(qs)[0]
+    picked = engine._columns(reg)
+    engine.selection = None
+    assert np.array_equal(picked, engine._columns(reg))
+    fast = JacobianEngine(params)
+    general = JacobianEngine(params)
+    general.plain = False
+    for n in (1, 12, 16, 17, 40):  # one chunk of regressors and several
+        assert np.array_equal(fast.jacobian(qs[:n]), general.jacobian(qs[:n]))
+    assert np.array_equal(fast.jacobian(qs), params.jacobian(qs, frame="tip"))
+
+
+def test_rotated_origins_keep_the_product():
+    ur10 = pincal.load_robot("ur10", tip="tool0")
+    assert JacobianEngine(ur10.parameters("full")).selection is None
+
+
+def _svd_criteria(J: np.ndarray, m: int, rows: int):
+    return criteria_of_plans(np.linalg.svd(J, compute_uv=False), m, rows)
+
+
+def test_criteria_from_eigenvalues_agree_with_the_svd(kr270_marker):
+    """The singular values of well-conditioned plans come from the eigenvalues of M: every σ within
+    1e-9 (relative) of LAPACK's SVD of J, every printed criterion too; plans above
+    EIGEN_CONDITION take the SVD itself, so their values are the SVD's bit for bit."""
+    params = kr270_marker.parameters("full,offsets,gains").identifiable().identifiable
+    rng = np.random.default_rng(4)
+    good = kr270_marker.random_configurations(12 * 60, rng).reshape(60, 12, -1)
+    # Poor plans: twelve configurations within a few hundredths of a radian of one another.
+    centre = kr270_marker.random_configurations(3, rng)
+    poor = centre[:, None, :] + rng.uniform(-0.02, 0.02, (3, 12, kr270_marker.nq))
+    plans = np.concatenate([good, poor])
+    J = jacobians(engine_for(params), plans)
+    M = informations(J)
+    S = singular_values(J, M)
+    oracle = np.linalg.svd(J, compute_uv=False)
+    cond = oracle[:, 0] / oracle[:, -1]
+    assert (cond[:60] <= EIGEN_CONDITION).sum() >= 50 and (cond[60:] > EIGEN_CONDITION).all()
+    well = cond <= 0.99 * EIGEN_CONDITION
+    assert np.abs(S[well] / oracle[well] - 1).max() <= 1e-9
+    assert np.array_equal(S[cond > 1.01 * EIGEN_CONDITION], oracle[cond > 1.01 * EIGEN_CONDITION])
+    found = pincal.criteria(params, plans)
+    expected = _svd_criteria(J, 12, 3)
+    for c, e in zip(found, expected, strict=True):
+        for key, value in c.as_dict().items():
+            assert value == pytest.approx(e.as_dict()[key], rel=1e-9)
+    assert pincal.criteria(params, plans[0]) == found[0]  # one plan: the batch's numbers
+
+
+def test_criteria_of_plans_are_the_criteria_objects_numbers():
+    S = np.sort(np.random.default_rng(5).uniform(0.01, 3.0, (7, 9)), axis=1)[:, ::-1]
+    found = criteria_of_plans(S, 5, 3)
+    columns = {
+        "log_det": DOptimal(3).from_singular_values(S),
+        "trace": AOptimal(9, 3).from_singular_values(S),
+        "max_eig": EOptimal(3).from_singular_values(S),
+        "cond": Condition(3).from_singular_values(S),
+        "O1": np.exp(np.mean(np.log(S), axis=1)) / np.sqrt(5),
+        "O4": S[:, -1] ** 2 / S[:, 0],
+    }
+    for i, c in enumerate(found):
+        for key, values in columns.items():
+            assert getattr(c, key) == values[i]
+
+
+def test_error_summaries_of_rows_are_each_rows():
+    rng = np.random.default_rng(6)
+    rows = [(f"set {n}", rng.random(n)) for n in (1, 64, 64, 256, 7, 256, 2, 3, 1000, 1)]
+    assert ErrorSummary.of_rows(rows) == [ErrorSummary.of(where, rho) for where, rho in rows]
+
+
+def test_a_limit_changed_in_the_model_is_seen():
+    robot = pincal.load_robot("kr270", tip="tool0")  # its own model: changed below
+    q = robot.random_configurations(3, np.random.default_rng(7))
+    assert np.array_equal(robot.configurations(q), q)
+    robot.model.upperPositionLimit[1] = q[:, 1].min() - 0.01
+    with pytest.raises(BadConfiguration, match="configuration 0: .*joint_a2"):
+        robot.configurations(q)
+    for bad in (np.nan, np.inf, -np.inf):
+        p = q.copy()
+        p[2, 3] = bad
+        with pytest.raises(BadConfiguration, match="configuration 2"):
+            robot.configurations(p)
+
+
+def test_one_small_plan_is_checked_and_gives_the_criterions_value(kr270_marker):
+    params = kr270_marker.parameters("full").identifiable().identifiable
+    rng = np.random.default_rng(8)
+    plan = kr270_marker.random_configurations(12, rng)
+    q0 = kr270_marker.random_configurations(1, rng)[0]
+    expected = TestPoseCriterion(params, q0, SIGMA)(plan)
+    assert pincal.rho0(params, plan, q0, sigma=SIGMA) == pytest.approx(expected, rel=1e-14)
+    assert pincal.rho0(params, plan, q0, sigma=SIGMA) == pincal.rho0(params, plan[None], q0, sigma=SIGMA)[0]
+    outside = plan.copy()
+    outside[4, 2] = kr270_marker.upper[2] + 0.1
+    with pytest.raises(BadConfiguration, match="configuration 4"):
+        pincal.rho0(params, outside, q0, sigma=SIGMA)
+    with pytest.raises(BadConfiguration, match="joint values"):
+        pincal.rho0(params, plan[:, :4], q0, sigma=SIGMA)
+    with pytest.raises(BadConfiguration, match="test pose"):
+        pincal.rho0(params, plan, np.full(kr270_marker.nq, np.nan), sigma=SIGMA)
+
+
+def _rows(report) -> list[tuple]:
+    return [
+        (p.name, r.where, r.n, r.rms, r.median, r.p95, r.max, p.from_measurements, p.from_prior)
+        for p in report.plans
+        for r in p.rows
+    ]
+
+
+def test_accuracy_reports_kept_follow_their_arguments(kr270_marker):
+    """accuracy keeps a report's configurations and Jacobians for the same test pose values,
+    draws and σ: every call gives what a report computed afresh gives, in any order, for another
+    seed, sample count, σ, parameter set, or the same test pose array changed in place."""
+    import importlib
+
+    module = importlib.import_module("pincal.evaluation.accuracy")
+
+    params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
+    other = kr270_marker.parameters("full").identifiable().identifiable
+    rng = np.random.default_rng(9)
+    plan = kr270_marker.random_configurations(12, rng)
+    q0 = kr270_marker.random_configurations(1, rng)[0]
+    small = dict(samples=16, workspace=32)
+    cases = [
+        (params, dict(sigma=SIGMA, **small)),
+        (params, dict(sigma=SIGMA, seed=1, **small)),
+        (params, dict(sigma=SIGMA, samples=8, workspace=32)),
+        (params, dict(sigma=2 * SIGMA, **small)),
+        (other, dict(sigma=SIGMA, **small)),
+        (params, dict(sigma=SIGMA, seed=np.random.default_rng(3), **small)),
+    ]
+
+    def fresh(p, kw):
+        module._LOCAL.reports = {}
+        if isinstance(kw.get("seed"), np.random.Generator):
+            kw = dict(kw, seed=np.random.default_rng(3))
+        return _rows(pincal.accuracy(p, plan, q0, **kw))
+
+    expected = [fresh(p, kw) for p, kw in cases]
+    module._LOCAL.reports = {}
+    for _ in range(2):
+        for (p, kw), rows in zip(cases, expected, strict=True):
+            if isinstance(kw.get("seed"), np.random.Generator):
+                kw = dict(kw, seed=np.random.default_rng(3))
+            assert _rows(pincal.accuracy(p, plan, q0, **kw)) == rows
+    moved = q0.copy()
+    before = _rows(pincal.accuracy(params, plan, moved, sigma=SIGMA, **small))
+    moved[1] = 0.5 * (moved[1] + kr270_marker.upper[1])
+    after = _rows(pincal.accuracy(params, plan, moved, sigma=SIGMA, **small))
+    assert after != before
+    module._LOCAL.reports = {}
+    assert after == _rows(pincal.accuracy(params, plan, moved, sigma=SIGMA, **small))
+    assert q0.flags.writeable and plan.flags.writeable  # the caller's arrays untouched
