@@ -120,6 +120,9 @@ def test_the_exchange_floor_check_decides_as_the_conditioning():
         J[:, 0] += 0.999 * J[:, 1] * rng.uniform()  # nearly dependent columns: a small conditioning
         M = J.T @ J
         c = conditioning(M)
-        floors = [1e-9, 1e-6, 1e-3, 0.5, c, c * (1 - 1e-12), c * (1 + 1e-12), c * (1 - 1e-5), c * (1 + 1e-5)]
-        for floor in floors:
+        near = [c * (1 + e) for e in (-1e-3, -1e-4, -1e-5, -1e-12, 0.0, 1e-12, 1e-5, 1e-4, 1e-3)]
+        for floor in [1e-9, 1e-6, 1e-3, 0.5, 2.0, *near]:
             assert _above(M, floor) == (c > floor), (c, floor)
+    J = rng.standard_normal((12, 8))
+    J[:, 3] = 0.0  # a zero column: conditioning 0
+    assert not _above(J.T @ J, 1e-3) and not _above(J.T @ J, 1e-9)

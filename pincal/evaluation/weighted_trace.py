@@ -119,7 +119,8 @@ class WeightedTrace(Criterion):
 
     # ---------------------------------------------------------------- the exchange
     def exchange_exact(self, M: np.ndarray, m: int) -> tuple[float, np.ndarray]:
-        return self.value(M, m), self.traces(M, m)
+        t = self.traces(M, m)
+        return float(self.from_traces(t)), t
 
     def exchange_products(self, Y: np.ndarray, Linv: np.ndarray, Xinv: np.ndarray) -> tuple[np.ndarray, ...]:
         """Of every candidate c, from Y_c = L⁻¹J_cᵀ (P, r, N) and X_c⁻¹ (r, r, N), with Φ = L⁻¹J0ᵀ
