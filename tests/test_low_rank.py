@@ -126,3 +126,30 @@ def test_the_exchange_floor_check_decides_as_the_conditioning():
     J = rng.standard_normal((12, 8))
     J[:, 3] = 0.0  # a zero column: conditioning 0
     assert not _above(J.T @ J, 1e-3) and not _above(J.T @ J, 1e-9)
+
+
+def test_the_exchange_spacing_bookkeeping_follows_the_distances():
+    """The candidates the exchange lets replace configuration i are those at least the spacing
+    from every other configuration of the plan, through a sequence of swaps; a spaced exchange's
+    plan keeps the spacing."""
+    from pincal.planning.exchange import _Crowding, fedorov
+
+    rng = np.random.default_rng(6)
+    pool = rng.uniform(-1.0, 1.0, (200, 3))
+    index = rng.choice(200, 6, replace=False)
+    crowding = _Crowding(pool, index, 0.5)
+    for _ in range(30):
+        for i in range(6):
+            dist = np.linalg.norm(pool[:, None] - pool[np.delete(index, i)][None], axis=2)
+            np.testing.assert_array_equal(crowding.far(i), np.all(dist >= 0.5, axis=1))
+        i, c = rng.integers(6), rng.integers(200)
+        index[i] = c
+        crowding.moved(i, c)
+    J_pool = rng.standard_normal((200, 2, 4))
+    start = np.array([0, 1, 2, 3])
+    while min(np.linalg.norm(pool[a] - pool[b]) for a in start for b in start if a < b) < 0.5:
+        start = rng.choice(200, 4, replace=False)
+    out = fedorov(make_criterion("D", 4, 2), J_pool, pool, start, spacing=0.5)
+    assert out.swaps > 0
+    plan = pool[out.index]
+    assert min(np.linalg.norm(plan[a] - plan[b]) for a in range(4) for b in range(a)) >= 0.5

@@ -98,14 +98,26 @@ def _above(M: np.ndarray, floor: float) -> bool:
     return conditioning(M) > floor
 
 
-def _allowed(used: np.ndarray, dist: np.ndarray | None, i: int, spacing: float) -> np.ndarray:
-    """(N,) the candidates that may replace configuration i: not in the plan and, with a minimum
-    spacing (``dist``: (N, m) distances to the plan), at least ``spacing`` from the others."""
-    allowed = ~used
-    if dist is not None:
-        others = np.delete(dist, i, axis=1)
-        allowed &= np.all(others >= spacing, axis=1)
-    return allowed
+class _Crowding:
+    """Which candidates are closer than the minimum spacing to which configuration of the plan:
+    ``close`` (N, m), and ``crowd`` (N,) how many of the plan's configurations each is close to.
+    A candidate may replace configuration i when it is close to none of the others, crowd =
+    close[:, i]: two vector operations per exchange instead of the distances to the m − 1 others."""
+
+    def __init__(self, pool: np.ndarray, index: np.ndarray, spacing: float) -> None:
+        self.pool, self.spacing = pool, spacing
+        self.close = np.linalg.norm(pool[:, None, :] - pool[index][None], axis=2) < spacing
+        self.crowd = self.close.sum(axis=1)
+
+    def far(self, i: int) -> np.ndarray:
+        """(N,) the candidates at least the spacing from every configuration of the plan but i."""
+        return self.crowd == self.close[:, i]
+
+    def moved(self, i: int, c: int) -> None:
+        """Configuration i of the plan is now candidate c."""
+        close = np.linalg.norm(self.pool - self.pool[c], axis=1) < self.spacing
+        self.crowd += close.astype(np.int64) - self.close[:, i]
+        self.close[:, i] = close
 
 
 def fedorov(
@@ -134,7 +146,7 @@ def fedorov(
     m = len(state.index)
     used = np.zeros(N, dtype=bool)
     used[state.index] = True
-    dist = np.linalg.norm(pool[:, None, :] - pool[state.index][None], axis=2) if spacing > 0 else None
+    crowding = _Crowding(pool, state.index, spacing) if spacing > 0 else None
     sweeps = swaps = 0
     last = None  # the configuration exchanged last
     while sweeps < max_sweeps:
@@ -142,7 +154,8 @@ def fedorov(
         for i in range(m):
             if i == last:  # every other configuration tried since, none improved: converged
                 break
-            cand, values = state.scores(i, _allowed(used, dist, i, spacing))
+            allowed = ~used if crowding is None else ~used & crowding.far(i)
+            cand, values = state.scores(i, allowed)
             if not len(cand):
                 continue
             out = int(state.index[i])
@@ -153,8 +166,8 @@ def fedorov(
             state.swap(i, best)
             used[out] = False
             used[c] = True
-            if dist is not None:
-                dist[:, i] = np.linalg.norm(pool - pool[c], axis=1)
+            if crowding is not None:
+                crowding.moved(i, c)
             swaps += 1
             last = i
         else:
