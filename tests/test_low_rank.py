@@ -153,3 +153,30 @@ def test_the_exchange_spacing_bookkeeping_follows_the_distances():
     assert out.swaps > 0
     plan = pool[out.index]
     assert min(np.linalg.norm(plan[a] - plan[b]) for a in range(4) for b in range(a)) >= 0.5
+
+
+def test_the_exchange_takes_the_best_improving_swap_that_keeps_the_floor(monkeypatch):
+    """The best improving candidate that passes the floor check, the lowest position among equal
+    values, among the 32 best: what sorting every improving value (stably) and walking them gives."""
+    from pincal.planning import exchange
+
+    def reference(values, F, refused, tries=32):
+        improving = np.flatnonzero(values < F - exchange.TOLERANCE)
+        order = improving[np.argsort(values[improving], kind="stable")][:tries]
+        return next((int(k) for k in order if int(k) not in refused), None)
+
+    rng = np.random.default_rng(7)
+    n = 300
+    J_pool = np.arange(n, dtype=float).reshape(n, 1, 1)  # M' = 0 + c² − 0: names candidate c
+    zero = np.zeros((1, 1))
+    refused_pool: set[int] = set()
+    monkeypatch.setattr(exchange, "_above", lambda M, floor: round(np.sqrt(M[0, 0])) not in refused_pool)
+    for trial in range(200):
+        values = np.round(rng.uniform(-1.0, 1.0, n), 1)  # many equal values
+        cand = rng.permutation(n)
+        refused = set(range(n)) if trial % 10 == 0 else set(rng.choice(n, rng.integers(0, 60)).tolist())
+        refused_pool.clear()
+        refused_pool.update(int(cand[k]) for k in refused)
+        got = exchange._best_regular(values, 0.5, cand, zero, J_pool, zero, 1e-3)
+        assert got == reference(values, 0.5, refused)
+    assert exchange._best_regular(values, -2.0, cand, zero, J_pool, zero, 1e-3) is None

@@ -67,14 +67,16 @@ def _best_regular(values, F, cand, M, J_pool, Ji, floor, tries: int = 32) -> int
     improving = np.flatnonzero(values < F - TOLERANCE)
     if not len(improving):
         return None
-    order = improving[np.argsort(values[improving], kind="stable")][:tries]
-    if floor <= 0:
-        return int(order[0])
-    for k in order:
+
+    def regular(k) -> bool:
         Jc = J_pool[cand[k]]
-        if _above(M + Jc.T @ Jc - Ji.T @ Ji, floor):
-            return int(k)
-    return None
+        return floor <= 0 or _above(M + Jc.T @ Jc - Ji.T @ Ji, floor)
+
+    first = int(improving[np.argmin(values[improving])])  # the stable order's first: most often the one
+    if regular(first):
+        return first
+    order = improving[np.argsort(values[improving], kind="stable")][1:tries]
+    return next((int(k) for k in order if regular(k)), None)
 
 
 def _above(M: np.ndarray, floor: float) -> bool:
