@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.errors import BadConfiguration
+from pincal.errors import BadConfiguration, SingularPlan
 from pincal.evaluation.a_optimal import AOptimal
 from pincal.evaluation.accuracy import ErrorSummary
 from pincal.evaluation.classic import EIGEN_CONDITION, criteria_of_plans, singular_values
@@ -186,3 +186,28 @@ def test_accuracy_reports_kept_follow_their_arguments(kr270_marker):
     module._LOCAL.reports = {}
     assert after == _rows(pincal.accuracy(params, plan, moved, sigma=SIGMA, **small))
     assert q0.flags.writeable and plan.flags.writeable  # the caller's arrays untouched
+
+
+def test_a_batchs_rho0_by_bordered_factors_is_the_closed_form(planar):
+    """A batch's mean ρ0 comes from one Cholesky factorisation of each bordered matrix
+    [[M, W], [Wᵀ, βI]]: against the planar arm's closed form ρ0² = 2σ²(m − cos q20·S)/(m² − S²)
+    within 1e-10, a plan of the batch that cannot identify the parameters is named, and more
+    weight columns than BORDERED take the triangular solves (the same values within 1e-12)."""
+    params = planar.parameters("joint2.tx,tip.tx")
+    rng = np.random.default_rng(11)
+    plans = rng.uniform(-np.pi, np.pi, (400, 5, 2))
+    S = np.cos(plans[:, :, 1]).sum(axis=1)
+    plans = plans[5**2 - S**2 > 1e-3 * 5**2]
+    S = np.cos(plans[:, :, 1]).sum(axis=1)
+    q0 = np.array([0.4, 1.1])
+    expected = 2 * SIGMA**2 * (5 - np.cos(q0[1]) * S) / (5**2 - S**2)
+    got = pincal.rho0(params, plans, q0, sigma=SIGMA) ** 2
+    assert np.abs(got / expected - 1).max() <= 1e-10
+    singular = plans[:4].copy()
+    singular[1, :, 1] = 0.0  # the arm stretched in every configuration: S = m, M singular
+    with pytest.raises(SingularPlan, match="plan 1"):
+        pincal.rho0(params, singular, q0, sigma=SIGMA)
+    poses = np.array([[0.4, 1.1], [0.1, -0.5], [1.0, 2.0], [0.3, 0.2], [-1.0, 0.7]])
+    wide = pincal.rho0(params, plans[:50], poses, sigma=SIGMA)  # 10 weight columns > BORDERED
+    one_by_one = [pincal.rho0(params, p, poses, sigma=SIGMA) for p in plans[:50]]
+    np.testing.assert_allclose(wide, one_by_one, rtol=1e-12)

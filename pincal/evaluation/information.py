@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from pincal.errors import SingularPlan
-from pincal.lapack import potrf
+from pincal.lapack import potrf, trsm_batch
 from pincal.model.jacobian import ZERO_COLUMN
 
 RCOND = 1e-14
@@ -72,14 +72,66 @@ def factor_batch(Ms: np.ndarray, rows: int, m: int) -> np.ndarray:
         L = np.linalg.cholesky(Ms)
     except np.linalg.LinAlgError:
         L = None
-    if L is not None:
-        diag = np.diagonal(Ms, axis1=1, axis2=2)
-        pivots = np.diagonal(L, axis1=1, axis2=2) ** 2 / diag
-        regular = (pivots.min(axis=1) >= RCOND * pivots.max(axis=1)) & (
-            diag.min(axis=1) >= ZERO_COLUMN**2 * diag.max(axis=1)
-        )
-        if regular.all():
-            return L
+    if L is not None and _all_regular(Ms, L):
+        return L
+    _raise_singular(Ms, rows, m)
+    raise SingularPlan(Ms.shape[-1], rows, m)  # pragma: no cover - Cholesky and factor disagree
+
+
+def _all_regular(Ms: np.ndarray, L: np.ndarray) -> bool:
+    """:func:`factor`'s test for every M of a stack (k, P, P), on the first P columns of their
+    Cholesky factors L."""
+    diag = np.diagonal(Ms, axis1=1, axis2=2)
+    pivots = np.diagonal(L, axis1=1, axis2=2)[:, : Ms.shape[-1]] ** 2 / diag
+    regular = (pivots.min(axis=1) >= RCOND * pivots.max(axis=1)) & (
+        diag.min(axis=1) >= ZERO_COLUMN**2 * diag.max(axis=1)
+    )
+    return bool(regular.all())
+
+
+BORDER = 1e150
+"""The bordering block β·I of :func:`solved_squares`: far above ‖L⁻¹W‖² of any plan that passes
+the singularity test (its Cholesky factor then stays real), far below overflow."""
+
+BORDERED = 8
+"""Columns of W up to which :func:`solved_squares` borders the matrices (one test pose's rows);
+beyond, the factorisation of the larger bordered matrix costs more than the solves it saves."""
+
+
+def solved_squares(Ms: np.ndarray, W: np.ndarray, rows: int, m: int) -> np.ndarray:
+    """(k,) ‖L_i⁻¹W‖²_F = tr(Wᵀ M_i⁻¹ W) for a stack of information matrices M_i = L_iL_iᵀ
+    (k, P, P) and one W (P, r), with the singularity test of :func:`factor_batch`.
+
+    One batched Cholesky factorisation of the bordered matrices [[M_i, W], [Wᵀ, βI]]
+    (β = :data:`BORDER`): the leading block of each factor is L_i and the block below it
+    (L_i⁻¹W)ᵀ, so that no triangular solve runs plan by plan (r ≤ :data:`BORDERED`; else
+    :func:`factor_batch` and one BLAS trsm per plan).
+
+    Raises:
+        SingularPlan: as :func:`factor_batch`.
+    """
+    k, P = Ms.shape[0], Ms.shape[-1]
+    r = W.shape[1]
+    if r <= BORDERED and k > 1:
+        bordered = np.empty((k, P + r, P + r))
+        bordered[:, :P, :P] = Ms
+        bordered[:, P:, :P] = W.T
+        bordered[:, :P, P:] = W
+        bordered[:, P:, P:] = BORDER * np.eye(r)
+        try:
+            L = np.linalg.cholesky(bordered)
+        except np.linalg.LinAlgError:
+            L = None
+        if L is not None and _all_regular(Ms, L):
+            X = L[:, P:, :P]
+            return np.einsum("krp,krp->k", X, X)
+    X = trsm_batch(factor_batch(Ms, rows, m), W)
+    return np.einsum("kpr,kpr->k", X, X)
+
+
+def _raise_singular(Ms: np.ndarray, rows: int, m: int) -> None:
+    """Raise :class:`SingularPlan` for the first singular M of a stack, as :func:`factor` would,
+    naming it (``plan i:``) when the stack holds more than one."""
     for i, M in enumerate(Ms):
         try:
             factor(M, rows, m)
@@ -87,7 +139,6 @@ def factor_batch(Ms: np.ndarray, rows: int, m: int) -> np.ndarray:
             if len(Ms) > 1:
                 error.args = (f"plan {i}: {error.args[0]}",) + error.args[1:]
             raise
-    raise SingularPlan(Ms.shape[-1], rows, m)  # pragma: no cover - Cholesky and factor disagree
 
 
 def jacobi_scaled(M: np.ndarray, zero: float = 0.0) -> tuple[np.ndarray, np.ndarray]:

@@ -39,7 +39,7 @@ import numpy as np
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
-from pincal.evaluation.information import factor, factor_batch, information_matrix
+from pincal.evaluation.information import factor, factor_batch, information_matrix, solved_squares
 from pincal.evaluation.plans import (
     SMALL,
     blas_for,
@@ -205,12 +205,11 @@ class TestPoseCriterion:
         if k == 1:
             return np.asarray(self(qs[0], payload), dtype=float)[None]
         Ms = informations(jacobians(self.engine, qs, payload))
+        if self.aggregate == "mean":  # one weighted trace per plan
+            return self.sigma * np.sqrt(solved_squares(self.posterior(Ms), self.weight_factor, self.rows, m))
         L = factor_batch(self.posterior(Ms), self.rows, m)
-        weights = self.weight_factor if self.aggregate == "mean" else self.J0T
-        X = trsm_batch(L, weights)
+        X = trsm_batch(L, self.J0T)
         squares = np.einsum("kpr,kpr->kr", X, X)
-        if self.aggregate == "mean":
-            return self.sigma * np.sqrt(squares.sum(axis=1))
         each = self.sigma * np.sqrt(squares.reshape(k, self.k, -1).sum(axis=2))
         return each.max(axis=1) if self.aggregate == "worst" else each
 
@@ -314,7 +313,7 @@ def _evaluate(
         and len(plan) < SMALL
         and type(test_pose) is np.ndarray
         and test_pose.ndim <= 2
-        and len(plan) + len(test_pose) <= SMALL
+        and len(plan) + (len(test_pose) if test_pose.ndim == 2 else 1) <= SMALL
     ):  # one small plan of joint values (no payloads) at test pose(s) given as an array: see SMALL
         qs = params.robot.configurations(plan)
         criterion = _criterion(params, test_pose, sigma, aggregate, prior, task_payload)
