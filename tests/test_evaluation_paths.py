@@ -1,8 +1,10 @@
-"""The public evaluations' short paths (one small plan, a batch, the kept limits) against the plain
+"""The public evaluations' short paths (one small plan, a batch, kept reports and limits) against the plain
 computations they replace: the same numbers bit for bit where the arithmetic is the same, and
 within the stated precision against an SVD where it is not (the singular values of the criteria)."""
 
 from __future__ import annotations
+
+import importlib
 
 import numpy as np
 import pytest
@@ -146,9 +148,7 @@ def test_accuracy_reports_kept_follow_their_arguments(kr270_marker):
     """accuracy keeps a report's configurations and Jacobians for the same test pose values,
     draws and σ: every call gives what a report computed afresh gives, in any order, for another
     seed, sample count, σ, parameter set, or the same test pose array changed in place."""
-    import importlib
-
-    module = importlib.import_module("pincal.evaluation.accuracy")
+    module = importlib.import_module("pincal.evaluation.accuracy")  # the module, not the function
 
     params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
     other = kr270_marker.parameters("full").identifiable().identifiable
@@ -172,6 +172,7 @@ def test_accuracy_reports_kept_follow_their_arguments(kr270_marker):
         return _rows(pincal.accuracy(p, plan, q0, **kw))
 
     expected = [fresh(p, kw) for p, kw in cases]
+    assert len({tuple(rows) for rows in expected[:5]}) == 5  # every case is another report
     module._LOCAL.reports = {}
     for _ in range(2):
         for (p, kw), rows in zip(cases, expected, strict=True):
