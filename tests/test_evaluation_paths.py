@@ -102,6 +102,13 @@ def test_error_summaries_of_rows_are_each_rows():
     rng = np.random.default_rng(6)
     rows = [(f"set {n}", rng.random(n)) for n in (1, 64, 64, 256, 7, 256, 2, 3, 1000, 1)]
     assert ErrorSummary.of_rows(rows) == [ErrorSummary.of(where, rho) for where, rho in rows]
+    for _ in range(100):  # lengths and scales at random, one value included
+        rows = [
+            ("set", rng.random(int(n)) * 10 ** rng.uniform(-6, 0))
+            for n in rng.integers(1, 300, size=rng.integers(1, 6))
+            for _ in range(rng.integers(1, 4))
+        ]
+        assert ErrorSummary.of_rows(rows) == [ErrorSummary.of(where, rho) for where, rho in rows]
 
 
 def test_a_limit_changed_in_the_model_is_seen():

@@ -246,12 +246,11 @@ class ErrorSummary:
             by_length.setdefault(len(rho), []).append(i)
         for n, which in by_length.items():
             R = np.stack([rows[i][1] for i in which])
-            columns = (
-                np.sqrt(np.mean(R**2, axis=1)),
-                np.median(R, axis=1),
-                np.percentile(R, 95, axis=1),
-                R.max(axis=1),
-            )
+            rms = np.sqrt(np.mean(R**2, axis=1))
+            if n == 1:  # one value (one test pose): its median, percentile and maximum
+                columns: tuple[np.ndarray, ...] = (rms, R[:, 0], R[:, 0], R[:, 0])
+            else:
+                columns = (rms, np.median(R, axis=1), np.percentile(R, 95, axis=1), R.max(axis=1))
             for i, values in zip(which, zip(*(c.tolist() for c in columns)), strict=True):
                 out[i] = cls(rows[i][0], n, *values)
         return out  # type: ignore[return-value]  # every row summarised
