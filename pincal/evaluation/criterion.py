@@ -161,10 +161,10 @@ class Criterion:
         """The exchange state of the plan ``J_pool[index]`` (see :class:`ExchangeState`)."""
         return InformationExchange(self, J_pool, index)
 
-    def exchange_products(self, Y: np.ndarray, Linv: np.ndarray, Xinv: np.ndarray) -> object:
+    def exchange_products(self, Y: np.ndarray, Linv: np.ndarray, Q: np.ndarray) -> object:
         """What :meth:`exchange_values` needs of every pool candidate, from the pool in the basis of
-        the plan's Cholesky factor (M + Λ = LLᵀ): Y = L⁻¹J_cᵀ (P, r, N), L⁻¹ (P, P) and X_c⁻¹
-        (r, r, N), X_c = I + Y_cᵀY_c; recomputed after each accepted swap (None: nothing)."""
+        the plan's Cholesky factor (M + Λ = LLᵀ): Y = L⁻¹J_cᵀ (P, r, N), L⁻¹ (P, P) and Q = L_c⁻¹
+        (r, r, N), X_c = I + Y_cᵀY_c = L_cL_cᵀ; recomputed after each accepted swap (None: nothing)."""
         return None
 
     def exchange_columns(self, products: object, yi: np.ndarray) -> np.ndarray | None:

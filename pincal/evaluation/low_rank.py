@@ -11,13 +11,15 @@ so every candidate is scored from a few 2r×2r operations — no P×P factorisat
 The plan's M + Λ = LLᵀ is factored exactly after every accepted swap, and the pool is kept in that
 basis, Y_c = L⁻¹J_cᵀ (:class:`InformationExchange`): then J_c M⁻¹ J_cᵀ = Y_cᵀY_c, and the blocks of
 H of a swap of configuration i are Gram products of Y_c and yᵢ = L⁻¹Jᵢᵀ. H is factored in blocks,
-H = [[X, B], [Bᵀ, D − I]] with X = I + Y_cᵀY_c (what adding candidate c alone does; it depends on
-the plan, not on i, so X⁻¹ and det X are kept with the pool until the next swap), B = Y_cᵀyᵢ,
-D = yᵢᵀyᵢ and the Schur complement D − I − BᵀX⁻¹B = −E: det M'/det M = det X·det E, and a swap
-is regular exactly when E is positive definite (X always is). For r ≤ 3, X⁻¹ and E⁻¹ are the
-closed-form adjugates over the determinants (:func:`inverse`), so a swap of configuration i costs
-one product of the pool with yᵢ (and the columns the criterion asks for) and a few r×r products
-over the pool (:class:`Swaps`). The criterion says what its value is from them
+H = [[X, B], [Bᵀ, D − I]] with X = I + Y_cᵀY_c = L_cL_cᵀ (what adding candidate c alone does; it
+depends on the plan, not on i, so L_c⁻¹ and det X are kept with the pool until the next swap),
+B = Y_cᵀyᵢ, D = yᵢᵀyᵢ, V = L_c⁻¹B and the Schur complement D − I − VᵀV = −E: det M'/det M =
+det X·det E, and a swap is regular exactly when E is positive definite (X always is). E is formed
+from V, never from X⁻¹ itself: VᵀV stays accurate when X is ill-conditioned (a candidate that
+multiplies det M by 1e6), where BᵀX⁻¹B would lose digits. For r ≤ 3, L_c⁻¹ is unrolled
+(:func:`factor_inverse`) and E⁻¹ is the adjugate over the determinant (:func:`inverse`), so a
+swap of configuration i costs one product of the pool with yᵢ (and the columns the criterion asks
+for) and a few r×r products over the pool (:class:`Swaps`). The criterion says what its value is from them
 (:meth:`~pincal.evaluation.criterion.Criterion.exchange_values`): D from the determinant ratio, a
 weighted trace tr(W M'⁻¹) = tr(W M⁻¹) − tr(H⁻¹G) with G the 2r×2r blocks of Uᵀ M⁻¹WM⁻¹ U
 (see :class:`~pincal.evaluation.weighted_trace.WeightedTrace`), E and cond from the eigenvalues of
@@ -96,6 +98,45 @@ def lower_inverse(L: np.ndarray) -> np.ndarray:
     return Q
 
 
+def factor_inverse(X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(L⁻¹, det X, ok) of symmetric (r, r, n) X = LLᵀ (L its lower Cholesky factor), entry by
+    entry; ``ok`` is False where X is not positive definite (L⁻¹ and det are then meaningless but
+    finite). Up to r = 3 unrolled (the same arithmetic as :func:`cholesky` and
+    :func:`lower_inverse`, in fewer vector operations)."""
+    r = X.shape[0]
+    if r > 3:
+        L, ok = cholesky(X)
+        return lower_inverse(L), np.prod(np.diagonal(L), axis=-1) ** 2, ok
+    Q = np.zeros_like(X)
+    pivot = X[0, 0]
+    ok = pivot > 0
+    det = np.where(ok, pivot, 1.0)
+    q00 = Q[0, 0] = 1.0 / np.sqrt(det)
+    if r == 1:
+        return Q, det, ok
+    l10 = X[1, 0] * q00
+    pivot = X[1, 1] - l10 * l10
+    good = pivot > 0
+    ok &= good
+    pivot = np.where(good, pivot, 1.0)
+    det *= pivot
+    q11 = Q[1, 1] = 1.0 / np.sqrt(pivot)
+    Q[1, 0] = -l10 * q00 * q11
+    if r == 2:
+        return Q, det, ok
+    l20 = X[2, 0] * q00
+    l21 = (X[2, 1] - l20 * l10) * q11
+    pivot = X[2, 2] - l20 * l20 - l21 * l21
+    good = pivot > 0
+    ok &= good
+    pivot = np.where(good, pivot, 1.0)
+    det *= pivot
+    q22 = Q[2, 2] = 1.0 / np.sqrt(pivot)
+    Q[2, 1] = -l21 * q11 * q22
+    Q[2, 0] = -(l20 * q00 + l21 * Q[1, 0]) * q22
+    return Q, det, ok
+
+
 def product(A: np.ndarray, B: np.ndarray, transpose_a: bool = False) -> np.ndarray:
     """AB (or AᵀB) of (r, r, n) stacks, entry by entry; B may be (r, s) (the same for every n)."""
     if B.ndim == 2:
@@ -149,8 +190,8 @@ class Swaps:
 
     Every array over candidates holds the whole pool (entry by entry, (…, N)); ``cand`` says which
     of them count (allowed, and leaving a regular plan): a criterion indexes its values with it.
-    In the blocks of the capacitance H = [[X, B], [Bᵀ, D − I]] (see module doc), X⁻¹B is ``XB``
-    and the Schur complement of X is −E, E = I − D + BᵀX⁻¹B; E⁻¹ is ``Einv``.
+    In the blocks of the capacitance H = [[X, B], [Bᵀ, D − I]] (see module doc), X = L_cL_cᵀ,
+    V = L_c⁻¹B, and the Schur complement of X is −E, E = I − D + VᵀV; E⁻¹ is ``Einv``.
 
     Attributes:
         cand: (n,) pool indices of the candidates scored.
@@ -160,9 +201,9 @@ class Swaps:
         L: (P, P) the lower Cholesky factor of M + Λ before the swap.
         Ji: (r, P) the rows of configuration i.
         yi: (P, r) L⁻¹Jᵢᵀ.
-        XB: (r, r, N) X⁻¹B of every pool candidate, B = Y_cᵀyᵢ = J_c M⁻¹ Jᵢᵀ.
+        V: (r, r, N) L_c⁻¹B of every pool candidate, B = Y_cᵀyᵢ = J_c M⁻¹ Jᵢᵀ.
         Einv: (r, r, N) E⁻¹ of every pool candidate (symmetric).
-        projected: (r, s, N) Y_cᵀ times the criterion's own columns
+        projected: (r, s, N) L_c⁻¹Y_cᵀ times the criterion's own columns
             (:meth:`~pincal.evaluation.criterion.Criterion.exchange_columns`), or None.
         ratio: (N,) det M'/det M of each pool candidate.
         products: the criterion's :meth:`exchange_products` of every pool candidate.
@@ -176,7 +217,7 @@ class Swaps:
     L: np.ndarray
     Ji: np.ndarray
     yi: np.ndarray
-    XB: np.ndarray
+    V: np.ndarray
     Einv: np.ndarray
     projected: np.ndarray | None
     ratio: np.ndarray
@@ -241,15 +282,15 @@ class InformationExchange:
 
     def _products(self) -> None:
         """The pool in the plan's basis, Y_c = L⁻¹J_cᵀ, and what adding candidate c alone does:
-        X_c = I + Y_cᵀY_c, X_c⁻¹ and det X_c = det(M + J_cᵀJ_c)/det M."""
+        X_c = I + Y_cᵀY_c = L_cL_cᵀ, L_c⁻¹ and det X_c = det(M + J_cᵀJ_c)/det M."""
         N, r, P = len(self.J_pool), self.r, self.P
         self.Linv = trtrs(self.L, np.eye(P))
         self.Y = (self.Linv @ self.columns).reshape(P, r, N)  # L⁻¹J_cᵀ
         X = gram(self.Y)
         for j in range(r):
             X[j, j] += 1.0
-        self.Xinv, self.det_x, self.ok_x = inverse(X)
-        self.products = self.criterion.exchange_products(self.Y, self.Linv, self.Xinv)
+        self.Q, self.det_x, self.ok_x = factor_inverse(X)
+        self.products = self.criterion.exchange_products(self.Y, self.Linv, self.Q)
         self.stale = False
 
     def scores(self, i: int, allowed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -260,8 +301,9 @@ class InformationExchange:
         extra = self.criterion.exchange_columns(self.products, yi)
         rhs = yi.T if extra is None else np.concatenate([yi.T, extra.T])
         proj = (rhs @ self.Y.reshape(self.P, -1)).reshape(-1, r, N).transpose(1, 0, 2)  # Y_cᵀ[yᵢ, …]
-        XB = product(self.Xinv, proj[:, :r])  # X⁻¹B, B = J_c M⁻¹ Jᵢᵀ
-        E = product(proj[:, :r], XB, transpose_a=True)  # I − D + BᵀX⁻¹B
+        proj = product(self.Q, proj)  # L_c⁻¹Y_cᵀ[yᵢ, …]
+        V = proj[:, :r]  # L_c⁻¹B, B = J_c M⁻¹ Jᵢᵀ
+        E = product(V, V, transpose_a=True)  # I − D + VᵀV
         E -= (yi.T @ yi - np.eye(r))[:, :, None]
         Einv, det_e, ok_e = inverse(E)
         ratio = self.det_x * det_e  # det M'/det M = det X·det(−Z)
@@ -278,7 +320,7 @@ class InformationExchange:
             self.L,
             self.J_pool[self.index[i]],
             yi,
-            XB,
+            V,
             Einv,
             None if extra is None else proj[:, r:],
             ratio,

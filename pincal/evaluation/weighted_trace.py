@@ -14,7 +14,7 @@ import numpy as np
 
 from pincal.evaluation.criterion import Criterion, scaled_eigh
 from pincal.evaluation.information import factor
-from pincal.evaluation.low_rank import gram, product, quadratic_form, trace_product
+from pincal.evaluation.low_rank import gram, product
 from pincal.lapack import trtrs
 
 
@@ -122,20 +122,20 @@ class WeightedTrace(Criterion):
         t = self.traces(M, m)
         return float(self.from_traces(t)), t
 
-    def exchange_products(self, Y: np.ndarray, Linv: np.ndarray, Xinv: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Of every candidate c, from Y_c = L⁻¹J_cᵀ (P, r, N) and X_c⁻¹ (r, r, N), with Φ = L⁻¹J0ᵀ
-        and Z_c = ΦᵀY_c (R, r, N) = (J0 C J_cᵀ), C = (M + Λ)⁻¹: for one weight W = J0ᵀJ0
-        (k = 1), (G_cc, tr(X_c⁻¹G_cc), ΦΦᵀ) with G_cc = Z_cᵀZ_c = J_c CWC J_cᵀ (r, r, N), what
-        adding c alone takes off the trace being tr(X_c⁻¹G_cc); for several, (Z_c as (r, R, N),
-        the column-wise Z_cᵀX_c⁻¹Z_c (R, N), Φ) (the update column by column)."""
+    def exchange_products(self, Y: np.ndarray, Linv: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Of every candidate c, from Y_c = L⁻¹J_cᵀ (P, r, N) and Q = L_c⁻¹ (r, r, N) (X_c = I + Y_cᵀY_c
+        = L_cL_cᵀ), with Φ = L⁻¹J0ᵀ and Z_c = ΦᵀY_cL_c⁻ᵀ (R, r, N): for one weight W = J0ᵀJ0 (k = 1),
+        (A, tr A, ΦΦᵀ) with A = Z_cᵀZ_c = L_c⁻¹ J_c CWC J_cᵀ L_c⁻ᵀ (r, r, N), C = (M + Λ)⁻¹, what
+        adding c alone takes off the trace being tr A; for several, (Z_c as (r, R, N), the squared
+        norms of its columns (R, N), Φ) (the update column by column)."""
         P, r, N = Y.shape
         Phi = Linv @ self.J0T  # L⁻¹J0ᵀ (P, R)
-        Z = (Phi.T @ Y.reshape(P, -1)).reshape(-1, r, N)
+        Z = (Phi.T @ Y.reshape(P, -1)).reshape(-1, r, N).transpose(1, 0, 2)  # Y_cᵀΦ
         if self.k == 1:
-            G = gram(Z)
-            return G, trace_product(Xinv, G), Phi @ Phi.T
-        Z = Z.transpose(1, 0, 2)
-        return Z, quadratic_form(Xinv, Z), Phi
+            A = product(product(Q, gram(Z.transpose(1, 0, 2))), Q.transpose(1, 0, 2))
+            return A, np.trace(A), Phi @ Phi.T
+        Z = product(Q, Z)
+        return Z, np.einsum("rcn,rcn->cn", Z, Z), Phi
 
     def exchange_columns(self, products, yi: np.ndarray) -> np.ndarray | None:
         """ΦΦᵀyᵢ (P, r) for one weight (the swaps' cross terms J_c CWC Jᵢᵀ come out of the state's
@@ -145,23 +145,22 @@ class WeightedTrace(Criterion):
     def exchange_values(self, swap) -> tuple[np.ndarray, np.ndarray]:
         """F and the traces after each swap (inf where a trace would not stay positive).
 
-        Swapping configuration i for candidate c takes tr(X⁻¹G_cc) off a trace (adding c) and
-        gives tr(E⁻¹G) back (removing i), G = UᵀΦΦᵀU with U = yᵢ − Y_cX⁻¹B (Jᵢ in the basis of
-        the plan with c added): for one weight G = G_ii − 2(X⁻¹B)ᵀG_ci + (X⁻¹B)ᵀG_cc(X⁻¹B) with
-        G_ci = Z_cᵀΦᵀyᵢ and G_ii = yᵢᵀΦΦᵀyᵢ (under the trace against the symmetric E⁻¹ only G's
-        symmetric part counts); for several, column by column sᵀE⁻¹s with
-        s = ΦᵀU = Φᵀyᵢ − (X⁻¹B)ᵀZ_c."""
-        cand, yi, XB = swap.cand, swap.yi, swap.XB
+        Swapping configuration i for candidate c takes tr A off a trace (adding c) and gives
+        tr(E⁻¹G) back (removing i), G = UᵀΦΦᵀU with U = yᵢ − Y_cL_c⁻ᵀV (Jᵢ in the basis of the
+        plan with c added): for one weight G = VᵀAV − 2VᵀC + yᵢᵀΦΦᵀyᵢ with C = L_c⁻¹Y_cᵀΦΦᵀyᵢ
+        (under the trace against the symmetric E⁻¹ only G's symmetric part counts); for several,
+        column by column sᵀE⁻¹s with s = ΦᵀU = Φᵀyᵢ − VᵀZ_c."""
+        cand, yi, V = swap.cand, swap.yi, swap.V
         if self.k == 1:
-            G_cc, added, Psi = swap.products
-            T = product(G_cc, XB)
-            T -= 2.0 * swap.projected  # J_c CWC Jᵢᵀ
-            G = product(XB, T, transpose_a=True)
+            A, added, Psi = swap.products
+            T = product(A, V)
+            T -= 2.0 * swap.projected  # C
+            G = product(V, T, transpose_a=True)
             G += (yi.T @ Psi @ yi)[:, :, None]
             red = (added - swap.inverse_trace(G))[cand][:, None]
         else:
             Z, added, Phi = swap.products
-            s = (yi.T @ Phi)[:, :, None] - product(XB, Z, transpose_a=True)
+            s = (yi.T @ Phi)[:, :, None] - product(V, Z, transpose_a=True)
             q = (added - swap.inverse_form(s))[:, cand]  # (c, n)
             red = q.reshape(self.k, -1, len(cand)).sum(axis=1).T
         new_t = swap.aux - red
