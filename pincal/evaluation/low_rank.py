@@ -306,7 +306,7 @@ class InformationExchange:
         E = product(V, V, transpose_a=True)  # I − D + VᵀV
         E -= (yi.T @ yi - np.eye(r))[:, :, None]
         Einv, det_e, ok_e = inverse(E)
-        ratio = self.det_x * det_e  # det M'/det M = det X·det(−Z)
+        ratio = self.det_x * det_e  # det M'/det M = det X·det E
         regular = self.ok_x & ok_e & (ratio > MIN_RATIO)
         cand = np.flatnonzero(allowed & regular)
         self._last = None
