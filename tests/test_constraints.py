@@ -1,5 +1,5 @@
 """Workcell constraints: margins against hand computations, YAML loading, sampling, the search's
-barrier, self-collision through Pinocchio + coal."""
+constraints (values and Jacobian), self-collision through Pinocchio + coal."""
 
 from __future__ import annotations
 
@@ -159,27 +159,40 @@ def test_sampling_is_feasible_and_names_the_culprit(kr270_marker):
         Feasibility(kr270_marker, [WorkspaceBox((9, 9, 9), (10, 10, 10))]).sample(10, rng, max_tries=2000)
 
 
-def test_barrier_gradient_and_feasible_iterates(kr270_marker):
+def test_constraint_jacobian_and_repair(kr270_marker):
     cons = [WorkspaceBox((0.5, -2, 0.3), (3, 2, 2.5)), Visibility((4, 0, 1), max_range=3.5), MinSpacing(0.3)]
     feas = Feasibility(kr270_marker, cons)
     rng = np.random.default_rng(1)
     qs = feas.sample(400, rng, strict=True)
     margins = np.hstack([b.margins(feas.kinematics(qs)) for _, b in feas.bound])
-    near = qs[np.argsort(margins.min(axis=1))[:4]]  # close to a boundary: the barrier acts
-    value, grad = feas.barrier(near, 1.0)
-    assert value > 0 and np.isfinite(value)
+    near = qs[np.argsort(margins.min(axis=1))[:4]]  # close to a boundary
+    values = feas.constraint_values(near)
+    m, nq = near.shape
+    k = margins.shape[1]
+    # The bounds' margins over their reach, configuration by configuration, then the pairs.
+    scaled = np.hstack([b.margins(feas.kinematics(near)) / b.reach for _, b in feas.bound])
+    np.testing.assert_array_equal(values[: m * k], scaled.ravel())
+    assert len(values) == m * k + m * (m - 1) // 2 and np.all(values >= 0)
+    jac = feas.constraint_jacobian(near)
+    assert jac.shape == (len(values), m * nq)
     h = 1e-6
-    fd = np.zeros_like(near)
-    for i, j in np.ndindex(*near.shape):
-        e = np.zeros_like(near)
-        e[i, j] = h
-        fd[i, j] = (feas.barrier(near + e, 1.0)[0] - feas.barrier(near - e, 1.0)[0]) / (2 * h)
-    np.testing.assert_allclose(grad, fd, rtol=1e-3, atol=1e-4 * np.abs(fd).max())
-    # Outside: infinite; repair brings an infeasible plan back to a feasible one.
+    fd = np.zeros_like(jac)
+    for c in range(m * nq):
+        e = np.zeros(m * nq)
+        e[c] = h
+        plus = feas.constraint_values(near + e.reshape(m, nq))
+        minus = feas.constraint_values(near - e.reshape(m, nq))
+        fd[:, c] = (plus - minus) / (2 * h)
+    np.testing.assert_allclose(jac, fd, rtol=1e-4, atol=1e-5 * np.abs(fd).max())
+    # A configuration's margins depend on its own joints only.
+    blocks = jac[: m * k].reshape(m, k, m, nq)
+    off = ~np.eye(m, dtype=bool)
+    assert not np.any(blocks[off.nonzero()[0], :, off.nonzero()[1], :])
+    # Repair brings an infeasible plan back to a feasible one.
     outside = kr270_marker.random_configurations(200, rng)
     far = np.array(near)
     far[0] = outside[~feas.feasible(outside)][0]
-    assert feas.barrier(far, 1.0)[0] == math.inf
+    assert np.min(feas.constraint_values(far)) < 0
     fixed = feas.repair(near, far)
     assert feas.plan_feasible(fixed)
 

@@ -17,9 +17,11 @@ from pincal.errors import DegenerateOptimum, DegenerateOptimumWarning
 from pincal.evaluation.information import conditioning
 from pincal.evaluation.registry import CRITERIA
 from pincal.evaluation.registry import make_criterion as make_objective
+from pincal.model.jacobian import JacobianEngine
 from pincal.planning import exchange as _exchange
 from pincal.planning import multistart as _multistart
 from pincal.planning.baselines import random_plans
+from pincal.planning.choice import choose
 from pincal.planning.constraints import (
     HalfSpace,
     MinSpacing,
@@ -28,7 +30,9 @@ from pincal.planning.constraints import (
     satisfied,
     with_safety,
 )
-from pincal.planning.driver import design
+from pincal.planning.driver import _validate, design
+from pincal.planning.results import StartRecord
+from pincal.planning.search import Outcome
 from pincal.planning.starts import draw_start, exchange_of, start_seed
 
 KR_Q0 = np.radians([0, -90, 90, 0, 45, 0])
@@ -328,7 +332,7 @@ def test_the_d_optimal_baseline_from_the_same_starts_is_the_d_optimal_design(kr_
     assert both.d_optimal.criterion == "D" and both.d_optimal.d_optimal is None
     # No worse in log det than any of its starts' plans (each exchanged, the best polished).
     regular = [h.value for h in both.d_optimal.history if "below the conditioning floor" not in h.message]
-    assert both.d_optimal.value == min(regular)
+    assert both.d_optimal.value == pytest.approx(min(regular), rel=1e-12)  # the result's value: recomputed
     J = kr_params.jacobian(both.d_optimal.plan.q).reshape(-1, len(kr_params))
     assert both.d_optimal.value == pytest.approx(-np.linalg.slogdet(J.T @ J)[1], rel=1e-9)  # log det M⁻¹
     # A D-optimal design is its own baseline.
@@ -403,17 +407,30 @@ def test_bad_input_is_named(lengths, kr_params):
 def test_every_start_below_the_floor_is_a_degenerate_optimum(lengths):
     """No plan below the conditioning floor is returned (docs/method.md §7.5), even when it is the
     best found. Built on purpose: at the stretched test pose q20 = 0, ρ0² = 2σ²/(m + S) improves all
-    the way to the singular S = m (docs/method.md §9.3). An init plan at q2 = ±0.01 rad has
-    conditioning 1 − cos 0.01 = 5e-5 and ρ0² = 0.500025σ²; it cannot move (its barrier is infinite,
-    its gradient zero), and any plan above the default floor 1e-2 has ρ0² ≥ 2σ²/3.98 = 0.5025σ², so
-    the screening keeps the init start and drops the drawn one, whatever path the search takes."""
+    the way to the singular S = m (docs/method.md §9.3). A plan at q2 = ±0.01 rad has conditioning
+    1 − cos 0.01 = 5e-5 and ρ0² = 0.500025σ²; any plan above the default floor 1e-2 has
+    ρ0² ≥ 2σ²/3.98 = 0.5025σ². The continuous search started there moves the plan up to the floor
+    (the floor is one of its constraints); a start that ended below it is never chosen."""
     near_singular = np.array([[0.0, 0.01], [0.5, -0.01]])
     assert conditioning(pincal.evaluation.information_matrix(lengths.jacobian(near_singular))) < 1e-4
+    lifted = design(
+        lengths, 2, test_pose=[0.0, 0.0], method="continuous", init=[near_singular], starts=1, keep=0.5,
+        sigma=1.0, seed=0, workers=1,
+    )  # fmt: skip
+    assert conditioning(pincal.evaluation.information_matrix(lengths.jacobian(lifted.plan.q))) > 0.01
+    assert lifted.rho0**2 >= 2 / 3.98 * (1 - 1e-9)
+    # The choice refuses a start that ended below the floor: the error says why and what to do.
+    settings = _validate(
+        lengths, 2, [0.0, 0.0], "test-pose", method="continuous", constraints=(), user_pool=False, starts=1,
+        seed=0, sigma=1.0, workers=1, polish=None, keep=0.5, screen_iterations=20, maxiter=100,
+        min_conditioning=None,
+    )  # fmt: skip
+    engine = JacobianEngine(lengths)
+    F = settings_objective_value(settings, lengths, near_singular)
+    record = StartRecord(start=0, value=F, screen_value=None, iterations=0, time_s=0.0, continued=True,
+                         feasible=True, message="")  # fmt: skip
     with pytest.raises(DegenerateOptimum) as raised:
-        design(
-            lengths, 2, test_pose=[0.0, 0.0], method="continuous", init=[near_singular], starts=1, keep=0.5,
-            sigma=1.0, seed=0, workers=1,
-        )  # fmt: skip
+        choose(settings, lengths, engine, (Outcome(record, near_singular, F, True),))
     error = raised.value
     assert isinstance(error, pincal.PincalError)
     assert (error.criterion, error.m, error.floor) == ("test-pose", 2, 0.01)
@@ -423,6 +440,14 @@ def test_every_start_below_the_floor_is_a_degenerate_optimum(lengths):
         "test pose at a singular limit such as a stretched arm); every start ended below the conditioning "
         "floor 0.01: add configurations, move the test pose, or lower min_conditioning"
     )
+
+
+def settings_objective_value(settings, params, q) -> float:
+    """F of plan q under the settings' criterion (no floor)."""
+    engine = JacobianEngine(params)
+    J0 = engine.jacobian(settings.test_poses, frame="tip").copy()
+    objective = make_objective(settings.criterion, len(params), engine.rows, J0, settings.sigma, None)
+    return objective.plan_value(engine.jacobian(q, frame="tip"), q)
 
 
 def test_docstring_examples_run():

@@ -1,4 +1,4 @@
-"""Continuous search: all m·nq joint values at once, by bounded quasi-Newton (L-BFGS-B).
+"""Continuous search: all m·nq joint values at once, by quasi-Newton methods.
 
 The gradient is analytic in M: with G = ∂F/∂M (from the criterion,
 :meth:`pincal.evaluation.criterion.Criterion.plan_gradient`) and M = Σᵢ JᵢᵀJᵢ,
@@ -7,15 +7,23 @@ The gradient is analytic in M: with G = ∂F/∂M (from the criterion,
 every configuration and joint are computed in one batch with the plan's own (m·(2nq+1)
 configurations, one forward-kinematics pass each).
 
-Joint limits (with their margin) are the optimiser's box bounds. The other constraints add a
-truncated logarithmic barrier (see :meth:`pincal.planning.feasibility.Feasibility.barrier`): starts are
-strictly feasible and a step that leaves the feasible set gets a huge value, so the line search
-never accepts it and every iterate stays feasible. The same kind of barrier keeps the plan
-regular: the smallest eigenvalue of the Jacobi-scaled information matrix (the conditioning, see
-:func:`conditioning`) stays above a floor, so that a criterion that improves all the way to a
-singular plan (ρ0 at a test pose at a singular limit) stops at the floor instead. The barrier's
-weight is lowered in stages, letting the plan approach the boundaries. A final exact check (and,
-should it ever fail, a repair towards the start) guarantees the plan returned is feasible.
+Joint limits (with their margin) are box bounds. With no other constraint the search is L-BFGS-B.
+The other constraints (the mount, obstacles, the minimum spacing, ...) are nonlinear inequalities
+on the joint values: their margins, each over its reach, must stay non-negative
+(:meth:`pincal.planning.feasibility.Feasibility.constraint_values`), and the search is sequential
+quadratic programming (SLSQP), which follows a binding constraint instead of stopping at it. A
+logarithmic barrier on those margins with L-BFGS-B, used before, stopped early: on the README's
+design (mount floor, 2° joint margin) its polishes ended after 20–40 iterations, at 1.00–1.09
+times the best value 64 starts found, each step that crossed the floor shrinking the next; SLSQP
+reaches 0.99–1.02 of it from the same plans.
+
+The plan is kept regular the same way: the smallest eigenvalue λ of the Jacobi-scaled information
+matrix (the conditioning, see :func:`conditioning`) must stay above a floor, so that a criterion
+that improves all the way to a singular plan (ρ0 at a test pose at a singular limit) stops at the
+floor instead: log(λ/floor) ≥ 0 is one more constraint, with ∂λ/∂M = uuᵀ − λ diag(v²/diag M)
+(v the eigenvector, u = D⁻¹v). Without a floor (a prior) nor other constraints, L-BFGS-B. A final
+exact check (and, should it ever fail, a repair towards the start) guarantees the plan returned
+is feasible.
 """
 
 from __future__ import annotations
@@ -27,7 +35,7 @@ import numpy as np
 
 from pincal.errors import SingularPlan
 from pincal.evaluation.criterion import Criterion
-from pincal.evaluation.information import conditioning, jacobi_scaled
+from pincal.evaluation.information import jacobi_scaled
 from pincal.instruments.instrument import RowsEngine
 from pincal.model.jacobian import JacobianEngine
 from pincal.planning.feasibility import Feasibility
@@ -36,20 +44,21 @@ STEP = 1e-5
 """Central-difference step on the joint values for ∂J/∂q [rad or m]."""
 
 SINGULAR_VALUE = 1e10
-"""Objective value returned for a singular or infeasible plan (the line search backs off)."""
+"""Objective value returned for a singular plan (the line search backs off)."""
 
-WEIGHTS = (1e-2, 1e-5)
-"""Barrier weights of the successive stages (the objective F is a log: dimensionless)."""
+FLOOR_SLACK = 1e-6
+"""The floor constraint is log(λ/floor) ≥ this: a plan SLSQP leaves on the floor (to its
+tolerance) is still strictly above it."""
 
 FTOL = 1e-13
-"""L-BFGS-B stops when an iteration lowers F (a log: dimensionless) by less than this relative
-amount. Measured on the README's design (KR 270, 27 parameters, m = 12, ±10° region): 1e-8 gives
-the same polished ρ0 to 0.03 % with a third of the evaluations, but leaves the plan itself less
-converged: a D-optimal 2-link plan's ρ0 then differs from the closed form by 1e-6 (first order in
-the plan), where 1e-13 reaches it to 1e-12; kept for that."""
+"""The search stops when an iteration lowers F (a log: dimensionless) by less than this (L-BFGS-B:
+relative; SLSQP: absolute). Measured with L-BFGS-B on the README's design (KR 270, 27 parameters,
+m = 12, ±10° region): 1e-8 gives the same polished ρ0 to 0.03 % with a third of the evaluations,
+but leaves the plan itself less converged: a D-optimal 2-link plan's ρ0 then differs from the
+closed form by 1e-6 (first order in the plan), where 1e-13 reaches it to 1e-12; kept for that."""
 
 STALL = (40, 1e-5)
-"""(iterations, drop): a stage stops once its last ``iterations`` L-BFGS-B iterations lowered F
+"""(iterations, drop): a stage stops once its last ``iterations`` iterations lowered F
 (a log) by less than ``drop`` in all, ρ0 by about 0.0005 %: the tail after that rarely pays.
 Measured on the README's design (5 seeds, its 20 polish stages and those of its D-optimal
 baseline): 57 % of the evaluations of running to FTOL, each stage ending at most 1.5e-4 in F
@@ -59,8 +68,6 @@ before it applies."""
 SCREEN_POWER = 16.0
 POWERS = (64.0, 512.0, 4096.0, 32768.0)
 """Power-mean exponents standing for the maximum (test-pose-worst): screening, then polishing."""
-CONDITIONING_BAND = 10.0
-"""The conditioning barrier acts between the floor and this many times the floor."""
 
 
 @dataclass(frozen=True)
@@ -70,7 +77,7 @@ class Outcome:
     Attributes:
         q: (m, nq) final configurations [rad or m].
         F: objective value (exact criterion, no penalty); inf if singular.
-        score: F plus the barrier, used to rank starts after screening.
+        score: what ranks starts after screening (F).
         feasible: the plan satisfies every constraint exactly.
         iterations: L-BFGS-B iterations.
         time_s: wall time [s].
@@ -87,15 +94,15 @@ class Outcome:
 
 
 class PlanFunction:
-    """Objective of a plan (plus the constraints' barrier) and its gradient with respect to the
-    m·nq joint values.
+    """Objective of a plan and its gradient with respect to the m·nq joint values, and the
+    constraints the search keeps (the floor, the other constraints).
 
     Args:
         engine: the Jacobian engine of the parameter set (or the instrument's rows engine).
         objective: the criterion (of M).
         feasibility: the constraints.
         m: number of configurations.
-        floor: smallest conditioning allowed (see :func:`conditioning`).
+        floor: smallest conditioning allowed (see :func:`conditioning`); 0: none.
     """
 
     def __init__(
@@ -108,14 +115,14 @@ class PlanFunction:
     ) -> None:
         self.engine = engine
         self.floor = floor
-        self.log_band = np.log(CONDITIONING_BAND)
         self.objective = objective
         self.feasibility = feasibility
         self.m = m
         self.nq = engine.model.nq
-        self.weight = WEIGHTS[0]
         self.shifts = STEP * np.eye(self.nq)[:, None, :]  # (nq, 1, nq)
         self.bounds = list(zip(np.tile(feasibility.lower, m), np.tile(feasibility.upper, m), strict=True))
+        self.constrained = floor > 0 or not feasibility.trivial
+        self._floor: tuple[bytes, float, np.ndarray] | None = None  # (x, log(λ/floor), its gradient)
 
     def information(self, qs: np.ndarray) -> np.ndarray:
         J = self.engine.jacobian(qs, frame="tip").reshape(-1, self.engine.n_params)
@@ -131,131 +138,136 @@ class PlanFunction:
     def __call__(self, x: np.ndarray) -> tuple[float, np.ndarray]:
         m, nq, P = self.m, self.nq, self.engine.n_params
         qs = x.reshape(m, nq)
-        barrier, bgrad = 0.0, None
-        if not self.feasibility.trivial:
-            barrier, bgrad = self.feasibility.barrier(qs, self.weight)
-            if bgrad is None:
-                return SINGULAR_VALUE, np.zeros_like(x)
         batch = np.concatenate([qs, (qs + self.shifts).reshape(-1, nq), (qs - self.shifts).reshape(-1, nq)])
         J = self.engine.jacobian(batch, frame="tip")
         J0 = J[:m]
         flat = J0.reshape(-1, P)
         M = flat.T @ flat
+        dJ = (J[m : m + m * nq] - J[m + m * nq :]).reshape(nq, m, -1, P)
+        if self.floor > 0:
+            lam, dlam = _smallest(M)
+            value = np.log(max(lam, 1e-300) / self.floor)
+            slope_lam = (2.0 / (2.0 * STEP)) * np.einsum("irp,jirp->ij", J0 @ dlam, dJ)
+            self._floor = (x.tobytes(), value - FLOOR_SLACK, slope_lam.ravel() / max(lam, 1e-300))
         try:
             slope = self.objective.plan_gradient(J0, qs)
-            F, G = self._regular(M, slope.F, slope.dM)
         except SingularPlan:
             return SINGULAR_VALUE, np.zeros_like(x)
-        dJ = (J[m : m + m * nq] - J[m + m * nq :]).reshape(nq, m, -1, P)
-        grad = (2.0 / (2.0 * STEP)) * np.einsum("irp,jirp->ij", J0 @ G, dJ)
+        grad = (2.0 / (2.0 * STEP)) * np.einsum("irp,jirp->ij", J0 @ slope.dM, dJ)
         if slope.dJ is not None:
             grad += (1.0 / (2.0 * STEP)) * np.einsum("irp,jirp->ij", slope.dJ, dJ)
         if slope.dq is not None:
             grad += slope.dq
-        if bgrad is not None:
-            F += barrier
-            grad += bgrad
-        return F, grad.ravel()
-
-    def _regular(self, M: np.ndarray, F: float, G: np.ndarray) -> tuple[float, np.ndarray]:
-        """Add the conditioning barrier: φ(x) = x − 1 − log x, x = log(λ/floor)/log(band), for
-        λ = conditioning(M) below band·floor (∂λ/∂M = uuᵀ − λ diag(v²/diag M), u = D⁻¹v)."""
-        if self.floor <= 0:  # no floor (a prior keeps every plan regular)
-            return F, G
-        d, scaled = jacobi_scaled(M)
-        w = np.linalg.eigvalsh(scaled)
-        lam = w[0]
-        if lam >= self.floor * CONDITIONING_BAND:
-            return F, G
-        if lam <= self.floor:
-            raise SingularPlan(len(M), self.engine.rows, self.m)
-        w, V = np.linalg.eigh(scaled)
-        v = V[:, 0]
-        x = np.log(lam / self.floor) / self.log_band
-        dphi = (1.0 - 1.0 / x) / (lam * self.log_band)
-        u = v / d
-        dlam = np.outer(u, u) - lam * np.diag(v**2 / np.diag(M))
-        return F + self.weight * (x - 1.0 - np.log(x)), G + self.weight * dphi * dlam
+        return slope.F, grad.ravel()
 
     def minimise(self, q0: np.ndarray, maxiter: int) -> tuple[np.ndarray, int, str]:
-        """L-BFGS-B from q0 within the joint limits, until it converges or stalls (:data:`STALL`);
-        returns (q, iterations, message)."""
+        """From q0 within the joint limits and the constraints (SLSQP; with none, L-BFGS-B), until
+        it converges or stalls (:data:`STALL`); returns (q, iterations, message)."""
         window, drop = STALL
         values: list[float] = []
+        if self.constrained:
+            method, options = "SLSQP", {"maxiter": int(maxiter), "ftol": FTOL}
+            constraints = [self._constraints()]
+        else:
+            method, options = "L-BFGS-B", {"maxiter": int(maxiter), "ftol": FTOL, "gtol": 1e-10, "maxls": 50}
+            constraints = []
 
         def stalled(intermediate_result) -> None:
+            # SLSQP's iterates may cross a constraint on the way: it stops at a feasible one only.
             values.append(float(intermediate_result.fun))
             if len(values) > window and values[-window - 1] - values[-1] < drop:
-                raise StopIteration
-
+                if not constraints or np.all(constraints[0]["fun"](intermediate_result.x) >= 0):
+                    raise StopIteration
         res = _minimize(
             self,
             np.ravel(q0),
             jac=True,
-            method="L-BFGS-B",
+            method=method,
             bounds=self.bounds,
+            constraints=constraints,
             callback=stalled,
-            options={"maxiter": int(maxiter), "ftol": FTOL, "gtol": 1e-10, "maxls": 50},
+            options=options,
         )
         message = str(res.message)
         if len(values) > window and values[-window - 1] - values[-1] < drop:
             message = f"F fell by less than {drop:g} over the last {window} iterations"
         return res.x.reshape(self.m, self.nq), int(res.nit), message
 
+    def _constraints(self) -> dict:
+        """The constraints for SLSQP: the floor's log(λ/floor) (computed with the objective at the
+        same point) and the other constraints' margins (:meth:`Feasibility.constraint_values`),
+        each computed once per point (SLSQP asks for the values and the Jacobian separately)."""
+        feasibility, shape = self.feasibility, (self.m, self.nq)
+        kept: dict[str, tuple[bytes, np.ndarray]] = {}
+
+        def floor(x: np.ndarray) -> tuple[float, np.ndarray]:
+            if self._floor is None or self._floor[0] != x.tobytes():
+                self(x)
+            assert self._floor is not None  # set by the call
+            return self._floor[1], self._floor[2]
+
+        def once(name: str, compute) -> np.ndarray:
+            def value(x: np.ndarray) -> np.ndarray:
+                key = x.tobytes()
+                last = kept.get(name)
+                if last is None or last[0] != key:
+                    last = kept[name] = (key, compute(x.reshape(shape)))
+                return last[1]
+
+            return value
+
+        margins = once("values", feasibility.constraint_values)
+        slopes = once("jacobian", feasibility.constraint_jacobian)
+        if self.floor <= 0:
+            return {"type": "ineq", "fun": margins, "jac": slopes}
+        return {
+            "type": "ineq",
+            "fun": lambda x: np.concatenate([[floor(x)[0]], margins(x)]),
+            "jac": lambda x: np.vstack([floor(x)[1][None], slopes(x)]),
+        }
+
     def set_power(self, power: float | None) -> None:
         self.objective = self.objective.with_power(power)
 
-    def score(self, qs: np.ndarray) -> float:
-        F = self.criterion(qs)
-        if self.feasibility.trivial or not np.isfinite(F):
-            return F
-        return F + self.feasibility.barrier(qs, self.weight)[0]
+
+def _smallest(M: np.ndarray) -> tuple[float, np.ndarray]:
+    """(λ, ∂λ/∂M): the conditioning of M (the smallest eigenvalue of D⁻¹MD⁻¹, D = diag(M)^½) and
+    its derivative uuᵀ − λ diag(v²/diag M), v the eigenvector, u = D⁻¹v."""
+    d, scaled = jacobi_scaled(M)
+    w, V = np.linalg.eigh(scaled)
+    lam, v = float(w[0]), V[:, 0]
+    u = v / d
+    return lam, np.outer(u, u) - lam * np.diag(v**2 / d**2)
 
 
 def screen(fn: PlanFunction, q0: np.ndarray, iterations: int) -> Outcome:
-    """A few iterations from q0 (first barrier weight), to rank starts."""
+    """A few iterations from q0, to rank starts."""
     t0 = time.perf_counter()
-    fn.weight = WEIGHTS[0]
     fn.set_power(SCREEN_POWER)
     q, nit, message = fn.minimise(q0, iterations)
     fn.set_power(None)
-    return Outcome(
-        q,
-        fn.criterion(q),
-        fn.score(q),
-        fn.feasibility.plan_feasible(q),
-        nit,
-        time.perf_counter() - t0,
-        message,
-    )
+    F = fn.criterion(q)
+    return Outcome(q, F, F, fn.feasibility.plan_feasible(q), nit, time.perf_counter() - t0, message)
 
 
 def polish(fn: PlanFunction, q0: np.ndarray, anchor: np.ndarray, maxiter: int) -> Outcome:
-    """Run to convergence from q0 through the barrier stages; check the plan exactly.
+    """Run to convergence from q0 (for the worst case, through the power-mean stages); check the
+    plan exactly.
 
     Args:
         fn: the plan function.
-        q0: (m, nq) where to start (strictly feasible).
+        q0: (m, nq) where to start (feasible).
         anchor: a feasible plan (the start's original configurations) to repair towards, should
             the final plan fail the exact check.
-        maxiter: L-BFGS-B iterations allowed per stage.
+        maxiter: iterations allowed per stage.
     """
     t0 = time.perf_counter()
-    worst = fn.objective.smoothed
-    trivial = fn.feasibility.trivial
-    powers = POWERS if worst else (None,) * len(WEIGHTS)
-    weights = WEIGHTS + (WEIGHTS[-1],) * (len(powers) - len(WEIGHTS))
-    stages = list(zip(powers, weights, strict=True))
     q, total, message = np.array(q0), 0, ""
-    for k, (power, weight) in enumerate(stages):
-        if k and trivial and not worst and conditioning(fn.information(q)) >= fn.floor * CONDITIONING_BAND:
-            break  # nothing for a lower barrier weight to change
+    for power in POWERS if fn.objective.smoothed else (None,):
         fn.set_power(power)
-        fn.weight = weight
         q, nit, message = fn.minimise(q, maxiter)
         total += nit
     fn.set_power(None)
-    fn.weight = WEIGHTS[0]
     feasible = fn.feasibility.plan_feasible(q)
     if not feasible:
         q = fn.feasibility.repair(anchor, q)

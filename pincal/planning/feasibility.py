@@ -1,4 +1,5 @@
-"""Constraints bound to one robot for a search: exact checks, barrier, sampling and repair.
+"""Constraints bound to one robot for a search: exact checks, the polish's constraints, sampling
+and repair.
 
 Private machinery of :mod:`pincal.design`; the constraint value objects themselves are in
 :mod:`pincal.planning.constraints`.
@@ -27,7 +28,8 @@ from pincal.typing import ArrayLike
 
 
 class Feasibility:
-    """The constraints of a design bound to one robot: exact checks, penalties, sampling, repair.
+    """The constraints of a design bound to one robot: exact checks, the polish's constraints,
+    sampling, repair.
 
     Holds Pinocchio/coal data: use one per thread or process.
 
@@ -107,66 +109,49 @@ class Feasibility:
         the convex hulls apart too). Starts of the continuous search must be strictly feasible."""
         return self.feasible(qs, strict=True)
 
-    # ------------------------------------------------------------------------- barrier
-    def _barrier_terms(self, qs: np.ndarray) -> np.ndarray:
-        """(m,) Σ φ(margin/reach) over the constraints, φ(x) = x − 1 − log x for x < 1, else 0
-        (C¹, zero beyond the reach, infinite on the boundary); inf where a margin is ≤ 0."""
-        kin = self.kinematics(qs)
-        total = np.zeros(len(qs))
-        for _, b in self.bound:
-            x = b.margins(kin) / b.reach
-            near = x < 1.0
-            if not near.any():
-                continue
-            with np.errstate(divide="ignore", invalid="ignore"):
-                phi = np.where(near, x - 1.0 - np.log(np.where(x > 0, x, 1.0)), 0.0)
-            phi[x <= 0] = np.inf
-            total += phi.sum(axis=1)
-        return total
+    # ------------------------------------------------------------ the polish's constraints
+    def constraint_values(self, qs: np.ndarray) -> np.ndarray:
+        """(c,) every margin the continuous search keeps non-negative, each over its bound's reach
+        (dimensionless): the per-configuration bounds' margins, configuration by configuration,
+        then the minimum spacing's pairs i < j."""
+        parts = [self._scaled_margins(qs).ravel()] if self.bound else []
+        if self.spacing > 0 and len(qs) > 1:
+            parts.append(MinSpacing(self.spacing).margins(qs) / MinSpacing.reach)
+        return np.concatenate(parts) if parts else np.zeros(0)
 
-    def barrier(self, qs: np.ndarray, weight: float, step: float = 1e-5) -> tuple[float, np.ndarray | None]:
-        """Barrier weight·Σ φ(margin/reach) of the plan and its gradient (m, nq); (inf, None)
-        when the plan is not strictly feasible.
+    def constraint_jacobian(self, qs: np.ndarray, step: float = 1e-5) -> np.ndarray:
+        """(c, m·nq) the derivatives of :meth:`constraint_values` with respect to the joint values.
 
-        The gradient comes from central differences on the joints of the configurations within
-        reach of a boundary (elsewhere it is exactly zero); the spacing term is analytic.
+        A configuration's margins depend on its own joints only: central differences on the joints
+        of every configuration, in one batch of m·2nq configurations. The spacing's rows are
+        analytic.
         """
         m, nq = qs.shape
-        grad = np.zeros((m, nq))
-        value = 0.0
+        blocks = []
         if self.bound:
-            per = self._barrier_terms(qs)
-            if not np.all(np.isfinite(per)):
-                return np.inf, None
-            value = float(per.sum())
-            active = np.flatnonzero(per > 0)
-            if len(active):
-                a = len(active)
-                h = step * np.eye(nq)
-                batch = np.concatenate(
-                    [qs[active][None] + h[:, None], qs[active][None] - h[:, None]]
-                ).reshape(-1, nq)
-                v = self._barrier_terms(batch).reshape(2, nq, a)
-                if not np.all(np.isfinite(v)):  # a step crosses the boundary: one-sided difference
-                    v = np.where(np.isfinite(v), v, per[active][None, None, :])
-                    grad[active] = (v[0] - v[1]).T / step
-                else:
-                    grad[active] = ((v[0] - v[1]) / (2 * step)).T
+            h = step * np.eye(nq)
+            batch = np.concatenate([qs[None] + h[:, None], qs[None] - h[:, None]]).reshape(-1, nq)
+            v = self._scaled_margins(batch).reshape(2, nq, m, -1)
+            k = v.shape[3]
+            J = np.zeros((m, k, m, nq))
+            every = np.arange(m)
+            J[every, :, every, :] = ((v[0] - v[1]) / (2 * step)).transpose(1, 2, 0)
+            blocks.append(J.reshape(m * k, m * nq))
         if self.spacing > 0 and m > 1:
             i, j = np.triu_indices(m, 1)
             diff = qs[i] - qs[j]
-            norm = np.linalg.norm(diff, axis=1)
-            x = (norm - self.spacing) / MinSpacing.reach
-            if np.any(x <= 0):
-                return np.inf, None
-            near = x < 1.0
-            if near.any():
-                value += float(np.sum(x[near] - 1.0 - np.log(x[near])))
-                dphi = np.where(near, 1.0 - 1.0 / np.where(near, x, 1.0), 0.0) / MinSpacing.reach
-                g = (dphi / np.maximum(norm, 1e-300))[:, None] * diff
-                np.add.at(grad, i, g)
-                np.add.at(grad, j, -g)
-        return weight * value, weight * grad
+            unit = diff / np.maximum(np.linalg.norm(diff, axis=1), 1e-300)[:, None] / MinSpacing.reach
+            S = np.zeros((len(i), m, nq))
+            pairs = np.arange(len(i))
+            S[pairs, i] = unit
+            S[pairs, j] = -unit
+            blocks.append(S.reshape(len(i), m * nq))
+        return np.concatenate(blocks) if blocks else np.zeros((0, m * nq))
+
+    def _scaled_margins(self, qs: np.ndarray) -> np.ndarray:
+        """(n, k) the per-configuration bounds' margins over their reach."""
+        kin = self.kinematics(qs)
+        return np.concatenate([b.margins(kin) / b.reach for _, b in self.bound], axis=1)
 
     # ------------------------------------------------------------------------ sampling
     def sample(

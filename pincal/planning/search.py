@@ -276,15 +276,15 @@ def _polish(
         new = list(outcomes)
         for s, o in zip(order, polished[begin : begin + len(order)], strict=True):
             old = outcomes[s]
+            better = o.feasible and o.F <= old.F and plan_conditioning(engine, o.q) > floor
             record = replace(
                 old.record,
-                value=float(objective.report(o.F)),
+                value=float(objective.report(o.F if better else old.F)),
                 iterations=old.record.iterations + o.iterations,
                 time_s=old.record.time_s + o.time_s,
                 feasible=o.feasible,
-                message=old.record.message + "; polished: " + o.message,
+                message=old.record.message + "; polished: " + o.message + ("" if better else " (not kept)"),
             )
-            better = o.feasible and o.F <= old.F and plan_conditioning(engine, o.q) > floor
             new[s] = Outcome(record, o.q if better else old.q, o.F if better else old.F, True)
         out[d] = (spec, tuple(new), objective)
     return out

@@ -374,7 +374,7 @@ class CollisionWorld:
                 out[near] = with_exact(out[near], self.exact_distances(q, near))
         if self.n_points:
             assert self.mount is not None  # n_points counts the mount's points
-            out[len(self.pairs) :] = self.mount._heights(q[None])[0][self.mount.keep]
+            out[len(self.pairs) :] = self.mount._heights(q[None])[0]
         return out
 
     def exact_distances(self, q: np.ndarray, pairs: np.ndarray) -> np.ndarray:

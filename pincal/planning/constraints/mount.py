@@ -37,7 +37,7 @@ MOVING = 1e-6
 is not moved by the joints (left out of the check)."""
 
 BATCH = 16
-"""Fewest configurations the mount's yes/no checks compute in one batch (below, one at a time)."""
+"""Fewest configurations whose heights are computed in one batch (below, one at a time)."""
 
 
 @dataclass(frozen=True)
@@ -117,14 +117,13 @@ class Mount(Constraint):
 class MountBound(Bound):
     """The mount bound to a robot: the heights of the moving points above the plane.
 
-    Two paths give the same heights. :meth:`margins` (the values the search's barrier
-    differentiates, the safety report's figures) runs Pinocchio's forward kinematics one
-    configuration at a time, so that a design follows Pinocchio's numbers to the bit. The yes/no
-    checks of many configurations at once (:meth:`satisfied`, :meth:`strictly_satisfied`: the
-    random draws of a pool or of a baseline's plans) read every joint's placement of all the
-    configurations in one batch (:class:`~pincal.model.placements.JointPlacements`), which agrees
-    with Pinocchio to rounding (1e-15 m): a decision could differ only for a height within that
-    of the tolerance, a tie. Fewer than :data:`BATCH` configurations are checked one at a time.
+    The heights of many configurations at once (the random draws of a pool or of a baseline's
+    plans, the continuous search's constraints and their differences) read every joint's placement
+    of all the configurations in one batch (:class:`~pincal.model.placements.JointPlacements`,
+    which agrees with Pinocchio's forward kinematics to rounding, 1e-15 m); fewer than :data:`BATCH`
+    configurations (the repair's bisection, a report's single pose) run Pinocchio one
+    configuration at a time, which is cheaper there. The decisions and the margins come from the
+    same heights.
 
     Attributes:
         names: what each checked point is (``joint_a3 origin``, ``tool0``, ``marker 0``).
@@ -146,7 +145,7 @@ class MountBound(Bound):
             self.keep = np.arange(0)
         else:
             probe = robot.random_configurations(64, np.random.default_rng(0))
-            heights = self._heights(probe)
+            heights = self.batch_points(probe) @ self.normal - self.offset
             self.keep = np.flatnonzero(np.ptp(heights, axis=0) > MOVING)
         self.names = [names[i] for i in self.keep]
 
@@ -178,28 +177,23 @@ class MountBound(Bound):
         return np.concatenate([origins, tip_position[:, None, :], markers], axis=1)
 
     def _heights(self, qs: np.ndarray) -> np.ndarray:
-        return self.points(qs) @ self.normal - self.offset
-
-    def _batch_heights(self, qs: np.ndarray) -> np.ndarray:
-        """(m, kept) the kept points' heights for a decision: from :meth:`batch_points`, or from
-        :meth:`points` for fewer than :data:`BATCH` configurations (the batch's fixed cost, a few
-        dozen NumPy calls per joint, is more than Pinocchio's loop there: the repair's bisection
-        checks one or two configurations at a time)."""
-        if len(qs) < BATCH:
-            return self._heights(qs)[:, self.keep]
-        return self.batch_points(qs)[:, self.keep] @ self.normal - self.offset
+        """(m, kept) the kept points' heights above the plane [m]: from :meth:`batch_points`, or
+        from :meth:`points` for fewer than :data:`BATCH` configurations (the batch's fixed cost, a
+        few dozen NumPy calls per joint, is more than Pinocchio's loop there)."""
+        points = self.points(qs) if len(qs) < BATCH else self.batch_points(qs)
+        return points[:, self.keep] @ self.normal - self.offset
 
     def margins(self, kin: Kinematics) -> np.ndarray:
         if not len(self.keep):
             return np.zeros((len(kin.qs), 0))
-        return self._heights(kin.qs)[:, self.keep]
+        return self._heights(kin.qs)
 
     def satisfied(self, kin: Kinematics) -> np.ndarray:
         if not len(self.keep):
             return np.ones(len(kin.qs), dtype=bool)
-        return np.all(self._batch_heights(kin.qs) >= -TOLERANCE, axis=1)
+        return np.all(self._heights(kin.qs) >= -TOLERANCE, axis=1)
 
     def strictly_satisfied(self, kin: Kinematics) -> np.ndarray:
         if not len(self.keep):
             return np.ones(len(kin.qs), dtype=bool)
-        return np.all(self._batch_heights(kin.qs) > 0, axis=1)
+        return np.all(self._heights(kin.qs) > 0, axis=1)
