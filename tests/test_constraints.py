@@ -169,10 +169,11 @@ def test_constraint_jacobian_and_repair(kr270_marker):
     values = feas.constraint_values(near)
     m, nq = near.shape
     k = margins.shape[1]
-    # The bounds' margins over their reach, configuration by configuration, then the pairs.
+    # The bounds' margins over their reach (at most 1), configuration by configuration, then the pairs.
     scaled = np.hstack([b.margins(feas.kinematics(near)) / b.reach for _, b in feas.bound])
-    np.testing.assert_array_equal(values[: m * k], scaled.ravel())
-    assert len(values) == m * k + m * (m - 1) // 2 and np.all(values >= 0)
+    np.testing.assert_array_equal(values[: m * k], np.minimum(scaled, 1.0).ravel())
+    assert len(values) == m * k + m * (m - 1) // 2 and np.all(values >= 0) and np.all(values <= 1)
+    assert np.any(scaled < 1) and np.any(scaled > 1)  # both kinds of rows are checked below
     jac = feas.constraint_jacobian(near)
     assert jac.shape == (len(values), m * nq)
     h = 1e-6

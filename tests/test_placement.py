@@ -92,8 +92,8 @@ def test_line_of_sight_batched_margins_match_the_per_pair_path(at):
     old, new = _per_pair_margins(bound, kin), bound.margins(kin)
     near = old < bound.reach
     assert near.any() and (~near).any()  # both kinds of pair are exercised
-    # Within the barrier's reach the margins are coal's, as before; beyond it a lower bound that
-    # stays beyond it (the barrier, the feasibility checks and so the designs read the same).
+    # Within the reach the margins are coal's, as before; beyond it a lower bound that stays beyond
+    # it (the continuous search, the feasibility checks and so the designs read the same).
     np.testing.assert_allclose(new[near], old[near], rtol=0, atol=1e-12)
     assert np.all(new[~near] >= bound.reach) and np.all(new <= old + 1e-12)
     assert np.array_equal(bound.satisfied(kin), np.all(old >= -1e-9, axis=1))

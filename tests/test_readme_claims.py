@@ -389,7 +389,7 @@ CLAIMS: tuple[Claim, ...] = (
     Claim("still work until 0.3", equals(float(pincal._REMOVAL))),
     # Speed
     Claim("swap by 3×3 block algebra", GIVEN),  # the three coordinates of a measured point
-    Claim("a design takes 16 starts by default", computed("test_a_design_takes_the_starts_the_readme_says")),
+    Claim("a design takes 8 starts by default", computed("test_a_design_takes_the_starts_the_readme_says")),
     Claim("for 10 000 points as for 10", GIVEN),  # bench_regions measures it (the 118/123 µs above)
     # Development
     Claim("(about 8 minutes on two cores)", asserted_in(".ci/run", "SECONDS")),  # .ci/run prints its time
@@ -556,7 +556,7 @@ def test_the_panda_chain_and_fingers():
 def test_a_design_takes_the_starts_the_readme_says():
     import inspect
 
-    (starts,) = _stated("a design takes 16 starts by default")
+    (starts,) = _stated("a design takes 8 starts by default")
     assert inspect.signature(pincal.design).parameters["starts"].default == starts
 
 

@@ -63,7 +63,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help=f"search for --d-optimal: {' or '.join(METHODS)}",
     )
     p.add_argument(
-        "--starts", type=count("--starts"), default=16, help="starts of the --d-optimal search (default 16)"
+        "--starts", type=count("--starts"), default=8, help="starts of the --d-optimal search (default 8)"
     )
     p.add_argument(
         "--workers", type=count("--workers"), help="processes for the --d-optimal search (default: all CPUs)"

@@ -108,7 +108,7 @@ Criteria (--criterion): test-pose (rho0, root mean square over several --test-po
 (the worst test pose; --worst is the same), D, A, E, cond. Methods: exchange (the default: best m of
 a pool of feasible configurations, then refined by the continuous search unless --no-polish; --pool
 gives your own, e.g. taught poses, in the plan CSV format, and keeps the plan on them), continuous
-(all joint values at once, L-BFGS-B from many random starts).
+(all joint values at once, from many random starts, the constraints kept by SLSQP).
 --baseline N: rho0 of N random feasible plans (drawn from --pool when given, else within the joint
 limits and --constraints) and of the D-optimal plan, next to the designed plan's.
 --place-instrument X0,Y0,Z0,X1,Y1,Z1: choose the tracker's position in that box (instrument frame,
@@ -199,7 +199,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="exchange: refine the best plans with the continuous search (default: on, off with --pool)",
     )
-    p.add_argument("--starts", type=count("--starts"), default=16, help="number of starts (default 16)")
+    p.add_argument("--starts", type=count("--starts"), default=8, help="number of starts (default 8)")
     p.add_argument(
         "--workers",
         type=count("--workers"),

@@ -105,18 +105,19 @@ class Feasibility:
         return bool(self.feasible(qs).all()) and self.spacing_ok(qs)
 
     def strictly_feasible(self, qs: np.ndarray) -> np.ndarray:
-        """(m,) feasible, and every margin the search's barrier reads is positive (for collisions:
-        the convex hulls apart too). Starts of the continuous search must be strictly feasible."""
+        """(m,) feasible, and every margin the continuous search reads is positive (for collisions:
+        the convex hulls apart too): where its starts are drawn."""
         return self.feasible(qs, strict=True)
 
     # ------------------------------------------------------------ the polish's constraints
     def constraint_values(self, qs: np.ndarray) -> np.ndarray:
         """(c,) every margin the continuous search keeps non-negative, each over its bound's reach
-        (dimensionless): the per-configuration bounds' margins, configuration by configuration,
-        then the minimum spacing's pairs i < j."""
+        and at most 1 (dimensionless: a margin beyond its reach does not bind, and a bound may
+        give a lower bound of it there): the per-configuration bounds' margins, configuration by
+        configuration, then the minimum spacing's pairs i < j."""
         parts = [self._scaled_margins(qs).ravel()] if self.bound else []
         if self.spacing > 0 and len(qs) > 1:
-            parts.append(MinSpacing(self.spacing).margins(qs) / MinSpacing.reach)
+            parts.append(np.minimum(MinSpacing(self.spacing).margins(qs) / MinSpacing.reach, 1.0))
         return np.concatenate(parts) if parts else np.zeros(0)
 
     def constraint_jacobian(self, qs: np.ndarray, step: float = 1e-5) -> np.ndarray:
@@ -140,7 +141,9 @@ class Feasibility:
         if self.spacing > 0 and m > 1:
             i, j = np.triu_indices(m, 1)
             diff = qs[i] - qs[j]
-            unit = diff / np.maximum(np.linalg.norm(diff, axis=1), 1e-300)[:, None] / MinSpacing.reach
+            norm = np.linalg.norm(diff, axis=1)
+            near = (norm - self.spacing) / MinSpacing.reach < 1.0
+            unit = near[:, None] * diff / np.maximum(norm, 1e-300)[:, None] / MinSpacing.reach
             S = np.zeros((len(i), m, nq))
             pairs = np.arange(len(i))
             S[pairs, i] = unit
@@ -149,9 +152,9 @@ class Feasibility:
         return np.concatenate(blocks) if blocks else np.zeros((0, m * nq))
 
     def _scaled_margins(self, qs: np.ndarray) -> np.ndarray:
-        """(n, k) the per-configuration bounds' margins over their reach."""
+        """(n, k) the per-configuration bounds' margins over their reach, at most 1."""
         kin = self.kinematics(qs)
-        return np.concatenate([b.margins(kin) / b.reach for _, b in self.bound], axis=1)
+        return np.minimum(np.concatenate([b.margins(kin) / b.reach for _, b in self.bound], axis=1), 1.0)
 
     # ------------------------------------------------------------------------ sampling
     def sample(

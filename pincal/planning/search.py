@@ -90,7 +90,7 @@ class Outcome:
     Attributes:
         record: what the start did (reported in the history).
         q: (m, nq) its final plan; None if it was dropped after screening.
-        F: the objective at q (exact, no barrier).
+        F: the objective at q (exact).
         usable: q satisfies every constraint.
     """
 

@@ -29,9 +29,9 @@ the robot has a base placement); angles in radians. :func:`load_constraints` rea
 A design adds the safe defaults with :func:`with_safety` (see
 :mod:`pincal.planning.constraints.defaults`).
 
-Inside the continuous search the constraints act as a barrier: a truncated logarithmic barrier
-that is zero farther than :attr:`reach` from the boundary (5 cm, 0.05 rad, 2 cm for collisions)
-and infinite on it, so that every iterate stays feasible; every plan returned is checked exactly.
+Inside the continuous search the constraints are inequalities on the joint values (SLSQP): each
+margin over its :attr:`reach` (5 cm, 0.05 rad, 2 cm for collisions), read up to the reach, must stay
+non-negative; every plan returned is checked exactly.
 """
 
 from __future__ import annotations

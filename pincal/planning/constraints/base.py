@@ -75,7 +75,8 @@ class Bound:
     """A per-configuration constraint bound to a robot (may hold Pinocchio/coal data)."""
 
     reach: float = 0.05
-    """Distance from the boundary [m or rad] within which the search's barrier acts."""
+    """Distance from the boundary [m or rad] within which the continuous search reads the margin
+    (beyond it the constraint does not bind: its value there is the reach)."""
 
     def margins(self, kin: Kinematics) -> np.ndarray:
         """(m, c) signed margins [m or rad]: ≥ 0 where satisfied (smooth where possible)."""
@@ -86,8 +87,8 @@ class Bound:
         return np.all(self.margins(kin) >= -TOLERANCE, axis=1)
 
     def strictly_satisfied(self, kin: Kinematics) -> np.ndarray:
-        """(m,) :meth:`satisfied`, and every margin positive (what the search's barrier needs of a
-        start; a bound whose margins are lower bounds of an exact check, e.g. convex hulls, needs both)."""
+        """(m,) :meth:`satisfied`, and every margin positive (where a continuous search starts; a
+        bound whose margins are lower bounds of an exact check, e.g. convex hulls, needs both)."""
         ok = self.satisfied(kin)
         if ok.any():
             ok[ok] = np.all(self.margins(kin.subset(np.flatnonzero(ok))) > 0, axis=1)

@@ -63,7 +63,7 @@ def hull_geometry(robot: Robot, package_dirs: tuple[str, ...], what: str) -> pin
 class SightBound(Bound):
     """The line of sight bound to a robot: the margins of every (configuration, marker, hull).
 
-    The search's barrier and the feasibility checks read a margin only below :attr:`reach` (and
+    The continuous search and the feasibility checks read a margin only below :attr:`reach` (and
     its sign), so a hull that a cheap bound keeps at least :attr:`reach` from a sight line is not
     passed to coal: spheres covering its bounding box (along the box's longest axis) give a lower
     bound on its distance to the segment, and that bound is its margin. Each configuration's

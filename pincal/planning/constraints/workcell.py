@@ -224,7 +224,7 @@ class WorkcellBound(Bound):
         self.world, self.min_distance = world, min_distance
 
     def margins(self, kin: Kinematics) -> np.ndarray:
-        # The search's barrier reads the convex hulls' distances: smooth, and never above the true ones.
+        # The continuous search reads the convex hulls' distances: smooth, and never above the true ones.
         return self.world.distances_many(kin.qs, refine=False) - self.min_distance
 
     def satisfied(self, kin: Kinematics) -> np.ndarray:
