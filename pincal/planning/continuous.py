@@ -29,6 +29,7 @@ is feasible.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -213,7 +214,9 @@ class PlanFunction:
             assert self._floor is not None  # set by the call
             return self._floor[1], self._floor[2]
 
-        def once(name: str, compute) -> np.ndarray:
+        Of = Callable[[np.ndarray], np.ndarray]
+
+        def once(name: str, compute: Of) -> Of:
             def value(x: np.ndarray) -> np.ndarray:
                 key = x.tobytes()
                 last = kept.get(name)
