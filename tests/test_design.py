@@ -196,6 +196,29 @@ def test_plan_gradient_matches_finite_differences(kr_params, kr270_marker, crite
     _multistart.forget(spec)
 
 
+def test_floor_constraint_gradient_matches_finite_differences(kr_params, kr270_marker):
+    """The continuous search's floor constraint, log(λ/floor) for the conditioning λ (the smallest
+    eigenvalue of the Jacobi-scaled M), and its analytic gradient against central differences of
+    :func:`conditioning` itself, and the SLSQP constraint vector that carries it first."""
+    floor = 1e-3
+    spec = _multistart.ProblemSpec(kr_params, 5, "test-pose", KR_Q0[None], 1.0, (), floor=floor)
+    fn = _multistart.problem(spec).function
+    x = kr270_marker.random_configurations(5, np.random.default_rng(4)).ravel()
+
+    def log_lambda(y):
+        return math.log(conditioning(fn.information(y.reshape(5, -1))) / floor)
+
+    fn(x)
+    _, value, gradient = fn._floor
+    assert value == pytest.approx(log_lambda(x) - 1e-6, rel=1e-12, abs=1e-12)
+    h = 1e-6
+    fd = np.array([(log_lambda(x + h * e) - log_lambda(x - h * e)) / (2 * h) for e in np.eye(len(x))])
+    assert np.abs(gradient - fd).max() < 1e-5 * max(1.0, np.abs(fd).max())
+    constraint = fn._constraints()
+    assert constraint["fun"](x)[0] == value and np.array_equal(constraint["jac"](x)[0], gradient)
+    _multistart.forget(spec)
+
+
 def test_batch_values_match_the_core(kr_params, kr270_marker):
     engine = pincal.model.jacobian.JacobianEngine(kr_params)
     plans = kr270_marker.random_configurations(5 * 6, np.random.default_rng(0)).reshape(5, 6, -1)
