@@ -15,6 +15,7 @@ from pincal.planning.constraints import (
     JointLimits,
     Kinematics,
     MinSpacing,
+    Mount,
     SelfCollision,
     Visibility,
     WorkspaceBox,
@@ -157,6 +158,15 @@ def test_sampling_is_feasible_and_names_the_culprit(kr270_marker):
     assert all(c.satisfied(kr270_marker, qs).all() for c in cons[:2])
     with pytest.raises(Infeasible, match=r"workspace_box rejected \d+ \(100 %\)"):
         Feasibility(kr270_marker, [WorkspaceBox((9, 9, 9), (10, 10, 10))]).sample(10, rng, max_tries=2000)
+
+
+def test_a_mount_that_checks_nothing_is_no_constraint(kr270_marker):
+    """A mount of kind 'none' (or a plane nothing the joints move can reach) keeps no point: it is
+    no constraint of the search, whose feasibility is then the joint limits alone."""
+    assert Mount("none").bind(kr270_marker).empty
+    assert not Mount("floor").bind(kr270_marker).empty
+    assert Feasibility(kr270_marker, [Mount("none")]).trivial
+    assert not Feasibility(kr270_marker, [Mount("floor")]).trivial
 
 
 def test_constraint_jacobian_and_repair(kr270_marker):

@@ -49,11 +49,12 @@ class Feasibility:
         self.margins = joint_margins(robot, constraints)
         self.limits = LimitsBound(robot, self.margins)
         self.lower, self.upper = self.limits.lower, self.limits.upper
-        self.bound = [
+        bound = [
             (c.key, c.bind(robot))
             for c in constraints
             if isinstance(c, Constraint) and not isinstance(c, JointLimits)
         ]
+        self.bound = [(key, b) for key, b in bound if not b.empty]  # a mount 'none' checks nothing
         self.spacing = spacing_of(constraints)
         self.data = robot.model.createData()
 

@@ -78,6 +78,11 @@ class Bound:
     """Distance from the boundary [m or rad] within which the continuous search reads the margin
     (beyond it the constraint does not bind: its value there is the reach)."""
 
+    @property
+    def empty(self) -> bool:
+        """True when the bound checks nothing (a mount of kind ``none``): no constraint then."""
+        return False
+
     def margins(self, kin: Kinematics) -> np.ndarray:
         """(m, c) signed margins [m or rad]: ≥ 0 where satisfied (smooth where possible)."""
         raise NotImplementedError

@@ -149,6 +149,10 @@ class MountBound(Bound):
             self.keep = np.flatnonzero(np.ptp(heights, axis=0) > MOVING)
         self.names = [names[i] for i in self.keep]
 
+    @property
+    def empty(self) -> bool:
+        return not len(self.keep)
+
     def points(self, qs: np.ndarray) -> np.ndarray:
         """(m, n, 3) every candidate point (joint origins, tip, markers) in the base frame [m],
         Pinocchio's forward kinematics one configuration at a time."""
