@@ -83,17 +83,15 @@ class Outcome:
 
     Attributes:
         q: (m, nq) final configurations [rad or m].
-        F: objective value (exact criterion, no penalty); inf if singular.
-        score: what ranks starts after screening (F).
+        F: objective value (exact criterion); inf if singular. Ranks starts after screening.
         feasible: the plan satisfies every constraint exactly.
-        iterations: L-BFGS-B iterations.
+        iterations: iterations of the search.
         time_s: wall time [s].
         message: the optimiser's last message.
     """
 
     q: np.ndarray
     F: float
-    score: float
     feasible: bool
     iterations: int
     time_s: float
@@ -257,7 +255,7 @@ def screen(fn: PlanFunction, q0: np.ndarray, iterations: int) -> Outcome:
     q, nit, message = fn.minimise(q0, iterations)
     fn.set_power(None)
     F = fn.criterion(q)
-    return Outcome(q, F, F, fn.feasibility.plan_feasible(q), nit, time.perf_counter() - t0, message)
+    return Outcome(q, F, fn.feasibility.plan_feasible(q), nit, time.perf_counter() - t0, message)
 
 
 def polish(fn: PlanFunction, q0: np.ndarray, anchor: np.ndarray, maxiter: int) -> Outcome:
@@ -284,7 +282,7 @@ def polish(fn: PlanFunction, q0: np.ndarray, anchor: np.ndarray, maxiter: int) -
         feasible = fn.feasibility.plan_feasible(q)
         message = f"repaired towards the start ({message})"
     F = fn.criterion(q)
-    return Outcome(q, F, F, feasible, total, time.perf_counter() - t0, message)
+    return Outcome(q, F, feasible, total, time.perf_counter() - t0, message)
 
 
 def _minimize(*args, **kwargs):

@@ -143,11 +143,11 @@ def polish_task(spec: ProblemSpec, q0: np.ndarray, anchor: np.ndarray, maxiter: 
 
 def exchange_task(
     spec: ProblemSpec, start: int, index: np.ndarray | None, also: ProblemSpec | None = None
-) -> _exchange.ExchangeOutcome | tuple[_exchange.ExchangeOutcome, _exchange.ExchangeOutcome] | CarriedError:
+) -> tuple[_exchange.ExchangeOutcome, _exchange.ExchangeOutcome | None] | CarriedError:
     """The exchange search over the spec's pool from the plan pool[index], or from the plan of
-    start ``start`` drawn here (``index`` None); a start that cannot be drawn comes back as a
-    :class:`CarriedError`. With ``also`` (the same problem with another criterion), the pair of
-    both exchange searches from that plan."""
+    start ``start`` drawn here (``index`` None): (its outcome, that of the same problem with
+    another criterion ``also`` from the same plan, or None). A start that cannot be drawn comes
+    back as a :class:`CarriedError`."""
     with single_threaded_blas():
         p = problem(spec)
         spacing, pool = p.feasibility.spacing, spec.pool
@@ -169,7 +169,7 @@ def exchange_task(
                 return CarriedError.of(error)
         own = _exchange.fedorov(p.objective, p.pool_jacobians, pool, index, spacing, spec.floor)
         if also is None:
-            return own
+            return own, None
         other = problem(also).objective  # on this problem's pool Jacobians: the same pool
         drawn = _starts.exchange_of(index, exchanged)
         if isinstance(other, DOptimal) and also.prior is None and drawn is not None and drawn.converged:

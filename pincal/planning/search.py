@@ -222,7 +222,7 @@ def _exchange(
     for r in results:
         if isinstance(r, _multistart.CarriedError):
             raise r.error()
-    designs = [(spec, _exchanged(candidates, [_first(r) for r in results], objective), objective)]
+    designs = [(spec, _exchanged(candidates, [r[0] for r in results], objective), objective)]
     if d_spec is not None:
         assert d_objective is not None
         designs.append((d_spec, _exchanged(candidates, [r[1] for r in results], d_objective), d_objective))
@@ -230,8 +230,9 @@ def _exchange(
 
 
 def _first(result):
-    """The task's outcome for the design's own criterion (a pair holds the D-optimal one second)."""
-    return result[0] if isinstance(result, tuple) else result
+    """The task's outcome for the design's own criterion, for the progress bar (None for a start
+    that could not be drawn: its error is raised once every task is back)."""
+    return None if isinstance(result, _multistart.CarriedError) else result[0]
 
 
 def _exchanged(candidates, outcomes, objective: Criterion) -> tuple[Outcome, ...]:
@@ -298,7 +299,7 @@ def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, ba
         items = [(spec, x0, screen_iterations) for x0 in x0s]
         bar.stage("screened", n)
         screened = _multistart.run(ex, _multistart.screen_task, items, lambda i, r: bar(r))
-        order = sorted(range(n), key=lambda s: (screened[s].score, s))
+        order = sorted(range(n), key=lambda s: (screened[s].F, s))
         kept = sorted(order[:n_keep])
         starts_from = [screened[s].q for s in kept]
     else:
