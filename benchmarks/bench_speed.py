@@ -15,7 +15,9 @@ same run, each importing its own ``pincal`` (PYTHONPATH). Without it, only this 
    starts against the best of 64 starts of the ``--before`` tree: the ratio of ρ0 (target ≤ 1.01).
 3. Evaluations against their floor, the bare Pinocchio work of the plan's configurations
    (forward kinematics + kinematic regressor): ``pincal.rho0`` for one plan, and per plan for a
-   batch of k plans; ``pincal.criteria``; with the BLAS threads the process starts with.
+   batch of k plans; ``pincal.criteria``; with the BLAS threads the process starts with. Also
+   the floors Python itself sets: one plan's ρ0 written as leanly as pin, NumPy and LAPACK allow
+   (nothing checked or set up), and the eigenvalues of M the criteria need.
 4. Growth: design time (one worker, 4 starts, no polish) against m, the number of parameters, the
    pool size and the number of test poses, as log-log exponents.
 5. ``import pincal`` and ``pincal --help``: wall time (best of 5, byte-code cached).
@@ -102,7 +104,31 @@ def accuracy_batch(k):
         return lambda: [pincal.accuracy(params, p, q0, sigma=3e-5, **small) for p in plans[:k]]
 region = pincal.around(q0[0], np.radians(10))
 n_report = 1 + 2 * small["samples"] + small["workspace"]  # the configurations an accuracy report covers
+# The floors of the evaluations as Python can write them (pin, NumPy and LAPACK only): one plan's ρ0
+# with nothing checked, nothing set up and nothing named (J by one product with C, M, Cholesky,
+# one triangular solve against the test pose's rows); and the eigenvalues the criteria need.
+from scipy.linalg import blas, lapack
+from pincal.model.jacobian import JacobianEngine
+C = JacobianEngine(params).C
+fk(model, data, q0[0])
+W = np.ascontiguousarray((regressor(model, data, joint, local, point)[:3] @ C).T)
+potrf, trsm = lapack.dpotrf, blas.dtrsm
+def jacobian_of(qs):
+    out = []
+    for q in qs:
+        fk(model, data, q)
+        out.append(regressor(model, data, joint, local, point)[:3])
+    return np.concatenate(out) @ C
+def lean(qs):
+    J = jacobian_of(qs)
+    L, info = potrf(J.T @ J, lower=1, clean=1, overwrite_a=0)
+    x = trsm(1.0, L, W, lower=1).ravel()
+    return 3e-5 * np.sqrt(x @ x)
+Ms = np.array([J.T @ J for J in map(jacobian_of, plans)])
 cases = {
+    "lean_one": (lambda: lean(plans[0]), 200, 1),
+    "eig_one": (lambda: np.linalg.eigvalsh(Ms[0]), 200, 1),
+    "eig_batch_1000": (lambda: np.linalg.eigvalsh(Ms), 1, 1000),
     "bare": (lambda: bare(plans[0]), 200, 1),
     "bare_1000": (lambda: bare(plans.reshape(-1, plans.shape[-1])), 1, 1000),
     "rho0_one": (lambda: pincal.rho0(params, plans[0], q0), 200, 1),
@@ -285,6 +311,9 @@ def main() -> list[str]:
         rows = [
             ("bare: FK + regressor, 12 configurations", "bare", "bare"),
             ("bare, per 12 of 12 000 configurations", "bare_1000", "bare"),
+            ("floor: one plan's ρ0 in Python, nothing checked or set up", "lean_one", "bare"),
+            ("floor: the eigenvalues of one M (numpy.linalg.eigvalsh)", "eig_one", "bare"),
+            ("floor: the eigenvalues of 1000 M, per plan", "eig_batch_1000", "bare"),
             ("rho0, one plan", "rho0_one", "bare"),
             ("rho0, batch of 100 plans (before: a loop)", "rho0_batch_100", "bare"),
             ("rho0, batch of 1000 plans (before: a loop)", "rho0_batch_1000", "bare"),

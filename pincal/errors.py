@@ -209,11 +209,13 @@ class SingularPlan(PincalError):
         min_configurations: the fewest configurations that could identify ``n_params``.
         m: the number of configurations of the plan.
         rank: numerical rank of the information matrix.
+        plan: which plan of a batch (its index), or None for one plan.
     """
 
     def __init__(
         self, n_params: int, rows_per_configuration: int, m: int, rank: int | None = None, why: str = ""
     ):
+        self.plan: int | None = None
         self.n_params = n_params
         self.rows_per_configuration = rows_per_configuration
         self.min_configurations = -(-n_params // rows_per_configuration)
@@ -231,7 +233,14 @@ class SingularPlan(PincalError):
                 f"{rank} < {n_params} parameters); choose more varied configurations (at least "
                 f"{self.min_configurations} are needed) or fewer parameters"
             )
-        super().__init__(why or msg)  # ``why``: the caller's own words for how the plan came to be
+        self.reason = why or msg  # ``why``: the caller's own words for how the plan came to be
+        super().__init__(self.reason)
+
+    def of_plan(self, index: int) -> SingularPlan:
+        """This error, naming plan ``index`` of a batch (``plan 3: singular plan: ...``)."""
+        self.plan = index
+        self.args = (f"plan {index}: {self.reason}",) + self.args[1:]
+        return self
 
 
 class BadMeasurementData(BadArgument):

@@ -17,7 +17,8 @@ from pincal.evaluation.classic import EIGEN_CONDITION, criteria_of_plans, singul
 from pincal.evaluation.condition import Condition
 from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.e_optimal import EOptimal
-from pincal.evaluation.plans import engine_for, informations, jacobians
+from pincal.evaluation.information import informations
+from pincal.evaluation.plans import engine_for, jacobians
 from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.model.jacobian import JacobianEngine
 
@@ -219,3 +220,34 @@ def test_a_batchs_rho0_by_bordered_factors_is_the_closed_form(planar):
     wide = pincal.rho0(params, plans[:50], poses, sigma=SIGMA)  # 10 weight columns > BORDERED
     one_by_one = [pincal.rho0(params, p, poses, sigma=SIGMA) for p in plans[:50]]
     np.testing.assert_allclose(wide, one_by_one, rtol=1e-12)
+
+
+def test_batches_longer_than_a_block_are_each_plans_values(kr270_marker):
+    """A batch is evaluated block by block (BLOCK plans): over several blocks, rho0 (mean by the
+    bordered factors, worst, with a prior) and criteria give each plan's own value, and a singular
+    plan in a later block is named by its index in the whole batch, by rho0 and by criteria."""
+    from pincal.evaluation.plans import BLOCK
+
+    params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
+    rng = np.random.default_rng(21)
+    k = 2 * BLOCK + 5
+    plans = kr270_marker.random_configurations(k * 8, rng).reshape(k, 8, -1)
+    q0 = kr270_marker.random_configurations(1, rng)
+    for kw in ({}, {"aggregate": "worst"}, {"prior": pincal.Prior(1e-3, 1e-3)}):
+        one = [pincal.rho0(params, p, q0, sigma=SIGMA, **kw) for p in plans]
+        np.testing.assert_allclose(pincal.rho0(params, plans, q0, sigma=SIGMA, **kw), one, rtol=1e-12)
+    for c, p in zip(pincal.criteria(params, plans), plans, strict=True):
+        expected = pincal.criteria(params, p).as_dict()
+        for key, value in c.as_dict().items():
+            assert value == pytest.approx(expected[key], rel=1e-9)
+    singular = plans.copy()
+    singular[BLOCK + 3] = singular[BLOCK + 3][0]  # eight times the same configuration
+    for evaluate in (
+        lambda: pincal.rho0(params, singular, q0, sigma=SIGMA),
+        lambda: pincal.criteria(params, singular),
+    ):
+        with pytest.raises(SingularPlan, match=f"^plan {BLOCK + 3}: singular plan") as info:
+            evaluate()
+        assert info.value.plan == BLOCK + 3
+    with pytest.raises(SingularPlan, match="^plan 0: singular plan: 2 configuration") as info:
+        pincal.criteria(params, plans[:, :2])  # fewer coordinates than parameters

@@ -289,3 +289,25 @@ def test_a_floor_a_d_optimal_plan_meets_is_not_refused(kr):
         pincal.design(lengths, 2, [0.2, 0.0], sigma=SIGMA, min_conditioning=1e-4, starts=2, workers=1)
     advice = " ".join(str(w.message) for w in caught)
     assert "raise min_conditioning" in advice and "lower" not in advice
+
+
+def test_a_region_is_resolved_once_while_its_values_and_the_limits_hold():
+    """resolve() keeps its result per robot: the same object again for the same values and joint
+    limits; a centre changed in place, or a limit changed in the model, is resolved afresh (and
+    the kept samples cannot be written)."""
+    robot = pincal.load_robot("kr270", tip="tool0")  # its own model: changed below
+    q0 = np.radians([0.0, -60.0, 60.0, 0.0, 45.0, 0.0])
+    centre = q0.copy()
+    region = pincal.around(centre, np.radians(10), samples=32)
+    first = region.resolve(robot)
+    assert region.resolve(robot) is first
+    assert not first.poses.flags.writeable and not first.unit_samples.flags.writeable
+    path = pincal.TestPath([list(q0), list(q0 + 0.1)])
+    assert path.resolve(robot) is path.resolve(robot)
+    centre[0] += 0.05  # the user's array (the region holds it), changed in place
+    moved = region.resolve(robot)
+    assert moved is not first and moved.poses[0, 0] == pytest.approx(q0[0] + 0.05)
+    robot.model.upperPositionLimit[0] = q0[0] + 0.06
+    clipped = region.resolve(robot)
+    assert clipped is not moved and clipped.poses[:, 0].max() <= q0[0] + 0.06 + 1e-12
+    assert moved.poses[:, 0].max() > q0[0] + 0.06

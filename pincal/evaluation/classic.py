@@ -19,16 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA
-from pincal.evaluation.information import factor, factor_batch
-from pincal.evaluation.plans import (
-    SMALL,
-    blas_for,
-    engine_for,
-    informations,
-    jacobians,
-    plan_batch,
-    plan_payloads,
-)
+from pincal.errors import SingularPlan
+from pincal.evaluation.information import factor, informations
+from pincal.evaluation.plans import SMALL, blas_for, engine_for, in_blocks, plan_batch, plan_payloads
 from pincal.instruments.error_model import ErrorModel
 from pincal.instruments.instrument import optional_instrument
 from pincal.instruments.kind import Kind
@@ -145,9 +138,29 @@ def criteria(
     qs, batched = plan_batch(params, plan)
     k, m, _ = qs.shape
     engine = engine_for(params, optional_instrument(measure, instrument, DEFAULT_SIGMA))
-    with nullcontext() if k * m <= SMALL else blas_for(k * m):
-        J = jacobians(engine, qs, plan_payloads(plan, qs.shape))  # a Plan's own payloads
+    rows = engine.rows
+
+    def regular(M: np.ndarray, which: np.ndarray) -> None:
+        """Raise SingularPlan as ρ0 does for the first singular plan of ``which``."""
+        for i in which:
+            try:
+                factor(M[i], rows, m)
+            except SingularPlan as error:
+                if len(M) > 1:
+                    error.of_plan(int(i))
+                raise
+
+    def evaluate(J: np.ndarray) -> tuple[Criteria, ...]:
         M = informations(J)
-        factor_batch(M, engine.rows, m)  # raises SingularPlan like ρ0 does
-        found = criteria_of_plans(singular_values(J, M), m, engine.rows)
+        if J.shape[1] < J.shape[2]:  # fewer coordinates than parameters: singular
+            regular(M, np.arange(len(M)))
+        S = singular_values(J, M)
+        # A plan with cond(J) ≤ EIGEN_CONDITION passes factor's test (each Cholesky pivot over its
+        # M_ii is at least λ_min/λ_max ≥ 1e-6): only the others are factored.
+        regular(M, np.flatnonzero(~(S[:, -1] * EIGEN_CONDITION >= S[:, 0])))
+        return criteria_of_plans(S, m, rows)
+
+    with nullcontext() if k * m <= SMALL else blas_for(k * m):
+        blocks = in_blocks(engine, qs, plan_payloads(plan, qs.shape), evaluate)  # a Plan's own payloads
+    found = tuple(c for block in blocks for c in block)
     return found if batched else found[0]

@@ -34,6 +34,11 @@ def information_matrix(J: np.ndarray) -> np.ndarray:
     return J2.T @ J2
 
 
+def informations(J: np.ndarray) -> np.ndarray:
+    """(k, P, P) information matrices M = JᵀJ of k plans' Jacobians (k, m·r, P)."""
+    return np.matmul(np.swapaxes(J, 1, 2), J)
+
+
 def factor(M: np.ndarray, rows: int, m: int) -> np.ndarray:
     """Lower Cholesky factor L of M (M = L Lᵀ).
 
@@ -98,23 +103,29 @@ BORDERED = 8
 beyond, the factorisation of the larger bordered matrix costs more than the solves it saves."""
 
 
-def solved_squares(Ms: np.ndarray, W: np.ndarray, rows: int, m: int) -> np.ndarray:
-    """(k,) ‖L_i⁻¹W‖²_F = tr(Wᵀ M_i⁻¹ W) for a stack of information matrices M_i = L_iL_iᵀ
-    (k, P, P) and one W (P, r), with the singularity test of :func:`factor_batch`.
+def solved_squares(
+    J: np.ndarray, W: np.ndarray, rows: int, m: int, prior: np.ndarray | None = None
+) -> np.ndarray:
+    """(k,) ‖L_i⁻¹W‖²_F = tr(Wᵀ M_i⁻¹ W) for the information matrices M_i = J_iᵀJ_i (+ Λ, the
+    prior's information, if given) = L_iL_iᵀ of a stack of Jacobians J (k, m·rows, P) and one W
+    (P, r), with the singularity test of :func:`factor_batch`.
 
-    One batched Cholesky factorisation of the bordered matrices [[M_i, W], [Wᵀ, βI]]
-    (β = :data:`BORDER`): the leading block of each factor is L_i and the block below it
-    (L_i⁻¹W)ᵀ, so that no triangular solve runs plan by plan (r ≤ :data:`BORDERED`; else
-    :func:`factor_batch` and one BLAS trsm per plan).
+    One batched product writes each M_i into the leading block of a bordered matrix
+    [[M_i, W], [Wᵀ, βI]] (β = :data:`BORDER`) and one batched Cholesky factorisation follows: the
+    leading block of each factor is L_i and the block below it (L_i⁻¹W)ᵀ, so that no triangular
+    solve runs plan by plan (r ≤ :data:`BORDERED`; else :func:`factor_batch` and one BLAS trsm per
+    plan).
 
     Raises:
         SingularPlan: as :func:`factor_batch`.
     """
-    k, P = Ms.shape[0], Ms.shape[-1]
+    k, P = J.shape[0], J.shape[-1]
     r = W.shape[1]
     if r <= BORDERED and k > 1:
         bordered = np.empty((k, P + r, P + r))
-        bordered[:, :P, :P] = Ms
+        Ms = np.matmul(np.swapaxes(J, 1, 2), J, out=bordered[:, :P, :P])
+        if prior is not None:
+            Ms += prior
         bordered[:, P:, :P] = W.T
         bordered[:, :P, P:] = W
         bordered[:, P:, P:] = BORDER * np.eye(r)
@@ -125,6 +136,8 @@ def solved_squares(Ms: np.ndarray, W: np.ndarray, rows: int, m: int) -> np.ndarr
         if L is not None and _all_regular(Ms, L):
             X = L[:, P:, :P]
             return np.einsum("krp,krp->k", X, X)
+    else:
+        Ms = informations(J) if prior is None else informations(J) + prior
     X = trsm_batch(factor_batch(Ms, rows, m), W)
     return np.einsum("kpr,kpr->k", X, X)
 
@@ -137,7 +150,7 @@ def _raise_singular(Ms: np.ndarray, rows: int, m: int) -> None:
             factor(M, rows, m)
         except SingularPlan as error:
             if len(Ms) > 1:
-                error.args = (f"plan {i}: {error.args[0]}",) + error.args[1:]
+                error.of_plan(i)
             raise
 
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -83,8 +83,41 @@ class TestRegion:
     __test__ = False  # not a pytest class
 
     def resolve(self, robot: Robot) -> ResolvedRegion:
-        """The region's sample configurations (and unit-cube map) on ``robot``."""
+        """The region's sample configurations (and unit-cube map) on ``robot``: resolved once and
+        kept while the region's values and the robot's joint limits are those it was resolved
+        with (a script that evaluates many plans over one region draws its samples, or solves its
+        inverse kinematics, once; an array of the region changed in place is resolved again)."""
+        model = robot.model
+        key = (model.lowerPositionLimit.tobytes(), model.upperPositionLimit.tobytes(), self._values())
+        kept = self.__dict__.setdefault("_resolved", {})  # a cache on the frozen dataclass
+        found = kept.get(id(robot))
+        if found is not None and found[0] is robot and found[1] == key:
+            return found[2]
+        resolved = self._resolve(robot)
+        if resolved.unit_samples is not None:  # read-only, as its poses: kept and shared
+            resolved.unit_samples.flags.writeable = False
+        kept[id(robot)] = (robot, key, resolved)
+        return resolved
+
+    def _resolve(self, robot: Robot) -> ResolvedRegion:
         raise NotImplementedError
+
+    def _values(self) -> tuple:
+        """The region's fields as plain values (an array as its shape, type and bytes), or a new
+        object (never equal to a kept one) when one cannot be read as such."""
+        out: list = []
+        for name in self.__dataclass_fields__:  # type: ignore[attr-defined]  # every region is a dataclass
+            value = getattr(self, name)
+            value = getattr(value, "q", value)  # a Plan: its joint values
+            if isinstance(value, (list, tuple)):
+                try:
+                    value = np.asarray(value, dtype=float)
+                except (TypeError, ValueError):
+                    return (object(),)
+            if isinstance(value, np.ndarray):
+                value = (value.shape, value.dtype.str, value.tobytes())
+            out.append(value)
+        return tuple(out)
 
 
 def _latin_hypercube(dimension: int, n: int, seed: int) -> np.ndarray:
@@ -169,7 +202,7 @@ class Neighbourhood(TestRegion):
             return "± δ"
         return width_text(self.angle, self.length)
 
-    def resolve(self, robot: Robot) -> ResolvedRegion:
+    def _resolve(self, robot: Robot) -> ResolvedRegion:
         lo, hi = self.bounds(robot)
         q0 = robot.configurations(self.center, what="test pose")[0]
         u = np.vstack(
@@ -256,7 +289,7 @@ class TestPath(TestRegion):
 
     q: ConfigurationsLike
 
-    def resolve(self, robot: Robot) -> ResolvedRegion:
+    def _resolve(self, robot: Robot) -> ResolvedRegion:
         poses = robot.configurations(self.q, what="test path configuration")
         poses.flags.writeable = False
         return ResolvedRegion(poses, f"test path ({len(poses)} configurations)")
@@ -282,12 +315,8 @@ class CartesianBox(TestRegion):
     rotation: np.ndarray | None = None
     samples: int = DEFAULT_SAMPLES
     seed: int = 0
-    _cache: dict = field(default_factory=dict, repr=False)
 
-    def resolve(self, robot: Robot) -> ResolvedRegion:
-        cached = self._cache.get(id(robot))
-        if cached is not None and cached[0] is robot:
-            return cached[1]
+    def _resolve(self, robot: Robot) -> ResolvedRegion:
         q_ref = robot.configurations(self.reference, what="reference configuration")[0]
         solver = _InverseKinematics(robot, self.rotation, q_ref)
         lo, hi = self.lower, self.upper
@@ -307,7 +336,7 @@ class CartesianBox(TestRegion):
         poses = np.array([q for q in solved if q is not None])
         poses.flags.writeable = False
         dropped = len(solved) - len(poses)
-        resolved = ResolvedRegion(
+        return ResolvedRegion(
             poses,
             f"Cartesian box {np.round(lo, 4).tolist()}..{np.round(hi, 4).tolist()} m at the tool orientation "
             f"({len(poses)} configurations by inverse kinematics"
@@ -317,8 +346,6 @@ class CartesianBox(TestRegion):
             U[np.array(ok)],
             dropped,
         )
-        self._cache[id(robot)] = (robot, resolved)
-        return resolved
 
 
 @keywords_after(3)

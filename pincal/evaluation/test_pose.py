@@ -39,16 +39,14 @@ import numpy as np
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
-from pincal.evaluation.information import factor, factor_batch, information_matrix, solved_squares
-from pincal.evaluation.plans import (
-    SMALL,
-    blas_for,
-    engine_for,
+from pincal.evaluation.information import (
+    factor,
+    factor_batch,
+    information_matrix,
     informations,
-    jacobians,
-    plan_batch,
-    plan_payloads,
+    solved_squares,
 )
+from pincal.evaluation.plans import SMALL, blas_for, engine_for, in_blocks, plan_batch, plan_payloads
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestRegion, resolve_test_poses
 from pincal.evaluation.test_pose_worst import TestPoseWorst
@@ -201,13 +199,17 @@ class TestPoseCriterion:
         """ρ0 [m] of k plans ``qs`` ((k, m, nq), trusted): (k,), or (k, test poses) for ``"each"``.
         One Jacobian pass for every configuration, batched factorisations (see
         :mod:`pincal.evaluation.plans`); ``payload``: (k·m, 4) rows of their payloads, or None."""
-        k, m, _ = qs.shape
-        if k == 1:
+        if qs.shape[0] == 1:
             return np.asarray(self(qs[0], payload), dtype=float)[None]
-        Ms = informations(jacobians(self.engine, qs, payload))
+        return np.concatenate(in_blocks(self.engine, qs, payload, self._block))
+
+    def _block(self, J: np.ndarray) -> np.ndarray:
+        """:meth:`plans` for the Jacobians J (b, m·r, P) of b plans."""
+        k, m = len(J), J.shape[1] // self.rows
         if self.aggregate == "mean":  # one weighted trace per plan
-            return self.sigma * np.sqrt(solved_squares(self.posterior(Ms), self.weight_factor, self.rows, m))
-        L = factor_batch(self.posterior(Ms), self.rows, m)
+            squares = solved_squares(J, self.weight_factor, self.rows, m, self.prior_information)
+            return self.sigma * np.sqrt(squares)
+        L = factor_batch(self.posterior(informations(J)), self.rows, m)
         X = trsm_batch(L, self.J0T)
         squares = np.einsum("kpr,kpr->kr", X, X)
         each = self.sigma * np.sqrt(squares.reshape(k, self.k, -1).sum(axis=2))
@@ -270,7 +272,8 @@ def rho0(
             value=aggregate,
             valid=("mean", "worst"),
         )
-    inst = optional_instrument(measure, instrument, positive_sigma(sigma))
+    sigma = positive_sigma(sigma)
+    inst = optional_instrument(measure, instrument, sigma)
     return _evaluate(params, plan, test_pose, sigma, aggregate, prior, task_payload, inst, orientation_length)
 
 
@@ -289,7 +292,8 @@ def rho0_each(
 ) -> np.ndarray:
     """(n,) ρ0 [m] at each of n test poses, or (k, n) for a batch of k plans (arguments as
     :func:`rho0`)."""
-    inst = optional_instrument(measure, instrument, positive_sigma(sigma))
+    sigma = positive_sigma(sigma)
+    inst = optional_instrument(measure, instrument, sigma)
     return _evaluate(params, plan, test_pose, sigma, "each", prior, task_payload, inst, orientation_length)
 
 
@@ -403,14 +407,13 @@ _KEPT = 8
 """Criteria kept per thread (the most recently used)."""
 
 
-def _criterion(params, test_pose, sigma, aggregate, prior, task_payload) -> TestPoseCriterion:
-    """The :class:`TestPoseCriterion` of these arguments, built once and kept (per thread, the
-    :data:`_KEPT` most recently used) for the same parameter set, test poses, σ, aggregate and task
-    payload without a prior: a script that evaluates many plans one call at a time pays for J₀
-    and its factor once."""
+def _criterion(params, test_pose, sigma: float, aggregate, prior, task_payload) -> TestPoseCriterion:
+    """The :class:`TestPoseCriterion` of these arguments (σ checked already), built once and kept
+    (per thread, the :data:`_KEPT` most recently used) for the same parameter set, test poses, σ,
+    aggregate and task payload without a prior: a script that evaluates many plans one call at a
+    time pays for J₀ and its factor once."""
     if prior is not None:
         return TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
-    sigma = positive_sigma(sigma)
     kept = getattr(_LOCAL, "criteria", None)
     if kept is None:
         kept = _LOCAL.criteria = {}

@@ -73,6 +73,26 @@ def _selection(C: np.ndarray) -> tuple[np.ndarray, np.ndarray | None] | None:
     return rows, (None if (scale == 1.0).all() else scale)
 
 
+def _plain_take(
+    selection: tuple[np.ndarray, np.ndarray | None] | None, C: np.ndarray, const: np.ndarray, n: int
+) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+    """(flat, fixed, scale) for :meth:`JacobianEngine._plain`: the indices of the picked columns of
+    the three linear rows in a whole regressor flattened (6·n entries, n = 6·nq), the columns of C
+    that are zero (their Jacobian column is the constant one: None if there is none), and the scale
+    of the others (None when it is one); flat is None without a selection, or when a column has
+    both a regressor part and a constant one (then :meth:`JacobianEngine._columns`)."""
+    zero = ~C.any(axis=0)
+    if selection is None or const[:, ~zero].any():
+        return None, None, None
+    rows, scale = selection
+    flat = (np.arange(3)[:, None] * n + rows[None, :]).ravel()
+    fixed = zero if zero.any() else None
+    if scale is not None:
+        scale = np.where(zero, 1.0, scale)
+        scale = None if (scale == 1.0).all() else scale
+    return flat, fixed, scale
+
+
 def _split(pairs: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray]:
     """(columns, joints) as two integer arrays, from (column, joint) pairs."""
     return np.array([c for c, _ in pairs], dtype=int), np.array([j for _, j in pairs], dtype=int)
@@ -130,6 +150,7 @@ class JacobianEngine:
         self.C = C
         self.selection = _selection(C)
         self.const = self.G @ tip_twist + const
+        self._flat, self._fixed, self._scale = _plain_take(self.selection, C, self.const, 6 * nj)
         self.base_cols = base_cols
         self.needs_pose = bool(base_cols)
         # J_i = Reg_i·C + const: one matrix product for all configurations, then the constant.
@@ -192,28 +213,46 @@ class JacobianEngine:
         return reg, rot, pos
 
     def _single(self, configurations: np.ndarray) -> np.ndarray:
-        """(m, 3, 6·nq) the linear rows of the one marker's kinematic regressors: the bare
-        Pinocchio work, each regressor's rows kept as Pinocchio returns them and one array made of
-        them at the end (about half the cost of writing each into a buffer)."""
+        """(m, 3, 6·nq) the linear rows of the one marker's kinematic regressors (a view of
+        :meth:`_whole`)."""
+        return self._whole(configurations).reshape(len(configurations), 6, -1)[:, :3]
+
+    def _whole(self, configurations: np.ndarray) -> np.ndarray:
+        """(m, 6·6·nq) the one marker's whole kinematic regressors, one row per configuration: the
+        bare Pinocchio work, each regressor kept as Pinocchio returns it (not even a slice made of
+        it) and copied once into one array (writing each into a buffer cost about twice as much)."""
         model, data, joint, point = self.model, self.data, self.joint, self.points[0]
         regressor, fk, local = pin.computeJointKinematicRegressor, pin.forwardKinematics, pin.LOCAL
-        m, n = len(configurations), 6 * model.nq
+        m, n = len(configurations), 36 * model.nq
         if m <= CHUNK:  # one chunk
             out: list[np.ndarray] = []
             keep = out.append
             for q in configurations:
                 fk(model, data, q)
-                keep(regressor(model, data, joint, local, point)[:3])
-            return np.concatenate(out).reshape(m, 3, n) if out else np.empty((0, 3, n))
-        reg = np.empty((3 * m, n))
+                keep(regressor(model, data, joint, local, point))
+            return np.concatenate(out).reshape(m, n) if out else np.empty((0, n))
+        reg = np.empty((6 * m, 6 * model.nq))
         for a in range(0, m, CHUNK):  # a chunk's regressors stay in cache until copied
             out = []
             keep = out.append
             for q in configurations[a : a + CHUNK]:
                 fk(model, data, q)
-                keep(regressor(model, data, joint, local, point)[:3])
-            np.concatenate(out, out=reg[3 * a : 3 * (a + len(out))])
-        return reg.reshape(m, 3, n)
+                keep(regressor(model, data, joint, local, point))
+            np.concatenate(out, out=reg[6 * a : 6 * (a + len(out))])
+        return reg.reshape(m, n)
+
+    def _plain(self, whole: np.ndarray) -> np.ndarray:
+        """(m, 3, P) the tip-frame Jacobian of a plain set (:attr:`plain`) from its whole
+        regressors (m, 6·6·nq) (:meth:`_whole`): with a selection, one ``take`` of the linear rows'
+        picked columns (and the constant columns set), the numbers of :meth:`_columns`."""
+        if self._flat is None:
+            return self._columns(whole.reshape(len(whole), 6, -1)[:, :3])
+        J = np.take(whole, self._flat, axis=1).reshape(len(whole), 3, self.n_params)
+        if self._fixed is not None:
+            J[:, :, self._fixed] = self.const[:, self._fixed]
+        if self._scale is not None:
+            J *= self._scale
+        return J
 
     def _columns(self, reg: np.ndarray) -> np.ndarray:
         """(m, r, P) Reg·C + const for contiguous regressor rows (m, r, 6·nq): when every column
@@ -244,7 +283,7 @@ class JacobianEngine:
                 (:func:`~pincal.model.statics.payload_rows`; default none).
         """
         if self.plain and frame == "tip":  # the common case (a rigid robot: no payload matters)
-            return self._columns(self._single(qs + self.offsets if self.has_offsets else qs))
+            return self._plain(self._whole(qs + self.offsets if self.has_offsets else qs))
         pose = frame == "world" or self.needs_pose
         configurations, tau = self.joint_values(qs, payload)
         reg, rot, pos = self._regressors(configurations, pose)
