@@ -209,3 +209,16 @@ def test_whitened_rows_weight_by_the_inverse_covariance(kr270_two):
     J6 = Pose().rows(JacobianEngine(params), qs)
     w = np.tile([1.0] * 3 + [0.3] * 3, 2)
     assert np.allclose(pose.jacobian(qs, frame="world"), J6 * w[:, None])
+
+
+def test_an_instrument_describes_the_sigma_of_what_it_measures(kr270_two):
+    """On a robot, an instrument's description shows the σ of the units it measures only: no
+    mrad or px for points, mm and mrad for poses, px for images; without a robot, every σ."""
+    error = PerCoordinate(2e-5, sigma_rot=3e-4, sigma_px=0.4)
+    points = Instrument(Point(), error).describe(kr270_two)
+    assert "0.02 mm" in points and "mrad" not in points and "px" not in points
+    poses = Instrument(Pose(), error).describe(kr270_two)
+    assert "0.02 mm" in poses and "0.3 mrad" in poses and "px" not in poses
+    image = Instrument(Image(CAMERA, grid(4, 3, 0.03), eye_in_hand=True), error).describe(kr270_two)
+    assert "0.4 px" in image and "mm" not in image.split(";")[1]
+    assert error.describe() == "sigma 0.02 mm, 0.3 mrad, 0.4 px"

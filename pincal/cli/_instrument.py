@@ -237,7 +237,7 @@ def measuring_from_args(args: argparse.Namespace, robot: Robot, sigma: float | N
     length = getattr(args, "orientation_length", None)
     if length is not None:
         options["orientation_length"] = orientation_length_of(length)
-    text = "" if instrument.is_default and not options else instrument.describe()
+    text = "" if instrument.is_default and not options else instrument.describe(robot)
     if length is not None:
         text += f"; rho0 counts the tool's orientation error times L = {length:g} m"
     return Measuring(robot, instrument, options, text.lstrip("; "))

@@ -140,7 +140,8 @@ def run(args: argparse.Namespace) -> int:
     unit = "mm" if args.mm else "m"
     angles = joint_units(robot, args.deg)
     what = f"{data.n_markers} marker(s)" if data.is_points else data.measure.describe()
-    noise = f"noise {sigma:g} m" if error is None else f"noise {error.describe()}"
+    units = set(data.measure.units(robot))  # the σ shown: of what is measured
+    noise = f"noise {sigma:g} m" if error is None else f"noise {error.describe(units)}"
     lengths = "points" if data.is_points else "lengths"
     print(
         f"{args.out}: {data.m} configurations x {what}, {noise}, {description}; joints in {angles}, "

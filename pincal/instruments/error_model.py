@@ -24,6 +24,7 @@ A data file's own uncertainty columns or covariance override the model (:mod:`pi
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Collection
 from dataclasses import dataclass
 
 import numpy as np
@@ -106,8 +107,9 @@ class ErrorModel(ABC):
         return False
 
     @abstractmethod
-    def describe(self) -> str:
-        """The model in words, for reports."""
+    def describe(self, units: Collection[str] | None = None) -> str:
+        """The model in words, for reports: of the values of ``units`` (``"m"``, ``"rad"``,
+        ``"px"``: what the instrument measures, see :meth:`Kind.units`), default all."""
 
     @abstractmethod
     def as_dict(self) -> dict:
@@ -158,8 +160,13 @@ class PerCoordinate(ErrorModel):
     def uniform(self, kind: Kind, robot: Robot) -> bool:
         return bool(np.all(self.std(kind.units(robot)) == self.sigma))
 
-    def describe(self) -> str:
-        return f"sigma {self.sigma * 1e3:.4g} mm, {self.sigma_rot * 1e3:.4g} mrad, {self.sigma_px:.3g} px"
+    def describe(self, units: Collection[str] | None = None) -> str:
+        shown = {
+            "m": f"{self.sigma * 1e3:.4g} mm",
+            "rad": f"{self.sigma_rot * 1e3:.4g} mrad",
+            "px": f"{self.sigma_px:.3g} px",
+        }
+        return "sigma " + ", ".join(text for unit, text in shown.items() if units is None or unit in units)
 
     def as_dict(self) -> dict:
         return {
@@ -244,7 +251,7 @@ class Tracker(ErrorModel):
                     cov[:, a, b] = self.sigma_rot**2
         return RowCovariance(factor=np.linalg.cholesky(cov))
 
-    def describe(self) -> str:
+    def describe(self, units: Collection[str] | None = None) -> str:
         (a, b), (c, e) = self.radial, self.transverse
         at = ", ".join(f"{v:.4g}" for v in self.at)
         return (

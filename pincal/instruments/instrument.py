@@ -34,6 +34,7 @@ from pincal.instruments.point import Point
 from pincal.model.base_parameters import NEARLY_REDUNDANT, Identifiability
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
+from pincal.model.robot import Robot
 from pincal.typing import PayloadLike, SeedLike
 
 POOL_ROWS = 6
@@ -91,8 +92,10 @@ class Instrument:
         offset that a point on its axis hides."""
         return identifiable(params, self, n_configurations, seed, tol, prefer, payloads)
 
-    def describe(self) -> str:
-        return f"{self.kind.describe()}; {self.error.describe()}"
+    def describe(self, robot: Robot | None = None) -> str:
+        """What is measured and how well, in words (on ``robot``: only the σ of what it measures)."""
+        units = None if robot is None else set(self.kind.units(robot))
+        return f"{self.kind.describe()}; {self.error.describe(units)}"
 
     def as_dict(self) -> dict:
         return {"measure": self.kind.as_dict(), "error": self.error.as_dict()}
