@@ -206,6 +206,24 @@ def worst_found(predicted: SquaredError, region: ResolvedRegion, *, starts: int 
     return WorstFound(math.sqrt(best_value), best_pose, sampled, True)
 
 
+def _order_statistics(R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(median, 95th percentile, maximum) of each row of R (k, n), n ≥ 1, from one sort: NumPy's
+    numbers (``numpy.median``: the middle value, or the mean of the middle two;
+    ``numpy.percentile``'s linear interpolation at (n − 1)·0.95, in its arithmetic), for a
+    fraction of the time of its quantile machinery."""
+    S = np.sort(R, axis=1)
+    n = S.shape[1]
+    half = n // 2
+    median = S[:, half] if n % 2 else (S[:, half - 1] + S[:, half]) / 2
+    at = (n - 1) * 0.95
+    below = math.floor(at)
+    t = at - below
+    a, b = S[:, below], S[:, min(below + 1, n - 1)]
+    step = b - a
+    p95 = b - step * (1 - t) if t >= 0.5 else a + step * t
+    return median, p95, S[:, -1]
+
+
 @dataclass(frozen=True)
 class ErrorSummary:
     """Predicted errors over a set of configurations [m].
@@ -239,18 +257,14 @@ class ErrorSummary:
     @classmethod
     def of_rows(cls, rows: list[tuple[str, np.ndarray]]) -> list[ErrorSummary]:
         """:meth:`of` each ``(where, ρ)`` of ``rows``, the same numbers, the rows of one length
-        summarised together (one median and one percentile along the rows, not one per row)."""
+        summarised together from one sort (:func:`_order_statistics`)."""
         out: list[ErrorSummary | None] = [None] * len(rows)
         by_length: dict[int, list[int]] = {}
         for i, (_, rho) in enumerate(rows):
             by_length.setdefault(len(rho), []).append(i)
         for n, which in by_length.items():
             R = np.stack([rows[i][1] for i in which])
-            rms = np.sqrt(np.mean(R**2, axis=1))
-            if n == 1:  # one value (one test pose): its median, percentile and maximum
-                columns: tuple[np.ndarray, ...] = (rms, R[:, 0], R[:, 0], R[:, 0])
-            else:
-                columns = (rms, np.median(R, axis=1), np.percentile(R, 95, axis=1), R.max(axis=1))
+            columns = (np.sqrt(np.mean(R**2, axis=1)), *_order_statistics(R))
             for i, values in zip(which, zip(*(c.tolist() for c in columns)), strict=True):
                 out[i] = cls(rows[i][0], n, *values)
         return out  # type: ignore[return-value]  # every row summarised
