@@ -81,7 +81,7 @@ def _plain_take(
     that are zero (their Jacobian column is the constant one: None if there is none), and the scale
     of the others (None when it is one); flat is None without a selection, or when a column has
     both a regressor part and a constant one (then :meth:`JacobianEngine._columns`)."""
-    zero = ~C.any(axis=0)
+    zero = (C == 0).all(axis=0)
     if selection is None or const[:, ~zero].any():
         return None, None, None
     rows, scale = selection
