@@ -255,7 +255,7 @@ class JacobianEngine:
         return J
 
     def _columns(self, reg: np.ndarray) -> np.ndarray:
-        """(m, r, P) Reg·C + const for contiguous regressor rows (m, r, 6·nq): when every column
+        """(m, r, P) Reg·C + const for regressor rows (m, r, 6·nq): when every column
         of C has at most one non-zero entry (the URDF origins' axes are the parent's, as on most
         arms), the regressor's columns picked and scaled, the same numbers as the product for
         half its time."""
