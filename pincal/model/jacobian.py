@@ -213,40 +213,41 @@ class JacobianEngine:
         return reg, rot, pos
 
     def _single(self, configurations: np.ndarray) -> np.ndarray:
-        """(m, 3, 6·nq) the linear rows of the one marker's kinematic regressors (a view of
-        :meth:`_whole`)."""
-        return self._whole(configurations).reshape(len(configurations), 6, -1)[:, :3]
+        """(m, 3, 6·nq) the linear rows of the one marker's kinematic regressors."""
+        return self._kept(configurations, whole=False).reshape(len(configurations), 3, 6 * self.model.nq)
 
     def _whole(self, configurations: np.ndarray) -> np.ndarray:
-        """(m, 6·6·nq) the one marker's whole kinematic regressors, one row per configuration: the
-        bare Pinocchio work, each regressor kept as Pinocchio returns it (not even a slice made of
-        it) and copied once into one array (writing each into a buffer cost about twice as much)."""
+        """(m, 6·6·nq) the one marker's whole kinematic regressors, one row per configuration (for
+        :meth:`_plain`, which picks from them)."""
+        return self._kept(configurations, whole=True).reshape(len(configurations), 36 * self.model.nq)
+
+    def _kept(self, configurations: np.ndarray, whole: bool) -> np.ndarray:
+        """(m·r, 6·nq) the one marker's kinematic regressors, r = 6 rows each (``whole``) or their 3
+        linear rows: the bare Pinocchio work, each regressor kept as Pinocchio returns it (whole:
+        not even a slice made of it) and copied once into one array, CHUNK at a time (writing each
+        into a buffer cost about twice as much)."""
         model, data, joint, point = self.model, self.data, self.joint, self.points[0]
         regressor, fk, local = pin.computeJointKinematicRegressor, pin.forwardKinematics, pin.LOCAL
-        m, n = len(configurations), 36 * model.nq
-        if m <= CHUNK:  # one chunk
+        m, r = len(configurations), 6 if whole else 3
+        reg = np.empty((r * m, 6 * model.nq))
+        for a in range(0, m, CHUNK):  # a chunk's regressors stay in cache until copied
             out: list[np.ndarray] = []
             keep = out.append
-            for q in configurations:
-                fk(model, data, q)
-                keep(regressor(model, data, joint, local, point))
-            return np.concatenate(out).reshape(m, n) if out else np.empty((0, n))
-        reg = np.empty((6 * m, 6 * model.nq))
-        for a in range(0, m, CHUNK):  # a chunk's regressors stay in cache until copied
-            out = []
-            keep = out.append
-            for q in configurations[a : a + CHUNK]:
-                fk(model, data, q)
-                keep(regressor(model, data, joint, local, point))
-            np.concatenate(out, out=reg[6 * a : 6 * (a + len(out))])
-        return reg.reshape(m, n)
+            if whole:
+                for q in configurations[a : a + CHUNK]:
+                    fk(model, data, q)
+                    keep(regressor(model, data, joint, local, point))
+            else:
+                for q in configurations[a : a + CHUNK]:
+                    fk(model, data, q)
+                    keep(regressor(model, data, joint, local, point)[:3])
+            np.concatenate(out, out=reg[r * a : r * (a + len(out))])
+        return reg
 
     def _plain(self, whole: np.ndarray) -> np.ndarray:
-        """(m, 3, P) the tip-frame Jacobian of a plain set (:attr:`plain`) from its whole
-        regressors (m, 6·6·nq) (:meth:`_whole`): with a selection, one ``take`` of the linear rows'
-        picked columns (and the constant columns set), the numbers of :meth:`_columns`."""
-        if self._flat is None:
-            return self._columns(whole.reshape(len(whole), 6, -1)[:, :3])
+        """(m, 3, P) the tip-frame Jacobian of a plain set (:attr:`plain`) with a selection, from
+        its whole regressors (m, 6·6·nq) (:meth:`_whole`): one ``take`` of the linear rows' picked
+        columns (and the constant columns set), the numbers of :meth:`_columns`."""
         J = np.take(whole, self._flat, axis=1).reshape(len(whole), 3, self.n_params)
         if self._fixed is not None:
             J[:, :, self._fixed] = self.const[:, self._fixed]
@@ -255,7 +256,7 @@ class JacobianEngine:
         return J
 
     def _columns(self, reg: np.ndarray) -> np.ndarray:
-        """(m, r, P) Reg·C + const for regressor rows (m, r, 6·nq): when every column
+        """(m, r, P) Reg·C + const for contiguous regressor rows (m, r, 6·nq): when every column
         of C has at most one non-zero entry (the URDF origins' axes are the parent's, as on most
         arms), the regressor's columns picked and scaled, the same numbers as the product for
         half its time."""
@@ -283,7 +284,10 @@ class JacobianEngine:
                 (:func:`~pincal.model.statics.payload_rows`; default none).
         """
         if self.plain and frame == "tip":  # the common case (a rigid robot: no payload matters)
-            return self._plain(self._whole(qs + self.offsets if self.has_offsets else qs))
+            thetas = qs + self.offsets if self.has_offsets else qs
+            if self._flat is None:
+                return self._columns(self._single(thetas))
+            return self._plain(self._whole(thetas))
         pose = frame == "world" or self.needs_pose
         configurations, tau = self.joint_values(qs, payload)
         reg, rot, pos = self._regressors(configurations, pose)
