@@ -248,6 +248,7 @@ class JacobianEngine:
         """(m, 3, P) the tip-frame Jacobian of a plain set (:attr:`plain`) with a selection, from
         its whole regressors (m, 6·6·nq) (:meth:`_whole`): one ``take`` of the linear rows' picked
         columns (and the constant columns set), the numbers of :meth:`_columns`."""
+        assert self._flat is not None  # called only with a selection (see jacobian)
         J = np.take(whole, self._flat, axis=1).reshape(len(whole), 3, self.n_params)
         if self._fixed is not None:
             J[:, :, self._fixed] = self.const[:, self._fixed]
