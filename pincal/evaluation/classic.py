@@ -19,8 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA
-from pincal.errors import SingularPlan
-from pincal.evaluation.information import factor, informations
+from pincal.evaluation.information import factor, informations, raise_singular
 from pincal.evaluation.plans import SMALL, blas_for, engine_for, in_blocks, plan_batch, plan_payloads
 from pincal.instruments.error_model import ErrorModel
 from pincal.instruments.instrument import optional_instrument
@@ -140,24 +139,15 @@ def criteria(
     engine = engine_for(params, optional_instrument(measure, instrument, DEFAULT_SIGMA))
     rows = engine.rows
 
-    def regular(M: np.ndarray, which: np.ndarray) -> None:
-        """Raise SingularPlan as ρ0 does for the first singular plan of ``which``."""
-        for i in which:
-            try:
-                factor(M[i], rows, m)
-            except SingularPlan as error:
-                if len(M) > 1:
-                    error.of_plan(int(i))
-                raise
-
     def evaluate(J: np.ndarray) -> tuple[Criteria, ...]:
+        # SingularPlan as ρ0 raises it
         M = informations(J)
         if J.shape[1] < J.shape[2]:  # fewer coordinates than parameters: singular
-            regular(M, np.arange(len(M)))
+            raise_singular(M, rows, m)
         S = singular_values(J, M)
         # A plan with cond(J) ≤ EIGEN_CONDITION passes factor's test (each Cholesky pivot over its
         # M_ii is at least λ_min/λ_max ≥ 1e-6): only the others are factored.
-        regular(M, np.flatnonzero(~(S[:, -1] * EIGEN_CONDITION >= S[:, 0])))
+        raise_singular(M, rows, m, np.flatnonzero(~(S[:, -1] * EIGEN_CONDITION >= S[:, 0])))
         return criteria_of_plans(S, m, rows)
 
     with nullcontext() if k * m <= SMALL else blas_for(k * m):

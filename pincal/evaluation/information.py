@@ -16,6 +16,8 @@ model never imports this later stage.)
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 from pincal.errors import SingularPlan
@@ -79,7 +81,7 @@ def factor_batch(Ms: np.ndarray, rows: int, m: int) -> np.ndarray:
         L = None
     if L is not None and _all_regular(Ms, L):
         return L
-    _raise_singular(Ms, rows, m)
+    raise_singular(Ms, rows, m)
     raise SingularPlan(Ms.shape[-1], rows, m)  # pragma: no cover - Cholesky and factor disagree
 
 
@@ -142,15 +144,16 @@ def solved_squares(
     return np.einsum("kpr,kpr->k", X, X)
 
 
-def _raise_singular(Ms: np.ndarray, rows: int, m: int) -> None:
-    """Raise :class:`SingularPlan` for the first singular M of a stack, as :func:`factor` would,
-    naming it (``plan i:``) when the stack holds more than one."""
-    for i, M in enumerate(Ms):
+def raise_singular(Ms: np.ndarray, rows: int, m: int, which: Iterable[int] | None = None) -> None:
+    """Raise :class:`SingularPlan` for the first singular M of a stack (of the plans ``which``,
+    default all), as :func:`factor` would, naming it (``plan i:``) when the stack holds more than
+    one; return when none is."""
+    for i in range(len(Ms)) if which is None else which:
         try:
-            factor(M, rows, m)
+            factor(Ms[i], rows, m)
         except SingularPlan as error:
             if len(Ms) > 1:
-                error.of_plan(i)
+                error.of_plan(int(i))
             raise
 
 

@@ -108,33 +108,31 @@ def factor_inverse(X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         L, ok = cholesky(X)
         return lower_inverse(L), np.prod(np.diagonal(L), axis=-1) ** 2, ok
     Q = np.zeros_like(X)
-    pivot = X[0, 0]
-    ok = pivot > 0
-    det = np.where(ok, pivot, 1.0)
-    q00 = Q[0, 0] = 1.0 / np.sqrt(det)
+    q00, ok, det = _pivot(X[0, 0], True, 1.0)
+    Q[0, 0] = q00
     if r == 1:
         return Q, det, ok
     l10 = X[1, 0] * q00
-    pivot = X[1, 1] - l10 * l10
-    good = pivot > 0
-    ok &= good
-    pivot = np.where(good, pivot, 1.0)
-    det *= pivot
-    q11 = Q[1, 1] = 1.0 / np.sqrt(pivot)
+    q11, ok, det = _pivot(X[1, 1] - l10 * l10, ok, det)
+    Q[1, 1] = q11
     Q[1, 0] = -l10 * q00 * q11
     if r == 2:
         return Q, det, ok
     l20 = X[2, 0] * q00
     l21 = (X[2, 1] - l20 * l10) * q11
-    pivot = X[2, 2] - l20 * l20 - l21 * l21
-    good = pivot > 0
-    ok &= good
-    pivot = np.where(good, pivot, 1.0)
-    det *= pivot
-    q22 = Q[2, 2] = 1.0 / np.sqrt(pivot)
+    q22, ok, det = _pivot(X[2, 2] - l20 * l20 - l21 * l21, ok, det)
+    Q[2, 2] = q22
     Q[2, 1] = -l21 * q11 * q22
     Q[2, 0] = -(l20 * q00 + l21 * Q[1, 0]) * q22
     return Q, det, ok
+
+
+def _pivot(pivot: np.ndarray, ok, det) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One step of :func:`factor_inverse`: (1/√pivot, ok, det·pivot), a pivot that is not positive
+    marking ``ok`` False and counting as 1 (so that every number stays finite)."""
+    good = pivot > 0
+    pivot = np.where(good, pivot, 1.0)
+    return 1.0 / np.sqrt(pivot), ok & good, det * pivot
 
 
 def product(A: np.ndarray, B: np.ndarray, transpose_a: bool = False) -> np.ndarray:

@@ -435,7 +435,8 @@ def _pool(
         candidates, rejected = feasibility.feasible_pool(pool, m)  # type: ignore[arg-type]  # user_pool: not a size
     else:
         size = DEFAULT_POOL if pool is None else positive_int(pool, "pool size", m)
-        # The continuous search starts strictly inside the constraints: every margin has room.
+        # Drawn strictly inside the constraints for a continuous search, as when its barrier needed
+        # it (SLSQP needs feasible starts only): the same draws, so the same plans.
         strict = settings.method == "continuous" or settings.polish
         rng = np.random.default_rng(settings.seed_sequence(0))
         candidates = feasibility.sample(size, rng, minimum=m, strict=strict)

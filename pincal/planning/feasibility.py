@@ -68,7 +68,7 @@ class Feasibility:
 
     def feasible(self, qs: np.ndarray, strict: bool = False) -> np.ndarray:
         """(m,) True where a configuration satisfies every per-configuration constraint (``strict``:
-        see :meth:`strictly_feasible`)."""
+        and every margin is positive; for collisions, the convex hulls apart too)."""
         ok = self.limits.satisfied(_LimitsOnly(qs))  # type: ignore[arg-type]  # the limits read only q
         if self.bound and ok.any():
             idx = np.flatnonzero(ok)
@@ -104,11 +104,6 @@ class Feasibility:
     def plan_feasible(self, qs: np.ndarray) -> bool:
         """True when the whole plan satisfies every constraint."""
         return bool(self.feasible(qs).all()) and self.spacing_ok(qs)
-
-    def strictly_feasible(self, qs: np.ndarray) -> np.ndarray:
-        """(m,) feasible, and every margin the continuous search reads is positive (for collisions:
-        the convex hulls apart too): where its starts are drawn."""
-        return self.feasible(qs, strict=True)
 
     # ------------------------------------------------------------ the polish's constraints
     def constraint_values(self, qs: np.ndarray) -> np.ndarray:
@@ -173,7 +168,7 @@ class Feasibility:
             rng: the random generator.
             minimum: fewest acceptable (default ``n``); stop trying after ``max_tries`` draws.
             max_tries: random draws allowed (default max(100000, 50 n)).
-            strict: keep only strictly feasible configurations (see :meth:`strictly_feasible`).
+            strict: keep only strictly feasible configurations (see :meth:`feasible`).
 
         Raises:
             Infeasible: fewer than ``minimum`` found; the message says which constraint rejected
