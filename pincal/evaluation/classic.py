@@ -13,13 +13,14 @@ minimises (:mod:`pincal.evaluation.d_optimal`, ...), here from the singular valu
 
 from __future__ import annotations
 
-from contextlib import nullcontext
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA
 from pincal.evaluation.information import factor, informations, raise_singular
+from pincal.lapack import eigenvalues
 from pincal.evaluation.plans import SMALL, blas_for, engine_for, in_blocks, plan_batch, plan_payloads
 from pincal.instruments.error_model import ErrorModel
 from pincal.instruments.instrument import optional_instrument
@@ -117,10 +118,38 @@ def singular_values(J: np.ndarray, M: np.ndarray) -> np.ndarray:
     within :data:`EIGEN_CONDITION`, from an SVD of J for the others."""
     w = np.linalg.eigvalsh(M)[:, ::-1]
     S = np.sqrt(np.maximum(w, 0.0))
-    poor = ~(w[:, -1] * EIGEN_CONDITION**2 >= w[:, 0])  # cond(J)² = λ_max/λ_min; NaN or λ ≤ 0 too
+    poor = ~((w[:, -1] > 0) & (w[:, -1] * EIGEN_CONDITION**2 >= w[:, 0]))  # cond(J)² = λ_max/λ_min; NaN too
     if poor.any():
         S[poor] = np.linalg.svd(J[poor], compute_uv=False)
     return S
+
+
+def _regular_plan(J: np.ndarray, m: int) -> Criteria | None:
+    """The criteria of one plan from its stacked Jacobian J (m·r, P), if it is conditioned within
+    :data:`EIGEN_CONDITION` (else None: :func:`criteria`'s batch path, with its SVD and its test
+    of singularity): the numbers of :func:`criteria_of_plans` to rounding, in Python floats from
+    one LAPACK call (on one plan's 27 numbers, NumPy's dozen calls cost more than that call)."""
+    n = J.shape[1]
+    if len(J) < n:
+        return None
+    w = eigenvalues(J.T @ J).tolist()  # ascending
+    if not (w[0] > 0 and w[0] * EIGEN_CONDITION**2 >= w[-1]):
+        return None
+    s = [math.sqrt(x) for x in w]
+    smallest, largest = s[0], s[-1]
+    log_sum = sum(map(math.log, s))
+    return Criteria(
+        -2.0 * log_sum,
+        sum(1.0 / (x * x) for x in s),
+        1.0 / (smallest * smallest),
+        largest / smallest,
+        math.exp(log_sum / n) / math.sqrt(m),
+        smallest / largest,
+        smallest,
+        smallest * smallest / largest,
+        n,
+        m,
+    )
 
 
 def criteria(
@@ -150,7 +179,12 @@ def criteria(
         raise_singular(M, rows, m, np.flatnonzero(~(S[:, -1] * EIGEN_CONDITION >= S[:, 0])))
         return criteria_of_plans(S, m, rows)
 
-    with nullcontext() if k * m <= SMALL else blas_for(k * m):
-        blocks = in_blocks(engine, qs, plan_payloads(plan, qs.shape), evaluate)  # a Plan's own payloads
+    payload = plan_payloads(plan, qs.shape)  # a Plan's own payloads
+    if k == 1 and m <= SMALL:  # one small plan: no batch machinery (see SMALL)
+        J = engine.jacobian(qs[0], frame="tip", payload=payload).reshape(-1, engine.n_params)
+        one = _regular_plan(J, m) or evaluate(J[None])[0]
+        return (one,) if batched else one
+    with blas_for(k * m):
+        blocks = in_blocks(engine, qs, payload, evaluate)
     found = tuple(c for block in blocks for c in block)
     return found if batched else found[0]
