@@ -149,6 +149,27 @@ def test_one_small_plan_is_checked_and_gives_the_criterions_value(kr270_marker):
         pincal.rho0(params, plan, np.full(kr270_marker.nq, np.nan), sigma=SIGMA)
 
 
+def test_one_plans_rho0_over_a_region_follows_the_region(kr270_marker):
+    """One plan's ρ0 over a region, asked again and again, is that of the region as it is now:
+    after its centre changes in place, the ρ0 over a new region at the new centre; and the value
+    of a fresh criterion and of the batch path throughout."""
+    params = kr270_marker.parameters("full").identifiable().identifiable
+    rng = np.random.default_rng(9)
+    plan = kr270_marker.random_configurations(12, rng)
+    centre = np.radians([0.0, -60.0, 60.0, 0.0, 45.0, 0.0])
+    region = pincal.around(centre, np.radians(10), samples=48)
+    first = pincal.rho0(params, plan, region, sigma=SIGMA)
+    assert first == pytest.approx(TestPoseCriterion(params, region, SIGMA)(plan), rel=1e-13)
+    assert pincal.rho0(params, plan, region, sigma=SIGMA) == first
+    centre[1] += 0.2  # the user's array, which the region holds, changed in place
+    moved = pincal.rho0(params, plan, region, sigma=SIGMA)
+    fresh = pincal.around(centre.copy(), np.radians(10), samples=48)
+    assert moved != pytest.approx(first, rel=1e-3)
+    assert moved == pytest.approx(TestPoseCriterion(params, fresh, SIGMA)(plan), rel=1e-13)
+    assert moved == pytest.approx(pincal.rho0(params, plan[None], region, sigma=SIGMA)[0], rel=1e-12)
+    assert pincal.rho0(params, plan, region, sigma=2 * SIGMA) == pytest.approx(2 * moved, rel=1e-13)
+
+
 def _rows(report) -> list[tuple]:
     return [
         (p.name, r.where, r.n, r.rms, r.median, r.p95, r.max, p.from_measurements, p.from_prior)

@@ -20,11 +20,11 @@ import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA
 from pincal.evaluation.information import factor, informations, raise_singular
-from pincal.lapack import eigenvalues
 from pincal.evaluation.plans import SMALL, blas_for, engine_for, in_blocks, plan_batch, plan_payloads
 from pincal.instruments.error_model import ErrorModel
 from pincal.instruments.instrument import optional_instrument
 from pincal.instruments.kind import Kind
+from pincal.lapack import eigenvalues
 from pincal.model.parameters import ParameterSet
 from pincal.typing import PlansLike
 

@@ -324,10 +324,10 @@ def _evaluate(
         return float(criterion(qs))
     qs, batched = plan_batch(params, plan)
     payload = plan_payloads(plan, qs.shape)
-    if plain and not batched and aggregate == "mean" and not isinstance(test_pose, TestRegion):
-        n = qs.shape[1] + len(np.atleast_2d(getattr(test_pose, "q", test_pose)))
-        if n <= SMALL:  # one small plan: see SMALL
-            return float(_criterion(params, test_pose, sigma, aggregate, prior, task_payload)(qs[0], payload))
+    if plain and not batched and aggregate == "mean" and qs.shape[1] <= SMALL:
+        # One small plan (see SMALL): the mean over any number of test poses is one weighted trace
+        # against at most P columns, built once with the criterion.
+        return float(_criterion(params, test_pose, sigma, aggregate, prior, task_payload)(qs[0], payload))
     with blas_for(qs.shape[0] * qs.shape[1]):
         if plain:
             criterion = _criterion(params, test_pose, sigma, aggregate, prior, task_payload)
@@ -417,10 +417,16 @@ def _criterion(params, test_pose, sigma: float, aggregate, prior, task_payload) 
     kept = getattr(_LOCAL, "criteria", None)
     if kept is None:
         kept = _LOCAL.criteria = {}
+    region = None
     if type(test_pose) is np.ndarray and test_pose.dtype == np.float64 and task_payload is None:
         # The values as given: equal bytes are equal test poses, checked when first seen (a
         # changed array is a new key, so nothing kept goes stale).
         key: tuple = (id(params), test_pose.shape, test_pose.tobytes(), sigma, aggregate)
+    elif isinstance(test_pose, TestRegion) and task_payload is None:
+        # The region as resolved (kept by the region while its values and the limits hold; the
+        # criterion holds it, so its id is not reused while the key is kept).
+        region = test_pose.resolve(params.robot)
+        key = (id(params), "region", id(region), sigma, aggregate)
     else:
         poses, _ = resolve_test_poses(params.robot, test_pose)  # checked, as the criterion would
         rows = payload_rows(task_payload, len(poses))
@@ -434,7 +440,8 @@ def _criterion(params, test_pose, sigma: float, aggregate, prior, task_payload) 
             type(test_pose).__name__,
         )
     criterion = kept.pop(key, None)
-    if criterion is None or criterion.params is not params:
+    stale = criterion is not None and region is not None and criterion.region is not region
+    if criterion is None or criterion.params is not params or stale:
         with blas_for(0):  # J₀ of a region's samples is a large product
             criterion = TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
         if len(kept) >= _KEPT:
