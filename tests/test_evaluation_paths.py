@@ -20,7 +20,10 @@ from pincal.evaluation.e_optimal import EOptimal
 from pincal.evaluation.information import informations
 from pincal.evaluation.plans import engine_for, jacobians
 from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.instruments import Tracker
+from pincal.instruments.instrument import optional_instrument
 from pincal.model.jacobian import JacobianEngine
+from tests.conftest import ROOT
 
 SIGMA = 3e-5
 
@@ -277,3 +280,68 @@ def test_batches_longer_than_a_block_are_each_plans_values(kr270_marker):
         assert info.value.plan == BLOCK + 3
     with pytest.raises(SingularPlan, match="^plan 0: singular plan: 2 configuration") as info:
         pincal.criteria(params, plans[:, :2])  # fewer coordinates than parameters
+
+
+def _boxes_drawn_one_by_one(robot, q0, deltas, samples, workspace, seed):
+    """What an accuracy report drew before its boxes were drawn in one call: per box, a centre
+    chosen (one test pose: no draw) and NumPy's uniform(-δ, δ), clipped; then the workspace."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for delta in deltas:
+        centres = q0[None][rng.integers(1, size=samples)]
+        out.append(np.clip(centres + rng.uniform(-delta, delta, centres.shape), robot.lower, robot.upper))
+    return out + [robot.random_configurations(workspace, rng)]
+
+
+@pytest.mark.parametrize("name", ["kr270", "rail"])
+def test_an_accuracy_reports_draws_are_numpys_uniform_boxes(kr270_marker, name):
+    """One test pose: the neighbourhoods' draws come from one call, the numbers NumPy's uniform
+    draws box by box make of the same stream, bit for bit (a prismatic joint included)."""
+    module = importlib.import_module("pincal.evaluation.accuracy")
+    robot = kr270_marker if name == "kr270" else pincal.load_robot(ROOT / "robots" / "rail_arm.urdf")
+    per_radian = np.where(robot.revolute, 1.0, module.PRISMATIC_PER_RADIAN)
+    for seed in range(20):
+        q0 = robot.random_configurations(1, seed + 100)[0]
+        widths = (np.radians(10), np.radians(20), np.radians(45))[: 1 + seed % 3]
+        sets, poses, region = module.sample_sets(robot, q0, widths, 5 + seed, 7, seed)
+        expected = _boxes_drawn_one_by_one(robot, q0, [w * per_radian for w in widths], 5 + seed, 7, seed)
+        assert region is None and np.array_equal(poses, q0[None])
+        prismatic = not robot.revolute.all()
+        labels = [
+            module.width_text(w, w * module.PRISMATIC_PER_RADIAN if prismatic else None) for w in widths
+        ]
+        assert [where for where, _ in sets[1:-1]] == labels
+        for (_, drawn), reference in zip(sets[1:], expected, strict=True):
+            assert np.array_equal(drawn, reference)
+
+
+def test_an_accuracy_reports_jacobians_are_each_sets_own(kr270_marker):
+    """The report's Jacobians from one pass over every set are each set's own, bit for bit, read-only;
+    the test poses' split of ρ0² is TestPoseCriterion's (with a prior and an instrument too)."""
+    module = importlib.import_module("pincal.evaluation.accuracy")
+    params = kr270_marker.parameters("full").identifiable().identifiable
+    engine = engine_for(params)
+    assert engine.plain  # the one-pass path
+    rng = np.random.default_rng(10)
+    q0 = kr270_marker.random_configurations(2, rng)
+    sets, _, _ = module.sample_sets(kr270_marker, q0, samples=40, workspace=90, seed=4)
+    jacobians = module._set_jacobians(engine, sets, None)
+    for (where, J), (name, qs) in zip(jacobians, sets, strict=True):
+        assert where == name and not J.flags.writeable
+        assert np.array_equal(J, engine.jacobian(qs, frame="tip"))
+    plan = kr270_marker.random_configurations(14, rng)
+    for prior, error_model in (
+        (None, None),
+        (pincal.Prior(1e-3, 1e-3), None),
+        (None, Tracker(at=(3.0, 1.0, 0.5))),
+    ):
+        report = pincal.accuracy(
+            params, plan, q0, sigma=SIGMA, prior=prior, instrument=error_model, samples=20, workspace=40
+        )
+        instrument = optional_instrument(None, error_model, SIGMA)
+        sigma = SIGMA if instrument is None else instrument.reference
+        predicted = module.PredictedError(params, plan, sigma, prior, instrument=instrument)
+        criterion = TestPoseCriterion(params, q0, sigma, "each", prior, instrument=instrument)
+        noise, bias = criterion.split(predicted.information, len(plan))
+        assert report.plans[0].from_measurements == float(np.sqrt(noise.mean()))
+        assert report.plans[0].from_prior == float(np.sqrt(bias.mean()))

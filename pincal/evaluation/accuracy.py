@@ -33,7 +33,7 @@ from pincal.evaluation.plans import blas_for, engine_for, plan_batch, plan_paylo
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import Neighbourhood, ResolvedRegion, resolve_test_poses, width_text
 from pincal.evaluation.residual_criterion import ResidualCriterion, check_points
-from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.evaluation.test_pose_worst import TestPoseWorst
 from pincal.instruments.error_model import ErrorModel
 from pincal.instruments.instrument import Instrument, optional_instrument
 from pincal.instruments.kind import Kind
@@ -72,6 +72,8 @@ class PredictedError:
         payload: the plan's payload rows (m, 4), instead of its own.
         instrument: what the plan measures and how well (its whitened rows; ``sigma`` is then its
             reference σ), or None: points with ``sigma``. ρ is the markers' position error.
+        checked: ``plan`` is an (m, nq) array already checked against the joint limits (not
+            checked again).
 
     Raises:
         SingularPlan: the plan cannot identify ``params`` (never with a prior on every parameter).
@@ -86,6 +88,7 @@ class PredictedError:
         task_payload: PayloadLike = None,
         payload: PayloadLike = None,
         instrument: Instrument | None = None,
+        checked: bool = False,
     ) -> None:
         self.params = params
         self.sigma = positive_sigma(sigma) if instrument is None else instrument.reference
@@ -93,7 +96,7 @@ class PredictedError:
         self.task_payload = task_payload
         self.engine = engine_for(params)
         measured = engine_for(params, instrument)
-        qs = params.robot.configurations(plan)
+        qs = np.asarray(plan) if checked else params.robot.configurations(plan)
         if payload is None:
             payload = getattr(plan, "payload", None)
         J = measured.jacobian(qs, frame="tip", payload=payload).reshape(-1, len(params))
@@ -118,7 +121,8 @@ class PredictedError:
     def squared_at(self, J: np.ndarray) -> np.ndarray:
         """(n,) ρ² [m²] at configurations of tip-frame Jacobians J (n, r, P), computed once for
         every plan compared on them."""
-        X = trtrs(self.L, np.ascontiguousarray(J.reshape(-1, J.shape[-1]).T))
+        # Jᵀ as a Fortran-ordered view: LAPACK's own order, copied once by the call (not twice)
+        X = trtrs(self.L, J.reshape(-1, J.shape[-1]).T)
         return self.sigma**2 * np.einsum("ij,ij->j", X, X).reshape(len(J), -1).sum(axis=1)
 
     def __call__(self, qs: np.ndarray) -> np.ndarray:
@@ -264,7 +268,8 @@ class ErrorSummary:
             by_length.setdefault(len(rho), []).append(i)
         for n, which in by_length.items():
             R = np.stack([rows[i][1] for i in which])
-            columns = (np.sqrt(np.mean(R**2, axis=1)), *_order_statistics(R))
+            # NumPy's mean: the pairwise sum along each row, then one division
+            columns = (np.sqrt(np.add.reduce(R * R, axis=1) / n), *_order_statistics(R))
             for i, values in zip(which, zip(*(c.tolist() for c in columns)), strict=True):
                 out[i] = cls(rows[i][0], n, *values)
         return out  # type: ignore[return-value]  # every row summarised
@@ -444,12 +449,23 @@ def sample_sets(
     sets = [(first, poses)]
     per_radian = _prismatic_per_radian(test_pose)
     prismatic = not np.all(robot.revolute)
+    labels, deltas = [], []
     for delta in neighbourhoods:
         # around each test pose: beyond a region's edge
         width = width_text(delta, delta * per_radian if prismatic else None)
-        label = f"region {width}" if region is not None else width
-        delta_q = np.where(robot.revolute, delta, delta * per_radian)
-        sets.append((label, _neighbourhood(robot, poses, delta_q, samples, rng)))
+        labels.append(f"region {width}" if region is not None else width)
+        deltas.append(np.where(robot.revolute, delta, delta * per_radian))
+    if len(poses) == 1 and deltas:
+        # one centre: choosing it draws nothing, so every box's uniform draws are one call, the
+        # numbers NumPy's uniform(-δ, δ) makes of them (-δ + (δ - (-δ))·u), clipped at once
+        delta_q = np.array(deltas)[:, None, :]
+        u = rng.random((len(deltas), samples, robot.nq))
+        boxes = np.clip(poses[0] + (-delta_q + (delta_q + delta_q) * u), robot.lower, robot.upper)
+        sets.extend(zip(labels, boxes, strict=True))
+    else:
+        sets.extend(
+            (label, _neighbourhood(robot, poses, d, samples, rng)) for label, d in zip(labels, deltas)
+        )
     sets.append(("workspace", robot.random_configurations(workspace, rng)))
     return sets, poses, region
 
@@ -539,7 +555,7 @@ def accuracy(
                 "test pose" if region is None else region.description,
                 tuple(bool(r) for r in robot.revolute),
             )
-            for accuracy in _plans_accuracy([("plan", q, load) for q, load in plans], *shared)
+            for accuracy in _plans_accuracy([("plan", q, load) for q, load in plans], *shared, checked=True)
         )
     return reports if batched else reports[0]
 
@@ -578,20 +594,38 @@ def _report(params, test_pose, neighbourhoods, samples, workspace, seed, sigma, 
     found = None if key is None else kept.pop(key, None)
     if found is None or found[0] is not params:
         sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
-        engine = engine_for(params)
-        jacobians = [
-            (where, engine.jacobian(qs, frame="tip", payload=_loads(task_payload, len(qs))).copy())
-            for where, qs in sets
-        ]
-        at_test_poses = TestPoseCriterion(params, poses, sigma, "each", prior, task_payload, instrument=inst)
-        for _, J in jacobians:  # kept: read by every later report
-            J.flags.writeable = False
+        jacobians = _set_jacobians(engine_for(params), sets, task_payload)
+        # ρ0² at each test pose, split (TestPoseCriterion's per-pose criterion, on the test poses'
+        # Jacobians just computed)
+        information = None if prior is None else prior.information(params, float(sigma))
+        at_test_poses = TestPoseWorst(
+            jacobians[0][1], float(sigma), engine_for(params, inst).rows, information
+        )
         found = (params, (sets, poses, region, jacobians, at_test_poses))
         if key is not None and len(kept) >= _KEPT:
             kept.pop(next(iter(kept)))
     if key is not None:
         kept[key] = found  # last: the most recently used
     return found[1]
+
+
+def _set_jacobians(engine, sets: list[tuple[str, np.ndarray]], task_payload) -> list[tuple[str, np.ndarray]]:
+    """[(where, (n, r, P) read-only tip-frame Jacobians)] of each set of configurations. For a
+    plain set (:attr:`JacobianEngine.plain`: rigid, one marker), one pass over every set's
+    configurations, each set a view of it (each configuration's Jacobian is its own forward
+    kinematics and regressor: the same numbers as set by set, without three calls and copies);
+    else set by set (a compliant robot's static solution is solved per batch)."""
+    if getattr(engine, "plain", False):
+        J = engine.jacobian(np.concatenate([qs for _, qs in sets]), frame="tip")
+        J.flags.writeable = False  # kept: read by every later report
+        ends = np.cumsum([len(qs) for _, qs in sets]).tolist()
+        return [(where, J[end - len(qs) : end]) for (where, qs), end in zip(sets, ends, strict=True)]
+    out = []
+    for where, qs in sets:
+        J = engine.jacobian(qs, frame="tip", payload=_loads(task_payload, len(qs))).copy()
+        J.flags.writeable = False
+        out.append((where, J))
+    return out
 
 
 def _with_residual_model(
@@ -673,15 +707,16 @@ median and a percentile cost a NumPy call each whatever the number of rows."""
 
 
 def _plans_accuracy(
-    named, params, sigma, prior, jacobians, region, at_test_poses, task_payload=None, inst=None
+    named, params, sigma, prior, jacobians, region, at_test_poses, task_payload=None, inst=None, checked=False
 ) -> list[PlanAccuracy]:
     """The accuracy of each ``(name, plan, load)`` of ``named`` on the sets of configurations
-    (their Jacobians given); ``load`` the plan's payload rows (None: its own, if it is a Plan)."""
+    (their Jacobians given); ``load`` the plan's payload rows (None: its own, if it is a Plan);
+    ``checked``: the plans are (m, nq) arrays checked against the joint limits."""
     out: list[PlanAccuracy] = []
     for a in range(0, len(named), SUMMARISED_TOGETHER):
         group = named[a : a + SUMMARISED_TOGETHER]
         predicted = [
-            PredictedError(params, q, sigma, prior, task_payload, load, inst) for _, q, load in group
+            PredictedError(params, q, sigma, prior, task_payload, load, inst, checked) for _, q, load in group
         ]
         summaries = ErrorSummary.of_rows(
             [(where, np.sqrt(p.squared_at(J))) for p in predicted for where, J in jacobians]
