@@ -267,6 +267,11 @@ class ErrorSummary:
         for i, (_, rho) in enumerate(rows):
             by_length.setdefault(len(rho), []).append(i)
         for n, which in by_length.items():
+            if n == 1:  # one value r (one test pose): rms sqrt(r²/1), and r its median, p95 and max
+                for i in which:
+                    r = float(rows[i][1][0])
+                    out[i] = cls(rows[i][0], 1, math.sqrt(r * r / 1), r, r, r)
+                continue
             R = np.stack([rows[i][1] for i in which])
             # NumPy's mean: the pairwise sum along each row, then one division
             columns = (np.sqrt(np.add.reduce(R * R, axis=1) / n), *_order_statistics(R))
@@ -448,25 +453,33 @@ def sample_sets(
     first = "test region" if region is not None else "test pose" if len(poses) == 1 else "test poses"
     sets = [(first, poses)]
     per_radian = _prismatic_per_radian(test_pose)
-    prismatic = not np.all(robot.revolute)
+    revolute = robot.revolute
+    prismatic = not revolute.all()
     labels, deltas = [], []
     for delta in neighbourhoods:
         # around each test pose: beyond a region's edge
         width = width_text(delta, delta * per_radian if prismatic else None)
         labels.append(f"region {width}" if region is not None else width)
-        deltas.append(np.where(robot.revolute, delta, delta * per_radian))
-    if len(poses) == 1 and deltas:
-        # one centre: choosing it draws nothing, so every box's uniform draws are one call, the
-        # numbers NumPy's uniform(-δ, δ) makes of them (-δ + (δ - (-δ))·u), clipped at once
-        delta_q = np.array(deltas)[:, None, :]
-        u = rng.random((len(deltas), samples, robot.nq))
-        boxes = np.clip(poses[0] + (-delta_q + (delta_q + delta_q) * u), robot.lower, robot.upper)
-        sets.extend(zip(labels, boxes, strict=True))
-    else:
+        deltas.append(np.where(revolute, delta, delta * per_radian))
+    if len(poses) > 1 or not deltas:
         sets.extend(
             (label, _neighbourhood(robot, poses, d, samples, rng)) for label, d in zip(labels, deltas)
         )
-    sets.append(("workspace", robot.random_configurations(workspace, rng)))
+        sets.append(("workspace", robot.random_configurations(workspace, rng)))
+        return sets, poses, region
+    # One centre: choosing it draws nothing, so the boxes' and the workspace's uniform draws are
+    # one call, and the numbers NumPy's uniform(-δ, δ) (-δ + (δ - (-δ))·u, clipped to the limits)
+    # and Robot.random_configurations (lo + (hi - lo)·u, revolute joints within ±π) make of them.
+    n = len(deltas) * samples
+    u = rng.random((n + workspace, robot.nq))
+    lower, upper = robot.lower, robot.upper
+    delta_q = np.array(deltas)[:, None, :]
+    boxes = np.clip(
+        poses[0] + (-delta_q + (delta_q + delta_q) * u[:n].reshape(len(deltas), samples, -1)), lower, upper
+    )
+    sets.extend(zip(labels, boxes, strict=True))
+    low, high = np.maximum(lower, -np.pi), np.minimum(upper, np.pi)
+    sets.append(("workspace", low + (high - low) * u[n:]))
     return sets, poses, region
 
 
