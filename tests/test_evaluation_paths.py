@@ -317,7 +317,8 @@ def test_an_accuracy_reports_draws_are_numpys_uniform_boxes(kr270_marker, name):
 
 def test_an_accuracy_reports_jacobians_are_each_sets_own(kr270_marker):
     """The report's Jacobians from one pass over every set are each set's own, bit for bit, read-only;
-    the test poses' split of ρ0² is TestPoseCriterion's (with a prior and an instrument too)."""
+    ρ over every set at once is each set's own; the test poses' split of ρ0² is TestPoseCriterion's
+    (with a prior and an instrument too)."""
     module = importlib.import_module("pincal.evaluation.accuracy")
     params = kr270_marker.parameters("full").identifiable().identifiable
     engine = engine_for(params)
@@ -330,6 +331,10 @@ def test_an_accuracy_reports_jacobians_are_each_sets_own(kr270_marker):
         assert where == name and not J.flags.writeable
         assert np.array_equal(J, engine.jacobian(qs, frame="tip"))
     plan = kr270_marker.random_configurations(14, rng)
+    predicted = module.PredictedError(params, plan, SIGMA)
+    views = [J for _, J in jacobians]
+    for rho, J in zip(predicted.at_sets(views), views, strict=True):
+        assert np.array_equal(rho, np.sqrt(predicted.squared_at(J)))
     for prior, error_model in (
         (None, None),
         (pincal.Prior(1e-3, 1e-3), None),

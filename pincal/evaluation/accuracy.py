@@ -125,6 +125,21 @@ class PredictedError:
         X = trtrs(self.L, J.reshape(-1, J.shape[-1]).T)
         return self.sigma**2 * np.einsum("ij,ij->j", X, X).reshape(len(J), -1).sum(axis=1)
 
+    def at_sets(self, jacobians: list[np.ndarray]) -> list[np.ndarray]:
+        """ρ [m] at the configurations of each set of tip-frame Jacobians (n, r, P): the numbers
+        of ``sqrt(squared_at(J))`` set by set (one triangular solve per set), the rest of the
+        arithmetic in one pass over every set."""
+        r = jacobians[0].shape[1]
+        t = np.empty(r * sum(len(J) for J in jacobians))
+        start = 0
+        for J in jacobians:
+            X = trtrs(self.L, J.reshape(-1, J.shape[-1]).T)
+            np.einsum("ij,ij->j", X, X, out=t[start : start + X.shape[1]])
+            start += X.shape[1]
+        rho = np.sqrt(self.sigma**2 * t.reshape(-1, r).sum(axis=1))
+        ends = np.cumsum([len(J) for J in jacobians]).tolist()
+        return [rho[end - len(J) : end] for J, end in zip(jacobians, ends, strict=True)]
+
     def __call__(self, qs: np.ndarray) -> np.ndarray:
         """(n,) ρ [m] at configurations ``qs``."""
         return np.sqrt(self.squared(qs))
@@ -731,8 +746,9 @@ def _plans_accuracy(
         predicted = [
             PredictedError(params, q, sigma, prior, task_payload, load, inst, checked) for _, q, load in group
         ]
+        wheres, sets = zip(*jacobians)
         summaries = ErrorSummary.of_rows(
-            [(where, np.sqrt(p.squared_at(J))) for p in predicted for where, J in jacobians]
+            [row for p in predicted for row in zip(wheres, p.at_sets(list(sets)))]
         )
         for i, ((name, _, _), p) in enumerate(zip(group, predicted, strict=True)):
             worst = None if region is None else worst_found(p, region)
