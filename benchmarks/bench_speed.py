@@ -16,8 +16,8 @@ same run, each importing its own ``pincal`` (PYTHONPATH). Without it, only this 
 3. Evaluations against their floor, the bare Pinocchio work of the plan's configurations
    (forward kinematics + kinematic regressor): ``pincal.rho0`` for one plan, and per plan for a
    batch of k plans; ``pincal.criteria``; with the BLAS threads the process starts with. Also
-   the floors Python itself sets: one plan's ρ0 written as leanly as pin, NumPy and LAPACK allow
-   (nothing checked or set up), and the eigenvalues of M the criteria need.
+   the floors Python itself sets: one plan's ρ0 and one plan's criteria written as leanly as pin,
+   NumPy and LAPACK allow (nothing checked or set up), and the eigenvalues of M the criteria need.
 4. Growth: design time (one worker, 4 starts, no polish) against m, the number of parameters, the
    pool size and the number of test poses, as log-log exponents.
 5. ``import pincal`` and ``pincal --help``: wall time (best of 5, byte-code cached).
@@ -106,28 +106,42 @@ region = pincal.around(q0[0], np.radians(10))
 seeds = iter(range(1, 10**6))
 n_report = 1 + 2 * small["samples"] + small["workspace"]  # the configurations an accuracy report covers
 # The floors of the evaluations as Python can write them (pin, NumPy and LAPACK only): one plan's ρ0
-# with nothing checked, nothing set up and nothing named (J by one product with C, M, Cholesky,
-# one triangular solve against the test pose's rows); and the eigenvalues the criteria need.
+# with nothing checked, nothing set up and nothing named (J by one product with C plus the constant
+# columns, M, Cholesky, one triangular solve against the test pose's rows); one plan's criteria
+# likewise (M, LAPACK's eigenvalues, the eight criteria in Python floats); and the eigenvalues the
+# criteria need. Both give pincal's numbers (checked below), so they do the same work.
+import math
 from scipy.linalg import blas, lapack
 from pincal.model.jacobian import JacobianEngine
-C = JacobianEngine(params).C
+engine = JacobianEngine(params)
+C, constant = engine.C, np.tile(engine.const, (12, 1))
 fk(model, data, q0[0])
-W = np.ascontiguousarray((regressor(model, data, joint, local, point)[:3] @ C).T)
-potrf, trsm = lapack.dpotrf, blas.dtrsm
+W = np.ascontiguousarray((regressor(model, data, joint, local, point)[:3] @ C + engine.const).T)
+potrf, trsm, syevd = lapack.dpotrf, blas.dtrsm, lapack.dsyevd
 def jacobian_of(qs):
     out = []
     for q in qs:
         fk(model, data, q)
         out.append(regressor(model, data, joint, local, point)[:3])
-    return np.concatenate(out) @ C
+    return np.concatenate(out) @ C + constant
 def lean(qs):
     J = jacobian_of(qs)
     L, info = potrf(J.T @ J, lower=1, clean=1, overwrite_a=0)
     x = trsm(1.0, L, W, lower=1).ravel()
     return 3e-5 * np.sqrt(x @ x)
+def lean_criteria(qs):
+    J = jacobian_of(qs)
+    s = [math.sqrt(w) for w in syevd(J.T @ J, compute_v=0, lower=1)[0].tolist()]
+    log_sum = sum(map(math.log, s))
+    n, small, large = len(s), s[0], s[-1]
+    return (-2.0 * log_sum, sum(1.0 / (x * x) for x in s), 1.0 / (small * small), large / small,
+            math.exp(log_sum / n) / math.sqrt(12), small / large, small, small * small / large)
+assert abs(lean(plans[0]) / pincal.rho0(params, plans[0], q0) - 1) < 1e-9
+assert np.allclose(lean_criteria(plans[0]), list(pincal.criteria(params, plans[0]).as_dict().values()), rtol=1e-9)
 Ms = np.array([J.T @ J for J in map(jacobian_of, plans)])
 cases = {
     "lean_one": (lambda: lean(plans[0]), 200, 1),
+    "lean_criteria_one": (lambda: lean_criteria(plans[0]), 200, 1),
     "eig_one": (lambda: np.linalg.eigvalsh(Ms[0]), 200, 1),
     "eig_batch_1000": (lambda: np.linalg.eigvalsh(Ms), 1, 1000),
     "bare": (lambda: bare(plans[0]), 200, 1),
@@ -315,6 +329,7 @@ def main() -> list[str]:
             ("bare: FK + regressor, 12 configurations", "bare", "bare"),
             ("bare, per 12 of 12 000 configurations", "bare_1000", "bare"),
             ("floor: one plan's ρ0 in Python, nothing checked or set up", "lean_one", "bare"),
+            ("floor: one plan's criteria in Python, nothing checked or set up", "lean_criteria_one", "bare"),
             ("floor: the eigenvalues of one M (numpy.linalg.eigvalsh)", "eig_one", "bare"),
             ("floor: the eigenvalues of 1000 M, per plan", "eig_batch_1000", "bare"),
             ("rho0, one plan", "rho0_one", "bare"),
