@@ -13,7 +13,12 @@ import pincal
 from pincal.errors import BadConfiguration, SingularPlan
 from pincal.evaluation.a_optimal import AOptimal
 from pincal.evaluation.accuracy import ErrorSummary
-from pincal.evaluation.classic import EIGEN_CONDITION, criteria_of_plans, singular_values
+from pincal.evaluation.classic import (
+    EIGEN_CONDITION,
+    criteria_of_jacobians,
+    criteria_of_plans,
+    singular_values,
+)
 from pincal.evaluation.condition import Condition
 from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.e_optimal import EOptimal
@@ -89,6 +94,24 @@ def test_criteria_from_eigenvalues_agree_with_the_svd(kr270_marker):
         one = pincal.criteria(params, plans[i]).as_dict()
         for key, value in expected[i].as_dict().items():
             assert one[key] == pytest.approx(value, rel=1e-9)
+
+
+def test_criteria_of_a_zero_or_rank_deficient_jacobian_raise_singular_plan():
+    """A plan whose Jacobian is zero, or has a zero column, is singular, named in its batch; the
+    condition test (0 ≥ 0 for a zero M) does not let it through to log(0)."""
+    rng = np.random.default_rng(7)
+    J = rng.standard_normal((3, 36, 9))
+    J[1] = 0.0
+    with pytest.raises(SingularPlan, match="^plan 1: singular plan"):
+        criteria_of_jacobians(J, 3, 12)
+    J[1] = rng.standard_normal((36, 9))
+    J[2, :, 4] = 0.0
+    with pytest.raises(SingularPlan, match="^plan 2: singular plan"):
+        criteria_of_jacobians(J, 3, 12)
+    found = criteria_of_jacobians(J[:2], 3, 12)
+    expected = _svd_criteria(J[:2], 12, 3)
+    for c, e in zip(found, expected, strict=True):
+        assert c.as_dict() == pytest.approx(e.as_dict(), rel=1e-9)
 
 
 def test_criteria_of_plans_are_the_criteria_objects_numbers():

@@ -124,6 +124,23 @@ def singular_values(J: np.ndarray, M: np.ndarray) -> np.ndarray:
     return S
 
 
+def criteria_of_jacobians(J: np.ndarray, rows: int, m: int) -> tuple[Criteria, ...]:
+    """The classic criteria of k plans from their stacked Jacobians J (k, m·rows, P).
+
+    Raises:
+        SingularPlan: for the first singular plan, as :func:`~pincal.rho0` would (``plan i:``).
+    """
+    M = informations(J)
+    if J.shape[1] < J.shape[2]:  # fewer coordinates than parameters: singular
+        raise_singular(M, rows, m)
+    S = singular_values(J, M)
+    # A plan with cond(J) ≤ EIGEN_CONDITION passes factor's test (each Cholesky pivot over its M_ii
+    # is at least λ_min/λ_max ≥ 1e-6): only the others (and any with σ_P = 0) are factored.
+    regular = (S[:, -1] > 0) & (S[:, -1] * EIGEN_CONDITION >= S[:, 0])
+    raise_singular(M, rows, m, np.flatnonzero(~regular))
+    return criteria_of_plans(S, m, rows)
+
+
 def _regular_plan(J: np.ndarray, m: int) -> Criteria | None:
     """The criteria of one plan from its stacked Jacobian J (m·r, P), if it is conditioned within
     :data:`EIGEN_CONDITION` (else None: :func:`criteria`'s batch path, with its SVD and its test
@@ -169,15 +186,7 @@ def criteria(
     rows = engine.rows
 
     def evaluate(J: np.ndarray) -> tuple[Criteria, ...]:
-        # SingularPlan as ρ0 raises it
-        M = informations(J)
-        if J.shape[1] < J.shape[2]:  # fewer coordinates than parameters: singular
-            raise_singular(M, rows, m)
-        S = singular_values(J, M)
-        # A plan with cond(J) ≤ EIGEN_CONDITION passes factor's test (each Cholesky pivot over its
-        # M_ii is at least λ_min/λ_max ≥ 1e-6): only the others are factored.
-        raise_singular(M, rows, m, np.flatnonzero(~(S[:, -1] * EIGEN_CONDITION >= S[:, 0])))
-        return criteria_of_plans(S, m, rows)
+        return criteria_of_jacobians(J, rows, m)
 
     payload = plan_payloads(plan, qs.shape)  # a Plan's own payloads
     if k == 1 and m <= SMALL:  # one small plan: no batch machinery (see SMALL)
