@@ -373,3 +373,27 @@ def test_an_accuracy_reports_jacobians_are_each_sets_own(kr270_marker):
         noise, bias = criterion.split(predicted.information, len(plan))
         assert report.plans[0].from_measurements == float(np.sqrt(noise.mean()))
         assert report.plans[0].from_prior == float(np.sqrt(bias.mean()))
+
+
+@pytest.mark.parametrize("markers", [2, 3])
+def test_several_markers_regressors_kept_whole_are_the_rows_written_one_by_one(markers):
+    """With several markers (no pose asked) the engine keeps each regressor whole and takes the
+    linear rows at the end: the rows the pose path writes one configuration and marker at a time,
+    bit for bit, and the Jacobian the finite differences give."""
+    points = [(0.1, 0.05, 0.2), (-0.1, 0.02, 0.1), (0.0, 0.1, 0.05)][:markers]
+    robot = pincal.load_robot("kr270", tip="tool0", markers=points)
+    params = robot.parameters("full,offsets").identifiable().identifiable
+    engine = JacobianEngine(params)
+    assert not engine.plain
+    for m in (1, 5, 40):  # within one chunk and across chunks
+        qs = robot.random_configurations(m, np.random.default_rng(m))
+        kept, rotations, _ = engine._regressors(qs, pose=False)
+        assert rotations is None and kept.shape == (m, 3 * markers, 6 * robot.nq)
+        assert np.array_equal(kept, engine._regressors(qs, pose=True)[0])
+    # the tip-frame rows (this path) against central differences of the world points: each
+    # configuration's rows differ by the tip's rotation, so their Gram matrices JᵢᵀJᵢ agree
+    qs = robot.random_configurations(3, np.random.default_rng(11))
+    tip = engine.jacobian(qs, frame="tip")
+    fd = params.jacobian(qs, method="fd")
+    gram = np.einsum("mrp,mrq->mpq", tip, tip)
+    assert np.allclose(gram, np.einsum("mrp,mrq->mpq", fd, fd), rtol=0, atol=1e-6 * np.abs(gram).max())
