@@ -130,3 +130,23 @@ def test_cli_params_design_measure_identify_show(tmp_path, cli):
     cli.json("show", "rail_arm", "--plan", plan, "--deg", test_pose, "--params", BASE, "--html",
              tmp_path / "plan.html")  # fmt: skip
     assert (tmp_path / "plan.html").stat().st_size > 1000
+
+
+def test_a_long_track_is_drawn_over_its_whole_length(tmp_path):
+    """Random configurations, and a design's candidate pool, cover a prismatic joint's whole range
+    however long (a 10 m track from -4 m to 6 m), while a revolute joint is drawn within one turn."""
+    from tests.conftest import ROOT
+
+    text = (ROOT / "robots" / "rail_arm.urdf").read_text(encoding="utf-8")
+    long_track = text.replace('<limit lower="0.0" upper="1.5"', '<limit lower="-4.0" upper="6.0"')
+    assert long_track != text
+    (tmp_path / "long_track.urdf").write_text(long_track, encoding="utf-8")
+    robot = pincal.load_robot(tmp_path / "long_track.urdf")
+    lower, upper = robot.sampled_range()
+    assert (lower[0], upper[0]) == (-4.0, 6.0)
+    np.testing.assert_array_equal(lower[1:], np.maximum(robot.lower[1:], -np.pi))
+    q = robot.random_configurations(4000, 0)
+    assert q[:, 0].min() < -3.8 and q[:, 0].max() > 5.8  # was cut at ±π m
+    assert np.all(q >= robot.lower) and np.all(q <= robot.upper)
+    pool = pincal.planning.feasibility.Feasibility(robot).sample(2000, np.random.default_rng(1))
+    assert pool[:, 0].min() < -3.5 and pool[:, 0].max() > 5.5

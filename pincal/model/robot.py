@@ -326,8 +326,18 @@ class Robot:
             valid=(float(shown(lo[j])), float(shown(hi[j]))),
         )
 
+    def sampled_range(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) (nq,) the joint values random configurations are drawn from: the joint
+        limits, a revolute joint's within one turn, ±π (a wrist that turns ±360° is drawn over one
+        turn); a prismatic joint's are its limits, however long (a 6 m track is drawn over 6 m)."""
+        lower, upper = self.model.lowerPositionLimit, self.model.upperPositionLimit
+        turns = self.revolute
+        lower = np.where(turns, np.maximum(lower, -np.pi), lower)
+        return lower, np.where(turns, np.minimum(upper, np.pi), upper)
+
     def random_configurations(self, n: int, rng: SeedLike = None, margin: float = 0.0) -> np.ndarray:
-        """Draw (n, nq) configurations uniformly within the joint limits shrunk by ``margin``.
+        """Draw (n, nq) configurations uniformly within the joint limits (:meth:`sampled_range`)
+        shrunk by ``margin``.
 
         Args:
             n: number of configurations.
@@ -337,8 +347,8 @@ class Robot:
         n = positive_int(n, "the number of configurations", low=0)
         margin = angle(margin, "margin", positive=False)
         rng = generator(rng)
-        lo = np.maximum(self.model.lowerPositionLimit, -np.pi) + margin
-        hi = np.minimum(self.model.upperPositionLimit, np.pi) - margin
+        lo, hi = self.sampled_range()
+        lo, hi = lo + margin, hi - margin
         if np.any(hi < lo):
             j = int(np.argmax(lo - hi))
             raise BadConfiguration(

@@ -206,11 +206,9 @@ class Feasibility:
         return np.concatenate(found)[:n]
 
     def _inside_margins(self, qs: np.ndarray) -> np.ndarray:
-        """Uniform draws within the joint limits (each within ±π) mapped onto the limits shrunk by
-        each joint's margin (the margins differ between revolute and prismatic joints)."""
-        model = self.robot.model
-        lo0 = np.maximum(model.lowerPositionLimit, -np.pi)
-        hi0 = np.minimum(model.upperPositionLimit, np.pi)
+        """Uniform draws within the joint limits (:meth:`Robot.sampled_range`) mapped onto the limits
+        shrunk by each joint's margin (the margins differ between revolute and prismatic joints)."""
+        lo0, hi0 = self.robot.sampled_range()
         lo, hi = lo0 + self.margins, hi0 - self.margins
         if np.any(hi < lo):
             j = int(np.argmax(lo - hi))
