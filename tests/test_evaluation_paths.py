@@ -316,12 +316,20 @@ def _boxes_drawn_one_by_one(robot, q0, deltas, samples, workspace, seed):
     return out + [robot.random_configurations(workspace, rng)]
 
 
-@pytest.mark.parametrize("name", ["kr270", "rail"])
-def test_an_accuracy_reports_draws_are_numpys_uniform_boxes(kr270_marker, name):
+@pytest.mark.parametrize("name", ["kr270", "rail", "long track"])
+def test_an_accuracy_reports_draws_are_numpys_uniform_boxes(kr270_marker, name, tmp_path):
     """One test pose: the neighbourhoods' draws come from one call, the numbers NumPy's uniform
-    draws box by box make of the same stream, bit for bit (a prismatic joint included)."""
+    draws box by box make of the same stream, bit for bit (a prismatic joint included, one of
+    10 m too: the workspace is drawn over its whole length, as random configurations are)."""
     module = importlib.import_module("pincal.evaluation.accuracy")
     robot = kr270_marker if name == "kr270" else pincal.load_robot(ROOT / "robots" / "rail_arm.urdf")
+    if name == "long track":
+        text = (ROOT / "robots" / "rail_arm.urdf").read_text(encoding="utf-8")
+        (tmp_path / "long.urdf").write_text(
+            text.replace('lower="0.0" upper="1.5"', 'lower="-4.0" upper="6.0"')
+        )
+        robot = pincal.load_robot(tmp_path / "long.urdf")
+        assert robot.upper[0] == 6.0
     per_radian = np.where(robot.revolute, 1.0, module.PRISMATIC_PER_RADIAN)
     for seed in range(20):
         q0 = robot.random_configurations(1, seed + 100)[0]

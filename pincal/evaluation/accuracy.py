@@ -484,7 +484,7 @@ def sample_sets(
         return sets, poses, region
     # One centre: choosing it draws nothing, so the boxes' and the workspace's uniform draws are
     # one call, and the numbers NumPy's uniform(-δ, δ) (-δ + (δ - (-δ))·u, clipped to the limits)
-    # and Robot.random_configurations (lo + (hi - lo)·u, revolute joints within ±π) make of them.
+    # and Robot.random_configurations (lo + (hi - lo)·u over Robot.sampled_range) make of them.
     n = len(deltas) * samples
     u = rng.random((n + workspace, robot.nq))
     lower, upper = robot.lower, robot.upper
@@ -493,7 +493,7 @@ def sample_sets(
         poses[0] + (-delta_q + (delta_q + delta_q) * u[:n].reshape(len(deltas), samples, -1)), lower, upper
     )
     sets.extend(zip(labels, boxes, strict=True))
-    low, high = np.maximum(lower, -np.pi), np.minimum(upper, np.pi)
+    low, high = robot.sampled_range()
     sets.append(("workspace", low + (high - low) * u[n:]))
     return sets, poses, region
 
