@@ -179,7 +179,12 @@ def criteria(
     """The classic criteria (D, A, E, cond, O1–O4) of ``plan`` for ``params``; of each plan of a
     batch ((k, m, nq) or a sequence of Plans: a tuple of k, see :mod:`pincal.evaluation.plans`).
     With ``measure`` or ``instrument`` (see :func:`pincal.rho0`), of the whitened rows the
-    instrument measures, scaled by its reference σ (σ·L⁻¹J): points with one σ are unchanged."""
+    instrument measures, scaled by its reference σ (σ·L⁻¹J): points with one σ are unchanged.
+
+    The singular values come from the eigenvalues of M where cond(J) ≤ :data:`EIGEN_CONDITION`
+    (exact to about ε·cond(J)², at most 2e-10 relative), else from an SVD of J. One plan alone
+    and the same plan in a batch take different LAPACK calls: their numbers agree to that
+    precision, not bit for bit."""
     qs, batched = plan_batch(params, plan)
     k, m, _ = qs.shape
     engine = engine_for(params, optional_instrument(measure, instrument, DEFAULT_SIGMA))
