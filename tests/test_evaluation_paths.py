@@ -196,6 +196,35 @@ def test_one_plans_rho0_over_a_region_follows_the_region(kr270_marker):
     assert pincal.rho0(params, plan, region, sigma=2 * SIGMA) == pytest.approx(2 * moved, rel=1e-13)
 
 
+def test_an_equal_region_made_anew_finds_the_kept_criterion(kr270_marker, monkeypatch):
+    """A script that makes its region anew for every call (``rho0(params, plan, around(q0, r))``)
+    builds the region's criterion once: equal regions share it; another width, or the centre
+    changed in place, builds its own."""
+    module = importlib.import_module("pincal.evaluation.test_pose")
+    built = []
+
+    class Counted(module.TestPoseCriterion):
+        def __init__(self, *args, **kwargs):
+            built.append(args[1])
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(module, "TestPoseCriterion", Counted)
+    params = kr270_marker.parameters("full").identifiable().identifiable
+    plans = kr270_marker.random_configurations(36, np.random.default_rng(11)).reshape(3, 12, -1)
+    centre = np.radians([10.0, -55.0, 65.0, 5.0, 40.0, 0.0])
+    values = [pincal.rho0(params, p, pincal.around(centre, np.radians(10), samples=40)) for p in plans]
+    assert len(built) == 1
+    again = pincal.around(centre.copy(), np.radians(10), samples=40)
+    assert pincal.rho0(params, plans[0], again) == values[0]
+    assert len(built) == 1
+    pincal.rho0(params, plans[0], pincal.around(centre, np.radians(12), samples=40))
+    assert len(built) == 2
+    region = pincal.around(centre, np.radians(10), samples=40)
+    centre[2] += 0.1  # the array the region holds
+    moved = pincal.rho0(params, plans[0], region)
+    assert len(built) == 3 and moved != values[0]
+
+
 def _rows(report) -> list[tuple]:
     return [
         (p.name, r.where, r.n, r.rms, r.median, r.p95, r.max, p.from_measurements, p.from_prior)

@@ -87,17 +87,28 @@ class TestRegion:
         kept while the region's values and the robot's joint limits are those it was resolved
         with (a script that evaluates many plans over one region draws its samples, or solves its
         inverse kinematics, once; an array of the region changed in place is resolved again)."""
+        return self.keyed_resolve(robot)[1]
+
+    def keyed_resolve(self, robot: Robot) -> tuple[tuple, ResolvedRegion]:
+        """(key, :meth:`resolve`): the key names what the region was resolved from (its kind, its
+        values and the robot's joint limits): on one robot, equal keys are equal regions, even
+        of two region objects."""
         model = robot.model
-        key = (model.lowerPositionLimit.tobytes(), model.upperPositionLimit.tobytes(), self._values())
+        key = (
+            type(self).__name__,
+            model.lowerPositionLimit.tobytes(),
+            model.upperPositionLimit.tobytes(),
+            self._values(),
+        )
         kept = self.__dict__.setdefault("_resolved", {})  # a cache on the frozen dataclass
         found = kept.get(id(robot))
         if found is not None and found[0] is robot and found[1] == key:
-            return found[2]
+            return key, found[2]
         resolved = self._resolve(robot)
         if resolved.unit_samples is not None:  # read-only, as its poses: kept and shared
             resolved.unit_samples.flags.writeable = False
         kept[id(robot)] = (robot, key, resolved)
-        return resolved
+        return key, resolved
 
     def _resolve(self, robot: Robot) -> ResolvedRegion:
         raise NotImplementedError

@@ -417,16 +417,14 @@ def _criterion(params, test_pose, sigma: float, aggregate, prior, task_payload) 
     kept = getattr(_LOCAL, "criteria", None)
     if kept is None:
         kept = _LOCAL.criteria = {}
-    region = None
     if type(test_pose) is np.ndarray and test_pose.dtype == np.float64 and task_payload is None:
         # The values as given: equal bytes are equal test poses, checked when first seen (a
         # changed array is a new key, so nothing kept goes stale).
         key: tuple = (id(params), test_pose.shape, test_pose.tobytes(), sigma, aggregate)
     elif isinstance(test_pose, TestRegion) and task_payload is None:
-        # The region as resolved (kept by the region while its values and the limits hold; the
-        # criterion holds it, so its id is not reused while the key is kept).
-        region = test_pose.resolve(params.robot)
-        key = (id(params), "region", id(region), sigma, aggregate)
+        # What the region is resolved from (its kind, values and the joint limits): a region
+        # changed in place is a new key, an equal region made anew the same one.
+        key = (id(params), "region", test_pose.keyed_resolve(params.robot)[0], sigma, aggregate)
     else:
         poses, _ = resolve_test_poses(params.robot, test_pose)  # checked, as the criterion would
         rows = payload_rows(task_payload, len(poses))
@@ -440,8 +438,7 @@ def _criterion(params, test_pose, sigma: float, aggregate, prior, task_payload) 
             type(test_pose).__name__,
         )
     criterion = kept.pop(key, None)
-    stale = criterion is not None and region is not None and criterion.region is not region
-    if criterion is None or criterion.params is not params or stale:
+    if criterion is None or criterion.params is not params:
         with blas_for(0):  # J₀ of a region's samples is a large product
             criterion = TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
         if len(kept) >= _KEPT:
