@@ -311,3 +311,28 @@ def test_a_region_is_resolved_once_while_its_values_and_the_limits_hold():
     clipped = region.resolve(robot)
     assert clipped is not moved and clipped.poses[:, 0].max() <= q0[0] + 0.06 + 1e-12
     assert moved.poses[:, 0].max() > q0[0] + 0.06
+
+
+def test_an_equal_region_made_anew_shares_the_resolved_samples():
+    """A region made anew with the values of one resolved recently gets its samples (read-only, seeded:
+    the same numbers) without drawing again; another seed, width or robot resolves its own."""
+    robot = pincal.load_robot("kr270", tip="tool0")
+    q0 = np.radians([0.0, -60.0, 60.0, 0.0, 45.0, 0.0])
+    first = pincal.around(q0, np.radians(10), samples=24).resolve(robot)
+    again = pincal.around(q0.copy(), np.radians(10), samples=24).resolve(robot)
+    assert again is first and not again.poses.flags.writeable
+    other_seed = pincal.around(q0, np.radians(10), samples=24, seed=1).resolve(robot)
+    wider = pincal.around(q0, np.radians(11), samples=24).resolve(robot)
+    assert other_seed is not first and wider is not first
+    assert not np.array_equal(other_seed.poses, first.poses)
+    own = pincal.load_robot("kr270", tip="tool0")  # another robot, equal limits
+    elsewhere = pincal.around(q0, np.radians(10), samples=24).resolve(own)
+    assert elsewhere is not first and np.array_equal(elsewhere.poses, first.poses)
+    box = dict(lower=[1.2, -0.3, 1.0], upper=[1.5, 0.3, 1.4], reference=q0, samples=8)
+    corner = np.array(box["lower"])
+    shared = pincal.cartesian_box(corner, box["upper"], box["reference"], samples=8).resolve(robot)
+    assert pincal.cartesian_box(**box).resolve(robot) is shared
+    corner[2] += 0.2  # the first box's array, changed in place: the shared samples' map keeps its own
+    np.testing.assert_allclose(
+        robot.points(shared.to_configuration(np.zeros(3)))[0, 0], box["lower"], atol=1e-6
+    )

@@ -77,6 +77,14 @@ class ResolvedRegion:
         return self.to_configuration is not None
 
 
+SHARED = 8
+"""Regions resolved most recently, kept for an equal region made anew (``rho0(params, plan,
+around(q0, r))`` in a loop draws the samples once); their samples are read-only and their draws
+seeded, so equal regions on one robot resolve to equal samples."""
+
+_SHARED: dict[tuple, tuple[Robot, ResolvedRegion]] = {}
+
+
 class TestRegion:
     """Where the robot works: a set of test configurations (see the module doc)."""
 
@@ -104,10 +112,14 @@ class TestRegion:
         found = kept.get(id(robot))
         if found is not None and found[0] is robot and found[1] == key:
             return key, found[2]
-        resolved = self._resolve(robot)
+        shared = _SHARED.pop((id(robot), key), None)  # an equal region's (one made anew per call)
+        resolved = shared[1] if shared is not None and shared[0] is robot else self._resolve(robot)
         if resolved.unit_samples is not None:  # read-only, as its poses: kept and shared
             resolved.unit_samples.flags.writeable = False
         kept[id(robot)] = (robot, key, resolved)
+        if len(_SHARED) >= SHARED:
+            _SHARED.pop(next(iter(_SHARED)), None)
+        _SHARED[(id(robot), key)] = (robot, resolved)  # last: the most recently used
         return key, resolved
 
     def _resolve(self, robot: Robot) -> ResolvedRegion:
@@ -330,7 +342,7 @@ class CartesianBox(TestRegion):
     def _resolve(self, robot: Robot) -> ResolvedRegion:
         q_ref = robot.configurations(self.reference, what="reference configuration")[0]
         solver = _InverseKinematics(robot, self.rotation, q_ref)
-        lo, hi = self.lower, self.upper
+        lo, hi = np.array(self.lower), np.array(self.upper)  # copies: the region may be shared
 
         def to_configuration(u: np.ndarray, start: np.ndarray = q_ref) -> np.ndarray | None:
             return solver.solve(lo + np.clip(u, 0.0, 1.0) * (hi - lo), start)
