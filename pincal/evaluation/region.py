@@ -28,6 +28,7 @@ pose walks on (see :func:`pincal.evaluation.accuracy.worst_found`).
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -83,6 +84,7 @@ around(q0, r))`` in a loop draws the samples once); their samples are read-only 
 seeded, so equal regions on one robot resolve to equal samples."""
 
 _SHARED: dict[tuple, tuple[Robot, ResolvedRegion]] = {}
+_SHARED_LOCK = threading.Lock()
 
 
 class TestRegion:
@@ -112,14 +114,16 @@ class TestRegion:
         found = kept.get(id(robot))
         if found is not None and found[0] is robot and found[1] == key:
             return key, found[2]
-        shared = _SHARED.pop((id(robot), key), None)  # an equal region's (one made anew per call)
+        with _SHARED_LOCK:
+            shared = _SHARED.pop((id(robot), key), None)  # an equal region's (one made anew per call)
         resolved = shared[1] if shared is not None and shared[0] is robot else self._resolve(robot)
         if resolved.unit_samples is not None:  # read-only, as its poses: kept and shared
             resolved.unit_samples.flags.writeable = False
         kept[id(robot)] = (robot, key, resolved)
-        if len(_SHARED) >= SHARED:
-            _SHARED.pop(next(iter(_SHARED)), None)
-        _SHARED[(id(robot), key)] = (robot, resolved)  # last: the most recently used
+        with _SHARED_LOCK:
+            if len(_SHARED) >= SHARED:
+                _SHARED.pop(next(iter(_SHARED)))
+            _SHARED[(id(robot), key)] = (robot, resolved)  # last: the most recently used
         return key, resolved
 
     def _resolve(self, robot: Robot) -> ResolvedRegion:
