@@ -309,19 +309,6 @@ def _evaluate(
     orientation_length=None,
 ):
     plain = instrument is None and orientation_length is None
-    if (
-        plain
-        and aggregate == "mean"
-        and type(plan) is np.ndarray
-        and plan.ndim == 2
-        and len(plan) < SMALL
-        and type(test_pose) is np.ndarray
-        and test_pose.ndim <= 2
-        and len(plan) + (len(test_pose) if test_pose.ndim == 2 else 1) <= SMALL
-    ):  # one small plan of joint values (no payloads) at test pose(s) given as an array: see SMALL
-        qs = params.robot.configurations(plan)
-        criterion = _criterion(params, test_pose, sigma, aggregate, prior, task_payload)
-        return float(criterion(qs))
     qs, batched = plan_batch(params, plan)
     payload = plan_payloads(plan, qs.shape)
     if plain and not batched and aggregate == "mean" and qs.shape[1] <= SMALL:
