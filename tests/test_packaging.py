@@ -84,6 +84,21 @@ def test_the_wheel_holds_every_subpackage_module_and_robot(wheel):
     assert all(n.startswith("pincal/") for n in packaged), sorted(packaged)  # no tests/, no robots/ at top
 
 
+def test_the_wheel_carries_the_license(wheel):
+    """The BSD-3-Clause text travels with every install (pyproject ``license-files``), and the
+    metadata declares it as an SPDX expression."""
+    with zipfile.ZipFile(wheel) as archive:
+        names = set(archive.namelist())
+        licenses = [n for n in names if n.endswith(".dist-info/licenses/LICENSE")]
+        assert licenses, f"{wheel.name} carries no LICENSE: {sorted(n for n in names if 'dist-info' in n)}"
+        text = archive.read(licenses[0]).decode()
+        (metadata,) = [n for n in names if n.endswith(".dist-info/METADATA")]
+        header = archive.read(metadata).decode().split("\n\n", 1)[0]
+    assert "BSD 3-Clause License" in text and "the pincal developers" in text
+    assert "License-Expression: BSD-3-Clause" in header
+    assert "License-File: LICENSE" in header
+
+
 def test_the_tested_package_is_the_installed_wheel():
     """Under .ci/run (``PINCAL_EXPECT_INSTALLED=1``) ``import pincal`` is the wheel installed in the
     environment, not the checkout and not an editable install."""
