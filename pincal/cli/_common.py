@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import sys
@@ -13,7 +14,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, joint_range, positive_int, positive_sigma, sigma_note
-from pincal.errors import BadArgument, BadConfiguration
+from pincal.errors import BadArgument, BadConfiguration, MissingDependency
 from pincal.files import check_output
 from pincal.instruments.identifiability import identifiable
 from pincal.instruments.instrument import Instrument
@@ -21,9 +22,10 @@ from pincal.model.base_parameters import Identifiability
 from pincal.model.loading import load_robot
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
+from pincal.optional import require
 from pincal.planning.constraints import load_constraints
 from pincal.planning.plan import Plan
-from pincal.viewing.plots import figure_format
+from pincal.viewing.plots import PLOT_EXTRA, figure_format
 
 DEFAULT_PARAMS = "full,offsets"
 
@@ -75,6 +77,7 @@ OUTPUT_OPTIONS = {
     "plot": "figure",
     "accuracy_plot": "figure",
     "campaign_plot": "figure",
+    "placement_plot": "figure",
 }
 
 
@@ -83,11 +86,13 @@ FIGURE_NOTE = '; needs matplotlib: pip install "pincal[plot]"'
 
 
 def check_outputs(args: argparse.Namespace, names: dict[str, str]) -> None:
-    """Refuse, before any work, an output that is an input, another output, a folder or special
-    file, in a missing or unwritable folder, or a figure of an unknown format.
+    """Refuse, before any work, an option whose optional package is missing
+    (:func:`check_optional_packages`), an output that is an input, another output, a folder or
+    special file, in a missing or unwritable folder, or a figure of an unknown format.
 
     ``names`` maps each argument's dest to what the user typed ('--plan', 'ROBOT').
     """
+    check_optional_packages(args, names)
     values = vars(args)
     outputs = [(dest, values[dest]) for dest in OUTPUT_OPTIONS if values.get(dest) is not None]
     inputs = []
@@ -102,6 +107,52 @@ def check_outputs(args: argparse.Namespace, names: dict[str, str]) -> None:
         check_output(path, names[dest], inputs + earlier)
         if OUTPUT_OPTIONS[dest] == "figure":
             figure_format(path, f"{names[dest]} (a figure)")
+
+
+GP_EXTRA = "pincal[gp]"
+"""The pip requirement that brings scikit-learn (the residual model's fit)."""
+
+XACRO_EXTRA = "pincal[xacro]"
+"""The pip requirement that brings xacro (expanding .xacro robots and cells without ROS)."""
+
+
+def check_optional_packages(args: argparse.Namespace, names: dict[str, str]) -> None:
+    """Refuse, before any work, an option that needs a package pincal does not require: a figure
+    (matplotlib, checked with the outputs' formats), ``--residual-model gp`` (scikit-learn), a
+    scene (``show``, ``--html``: meshcat) and a ``.xacro`` input (xacro). One line names the option
+    and the pip command, rather than an internal error after the work.
+
+    Raises:
+        MissingDependency: the package an option needs is not installed.
+    """
+    values = vars(args)
+    for dest, kind in OUTPUT_OPTIONS.items():
+        if kind == "figure" and values.get(dest) is not None:
+            require("matplotlib.pyplot", f"{names[dest]} (a figure)", PLOT_EXTRA)
+    if values.get("residual_model") == "gp":
+        require("sklearn.gaussian_process", "--residual-model gp", GP_EXTRA)
+    if values.get("command") == "show":
+        require("meshcat", "pincal show", "meshcat")
+    elif values.get("html") is not None:
+        require("meshcat", f"{names['html']} (a meshcat scene)", "meshcat")
+    for dest, value in values.items():
+        for v in value if isinstance(value, list) else [value]:
+            xacro = isinstance(v, str) and v.lower().endswith(".xacro") and os.path.isfile(v)
+            if xacro and dest not in OUTPUT_OPTIONS:
+                _require_xacro(f"{names.get(dest, dest)} {v}")
+
+
+def _require_xacro(feature: str) -> None:
+    """MissingDependency naming ``feature`` when the xacro package cannot be found."""
+    try:
+        installed = importlib.util.find_spec("xacro") is not None
+    except (ImportError, ValueError, AttributeError):  # sys.modules["xacro"] is None: absent
+        installed = False
+    if not installed:
+        raise MissingDependency(
+            f"{feature} is a xacro file: pincal expands it (without ROS) once the xacro package is "
+            f'installed: pip install "{XACRO_EXTRA}"'
+        )
 
 
 def checked(option: str, check: Callable[..., object], parse: type = float, **bounds: object):
