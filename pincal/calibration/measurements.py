@@ -47,11 +47,12 @@ import numpy.typing as npt
 from pincal.arguments import MAX_LENGTH, SIGMA_RANGE, check_lengths
 from pincal.calibration import columns as _columns
 from pincal.deprecation import keywords_after
-from pincal.errors import BadArgument, BadMeasurementData
+from pincal.errors import BadArgument, BadMeasurementData, warn
 from pincal.files import atomic_write_text, column_mismatch, csv_header, read_numeric_csv
 from pincal.instruments.image import Image
 from pincal.instruments.kind import Kind
 from pincal.instruments.point import Point
+from pincal.instruments.pose import Partial
 from pincal.model.robot import Robot
 from pincal.model.statics import MAX_PAYLOAD, PAYLOAD_COLUMNS, payload_columns
 from pincal.typing import ArrayLike, PayloadLike
@@ -606,6 +607,13 @@ def _kind_of(measured: list[str], robot: Robot, given: Kind | None, where: str) 
                 raise error from None
     else:
         kind = _columns.kind_of(measured, robot, None, where)
+    if isinstance(kind, Partial) and all(mask == ("x", "y") for mask in kind.masks):
+        # every marker's x,y and no z: a point file that lost its z column, or planar data
+        warn(
+            f"{where} has columns {','.join(measured)} but no z: read as partial measurements of x,y "
+            f"only, z left out of the calibration; if z was measured, add its column; if not, say "
+            f"so: --measure x,y (kind=Partial(('x', 'y')) in Python)"
+        )
     return None if isinstance(kind, Point) else kind
 
 

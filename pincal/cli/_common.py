@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib.util
 import json
 import os
@@ -14,7 +15,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, joint_range, positive_int, positive_sigma, sigma_note
-from pincal.errors import BadArgument, BadConfiguration, MissingDependency
+from pincal.errors import BadArgument, BadConfiguration, MissingDependency, warn
 from pincal.files import check_output
 from pincal.instruments.identifiability import identifiable
 from pincal.instruments.instrument import Instrument
@@ -87,12 +88,14 @@ FIGURE_NOTE = '; needs matplotlib: pip install "pincal[plot]"'
 
 def check_outputs(args: argparse.Namespace, names: dict[str, str]) -> None:
     """Refuse, before any work, an option whose optional package is missing
-    (:func:`check_optional_packages`), an output that is an input, another output, a folder or
+    (:func:`check_optional_packages`) and warn of a value in the wrong unit
+    (:func:`warn_about_units`); then refuse an output that is an input, another output, a folder or
     special file, in a missing or unwritable folder, or a figure of an unknown format.
 
     ``names`` maps each argument's dest to what the user typed ('--plan', 'ROBOT').
     """
     check_optional_packages(args, names)
+    warn_about_units(args)
     values = vars(args)
     outputs = [(dest, values[dest]) for dest in OUTPUT_OPTIONS if values.get(dest) is not None]
     inputs = []
@@ -140,6 +143,21 @@ def check_optional_packages(args: argparse.Namespace, names: dict[str, str]) -> 
             xacro = isinstance(v, str) and v.lower().endswith(".xacro") and os.path.isfile(v)
             if xacro and dest not in OUTPUT_OPTIONS:
                 _require_xacro(f"{names.get(dest, dest)} {v}")
+
+
+SIGMA_LIKE_MILLIMETRES = 1e-3
+"""A --sigma [m] from this up (1 mm per coordinate) looks like millimetres typed as metres."""
+
+
+def warn_about_units(args: argparse.Namespace) -> None:
+    """Warn of a value that looks typed in the wrong unit: ``--sigma`` of 1 mm or more (a laser
+    tracker's 0.03 mm typed as ``--sigma 0.03`` is 30 mm)."""
+    sigma = getattr(args, "sigma", None)
+    if isinstance(sigma, float) and sigma >= SIGMA_LIKE_MILLIMETRES:
+        warn(
+            f"--sigma {sigma:g} is {fmt_length(sigma)} per coordinate, which looks like millimetres: "
+            f"--sigma is in metres (a laser tracker's 0.03 mm is --sigma 3e-5)"
+        )
 
 
 def _require_xacro(feature: str) -> None:
@@ -221,13 +239,43 @@ def add_command(
     sub: argparse._SubParsersAction, name: str, help: str, examples: str
 ) -> argparse.ArgumentParser:
     """A subcommand parser whose --help ends with ``examples`` (kept as written)."""
-    return sub.add_parser(
+    parser = sub.add_parser(
         name,
         help=help,
         description=help + ".",
         epilog=examples,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    parser.parse_known_args = _suggesting(parser)  # the subcommand parser refuses a near-miss
+    return parser
+
+
+def _suggesting(parser: argparse.ArgumentParser) -> Callable[..., tuple[argparse.Namespace, list[str]]]:
+    """``parser.parse_known_args`` that refuses an unknown option close to one of the command's
+    (``--markers``, ``--sigmas``) in one line naming it: ``unrecognized arguments: --markers
+    0.1,0.05,0.2 (did you mean --marker?)``. Other leftovers go on to the top-level parser as
+    argparse leaves them."""
+    parse = parser.parse_known_args
+
+    def parse_known_args(args=None, namespace=None):
+        namespace, extras = parse(args, namespace)
+        hints = [h for h in (close_option(parser, a) for a in extras) if h]
+        if hints:
+            parser.error(f"unrecognized arguments: {' '.join(extras)} ({'; '.join(hints)})")
+        return namespace, extras
+
+    return parse_known_args
+
+
+def close_option(parser: argparse.ArgumentParser, arg: str) -> str:
+    """``'did you mean --marker?'`` for an unknown option ``arg`` close to one of ``parser``'s
+    (difflib's ratio ≥ 0.75), or ''."""
+    if not arg.startswith("--"):
+        return ""
+    typed = arg.split("=", 1)[0]
+    known = [o for a in parser._actions for o in a.option_strings if o.startswith("--")]
+    close = difflib.get_close_matches(typed, known, n=1, cutoff=0.75)
+    return f"did you mean {close[0]}?" if close and close[0] != typed else ""
 
 
 def add_test_pose_argument(parser: argparse.ArgumentParser, required: bool = True) -> None:

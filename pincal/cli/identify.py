@@ -36,6 +36,7 @@ from pincal.cli._instrument import (
     add_instrument_arguments,
     error_from_args,
     instrument_from_args,
+    kind_from_args,
     rig_from_args,
     robot_with_fixtures,
 )
@@ -186,7 +187,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--task-payload", type=float, metavar="KG", help="the task's payload at the test pose(s) (compliance)"
     )
     p.set_defaults(test_box=None)
-    add_instrument_arguments(p, measure=False)
+    add_instrument_arguments(p)
     add_output_arguments(p)
     p.set_defaults(run=run)
 
@@ -215,7 +216,9 @@ def run(args: argparse.Namespace) -> int:
     if args.task_payload is not None and not args.test_pose and not args.test_path:
         raise BadArgument("--task-payload is the load at the test pose(s): give --test-pose or --test-path")
     test_region = test_region_from_args(robot, args, required=False)
-    kind = rig.kind if rig is not None else None
+    # --measure says what a file's columns leave open (x,y alone is a partial measurement, not a
+    # point file missing its z); without it, the columns (and --camera) say what was measured.
+    kind = kind_from_args(args, robot) if args.measure else rig.kind if rig is not None else None
     sessions = [
         MeasurementData.from_csv(d, robot, degrees=args.deg, millimetres=args.mm, kind=kind)
         for d in args.data

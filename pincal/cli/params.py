@@ -114,9 +114,8 @@ def run(args: argparse.Namespace) -> int:
     data = None
     if args.data:
         rig = rig_from_args(args)
-        data = MeasurementData.from_csv(
-            args.data, robot, degrees=args.deg, millimetres=args.mm, kind=rig.kind if rig else None
-        )
+        given = kind if args.measure else rig.kind if rig else None  # else the columns say
+        data = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm, kind=given)
         kind = data.measure if kind is None else kind
     instrument = instrument_from_args(args, kind, sigma)
     spec = args.params + (",base" if args.base and not mentions_base(args.params) else "")

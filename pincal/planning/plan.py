@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.arguments import MAX_COUNT, positive_int
-from pincal.errors import BadArgument, BadPlanFile
+from pincal.errors import BadArgument, BadPlanFile, warn
 from pincal.files import atomic_write_text, column_mismatch, csv_header, read_numeric_csv
 from pincal.model.statics import PAYLOAD_COLUMNS, payload_columns, payload_rows
 from pincal.typing import ConfigurationsLike, PayloadLike
@@ -183,6 +183,7 @@ class Plan:
             )
         q = rows[:, [header.index(n) for n in names]]
         if degrees:
+            _check_not_radians(q[:, np.asarray(robot.revolute, dtype=bool)], f"{what} file {str(path)!r}")
             q = robot.to_radians(q)
         robot.check_limits(q, [f"{what} file {str(path)!r}, line {n}" for n in lines], degrees)
         try:
@@ -209,3 +210,23 @@ class Plan:
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise BadPlanFile(f"not a plan: expected keys joint_names and q ({exc})") from None
+
+
+RADIAN_LIKE = 3.2
+"""Degrees read from a plan whose revolute values all lie within ±this (π and a little) while
+several rows turn some joint look like radians read with ``degrees=True`` (``--deg``)."""
+
+
+def _check_not_radians(angles: np.ndarray, where: str) -> None:
+    """Warn when ``angles`` (m, n) — a file's revolute values read as degrees — look like radians:
+    all within ±:data:`RADIAN_LIKE` and at least two rows with a non-zero one (a real plan in
+    degrees turns its joints by more than 3°)."""
+    if angles.size == 0 or np.abs(angles).max() > RADIAN_LIKE:
+        return
+    if np.count_nonzero(np.any(angles != 0, axis=1)) < 2:
+        return
+    warn(
+        f"{where}: read in degrees (--deg), but every revolute value lies within ±{RADIAN_LIKE:g}, "
+        f"which looks like radians (each pose within ±{RADIAN_LIKE:g}° of zero); if the file is in "
+        f"radians, drop --deg (degrees=False)"
+    )
