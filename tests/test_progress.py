@@ -20,9 +20,11 @@ LONG = {
     "campaign": ["planar_2r", "--plan", "plan.csv"],
     "next": ["planar_2r", "--data", "data.csv"],
     "simulate": ["planar_2r", "--plan", "plan.csv", "--test-pose=0.3,1.2"],
+    "identify": ["planar_2r", "--data", "data.csv"],
 }
 """The commands that can run for long (a search, designs, certified moves, Monte-Carlo trials),
-each with its required arguments. The others take seconds (identify, measure-sim, evaluate, ...)."""
+each with its required arguments (identify: a residual model on many configurations). The others
+take seconds (measure-sim, evaluate, ...)."""
 
 
 def test_every_long_command_takes_the_same_progress_option():

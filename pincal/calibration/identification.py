@@ -106,6 +106,7 @@ def identify(
     sanity: bool = True,
     residual_model: str | None = None,
     instrument: ErrorModel | None = None,
+    progress: bool = False,
 ) -> IdentificationResult:
     """Identify the errors ``params`` from measurements (see the module doc).
 
@@ -133,9 +134,13 @@ def identify(
             process over joint space (:mod:`pincal.model.residual`, docs/method.md §11.5),
             hyperparameters by marginal likelihood on these data only (the rows kept); the
             result's :meth:`~IdentificationResult.predict` adds its mean. None: no residual model.
+            Beyond 500 configurations it is approximate (FITC through 1 000 inducing
+            configurations; :class:`~pincal.model.residual.Approximation`).
         instrument: the instrument's error model (:mod:`pincal.instruments`: ``PerCoordinate``,
             ``Tracker``): the weights of data without uncertainty columns (a tracker's
             at each point); default ``sigma`` per length and pincal's default σ of angles and pixels.
+        progress: report the residual model's fit on stderr (a bar on a terminal, else a line
+            every few seconds).
 
     Returns:
         the result; its ``status`` says whether it converged, and ``message`` (and ``causes``)
@@ -188,16 +193,19 @@ def identify(
     result = identification_result(setup, solution, chosen, _verdict(setup, solution, chosen))
     if residual_model is None or not result.success:
         return result
-    return replace(result, residual_model=fit_residual_model(result))
+    return replace(result, residual_model=fit_residual_model(result, progress=progress))
 
 
 RESIDUAL_MODELS = ("gp",)
 """The residual models ``identify(residual_model=...)`` fits."""
 
 
-def fit_residual_model(result: IdentificationResult, seed: SeedLike = 0) -> ResidualModel:
+def fit_residual_model(
+    result: IdentificationResult, seed: SeedLike = 0, *, progress: bool = False
+) -> ResidualModel:
     """The Gaussian process of ``result``'s residuals at the rows it kept, each session's residual
-    rotated into the robot's base frame (so that one model serves every instrument placement)."""
+    rotated into the robot's base frame (so that one model serves every instrument placement);
+    ``progress`` on stderr."""
     used = np.ones(result.data.m, dtype=bool)
     used[[o.row for o in result.rejected]] = False
     starts = np.cumsum([0] + [d.m for d in result.sessions])
@@ -206,7 +214,11 @@ def fit_residual_model(result: IdentificationResult, seed: SeedLike = 0) -> Resi
         [result.residuals[a:b] @ R for a, b, R in zip(starts[:-1], starts[1:], rotations)]
     )
     return ResidualModel.fit(
-        result.data.q[used], residuals[used].reshape(int(used.sum()), -1), result.robot.revolute, seed=seed
+        result.data.q[used],
+        residuals[used].reshape(int(used.sum()), -1),
+        result.robot.revolute,
+        seed=seed,
+        progress=progress,
     )
 
 

@@ -21,6 +21,7 @@ from pincal.cli._common import (
     add_base_argument,
     add_command,
     add_output_arguments,
+    add_progress_argument,
     add_robot_arguments,
     add_test_pose_argument,
     checked,
@@ -148,7 +149,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--residual-model",
         choices=RESIDUAL_MODELS,
-        help="gp: model what the fit leaves as a Gaussian process over joint space (needs pincal[gp])",
+        help="gp: model what the fit leaves as a Gaussian process over joint space (needs pincal[gp]); "
+        "exact up to 500 configurations, beyond approximate (FITC through 1000 inducing configurations)",
     )
     p.add_argument(
         "--maxiter",
@@ -189,6 +191,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(test_box=None)
     add_instrument_arguments(p)
     add_output_arguments(p)
+    add_progress_argument(p)  # the residual model's fit, on many configurations
     p.set_defaults(run=run)
 
 
@@ -232,7 +235,7 @@ def run(args: argparse.Namespace) -> int:
     params, source, dropped = parameters_with_base(robot, args, instrument)
     options = dict(
         sigma=sigma, maxiter=args.maxiter, prior=prior, loss=args.loss, method=args.method,
-        reject=args.reject, residual_model=args.residual_model,
+        reject=args.reject, residual_model=args.residual_model, progress=args.progress,
     )  # fmt: skip
     if error is not None:
         options["instrument"] = error
