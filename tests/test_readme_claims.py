@@ -342,7 +342,8 @@ CLAIMS: tuple[Claim, ...] = (
         "Exit codes: 0 done, 2 bad input or a refused output",
         computed("test_the_exit_codes_are_the_readme_s"),
     ),
-    Claim("130 interrupted, 1 a bug in pincal", computed("test_the_exit_codes_are_the_readme_s")),
+    Claim("130 interrupted, 143 stopped (SIGTERM", computed("test_the_exit_codes_are_the_readme_s")),
+    Claim("1 a bug in pincal (one line", computed("test_the_exit_codes_are_the_readme_s")),
     Claim("regular UTF-8 files", GIVEN),
     Claim(
         "CSV files up to 64 MiB, 100 000 characters a line, 1 000 a cell; YAML up to 1 MiB, 32 levels deep, "
@@ -531,12 +532,14 @@ def test_the_long_fuzz_profile_runs_the_cases_the_readme_counts():
 
 def test_the_exit_codes_are_the_readme_s(cli, monkeypatch):
     done, bad = _stated("Exit codes: 0 done, 2 bad input or a refused output")
-    interrupted, bug = _stated("130 interrupted, 1 a bug in pincal")
+    interrupted, stopped = _stated("130 interrupted, 143 stopped (SIGTERM")
+    (bug,) = _stated("1 a bug in pincal (one line")
     assert cli.run("params", "planar_2r").code == done
     assert cli.run("params", "no_such_robot").code == bad
     import pincal.cli.params as command
+    from pincal.cli import Stopped
 
-    for exception, code in ((KeyboardInterrupt, interrupted), (ZeroDivisionError, bug)):
+    for exception, code in ((KeyboardInterrupt, interrupted), (Stopped, stopped), (ZeroDivisionError, bug)):
 
         def run(args, exception=exception):
             raise exception()

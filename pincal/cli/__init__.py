@@ -1,7 +1,7 @@
 """The ``pincal`` command line.
 
 ``main(argv)`` parses, runs one subcommand and returns its exit code: 0 on success, 2 on bad input
-(a one-line ``pincal: error: ...`` on stderr, never a traceback).
+(a one-line ``pincal: error: ...`` on stderr, never a traceback), 130 on Ctrl-C, 143 on SIGTERM.
 """
 
 from __future__ import annotations
@@ -9,10 +9,13 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
+import threading
 import traceback
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from typing import NamedTuple, NoReturn
 
 from pincal.blas import single_threaded  # light: threadpoolctl is imported on first use
@@ -125,7 +128,8 @@ a whole calibration, rehearsed on the shipped KUKA KR 270 (joint values in degre
 
 Units: metres and radians; --deg reads and writes joint values in degrees. σ (--sigma, the
 instrument's noise per coordinate) defaults to a laser tracker's 3e-5 m and every report states it.
-Exit codes: 0 done, 2 bad input (one 'pincal: error:' line), 130 interrupted, 1 a bug in pincal.
+Exit codes: 0 done, 2 bad input (one 'pincal: error:' line), 130 interrupted (Ctrl-C), 143 stopped
+(SIGTERM), 1 a bug in pincal.
 A command writes all of its outputs or none. Figures (--plot, --accuracy-plot) need matplotlib:
 pip install "pincal[plot]"; xacro sources need the xacro package: pip install "pincal[xacro]".
 'pincal COMMAND --help' describes each command; --json prints one JSON object for scripts.
@@ -185,6 +189,34 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(f"pincal: warning: {one_line(str(message))}", file=sys.stderr)
 
 
+class Stopped(BaseException):
+    """SIGTERM (what a scheduler, systemd, a container or a CI timeout sends), raised in the main
+    thread while a command runs: the command unwinds as from Ctrl-C (its worker processes killed,
+    no output written) and exits with 143, 128 + SIGTERM."""
+
+
+@contextmanager
+def stopped_by_sigterm() -> Iterator[None]:
+    """Inside: SIGTERM raises :class:`Stopped` in the main thread (a second one while unwinding is
+    ignored); the previous handler is back after. The CLI's ``main`` alone does this: a library
+    leaves its host program's handlers alone. In another thread (signals reach only the main
+    thread's handlers), nothing changes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum: int, frame: object) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # once: let the first unwind
+        raise Stopped()
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        yield
+    finally:
+        # None: a handler not set from Python, which cannot be set back; the default then.
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI on ``argv`` (default ``sys.argv[1:]``); return the exit code (``--help``,
     ``--version`` and usage errors raise ``SystemExit`` with it, as argparse does).
@@ -193,10 +225,10 @@ def main(argv: list[str] | None = None) -> int:
     command that fails leaves none of its outputs.
 
     0: done; 2: bad input or a refused output (one line ``pincal: error: ...`` on stderr); 130:
-    interrupted; 1: a bug in pincal (one line ``pincal: internal error: ...`` naming where; set
-    PINCAL_DEBUG=1 for the traceback), NumPy's floating-point warnings (overflow, invalid value,
-    divide by zero) included: they raise rather than let inf or NaN through. Other warnings are
-    printed as ``pincal: warning: ...`` lines.
+    interrupted (Ctrl-C); 143: stopped by SIGTERM (:func:`stopped_by_sigterm`); 1: a bug in pincal
+    (one line ``pincal: internal error: ...`` naming where; set PINCAL_DEBUG=1 for the traceback),
+    NumPy's floating-point warnings (overflow, invalid value, divide by zero) included: they raise
+    rather than let inf or NaN through. Other warnings are printed as ``pincal: warning: ...`` lines.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     name = command_named(argv)
@@ -219,7 +251,15 @@ def main(argv: list[str] | None = None) -> int:
         # BLAS on one thread: pincal's matrices are small, and a threaded BLAS's spinning threads
         # make the command's serial work (identifiability, sampling, baselines) several times
         # slower on a busy machine (pincal.blas); the design's parallelism is its worker processes.
-        with guard_inputs(), all_or_nothing(), single_threaded(), warnings.catch_warnings():
+        # SIGTERM unwinds the command as Ctrl-C does: the outputs' temporary files and the design's
+        # worker processes go with it.
+        with (
+            stopped_by_sigterm(),
+            guard_inputs(),
+            all_or_nothing(),
+            single_threaded(),
+            warnings.catch_warnings(),
+        ):
             warnings.showwarning = _show_warning
             trap_floating_point_warnings()  # an overflow is an internal error, not a warning and inf
             check_outputs(args, argument_names(parser.commands[args.command]))
@@ -230,6 +270,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("pincal: interrupted", file=sys.stderr)
         return 130
+    except Stopped:
+        print("pincal: stopped (SIGTERM)", file=sys.stderr)
+        return 143
     except BrokenPipeError:
         return 0
     except Exception as exc:

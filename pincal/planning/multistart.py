@@ -7,12 +7,20 @@ with its robot and pinocchio.Model, the test poses, the constraints, the pool), 
 problem (Jacobian engine, objective, constraint data) once per spec and keeps it in a small
 thread-local cache. Results come back in submission order, whatever finishes first: the same seed
 gives the same design whatever the executor and the number of workers.
+
+The process pools pincal makes itself end with it: an interrupted design (Ctrl-C, the CLI's SIGTERM,
+an error) kills its workers rather than wait for their starts, and a worker whose parent dies,
+SIGKILL included, dies with it (:func:`worker_start`). An executor passed in is left as it is.
 """
 
 from __future__ import annotations
 
+import ctypes
 import os
+import signal
+import sys
 import threading
+import time
 import uuid
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
@@ -211,7 +219,11 @@ def default_workers() -> int:
 
 @contextmanager
 def executor_for(executor: Executor | None, workers: int, tasks: int):
-    """The executor to use: the caller's, a process pool of ``workers``, or None (serial)."""
+    """The executor to use: the caller's, a process pool of ``workers``, or None (serial).
+
+    The pool's workers die with this process (:func:`worker_start`); leaving the context on an
+    exception (Ctrl-C, SIGTERM in the CLI, an error) kills them rather than wait for the starts
+    they run. The caller's executor is used as it is."""
     if executor is not None:
         yield executor
         return
@@ -220,11 +232,83 @@ def executor_for(executor: Executor | None, workers: int, tasks: int):
         return
     # The platform's default start method (fork on Linux before Python 3.14: fast, and scripts
     # need no ``if __name__ == "__main__"`` guard; elsewhere the usual guard applies).
-    pool = ProcessPoolExecutor(max_workers=min(workers, tasks))
+    pool = ProcessPoolExecutor(
+        max_workers=min(workers, tasks), initializer=worker_start, initargs=(os.getpid(),)
+    )
     try:
         yield pool
+    except BaseException:
+        _kill_workers(pool)
+        raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _kill_workers(pool: ProcessPoolExecutor) -> None:
+    """SIGKILL to every worker of ``pool`` (they hold nothing to clean up); the pool then finds
+    itself broken, and its shutdown returns at once."""
+    kill = getattr(pool, "kill_workers", None)  # Python 3.14
+    if kill is not None:  # pragma: no cover - Python 3.14
+        kill()
+        return
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.kill()
+
+
+PR_SET_PDEATHSIG = 1
+"""Linux's prctl option: the signal the kernel sends a process when its parent dies."""
+
+WATCH_S = 1.0
+"""How often [s] a worker without PR_SET_PDEATHSIG checks that its parent lives."""
+
+
+def worker_start(owner: int) -> None:
+    """The first act of a worker of pincal's pool (its initializer): it ends with its parent.
+
+    SIGTERM is the default again (a forked worker inherits the CLI's handler, which would raise
+    inside a start, be carried back as its result, and leave the worker alive). On Linux the
+    kernel sends the worker SIGKILL when its parent dies (PR_SET_PDEATHSIG); elsewhere a daemon
+    thread ends it within :data:`WATCH_S` of its parent's death. The parent is ``owner``, the
+    process that made the pool, under fork and spawn; under forkserver it is the fork server,
+    which exits with its owner. An owner that died before this ran ends the worker now.
+    """
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    parent = os.getppid()
+    if not _die_with_parent():
+        threading.Thread(target=_watch, args=(parent,), name="pincal-parent-watch", daemon=True).start()
+    if os.getppid() != parent or not _alive(owner):
+        os._exit(1)
+
+
+def _die_with_parent() -> bool:
+    """Linux: ask the kernel for SIGKILL when the parent dies; False where that cannot be asked."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0
+    except (OSError, AttributeError):  # pragma: no cover - a libc without prctl
+        return False
+
+
+def _watch(parent: int) -> None:
+    """End this process once its parent is no longer ``parent`` (it died; the process was adopted)."""
+    while os.getppid() == parent:
+        time.sleep(WATCH_S)
+    os._exit(1)
+
+
+def _alive(pid: int) -> bool:
+    """Process ``pid`` exists (POSIX; elsewhere assumed: Windows' os.kill would end it)."""
+    if os.name != "posix":  # pragma: no cover
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # pragma: no cover - a process of another user
+        return True
+    return True
 
 
 def run(
