@@ -58,11 +58,16 @@ def test_assessment_predicts_from_the_data_so_far(params, first, region):
     data = pincal.simulate_measurements(truth, first, sigma=SIGMA, seed=2)
     a = assess(params, data, region, plan=first, sigma=SIGMA)
     assert a.sigma_source == "given" and a.used.all() and not len(a.unreachable)
-    assert a.predicted == pytest.approx(pincal.rho0(params, first, region, sigma=SIGMA), rel=1e-9)
+    fitted = params.on(a.identification.robot)  # the prediction uses the fitted robot (method §11.6)
+    assert a.unexplained == 0.0  # noise only: the residuals are within σ
+    assert a.predicted == pytest.approx(pincal.rho0(fitted, first, region, sigma=SIGMA), rel=1e-9)
     # σ re-estimated from the residuals: the prediction scales with it.
     b = assess(params, data, region, plan=first)
     assert b.sigma_source == "estimated" and b.sigma == pytest.approx(b.identification.sigma)
-    assert b.predicted == pytest.approx(pincal.rho0(params, first, region, sigma=b.sigma), rel=1e-9)
+    assert b.unexplained == 0.0  # within the default instrument's σ, 0.03 mm
+    assert b.predicted == pytest.approx(
+        pincal.rho0(params.on(b.identification.robot), first, region, sigma=b.sigma), rel=1e-9
+    )
 
 
 def test_outliers_and_unreachable_poses_are_named_and_left_out(params, region, kr270_marker):
@@ -77,7 +82,8 @@ def test_outliers_and_unreachable_poses_are_named_and_left_out(params, region, k
     np.testing.assert_allclose(step.unreachable, plan.q[:1])
     # The information kept is that of the 8 good rows.
     kept = np.delete(np.arange(9), 4)
-    assert step.predicted == pytest.approx(pincal.rho0(params, data.q[kept], region, sigma=SIGMA), rel=1e-9)
+    fitted = params.on(step.identification.robot)
+    assert step.predicted == pytest.approx(pincal.rho0(fitted, data.q[kept], region, sigma=SIGMA), rel=1e-9)
     # The next poses keep away from the unreachable one, and improve the prediction.
     assert np.linalg.norm(step.plan.q - plan.q[0], axis=1).min() >= AVOID_DISTANCE - 1e-9
     assert step.predicted_after < step.predicted and len(step.plan) == 3 and not step.stop

@@ -207,9 +207,9 @@ BAD = [
             _write(t, "p.csv", "joint1,joint2\n0.1,0.5\n"),
             "--test-pose=0,1",
             "--params",
-            "full",
+            "joint1.offset,joint1.rz",
         ],
-        "cannot be identified",
+        "joint1.rz cannot be identified",
     ),
     (
         lambda t: [

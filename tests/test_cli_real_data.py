@@ -74,7 +74,8 @@ def test_mm_file_without_mm_is_implausible_and_force_writes(tmp_path, cli, robot
     out_urdf = tmp_path / "cal.urdf"
     code, out, err = cli.run("identify", "kr270", "--data", path, *MARKER, "--out", out_urdf, "--json")
     assert code == 2 and json.loads(out)["status"] == "implausible" and "--mm" in json.loads(out)["causes"][0]
-    assert len(err.strip().splitlines()) == 1 and err.startswith("pincal: error: no real robot")
+    assert len(err.strip().splitlines()) == 1 and err.startswith("pincal: error: likely cause: units:")
+    assert len(err.split(" — ")[0]) < 200  # the cause first, not after the symptoms (issue 29)
     assert not out_urdf.exists()
     # the one-line refusal names the likely cause, without --json or --force (issue 21)
     code, out, err = cli.run("identify", "kr270", "--data", path, *MARKER, "--out", out_urdf)
@@ -92,8 +93,8 @@ def test_a_forgotten_marker_is_named_in_the_refusal(tmp_path, cli, robot, truth)
     simulate_measurements(truth.robot, robot.random_configurations(30, 5), SIGMA, seed=1).to_csv(path)
     code, out, err = cli.run("identify", "kr270", "--data", path)  # no --marker
     assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
-    assert err.startswith("pincal: error: no real robot has this: the tool frame tool0 moves by")
-    assert "likely cause: marker" in err and "did you pass --marker X,Y,Z" in err
+    assert err.startswith("pincal: error: likely cause: marker") and "did you pass --marker X,Y,Z" in err
+    assert "no real robot has this: the tool frame tool0 moves by" in err
 
 
 def test_a_holdout_too_small_to_fit_is_warned_about(tmp_path, cli, robot, truth):

@@ -112,8 +112,10 @@ def test_evaluate_params_design_share_the_identify_base_set(cli, kr_plan):
     assert len(names) == len(without["params"])
     assert with_base["rho0"] == pytest.approx(without["rho0"], rel=1e-7)
     # The same spec in --params means the same set; params --base reports it; design uses it.
-    spelled = cli.json("evaluate", *KR, "--plan", kr_plan, "--params", "base")
+    spelled = cli.json("evaluate", *KR, "--plan", kr_plan, "--params", "full,offsets,base")
     assert spelled["params"] == names
+    alone = cli.json("evaluate", *KR, "--plan", kr_plan, "--params", "base")  # the base placement only
+    assert alone["params"] == [f"base.{c}" for c in ("tx", "ty", "tz", "rx", "ry", "rz")]
     listed = cli.json("params", "kr270", "--marker", "0.1,0.05,0.2", "--base")
     assert listed["identifiable"] == names
     assert "joint_a1.offset" in listed["dropped"]

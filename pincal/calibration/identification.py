@@ -80,6 +80,9 @@ __all__ = [
     "identify",
 ]
 
+SYMPTOMS = 3
+"""An implausible result's message names its likely causes first, then this many of its symptoms."""
+
 STATUSES = ("converged", "implausible", "rank_deficient", "not_converged", "failed")
 """Values of :attr:`IdentificationResult.status`; only ``"converged"`` gives a calibrated robot."""
 
@@ -383,12 +386,17 @@ def _verdict(setup: Setup, solution: Solution, rows: Rows) -> Verdict:
     if not solution.converged:
         problems = [p for p in problems if "before calibration" in p]
     if problems:
-        causes = tuple(likely_causes(problem, z, problems))
+        conditioning = setup.check.conditioning if setup.check is not None else float("nan")
+        found = _outliers(setup, z, used)
+        causes = tuple(likely_causes(problem, z, problems, conditioning, found))
+        shown = problems[:SYMPTOMS] + (
+            [f"and {len(problems) - SYMPTOMS} more"] if len(problems) > SYMPTOMS else []
+        )
         message = (
-            "no real robot has this: "
-            + "; ".join(problems)
-            + ("; likely cause: " if len(causes) == 1 else "; likely causes: ")
+            ("likely cause: " if len(causes) == 1 else "likely causes: ")
             + "; ".join(causes)
+            + " — no real robot has this: "
+            + "; ".join(shown)
             + " (not a calibration; --force writes it anyway)"
         )
         return Verdict("implausible", message, causes)

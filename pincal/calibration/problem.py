@@ -28,6 +28,7 @@ from pincal.instruments.pose import Pose
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
+from pincal.typing import PayloadLike
 
 
 class Problem:
@@ -64,27 +65,7 @@ class Problem:
         self.value_units = self.kind.units(params.robot)
         self.measured = np.concatenate([d.values.reshape(-1) for d in self.sessions])
         self._rows = np.cumsum([0] + [d.values.size for d in self.sessions])
-        # Rotation components need all three rotation columns of their placement (base, fixture).
-        groups: dict[tuple[str, int], list[int]] = {}
-        for i, p in enumerate(params.parameters):
-            rotation = p.kind in ("placement", "base") or (
-                p.kind == "fixture" and not params.robot.fixtures[p.index].point
-            )
-            if rotation and p.component >= 3:
-                groups.setdefault((p.kind, p.index), []).append(i)
-        extra_names = []
-        for kind, index in groups:
-            name = _placement_name(params.robot, kind, index)
-            extra_names += [f"{name}.{c}" for c in ("rx", "ry", "rz")]
-        self.augmented = ParameterSet.from_spec(params.robot, list(params.names) + extra_names)
-        self.D0 = np.zeros((len(self.augmented), len(params)))
-        for i, name in enumerate(params.names):
-            self.D0[self.augmented.index(name), i] = 1.0
-        self.rotations = []  # (augmented columns of rx ry rz, set columns, their components 0..2)
-        for (kind, index), cols in groups.items():
-            name = _placement_name(params.robot, kind, index)
-            aug = [self.augmented.index(f"{name}.{c}") for c in ("rx", "ry", "rz")]
-            self.rotations.append((aug, cols, [params.parameters[i].component - 3 for i in cols]))
+        self.linear = Linearisation(params)
 
     def __len__(self) -> int:
         return len(self.names)
@@ -136,20 +117,13 @@ class Problem:
         return self.measured - self.model(z)
 
     def _jacobian_x(self, x: np.ndarray, data: MeasurementData) -> np.ndarray:
-        engine = JacobianEngine(self.augmented.on(self.params.apply(x)))
         if self.points:
-            J = engine.jacobian(data.q, frame="world", payload=data.payload)
-        else:
-            J = self.kind.rows(engine, data.q, data.payload)
-            J = np.where(np.isfinite(data.values)[..., None], J, 0.0)
-        D = self.D0.copy()
-        for aug, cols, comps in self.rotations:
-            omega = np.zeros(3)
-            omega[comps] = x[cols]
-            Jr = pin.Jexp3(omega)
-            for col, comp in zip(cols, comps, strict=True):
-                D[aug, col] = Jr[:, comp]
-        return J.reshape(-1, J.shape[-1]) @ D
+            J = self.linear.points(x, data.q, data.payload)
+            return J.reshape(-1, J.shape[-1])
+        engine = self.linear.engine(x)
+        J = self.kind.rows(engine, data.q, data.payload)
+        J = np.where(np.isfinite(data.values)[..., None], J, 0.0)
+        return J.reshape(-1, J.shape[-1]) @ self.linear.mapping(x)
 
     def jacobian(self, z: np.ndarray) -> np.ndarray:
         """(N, len(self)) derivative of the model coordinates with respect to z (= −∂r/∂z)."""
@@ -166,6 +140,73 @@ class Problem:
                 start = P + (s - 1) * nb
                 out[rows, start : start + nb] = Jx[:, self.base]
         return out
+
+
+class Linearisation:
+    """The Jacobian of a parameter set's model at any values x of it, not only at the nominal robot.
+
+    The columns are those of a perturbation on top of the robot ``params.apply(x)`` (Pinocchio's
+    kinematic regressor on it: :meth:`ParameterSet.on`), mapped to the parameters' own
+    coordinates: a rotation error composes on the right, R·exp3(ω), so its columns are the
+    perturbation's times the right Jacobian of exp3 at ω (every rotation needs its three columns:
+    the set is augmented with those it lacks). At x = 0 it is ``params.jacobian``; at a fit's
+    values it is the Jacobian of the fitted model, the one its covariance belongs to (a prediction
+    made with it does not depend on where the nominal robot put its base, docs/method.md §11.6).
+    """
+
+    def __init__(self, params: ParameterSet) -> None:
+        self.params = params
+        groups: dict[tuple[str, int], list[int]] = {}
+        for i, p in enumerate(params.parameters):
+            rotation = p.kind in ("placement", "base") or (
+                p.kind == "fixture" and not params.robot.fixtures[p.index].point
+            )
+            if rotation and p.component >= 3:
+                groups.setdefault((p.kind, p.index), []).append(i)
+        extra_names = []
+        for kind, index in groups:
+            name = _placement_name(params.robot, kind, index)
+            extra_names += [f"{name}.{c}" for c in ("rx", "ry", "rz")]
+        self.augmented = ParameterSet.from_spec(params.robot, list(params.names) + extra_names)
+        self.D0 = np.zeros((len(self.augmented), len(params)))
+        for i, name in enumerate(params.names):
+            self.D0[self.augmented.index(name), i] = 1.0
+        self.rotations = []  # (augmented columns of rx ry rz, set columns, their components 0..2)
+        for (kind, index), cols in groups.items():
+            name = _placement_name(params.robot, kind, index)
+            aug = [self.augmented.index(f"{name}.{c}") for c in ("rx", "ry", "rz")]
+            self.rotations.append((aug, cols, [params.parameters[i].component - 3 for i in cols]))
+
+    def engine(self, x: np.ndarray) -> JacobianEngine:
+        """The Jacobian engine of the augmented set on the robot of values ``x``."""
+        return JacobianEngine(self.augmented.on(self.params.apply(x)))
+
+    def mapping(self, x: np.ndarray) -> np.ndarray:
+        """(augmented, P) the map from the augmented perturbation's columns to the set's at ``x``."""
+        D = self.D0.copy()
+        for aug, cols, comps in self.rotations:
+            omega = np.zeros(3)
+            omega[comps] = x[cols]
+            Jr = pin.Jexp3(omega)
+            for col, comp in zip(cols, comps, strict=True):
+                D[aug, col] = Jr[:, comp]
+        return D
+
+    def points(
+        self,
+        x: np.ndarray,
+        qs: np.ndarray,
+        payload: PayloadLike = None,
+        engine: JacobianEngine | None = None,
+        mapping: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(m, 3K, P) the markers' Jacobian in the instrument's frame at joint readings ``qs`` for the
+        robot of values ``x`` (``engine`` and ``mapping``: those of :meth:`engine` and :meth:`mapping`
+        at x, when the caller keeps them)."""
+        engine = self.engine(x) if engine is None else engine
+        D = self.mapping(x) if mapping is None else mapping
+        J = engine.jacobian(qs, frame="world", payload=payload)
+        return (J.reshape(-1, J.shape[-1]) @ D).reshape(J.shape[0], J.shape[1], D.shape[1])
 
 
 def _placement_name(robot: Robot, kind: str, index: int) -> str:

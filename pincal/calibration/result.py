@@ -8,9 +8,11 @@ from functools import cached_property
 
 import numpy as np
 import pinocchio as pin
+from scipy.special import chdtri
 
+from pincal.arguments import DEFAULT_SIGMA
 from pincal.calibration.measurements import MeasurementData
-from pincal.calibration.problem import Problem
+from pincal.calibration.problem import Linearisation, Problem
 from pincal.calibration.sanity import OUTLIER_SCORE, Outlier
 from pincal.calibration.state import Rows, Setup, Solution, Verdict
 from pincal.evaluation.accuracy import (
@@ -25,11 +27,17 @@ from pincal.evaluation.accuracy import (
 )
 from pincal.evaluation.data_check import DataCheck
 from pincal.evaluation.prior import Prior
+from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
 from pincal.model.statics import Payload, payload_rows
 from pincal.typing import ConfigurationsLike, PayloadLike, TestPoseLike
+
+UNEXPLAINED_TEST = 0.01
+"""The residuals exceed a given σ, and the excess counts as what the model does not explain, when
+their variance is beyond the χ² quantile 1 − this (docs/method.md §11.6): a fit of pure noise
+then counts nothing 99 times in 100."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,6 +81,12 @@ class IdentificationResult:
         residual_model: the Gaussian process of what the fitted model leaves (``identify(...,
             residual_model="gp")``; its mean corrects :meth:`predict`, its variance is part of
             the predicted error), or None.
+        residual_level: the residuals' standard deviation per coordinate over the rows used, with
+            the degrees of freedom the fit leaves [m] (for another kind: the reference σ times the
+            whitened residuals' RMS), whether σ was given or estimated; NaN without degrees of
+            freedom. Beyond the instrument's σ it is what the model does not explain
+            (:attr:`unexplained`).
+        residual_dof: those degrees of freedom (coordinates used − unknowns fitted).
     """
 
     params: ParameterSet
@@ -101,6 +115,8 @@ class IdentificationResult:
     initial_robot: Robot | None = None
     initial_bases: tuple[pin.SE3, ...] = ()
     residual_model: ResidualModel | None = None
+    residual_level: float = float("nan")
+    residual_dof: int = 0
 
     def predict(self, q: ConfigurationsLike, *, payload: PayloadLike = None, session: int = 0) -> np.ndarray:
         """(m, K, 3) the points the calibration predicts at joint readings ``q`` [m], in session
@@ -114,50 +130,88 @@ class IdentificationResult:
         mean = self.residual_model.mean(qs).reshape(points.shape)
         return points + mean @ robot.base.rotation.T
 
+    @cached_property
+    def _fitted(self) -> tuple[Linearisation, np.ndarray, JacobianEngine, np.ndarray]:
+        """The Jacobian of the fitted model (first session's base): its linearisation, the values it
+        is taken at, its engine and its column map, kept for every prediction of this result."""
+        linear = Linearisation(self.params)
+        x = np.nan_to_num(np.asarray(self.values, dtype=float), nan=0.0)
+        return linear, x, linear.engine(x), linear.mapping(x)
+
+    @property
+    def instrument_sigma(self) -> float:
+        """The instrument's own noise per coordinate [m]: σ when given (or from the data's
+        uncertainty columns), else the default instrument's, a laser tracker's
+        (:data:`~pincal.arguments.DEFAULT_SIGMA`): what the residuals are judged against."""
+        return DEFAULT_SIGMA if self.sigma_estimated else self.sigma
+
+    @property
+    def unexplained(self) -> float:
+        """The variance per coordinate of what the fitted model does not explain [m²]
+        (docs/method.md §11.6): 0 with a residual model (its posterior variance says it, point by
+        point); otherwise the residual level beyond the instrument's own σ,
+        :attr:`residual_level`² − :attr:`instrument_sigma`², when the residuals exceed that σ
+        beyond their scatter (a χ² test at 1 %), else 0. NaN when σ was to be estimated and the
+        data leave no degrees of freedom: the prediction is then unknown."""
+        if self.residual_model is not None:
+            return 0.0
+        level, dof, floor = self.residual_level, self.residual_dof, self.instrument_sigma
+        if not (np.isfinite(level) and dof > 0):
+            return float("nan") if self.sigma_estimated else 0.0  # σ given: nothing to judge by
+        if not np.isfinite(floor) or level**2 <= floor**2 * float(chdtri(dof, UNEXPLAINED_TEST)) / dof:
+            return 0.0
+        return float(level**2 - floor**2)
+
     def point_variances(
         self, q: ConfigurationsLike, *, payload: PayloadLike = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """((m, K), (m, K)) the variance [m²] of each predicted point (:meth:`predict`) at joint
         readings ``q``, summed over its three coordinates, from each source: the parameters'
-        uncertainty, tr(J C Jᵀ) over the point's rows (J the parameter Jacobian under ``payload``,
-        C :attr:`covariance`; a dropped parameter, held nominal, adds nothing), and the residual
-        model's posterior variance, 3·v(q) (zero without a residual model). NaN without an estimate."""
+        uncertainty, tr(J C Jᵀ) over the point's rows (J the Jacobian of the *fitted* model under
+        ``payload``, the one C belongs to, so that where the URDF puts the base does not matter;
+        C :attr:`covariance`; a dropped parameter, held nominal, adds nothing), and what the model
+        does not explain: the residual model's posterior variance, 3·v(q), or without one the
+        residual level beyond the instrument's noise, 3·:attr:`unexplained`. NaN without an
+        estimate."""
         robot = self.params.robot
         qs = robot.configurations(q)
         K = robot.n_markers
         C = np.nan_to_num(self.covariance, nan=0.0)
         if not np.any(np.isfinite(self.std)):
             C = np.full_like(C, np.nan)
-        J = self.params.jacobian(qs, frame="tip", payload=payload).reshape(len(qs), K, 3, -1)
+        linear, x, engine, mapping = self._fitted
+        J = linear.points(x, qs, payload, engine, mapping).reshape(len(qs), K, 3, -1)
         parameters = np.einsum("mkip,pr,mkir->mk", J, C, J)
-        gp = np.zeros((len(qs), K))
         if self.residual_model is not None:
-            gp += 3.0 * self.residual_model.variance(qs)[:, None]
-        return parameters, gp
+            rest = np.repeat(3.0 * self.residual_model.variance(qs)[:, None], K, axis=1)
+        else:
+            rest = np.full((len(qs), K), 3.0 * self.unexplained)
+        return parameters, rest
 
     def expected_error(self, q: ConfigurationsLike, *, payload: PayloadLike = None) -> np.ndarray:
         """(m,) the expected distance [m] between the points :meth:`predict` gives at joint readings
         ``q`` (all markers) and the robot's true ones (docs/method.md §11.6): sqrt(tr(J C Jᵀ) +
-        3K·v(q)), the parameters' standard errors propagated to the points (the ρ of §8.3 with this
-        fit's covariance) and, with a residual model, its posterior variance v per coordinate (what it
-        cannot say there: small near the data it was fitted on, its amplitude s² far from them).
-        Without a residual model it assumes the fitted model explains the robot: the residuals say
-        how far it does not."""
-        parameters, gp = self.point_variances(q, payload=payload)
-        return np.sqrt(parameters.sum(axis=1) + gp.sum(axis=1))
+        3K·u²), the parameters' standard errors propagated to the points through the fitted model
+        (the ρ of §8.3 with this fit's covariance) and what the model does not explain, u² per
+        coordinate: with a residual model its posterior variance v(q) (small near the data it was
+        fitted on, its amplitude s² far from them), without one the residual level measured on the
+        data beyond the instrument's noise (:attr:`unexplained`). NaN when it cannot be known."""
+        parameters, rest = self.point_variances(q, payload=payload)
+        return np.sqrt(parameters.sum(axis=1) + rest.sum(axis=1))
 
     @cached_property
     def _expected_at_data(self) -> dict[str, float]:
         """RMS over the kept configurations of the expected error and its two parts [m]."""
         data = self.data
         used = self._used
-        parameters, gp = self.point_variances(
+        parameters, rest = self.point_variances(
             data.q[used], payload=None if data.payload is None else data.payload[used]
         )
+        part = "residual_model" if self.residual_model is not None else "unexplained"
         out = {
-            "rms": float(np.sqrt(np.mean(parameters.sum(axis=1) + gp.sum(axis=1)))),
+            "rms": float(np.sqrt(np.mean(parameters.sum(axis=1) + rest.sum(axis=1)))),
             "parameters": float(np.sqrt(np.mean(parameters.sum(axis=1)))),
-            "residual_model": float(np.sqrt(np.mean(gp.sum(axis=1)))),
+            part: float(np.sqrt(np.mean(rest.sum(axis=1)))),
         }
         if self.residual_model is not None:
             out["residual_model_far"] = float(
@@ -201,6 +255,7 @@ class IdentificationResult:
             float(np.sqrt(np.mean(parameters))),
             0.0,
             float(np.sqrt(np.mean(gp))),
+            **({} if self.residual_model is not None else {"unexplained": _UNEXPLAINED}),
         )
         return AccuracyReport(
             (calibrated,),
@@ -339,15 +394,36 @@ class IdentificationResult:
             return "expected error of a prediction: undetermined (no standard errors)"
         head = f"expected error of a prediction at the measured configurations: {e['rms'] * 1e3:.4g} mm RMS"
         if self.residual_model is None:
-            return (
-                f"{head} (the parameters' standard errors alone: it assumes the model explains the "
-                "robot; the residual RMS says how far it does not)"
-            )
+            return f"{head} ({self.unexplained_words(e)})"
         return (
             f"{head} (the parameters' standard errors {e['parameters'] * 1e3:.4g} mm and the residual "
             f"model's variance {e['residual_model'] * 1e3:.4g} mm; far from the measured configurations "
             f"the residual model's part grows to {e['residual_model_far'] * 1e3:.4g} mm)"
         )
+
+    def unexplained_words(self, e: dict[str, float] | None = None) -> str:
+        """What a prediction without a residual model is made of, in words (with the figures of
+        ``e``, :attr:`_expected_at_data`, when given)."""
+        e = self._expected_at_data if e is None else e
+        parts = (
+            f"the parameters' standard errors {e['parameters'] * 1e3:.4g} mm"
+            if e
+            else "the parameters' standard errors"
+        )
+        u = self.unexplained
+        if u > 0:
+            whose = (
+                "the default instrument's (a laser tracker's): give sigma (--sigma) for yours"
+                if self.sigma_estimated
+                else "the sigma given"
+            )
+            return (
+                f"{parts} and what the model does not explain, {np.sqrt(u) * 1e3:.4g} mm per "
+                f"coordinate: the residuals ({self.residual_level * 1e3:.4g} mm) exceed the instrument's "
+                f"sigma {self.instrument_sigma * 1e3:.4g} mm ({whose}) beyond their scatter; a residual "
+                "model (--residual-model gp) can say where"
+            )
+        return f"{parts}; the residuals are within the noise: the model explains the data"
 
     def report(self) -> str:
         """A human-readable report: status, residuals, data identifiability, estimates ± standard
@@ -391,6 +467,9 @@ class IdentificationResult:
             lines.append(f"suspicious rows (over {OUTLIER_SCORE:g} robust sigma):")
             lines += [f"  {o}" for o in self.outliers]
         return "\n".join(lines)
+
+
+_UNEXPLAINED = "what the fitted model does not explain (the residual level beyond the noise)"
 
 
 class _SquaredError:
@@ -464,11 +543,13 @@ def identification_result(
         robot, residuals = problem.robot(setup.z0), setup.before.reshape(shape)
         sigma_out = np.nan if estimated else noise.reference
         z_final = setup.z0
+        level, dof = np.nan, 0
     else:
         values, robot = z[:n].copy(), problem.robot(z)
         residuals = problem.residual(z).reshape(shape)
         dof = noise.count(rows.used) - len(setup.free)
         per_coordinate = _per_coordinate(problem, residuals.reshape(-1), rows.used, dof)
+        level = per_coordinate
         sigma_out = per_coordinate if estimated else noise.reference
         std, correlation = _covariance(
             setup, z, rows.used, per_coordinate if estimated and settings.prior is None else None
@@ -508,6 +589,8 @@ def identification_result(
         bases=bases,
         initial_robot=problem.robot(setup.z0),
         initial_bases=initial_bases,
+        residual_level=float(level),
+        residual_dof=int(max(dof, 0)),
     )
 
 

@@ -176,19 +176,47 @@ def _spread(points: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((p - p.mean(axis=0)) ** 2, axis=1))))
 
 
-def likely_causes(problem: Problem, z: np.ndarray, problems: list[str]) -> list[str]:
-    """The usual reasons for an implausible result, most likely first (at least one)."""
+ILL_CONDITIONED = 1e-3
+"""Data conditioned below this (the conditioning every report gives; a design keeps its plans above
+1e-2) can turn a little noise into values no robot has: a likely cause of an implausible fit whose
+residuals are small."""
+
+SMALL_ANGLES = 0.06
+"""Revolute joint values all within this [rad] (3.4°) over several rows: radians read as degrees."""
+
+
+def likely_causes(
+    problem: Problem,
+    z: np.ndarray,
+    problems: list[str],
+    conditioning: float = float("nan"),
+    outliers: Sequence[Outlier] = (),
+) -> list[str]:
+    """The usual reasons for an implausible result, most likely first (at least one): units, the
+    frame, joint units, outliers (by row), too few or ill-conditioned configurations (with the
+    conditioning), a marker, column order.
+
+    Args:
+        problem, z: the problem and the fit's unknowns.
+        problems: what no real robot has (:func:`implausible`).
+        conditioning: the data's conditioning (NaN: unknown).
+        outliers: the suspicious rows of the fit, worst first.
+    """
     params, data = problem.params, problem.sessions[0]
+    causes = _joint_units(problem)
     points = measured_points(data)
     if points is None:  # no positions measured: nothing to compare the robot's points with
-        return [
-            "joint columns or units: check that the joint columns hold the joints named in the header and "
-            "their unit (--deg), the measured columns' units (--mm), and the instrument's nominal set-up "
-            "(--anchor, --camera)"
-        ]
+        return (
+            causes
+            + _data_causes(problem, problems, conditioning, outliers)
+            + [
+                "joint columns or units: check that the joint columns hold the joints named in the header "
+                "and their unit (--deg), the measured columns' units (--mm), and the instrument's nominal "
+                "set-up (--anchor, --camera)"
+            ]
+        )
     nominal = params.robot.points(data.q, check=False).reshape(-1, 3)
     measured = points.reshape(-1, 3)
-    causes = []
     spread_measured, spread_nominal = _spread(measured), _spread(nominal)
     # one point (or all at one place) has no spread: units cannot be told from it
     ratio = spread_measured / spread_nominal if spread_measured > 0 and spread_nominal > 0 else 1.0
@@ -214,6 +242,7 @@ def likely_causes(problem: Problem, z: np.ndarray, problems: list[str]) -> list[
             "frame: a rigid motion explains most of the difference: the points are in the instrument's "
             "frame; pass --base (identify base.*)"
         )
+    causes += _data_causes(problem, problems, conditioning, outliers) if not causes else []
     marker = None if causes or not problem.points else _marker_offset(problem, z)
     if not causes and (any("tool frame" in p or "marker" in p for p in problems) or marker is not None):
         where = f" (the data put it {marker * 1e3:.4g} mm from where the model has it)" if marker else ""
@@ -225,6 +254,44 @@ def likely_causes(problem: Problem, z: np.ndarray, problems: list[str]) -> list[
         causes.append(
             "column order or joint units: check that the joint columns hold the joints named in the "
             "header and their unit (--deg), and the x,y,z columns"
+        )
+    return causes
+
+
+def _joint_units(problem: Problem) -> list[str]:
+    """Radians read as degrees: every revolute joint value of several rows within a few degrees."""
+    robot, data = problem.params.robot, problem.sessions[0]
+    revolute = np.asarray(robot.revolute, dtype=bool)
+    if data.m < 3 or not revolute.any():
+        return []
+    largest = float(np.abs(data.q[:, revolute]).max())
+    if 0 < largest <= SMALL_ANGLES:
+        return [
+            f"joint units: every joint value is within {np.degrees(largest):.3g} degrees: radians read as "
+            "degrees? drop --deg (degrees=False)"
+        ]
+    return []
+
+
+def _data_causes(
+    problem: Problem, problems: list[str], conditioning: float, outliers: Sequence[Outlier]
+) -> list[str]:
+    """Outliers (a few rows far beyond the rest) and too few or ill-conditioned configurations (the
+    values wild, the residuals not)."""
+    causes = []
+    gross = [o for o in outliers if o.score > 2 * OUTLIER_SCORE]
+    if gross and len(gross) <= max(1, problem.m // 5):
+        rows = ", ".join(str(o) for o in gross[:3]) + (
+            f" and {len(gross) - 3} more" if len(gross) > 3 else ""
+        )
+        causes.append(f"outliers: {rows}: drop them (--reject {OUTLIER_SCORE:g}, reject={OUTLIER_SCORE:g})")
+    plausible_residuals = not any("the residual" in p for p in problems)
+    if np.isfinite(conditioning) and conditioning < ILL_CONDITIONED and plausible_residuals:
+        causes.append(
+            f"too few or ill-conditioned configurations: these {problem.m} condition the parameters at "
+            f"{conditioning:.2g} (a designed plan keeps above 1e-2), so the fit turns noise into values no "
+            "robot has: measure more, or better chosen, configurations (pincal design, pincal next), or "
+            "identify fewer parameters"
         )
     return causes
 

@@ -130,8 +130,8 @@ class Validation:
             what = (
                 "the parameters' standard errors, the residual model's variance and the noise"
                 if self.residual_model
-                else "the parameters' standard errors and the noise; no residual model: it assumes the "
-                "fitted model explains the robot"
+                else "the parameters' standard errors, the residual level beyond the noise and the noise; "
+                "no residual model"
             )
             lines.append(f"  predicted RMS after {self.expected_rms * 1e3:8.4g} mm ({what})")
         failed = [s for s in self.statuses if s != "converged"]
@@ -174,11 +174,20 @@ def _errors(
 
 def _expected(result: IdentificationResult, data: MeasurementData) -> np.ndarray:
     """(m·K,) the error ``result`` predicts for each of ``data``'s points [m]: its prediction's
-    variance (parameters and residual model) plus the noise of a measurement, 3n² per point."""
-    parameters, gp = result.point_variances(data.q, payload=data.payload)
+    variance (the parameters, and what the model does not explain: the residual model's variance or
+    the residual level beyond the instrument's noise, u²) plus the noise of a measurement, 3n² per
+    point (n the residual model's noise; else σ when given; when σ was estimated, the residual level
+    less u²: with the noise, the residual level whole)."""
+    parameters, rest = result.point_variances(data.q, payload=data.payload)
     model = result.residual_model
-    noise = model.noise if model is not None else result.sigma if np.isfinite(result.sigma) else 0.0
-    return np.sqrt(parameters + gp + 3 * noise**2).reshape(-1)
+    if model is not None:
+        noise2 = model.noise**2
+    elif not result.sigma_estimated:
+        noise2 = result.sigma**2
+    else:
+        level2 = result.sigma**2 if np.isfinite(result.sigma) else 0.0
+        noise2 = max(level2 - np.nan_to_num(result.unexplained), 0.0)
+    return np.sqrt(parameters + rest + 3 * noise2).reshape(-1)
 
 
 def _joined(parts: list[np.ndarray | None]) -> np.ndarray | None:

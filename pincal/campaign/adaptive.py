@@ -4,12 +4,16 @@
 :func:`next_poses` takes the data measured so far (and the plan they were measured from) and
 
 1. identifies the parameters from them (:func:`pincal.identify`, rows beyond ``reject`` robust σ
-   dropped as outliers and named), and re-estimates σ from the residuals (unless given, or the data
-   carry their own uncertainties);
+   dropped as outliers and named), and re-estimates σ from the residuals of the rows kept (unless
+   given, or the data carry their own uncertainties); with too few rows kept for that, σ is
+   *unknown*: never the instrument's default (docs/method.md §11.6);
 2. names the planned poses that were not measured (unreachable, or not seen by the instrument);
 3. predicts the error over the test region with the data so far: the information of the poses
-   measured (outliers left out), F = Σ JᵢᵀJᵢ/σ², taken as a prior (:class:`MeasuredPrior`);
-4. stops when that prediction is below ``target``; otherwise designs the next ``k`` poses that most
+   measured (outliers left out), F = Σ JᵢᵀJᵢ/σ², taken as a prior (:class:`MeasuredPrior`), with
+   the Jacobians of the *fitted* robot (where the URDF puts the base does not matter), plus what
+   the fitted model does not explain (the residual level beyond σ, 3K·u² per point:
+   :attr:`~pincal.IdentificationResult.unexplained`);
+4. stops when that prediction is known and below ``target``; otherwise designs the next ``k`` poses that most
    reduce the criterion over the test region *given what is already measured* (the design's prior is
    F plus the user's prior), kept away from the unreachable poses, and predicts the error after
    them.
@@ -25,7 +29,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -53,10 +57,10 @@ AVOID_DISTANCE = math.radians(10)
 
 
 SIGMA_SOURCES = {
-    "estimated": "re-estimated from the residuals",
+    "estimated": "re-estimated from the residuals of the rows kept",
     "given": "given",
     "data": "from the data's uncertainty columns",
-    "default": "the default: too few data to estimate it",
+    "unknown": "unknown: too few rows kept to estimate it (give --sigma, or measure more)",
 }
 """Where the σ of a prediction comes from, in words."""
 
@@ -69,11 +73,14 @@ class NextPoses:
         plan: the next configurations to measure (empty when ``stop``).
         stop: the predicted error over the test region is below the target with the data so far.
         predicted: the predicted error over the test region with the data so far [m] (root mean
-            square over its samples; inf while the data cannot determine every parameter).
-        predicted_after: the same after measuring ``plan`` too [m] (None when stopping).
+            square over its samples; inf while the data cannot determine every parameter; NaN
+            while σ is unknown): the parameters' part and what the model does not explain.
+        predicted_after: the same after measuring ``plan`` too [m] (None when stopping or unknown).
         target: the target [m], or None.
-        sigma: the σ used [m] (re-estimated, given, or the default).
-        sigma_source: ``estimated``, ``given``, ``data`` (uncertainty columns) or ``default``.
+        sigma: the σ used [m] (re-estimated or given; NaN when unknown).
+        sigma_source: ``estimated``, ``given``, ``data`` (uncertainty columns) or ``unknown``.
+        unexplained: the variance per coordinate the fitted model does not explain [m²], counted
+            in both predictions (0 when the residuals are within σ; NaN when unknown).
         measured: configurations measured so far (rows of the data).
         used: those used (outliers left out).
         outliers: the rows dropped as outliers.
@@ -95,6 +102,7 @@ class NextPoses:
     unreachable: np.ndarray
     identification: IdentificationResult | None
     message: str
+    unexplained: float = 0.0
 
     def as_dict(self) -> dict:
         def finite(v: float | None) -> float | None:
@@ -107,8 +115,9 @@ class NextPoses:
             "predicted": finite(self.predicted),
             "predicted_after": finite(self.predicted_after),
             "target": self.target,
-            "sigma": self.sigma,
+            "sigma": finite(self.sigma),
             "sigma_source": self.sigma_source,
+            "unexplained": finite(math.sqrt(self.unexplained)) if self.unexplained >= 0 else None,
             "measured": self.measured,
             "used": self.used,
             "outliers": [o.as_dict() for o in self.outliers],
@@ -133,12 +142,24 @@ class NextPoses:
         if self.identification is not None:
             out.append(f"  identification: {self.identification.status}")
         source = SIGMA_SOURCES[self.sigma_source]
-        out.append(f"  σ = {self.sigma * 1e3:.4g} mm ({source})")
+        out.append(f"  σ = {mm(self.sigma)} ({source})" if math.isfinite(self.sigma) else f"  σ {source}")
+        if math.isfinite(self.unexplained) and self.unexplained > 0:
+            whose = (
+                " (beyond the default instrument's σ, a laser tracker's: give --sigma for yours)"
+                if self.sigma_source == "estimated"
+                else ""
+            )
+            out.append(
+                f"  the fitted model leaves {mm(math.sqrt(self.unexplained))} per coordinate unexplained"
+                f"{whose}, counted in the predictions"
+            )
         target = "" if self.target is None else f" (target {mm(self.target)})"
         out.append(f"predicted error over the test region with the data so far: {mm(self.predicted)}{target}")
         if self.stop:
             out.append("stop: the predicted error is below the target with the data so far")
             return out
+        if not math.isfinite(self.predicted) and self.sigma_source == "unknown":
+            out.append("  no stop while the prediction cannot be made")
         out.append(f"next {len(self.plan)} poses, predicted error after them: {mm(self.predicted_after)}")
         revolute = np.asarray(self.plan.revolute, dtype=bool)
         values = self.plan.q if not degrees else np.where(revolute, np.degrees(self.plan.q), self.plan.q)
@@ -165,10 +186,13 @@ class Assessment:
         identification: the identification, or None (too few data).
         used: (m,) the rows used (outliers left out).
         outliers: the rows dropped.
-        sigma: the σ of the prediction [m]; sigma_source: where it came from.
-        measured: the information of the rows used, as a prior.
+        sigma: the σ of the prediction [m] (NaN: unknown); sigma_source: where it came from.
+        measured: the information of the rows used, as a prior, on the fitted robot (σ unknown:
+            at the default σ, to rank the next poses by, never to predict with).
         unreachable: (u, nq) planned poses not measured.
-        predicted: the predicted error over the test region with the data so far [m].
+        predicted: the predicted error over the test region with the data so far [m] (NaN: unknown).
+        unexplained: the variance per coordinate the fitted model does not explain [m²].
+        params: the parameters on the fitted robot (the nominal one without a fit).
     """
 
     identification: IdentificationResult | None
@@ -179,6 +203,15 @@ class Assessment:
     measured: MeasuredPrior
     unreachable: np.ndarray
     predicted: float
+    unexplained: float
+    params: ParameterSet
+
+    def with_unexplained(self, rho: float) -> float:
+        """The predicted error [m] of a ρ [m] from the parameters' part: with what the model does not
+        explain, sqrt(ρ² + 3K·u²); NaN while σ is unknown."""
+        if self.sigma_source == "unknown" or not math.isfinite(self.unexplained):
+            return math.nan
+        return math.sqrt(rho**2 + 3 * self.params.robot.n_markers * self.unexplained)
 
 
 def assess(
@@ -199,6 +232,8 @@ def assess(
     data = data.for_robot(robot)
     given = None if sigma is None else positive_sigma(sigma)
     fit, used, outliers = _identified(params, data, given, prior, reject)
+    fitted = params.on(fit.robot) if fit is not None and fit.success else params
+    unexplained = 0.0 if fit is None else fit.unexplained
     if data.sigma is not None:
         noise, source = data.sigma[used], "data"
         value = float(np.median(data.sigma[used]))
@@ -207,14 +242,14 @@ def assess(
     elif fit is not None and fit.sigma_estimated and math.isfinite(fit.sigma) and fit.sigma > 0:
         noise = value = float(fit.sigma)
         source = "estimated"
-    else:
-        noise = value = DEFAULT_SIGMA
-        source = "default"
-    measured = MeasuredPrior.from_measurements(params, data.q[used], noise, prior)
+    else:  # no degrees of freedom left to estimate σ: the prediction is unknown (method §11.6)
+        noise, value, source, unexplained = DEFAULT_SIGMA, math.nan, "unknown", math.nan
+    measured = MeasuredPrior.from_measurements(fitted, data.q[used], noise, prior)
     planned = np.empty((0, robot.nq)) if plan is None else robot.configurations(plan, what="planned pose")
     missing = planned[unmeasured(planned, data.q)]
-    predicted = _predicted(params, test_pose, value, measured)
-    return Assessment(fit, used, outliers, value, source, measured, missing, predicted)
+    a = Assessment(fit, used, outliers, value, source, measured, missing, math.nan, unexplained, fitted)
+    rho = _predicted(fitted, test_pose, DEFAULT_SIGMA if source == "unknown" else value, measured)
+    return replace(a, predicted=a.with_unexplained(rho))
 
 
 def next_poses(
@@ -249,7 +284,8 @@ def next_poses(
         plan: the poses planned so far (those not in ``data`` are unreachable and avoided), or None.
         target: stop when the predicted error over the test region is below this [m].
         sigma: the instrument's noise per coordinate [m]; default: re-estimated from the residuals
-            (or the data's uncertainty columns; :data:`~pincal.arguments.DEFAULT_SIGMA` while too few data).
+            of the rows kept (or the data's uncertainty columns); while too few rows are kept to
+            estimate it, the prediction is unknown and the campaign does not stop.
         prior: the errors' prior before any measurement, or None.
         constraints, joint_margin, mount: the workcell and the safe defaults, as for
             :func:`pincal.design`.
@@ -266,31 +302,43 @@ def next_poses(
     k = positive_int(k, "k (poses to choose next)")
     if target is not None:
         target = positive_sigma(target, "target")
+    reject = positive_sigma(reject, "reject (robust sigma)")
     a = assess(params, data, test_pose, plan=plan, sigma=sigma, prior=prior, reject=reject)
     common: dict[str, Any] = dict(  # NextPoses' fields shared by both outcomes
         target=target, sigma=a.sigma, sigma_source=a.sigma_source, measured=data.m, used=int(a.used.sum()),
         outliers=a.outliers, unreachable=a.unreachable, identification=a.identification,
+        unexplained=a.unexplained,
     )  # fmt: skip
-    if target is not None and a.predicted <= target:
+    if target is not None and math.isfinite(a.predicted) and a.predicted <= target:
         empty = Plan(np.empty((0, robot.nq)), robot.joint_names, tuple(robot.revolute))
         message = (
             f"stop: the predicted error {a.predicted * 1e3:.4g} mm is below the target {target * 1e3:.4g} mm"
         )
         return NextPoses(empty, True, a.predicted, None, message=message, **common)
-    _check_enough(params, a.measured, a.sigma, k)
+    noise = DEFAULT_SIGMA if a.sigma_source == "unknown" else a.sigma  # unknown: to rank poses by only
+    _check_enough(a.params, a.measured, noise, k)
     cell = tuple(constraints) + ((AvoidPoses(a.unreachable, AVOID_DISTANCE),) if len(a.unreachable) else ())
     cell = with_safety(robot, cell, joint_margin, mount)
     with warnings.catch_warnings():
         # The next k poses alone need not determine every parameter: the data so far do the rest.
         warnings.simplefilter("ignore", DegenerateOptimumWarning)
         result = design(
-            params, k, test_pose, prior=a.measured, sigma=a.sigma, constraints=cell, starts=starts, seed=seed,
+            a.params, k, test_pose, prior=a.measured, sigma=noise, constraints=cell, starts=starts, seed=seed,
             workers=workers, pool=pool, polish=polish, progress=progress,
         )  # fmt: skip
     rho0 = result.rho0
     assert rho0 is not None  # a design for a test pose reports its rho0
-    message = f"measure the next {k} poses (predicted error after them: {rho0 * 1e3:.4g} mm)"
-    return NextPoses(result.plan, False, a.predicted, float(rho0), message=message, **common)
+    after = a.with_unexplained(float(rho0))
+    if math.isfinite(after):
+        message = f"measure the next {k} poses (predicted error after them: {after * 1e3:.4g} mm)"
+    else:
+        message = (
+            f"measure the next {k} poses (no prediction yet: too few rows kept to estimate sigma; "
+            "give --sigma or measure more)"
+        )
+    return NextPoses(
+        result.plan, False, a.predicted, after if math.isfinite(after) else None, message=message, **common
+    )
 
 
 def _identified(

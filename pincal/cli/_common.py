@@ -20,6 +20,7 @@ from pincal.files import check_output
 from pincal.instruments.identifiability import identifiable
 from pincal.instruments.instrument import Instrument
 from pincal.model.base_parameters import Identifiability
+from pincal.model.catalogue import GROUPS
 from pincal.model.loading import load_robot
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
@@ -466,14 +467,18 @@ def _with_fixtures(robot: Robot, spec: str) -> str:
 def parameters_with_base(
     robot: Robot, args: argparse.Namespace, instrument: Instrument | None = None
 ) -> tuple[ParameterSet, str, list[str]]:
-    """The set asked for, plus base.* when the data are in the instrument's frame.
+    """The set asked for, plus base.* when the data are in the instrument's frame (docs/method.md
+    §4.2).
 
-    Without --params: the identifiable base set of ``full,offsets``. With --params: that set,
-    which must be identifiable (the error names the dropped parameters and the fix). With --base,
-    or base names in --params: the chain set plus the whole base, the base kept first and the
-    chain parameters it makes redundant dropped — the set identify uses on instrument-frame data.
-    The instrument's fixtures (--anchor, --camera) are added unless --params names them, and what
-    is identifiable is what ``instrument`` measures (points when None).
+    Without --params: the identifiable base set of ``full,offsets``. With --params: a group means
+    its identifiable part (the description names how many were left out and why), a parameter
+    named one by one must be identifiable (the error names it and the fix). ``--params base`` is
+    the base placement alone (and ``markers`` the markers alone: every group means itself only).
+    With --base, or base names beside chain ones in --params: the chain set plus the whole base,
+    the base kept first and the chain parameters it makes redundant dropped — the set identify
+    uses on instrument-frame data. The instrument's fixtures (--anchor, --camera) are added unless
+    --params names them, and what is identifiable is what ``instrument`` measures (points when
+    None).
 
     Returns:
         (parameters, description, chain parameters dropped as redundant with the base).
@@ -483,6 +488,9 @@ def parameters_with_base(
     if not (getattr(args, "base", False) or mentions_base(spec)):
         return _chain_params(robot, spec, args.robot, instrument) + ([],)
     rest = ",".join(t for t in tokens if not _is_base(t)) or None
+    if spec is not None and rest is None:  # the base placement alone
+        params, source = _reduced(robot, spec, args.robot, instrument, prefer="base")
+        return params, f"{source}: the base placement only", []
     chain, source = _chain_params(robot, rest, args.robot, instrument)
     params = _identifiable(robot.parameters(list(chain.names) + ["base"]), instrument, "base").identifiable
     dropped = [n for n in chain.names if n not in params.names]
@@ -497,17 +505,38 @@ def _chain_params(
         default = _with_fixtures(robot, DEFAULT_PARAMS)
         ident = _identifiable(robot.parameters(default), instrument)
         return ident.identifiable, f"identifiable base set of {default}"
+    return _reduced(robot, spec, robot_arg, instrument)
+
+
+def _reduced(
+    robot: Robot, spec: str, robot_arg: str, instrument: Instrument | None, prefer: str = ""
+) -> tuple[ParameterSet, str]:
+    """The identifiable part of --params ``spec`` (its groups reduced, the instrument's fixtures
+    added unless named) and its description; a parameter named one by one and not identifiable is
+    refused, naming why."""
     params = robot.parameters(_with_fixtures(robot, spec))
-    ident = _identifiable(params, instrument)
-    if ident.dropped:
-        names = list(ident.dropped)
-        shown = ", ".join(names[:8]) + (f", ... ({len(names)} in all)" if len(names) > 8 else "")
+    ident = _identifiable(params, instrument, prefer)
+    groups = set(GROUPS) | {f.name for f in robot.fixtures}
+    named = [n for n in ident.dropped if n in {t.strip() for t in spec.split(",")} - groups]
+    if named:
+        reason = ident.dropped[named[0]].split(":")[0]
         raise BadArgument(
-            f"--params {spec}: {len(names)} parameter(s) cannot be identified from {ident.measured} "
-            f"measurements ({shown}); use the identifiable set --params "
-            f"{','.join(ident.identifiable.names)} (see 'pincal params {robot_arg}')"
+            f"--params {spec}: {', '.join(named)} cannot be identified from {ident.measured} measurements "
+            f"({named[0]} is {reason}); leave {'them' if len(named) > 1 else 'it'} out, or name "
+            f"{'their' if len(named) > 1 else 'its'} group to take the identifiable part of it "
+            f"(see 'pincal params {robot_arg}')"
         )
-    return params, spec
+    if not ident.dropped:
+        return params, spec
+    why: dict[str, int] = {}
+    for reason in ident.dropped.values():
+        word = reason.split(":")[0]
+        why[word] = why.get(word, 0) + 1
+    said = ", ".join(f"{k} {word}" for word, k in why.items())
+    return ident.identifiable, (
+        f"the identifiable part of {spec}: {len(ident.dropped)} of {len(params)} left out ({said}; "
+        f"'pincal params {robot_arg} --params {spec}' names them)"
+    )
 
 
 def parse_configuration(robot: Robot, text: str, degrees: bool, what: str) -> np.ndarray:

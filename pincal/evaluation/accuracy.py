@@ -313,6 +313,9 @@ class PlanAccuracy:
             (:meth:`~pincal.IdentificationResult.accuracy`), the rms at the test pose(s) of its
             residual model's posterior variance [m] (0 without a residual model;
             ``from_measurements`` is then its parameters' standard errors' part); None for a plan.
+            Without a residual model, what the fitted model does not explain (the residual level
+            beyond the instrument's noise, docs/method.md §11.6).
+        unexplained: what ``from_residual_model`` is, in words.
     """
 
     name: str
@@ -321,6 +324,7 @@ class PlanAccuracy:
     from_measurements: float
     from_prior: float
     from_residual_model: float | None = None
+    unexplained: str = "the residual model's variance (what it cannot explain there)"
 
     def row(self, where: str) -> ErrorSummary:
         return next(r for r in self.rows if r.where == where)
@@ -414,12 +418,12 @@ class AccuracyReport:
                 out.append(
                     f"  {p.name}: at the test pose(s), {p.from_measurements * scale:.4g} {unit} rms from "
                     f"the parameters' standard errors and {p.from_residual_model * scale:.4g} {unit} "
-                    "from the residual model's variance (what it cannot explain there)"
+                    f"from {p.unexplained}"
                 )
             else:
                 out.append(
-                    f"  {p.name}: from the parameters' standard errors alone (no residual model: it "
-                    "assumes the fitted model explains the robot)"
+                    f"  {p.name}: from the parameters' standard errors alone (no residual model, and the "
+                    "residuals are within the noise: the fitted model explains the data)"
                 )
         if self.prior is not None:
             p = self.plans[0]

@@ -2,8 +2,10 @@
 
 The parameter Jacobian is stacked over many random configurations within the joint limits and its
 columns normalised. The base set
-is chosen greedily in a fixed order of preference — joint offsets, then the lengths (non-zero origin
-components), then other translations, rotations, markers, base — keeping a parameter when its
+is chosen greedily in a fixed order of preference — the base placement first (when the set holds it,
+the data are in the instrument's frame and the robot's placement in it must be found: the chain
+parameters it makes redundant give way to it, docs/method.md §4.2), then joint offsets, the lengths
+(non-zero origin components), other translations, rotations, markers — keeping a parameter when its
 column is not in the span of those kept before (QR, i.e. Gram–Schmidt, in that order); the
 number kept is the numerical rank. Each
 dropped parameter is reported as *invisible* (its column is zero: nothing it does moves the
@@ -167,7 +169,7 @@ def preference_order(params: ParameterSet, prefer: frozenset[str] = frozenset())
     origins = params.robot.origins
 
     def rank(p) -> int:
-        if p.name in prefer:
+        if p.name in prefer or p.kind == "base":
             return -1
         if p.kind == "offset":
             return 0
@@ -176,7 +178,7 @@ def preference_order(params: ParameterSet, prefer: frozenset[str] = frozenset())
             return 1 if length else 2
         if p.kind == "placement":
             return 3
-        return {"marker": 4, "base": 5, "fixture": 5, "gain": 6}.get(p.kind, 7)
+        return {"marker": 4, "fixture": 5, "gain": 6}.get(p.kind, 7)
 
     def key(i: int) -> tuple:
         p = params.parameters[i]
