@@ -15,6 +15,7 @@ import pinocchio as pin
 
 from pincal.calibration.urdf_export import sidecar_path
 from pincal.errors import BadArgument, UrdfError
+from pincal.files import read_text
 from pincal.model.loading import load_robot
 from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
@@ -38,21 +39,120 @@ class DeployedCalibration:
     sidecar: dict
 
 
+MAX_GAIN = 0.5
+"""Largest joint gain error in size a sidecar may hold (a joint reading q moves it by q·(1 + gain):
+−1 would hold it still; real gain errors are a fraction of a percent)."""
+
+
+def _numbers(value: object, field: str, side: Path, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    """The sidecar's ``field`` as an array of finite numbers (of ``shape``), never a boolean read
+    as 1 or 0 (a JSON ``true`` is not a number), or one BadArgument naming the field."""
+
+    def numbers(v: object) -> bool:
+        if isinstance(v, list):
+            return all(numbers(x) for x in v)
+        return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+    expected = "numbers" if shape is None else f"{' x '.join(map(str, shape))} numbers"
+    if not numbers(value):
+        raise BadArgument(
+            f"{side}: {field!r} must be {expected}, got {_shown(value)}", argument="--calibration"
+        )
+    try:
+        out = np.array(value, dtype=float)
+    except (TypeError, ValueError):  # ragged lists
+        raise BadArgument(
+            f"{side}: {field!r} must be {expected}, got {_shown(value)}", argument="--calibration"
+        ) from None
+    if shape is not None and out.shape != shape:
+        raise BadArgument(
+            f"{side}: {field!r} must be {expected}, got shape {out.shape}", argument="--calibration"
+        )
+    if not np.all(np.isfinite(out)):
+        raise BadArgument(f"{side}: {field!r} must be finite numbers", argument="--calibration")
+    return out
+
+
+def _shown(value: object) -> str:
+    """``value`` for a message: its JSON, cut to 80 characters."""
+    text = json.dumps(value) if not isinstance(value, float) or np.isfinite(value) else repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 def _by_joint(values: object, names: tuple[str, ...], what: str, where: Path) -> np.ndarray | None:
     """A {joint: value} of the sidecar as an array in ``names`` order (0 for a joint it does not list)."""
     if values is None:
         return None
     if not isinstance(values, dict) or not set(values) <= set(names):
         raise BadArgument(
-            f"{where}: {what} must map the chain's joints ({', '.join(names)}) to numbers, got {values!r}"
+            f"{where}: {what} must map the chain's joints ({', '.join(names)}) to numbers, "
+            f"got {_shown(values)}",
+            argument="--calibration",
         )
+    return _numbers([values.get(name, 0.0) for name in names], what, where, (len(names),))
+
+
+def _base(value: object, side: Path) -> pin.SE3:
+    """The sidecar's base: ``{"matrix": 4 x 4}``, a rigid transform (identity when absent)."""
+    if not isinstance(value, dict) or "matrix" not in value:
+        raise BadArgument(
+            f"{side}: 'base' must be the robot base in the instrument's frame, {{\"matrix\": 4 x 4, ...}}, "
+            f"got {_shown(value)}",
+            argument="--calibration",
+        )
+    matrix = _numbers(value["matrix"], "base.matrix", side, (4, 4))
+    rotation = matrix[:3, :3]
+    rigid = np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) and np.linalg.det(rotation) > 0
+    if not (rigid and np.allclose(matrix[3], [0, 0, 0, 1])):
+        raise BadArgument(
+            f"{side}: 'base.matrix' must be a rigid transform (a rotation, a translation, last row 0 0 0 1)",
+            argument="--calibration",
+        )
+    return pin.SE3(matrix)
+
+
+def _residual_model(value: object, side: Path) -> ResidualModel:
+    """The sidecar's residual model (:meth:`ResidualModel.as_dict`), checked: numbers that are
+    numbers (its ``revolute`` flags aside)."""
+    if not isinstance(value, dict):
+        raise BadArgument(
+            f"{side}: 'residual_model' must be the residual model's description (an object), "
+            f"got {_shown(value)}",
+            argument="--calibration",
+        )
+    for key, item in value.items():
+        if key not in ("kind", "revolute") and isinstance(item, (list, bool, int, float)):
+            _numbers(item, f"residual_model.{key}", side)
     try:
-        out = np.array([float(values.get(name, 0.0)) for name in names])
-    except (TypeError, ValueError):
-        raise BadArgument(f"{where}: {what} must be numbers, got {values!r}") from None
-    if not np.all(np.isfinite(out)):
-        raise BadArgument(f"{where}: {what} must be finite")
-    return out
+        return ResidualModel.from_dict(value)
+    except (BadArgument, AttributeError, IndexError, KeyError, TypeError, ValueError) as exc:
+        raise BadArgument(f"{side}: 'residual_model': {exc}", argument="--calibration") from None
+
+
+def _read_sidecar(side: Path) -> dict:
+    """The sidecar's JSON object, read as an input (never overwritten by the command's outputs)."""
+    text = read_text(side, "calibration sidecar", BadArgument)
+
+    def refuse(constant: str) -> float:
+        raise ValueError(f"{constant} is not a number a calibration holds")
+
+    try:
+        content = json.loads(text, parse_constant=refuse)
+    except RecursionError:
+        raise BadArgument(
+            f"{side}: not a calibration sidecar (nested too deeply)", argument="--calibration"
+        ) from None
+    except ValueError as exc:  # json.JSONDecodeError too
+        raise BadArgument(f"{side}: not a readable JSON sidecar ({exc})", argument="--calibration") from None
+    if not isinstance(content, dict) or "tip" not in content:
+        raise BadArgument(f"{side}: not a calibration sidecar (no 'tip')", argument="--calibration")
+    tip = content["tip"]
+    if not isinstance(tip, str) or not tip.strip():
+        raise BadArgument(
+            f"{side}: 'tip' must be the name of the tip frame (a string), got {_shown(tip)}",
+            argument="--calibration",
+        )
+    return content
 
 
 def load_calibration(urdf: str | os.PathLike, nominal: Robot) -> DeployedCalibration:
@@ -72,17 +172,17 @@ def load_calibration(urdf: str | os.PathLike, nominal: Robot) -> DeployedCalibra
             f"calibration with 'pincal identify --out' to write both",
             argument="--calibration",
         )
-    try:
-        content = json.loads(side.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise BadArgument(f"{side}: not a readable JSON sidecar ({exc})", argument="--calibration") from None
-    if not isinstance(content, dict) or "tip" not in content:
-        raise BadArgument(f"{side}: not a calibration sidecar (no 'tip')", argument="--calibration")
+    content = _read_sidecar(side)
+    markers = content.get("markers")
+    if markers is not None:
+        markers = _numbers(markers, "markers", side)
+        if markers.ndim != 2 or markers.shape[1] != 3 or not len(markers):
+            raise BadArgument(f"{side}: 'markers' must be [[x, y, z], ...] [m]", argument="--calibration")
     ranges = {n: (lo, hi) for n, lo, hi in zip(nominal.joint_names, nominal.lower, nominal.upper)}
     robot = load_robot(
         urdf,
         tip=content["tip"],
-        markers=content.get("markers"),
+        markers=markers,
         root=nominal.root,
         joint_ranges=ranges,
         package_dirs=dict(nominal.package_dirs),
@@ -94,17 +194,23 @@ def load_calibration(urdf: str | os.PathLike, nominal: Robot) -> DeployedCalibra
         )
     names = robot.joint_names
     gains = _by_joint(content.get("joint_gains"), names, "joint_gains", side)
+    if gains is not None and not np.all(np.abs(gains) < MAX_GAIN):
+        j = int(np.argmax(np.abs(gains)))
+        raise BadArgument(
+            f"{side}: 'joint_gains' of {names[j]} is {gains[j]:g}: a gain error must lie within "
+            f"±{MAX_GAIN:g} (the joint moves by q·(1 + gain))",
+            argument="--calibration",
+        )
     compliances = _by_joint(content.get("joint_compliances"), names, "joint_compliances", side)
-    base = content.get("base", {}).get("matrix")
     robot = robot.replace(
         joint_gains=gains,
         joint_compliances=compliances,
-        base=pin.SE3(np.array(base, dtype=float)) if base is not None else pin.SE3.Identity(),
+        base=_base(content["base"], side) if "base" in content else pin.SE3.Identity(),
     )
     if content.get("gravity") is not None:
-        robot = robot.with_gravity(content["gravity"])
+        robot = robot.with_gravity(_numbers(content["gravity"], "gravity", side, (3,)))
     residual = content.get("residual_model")
-    model = ResidualModel.from_dict(residual) if residual is not None else None
+    model = _residual_model(residual, side) if residual is not None else None
     if model is not None and (len(model.revolute) != robot.nq or model.rows != 3 * robot.n_markers):
         raise BadArgument(f"{side}: its residual model does not fit the chain ({robot.nq} joints)")
     return DeployedCalibration(robot, model, urdf, content)

@@ -11,15 +11,18 @@ whose mesh cannot be found is left out and named in :attr:`UrdfGeometry.missing`
 from __future__ import annotations
 
 import copy
+import itertools
 import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pinocchio as pin
 from lxml import etree
 
 from pincal.errors import UrdfError
+from pincal.files import note_input
 from pincal.model.robot import Robot
 from pincal.model.urdf import read_tree, resolve_mesh
 
@@ -76,6 +79,7 @@ def urdf_geometry(
                 element.getparent().remove(element)  # type: ignore[union-attr]  # a link's child
                 break
             mesh.set("filename", str(found.resolve()))
+            note_input(found)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # Pinocchio's notes on the meshes it reads
@@ -103,12 +107,52 @@ def convex_hulls(geometry: pin.GeometryModel) -> pin.GeometryModel:
     return hulls
 
 
+THIN = 1e-3
+"""Thickness given to a flat mesh's hull [m] (a plate, a zero scale on one axis): qhull cannot
+build the hull of points that span no volume (coal crashes the process on them)."""
+
+FLAT = 1e-6
+"""A mesh whose vertices spread less than this fraction of their largest spread along some axis
+(their smallest singular value against their largest) is flat: its hull is built thickened."""
+
+
 def convex_hull(mesh):
     """The convex hull of a coal mesh (qhull), or the mesh itself when qhull cannot build one (some
     published meshes: "Too many neighbors"): its distances are then its own, exact where apart and
-    0 where it meets another shape, never more than the true ones either."""
+    0 where it meets another shape, never more than the true ones either.
+
+    A flat mesh (a plate, a line, a point: a zero scale on some axis) has the hull of its vertices
+    thickened by :data:`THIN` across its flat directions: it contains the mesh, so its distances
+    stay lower bounds of the true ones."""
+    import coal
+
+    points = np.asarray(mesh.vertices(), dtype=float).reshape(-1, 3)
+    thick = thickened(points)
+    if thick is not points:
+        mesh = coal.BVHModelOBBRSS()
+        mesh.beginModel(0, len(thick))
+        mesh.addVertices(thick)
+        mesh.endModel()
     try:
         mesh.buildConvexHull(True, "Qt")
     except RuntimeError:
         return mesh
     return mesh.convex
+
+
+def thickened(points: np.ndarray) -> np.ndarray:
+    """``points`` (n, 3) [m] when they span a volume; else (no points, one, a line or a plane)
+    the points offset by ±:data:`THIN`/2 along each direction they do not span (a new array)."""
+    if len(points) == 0:
+        return np.array(list(itertools.product((-THIN / 2, THIN / 2), repeat=3)))
+    centred = points - points.mean(axis=0)
+    # three zero rows: three singular values and axes whatever the number of points
+    _, spread, axes = np.linalg.svd(np.vstack([centred, np.zeros((3, 3))]), full_matrices=False)
+    flat = [axes[k] for k in range(3) if not spread[k] > FLAT * spread[0]]
+    if not flat:
+        return points
+    offsets = [
+        sum(s * THIN / 2 * a for s, a in zip(signs, flat))
+        for signs in itertools.product((-1, 1), repeat=len(flat))
+    ]
+    return np.vstack([points + offset for offset in offsets])

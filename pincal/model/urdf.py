@@ -281,11 +281,16 @@ def few(names: Sequence[str], limit: int = 3) -> str:
 
 
 def check_meshes(text: str, urdf: Path, package_dirs: Mapping[str, str] | None = None) -> list[str]:
-    """Mesh file names of the URDF that cannot be found (one warning names them)."""
+    """Mesh file names of the URDF that cannot be found (one warning names them); those found are
+    inputs of the command (:func:`pincal.files.note_input`)."""
     names = sorted(
         {str(m.get("filename")) for m in _parse(text, str(urdf)).iter("mesh") if m.get("filename")}
     )
-    missing = [n for n in names if resolve_mesh(n, urdf, package_dirs) is None]
+    found = {n: resolve_mesh(n, urdf, package_dirs) for n in names}
+    for path in found.values():  # the robot's own files: no output of the command may replace them
+        if path is not None:
+            files.note_input(path)
+    missing = [n for n, path in found.items() if path is None]
     if missing:
         warn(
             f"{urdf.name}: {len(missing)} mesh file(s) not found ({few(missing)}); calibration does not "

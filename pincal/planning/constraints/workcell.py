@@ -33,6 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import BadConstraint
+from pincal.files import note_input
 from pincal.model.robot import Robot
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number, vector
 from pincal.planning.constraints.collision_world import CollisionWorld
@@ -81,6 +82,7 @@ class Obstacle:
             object.__setattr__(self, "mesh", os.fspath(self.mesh))
             if not Path(self.mesh).is_file():
                 raise BadConstraint(f"obstacle {self.name!r}: mesh file {self.mesh!r} not found")
+            note_input(self.mesh)  # an input: no output of the command may replace it
 
     @property
     def placement(self) -> pin.SE3:
@@ -136,6 +138,8 @@ def urdf_obstacles(path: str | os.PathLike, package_dirs: tuple[str, ...] = ()) 
         )
     if geom.ngeoms == 0:
         raise BadConstraint(f"workcell urdf {str(path)!r} has no <collision> geometry")
+    for name in [path, *(obj.meshPath for obj in geom.geometryObjects if obj.meshPath)]:
+        note_input(name)  # the cell's files: no output of the command may replace them
     out = []
     for obj in geom.geometryObjects:
         obj = obj.copy()

@@ -1,0 +1,269 @@
+"""What the long fuzz run found (issue 32, item 7), each case kept as a regression test with the
+fuzz property (tests/fuzz_cli.py: exit 0 or 2, one ``pincal: error:`` line, every input unchanged,
+no partial output, no NaN or inf written):
+
+* a flat or zero-scale collision mesh, on the robot or in the workcell, killed ``design``,
+  ``campaign`` and ``show`` (SIGSEGV: qhull on points that span no volume);
+* files named inside other inputs were overwritten: a calibration's sidecar, a workcell's meshes
+  and URDF, the robot's meshes;
+* the calibration sidecar was not validated (a null base, a non-string tip, booleans read as
+  numbers, a gain of −1, a malformed residual model, deeply nested JSON);
+* ``campaign`` took non-physical speeds and times, wrote ``wait=inf``, and neither ``campaign
+  --out`` nor ``compensate --out`` quoted joint names.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pincal
+from pincal.model.geometry import THIN, thickened
+from tests.fuzz_cli import Outcome, _snapshot, check_run
+
+ROOT = Path(__file__).resolve().parents[1]
+PLANAR = (ROOT / "robots" / "planar_2r.urdf").read_text()
+PLAN = "joint1,joint2\n0.1,1.0\n0.5,-1.0\n1.0,2.0\n"
+FLAT_STL = """solid flat
+facet normal 0 0 1
+ outer loop
+  vertex 0 0 0
+  vertex 0.2 0 0
+  vertex 0 0.2 0
+ endloop
+endfacet
+facet normal 0 0 1
+ outer loop
+  vertex 0.2 0 0
+  vertex 0.2 0.2 0
+  vertex 0 0.2 0
+ endloop
+endfacet
+endsolid flat
+"""
+
+
+def _cube_stl(size: float = 0.1) -> str:
+    v = [(x, y, z) for x in (0, size) for y in (0, size) for z in (0, size)]
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
+             (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]  # fmt: skip
+    facets = "".join(
+        "facet normal 0 0 0\n outer loop\n"
+        + "".join(f"  vertex {x} {y} {z}\n" for x, y, z in (v[i] for i in f))
+        + " endloop\nendfacet\n"
+        for f in faces
+    )
+    return f"solid cube\n{facets}endsolid cube\n"
+
+
+def _robot_with_mesh(mesh: str, scale: str) -> str:
+    collision = (
+        f'<link name="link2"><collision><origin xyz="0.4 0 0"/><geometry><mesh filename="{mesh}" '
+        f'scale="{scale}"/></geometry></collision></link>'
+    )
+    return PLANAR.replace('<link name="link2"/>', collision)
+
+
+def run_checked(folder: Path, argv: list[str], inputs: set[str], child: bool = False) -> Outcome:
+    """Run ``pincal ARGV`` (in a child process with ``child``: a crash fails the test, not the
+    suite) in ``folder`` and check the fuzz property on it; the outcome."""
+    before = _snapshot(folder)
+    if child:
+        code = "import sys; from pincal.cli import main; sys.exit(main(sys.argv[1:]))"
+        done = subprocess.run(
+            [sys.executable, "-c", code, *argv], cwd=folder, capture_output=True, text=True, timeout=600
+        )
+        outcome = Outcome(done.returncode, done.stdout, done.stderr)
+    else:
+        from pincal.cli import main
+
+        out, err = io.StringIO(), io.StringIO()
+        cwd = os.getcwd()
+        os.chdir(folder)
+        try:
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                try:
+                    code = main(argv)
+                except SystemExit as exc:
+                    code = exc.code if isinstance(exc.code, int) else 2
+        finally:
+            os.chdir(cwd)
+        outcome = Outcome(code, out.getvalue(), err.getvalue())
+    check_run(outcome, before, _snapshot(folder), inputs)
+    return outcome
+
+
+# ------------------------------------------------------------------ degenerate collision meshes
+@pytest.mark.parametrize("points", [np.zeros((0, 3)), np.ones((1, 3)), np.array([[0, 0, 0], [1, 2, 3.0]]),
+                                    np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.0]])])  # fmt: skip
+def test_points_spanning_no_volume_are_thickened(points):
+    out = thickened(points)
+    assert np.linalg.matrix_rank(out - out.mean(axis=0)) == 3
+    spread = np.linalg.svd(out - out.mean(axis=0), compute_uv=False)
+    assert spread.min() > 0.1 * THIN
+    # the hull holds the given points (each the centre of its copies), each copy within THIN of it
+    if len(points):
+        copies = out.reshape(-1, len(points), 3)
+        np.testing.assert_allclose(copies.mean(axis=0), points, atol=1e-12)
+        assert np.abs(copies - points).max() <= THIN / 2 + 1e-12
+
+
+def test_a_solid_mesh_is_kept_as_it_is():
+    cube = np.array([(x, y, z) for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+    assert thickened(cube) is cube
+
+
+@pytest.fixture
+def meshes(tmp_path):
+    (tmp_path / "flat.stl").write_text(FLAT_STL)
+    (tmp_path / "cube.stl").write_text(_cube_stl())
+    (tmp_path / "plan.csv").write_text(PLAN)
+    (tmp_path / "cell.yaml").write_text(
+        "workcell:\n  obstacles:\n    - {name: plate, mesh: flat.stl, xyz: [1.5, 0, 0.5]}\n"
+    )
+    for name, mesh, scale in (("zero", "cube.stl", "0 0 0"), ("flat", "cube.stl", "1 1 0")):
+        (tmp_path / f"robot_{name}.urdf").write_text(_robot_with_mesh(mesh, scale))
+    return tmp_path
+
+
+COMMON = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
+COMPENSATE = ["compensate", str(ROOT / "robots" / "planar_2r.urdf"), "--tip", "tip",
+              "--calibration", "cal.urdf", "--targets", "program.csv"]  # fmt: skip
+DEGENERATE = {
+    # the robot given, the command after it; each ran into SIGSEGV (exit 139, no message)
+    "a flat workcell mesh, campaign": ("planar_2r", ["campaign", "--tip", "tip", "--plan", "plan.csv",
+                                                     "--constraints", "cell.yaml"]),
+    "a flat workcell mesh, show": ("planar_2r", ["show", *COMMON, "--plan", "plan.csv", "--constraints",
+                                                 "cell.yaml", "--html", "scene.html"]),
+    "a zero-scale robot mesh, design": ("robot_zero.urdf", [
+        "design", *COMMON, "-m", "3", "--test-pose=0.3,1.2", "--starts", "2", "--workers", "1",
+        "--pool-size", "40", "--no-progress", "--constraints", "cell.yaml", "--out", "out.csv"]),
+    "a flat robot mesh, campaign": ("robot_flat.urdf", ["campaign", "--tip", "tip", "--plan", "plan.csv",
+                                                        "--constraints", "cell.yaml"]),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(DEGENERATE))
+def test_a_degenerate_collision_mesh_crashes_nothing(meshes, case):
+    robot, argv = DEGENERATE[case]
+    argv = [argv[0], robot, *argv[1:]]
+    inputs = {"plan.csv", "cell.yaml", "flat.stl", "cube.stl", robot}
+    outcome = run_checked(meshes, argv, inputs, child=True)
+    assert outcome.code == 0, outcome.err
+
+
+# ----------------------------------------------------------------- files named inside inputs
+@pytest.fixture
+def calibrated(tmp_path):
+    robot = pincal.load_robot(ROOT / "robots" / "planar_2r.urdf", tip="tip")
+    robot = robot.replace(joint_gains=[0.001, -0.002], joint_compliances=[1e-6, 2e-6])
+    pincal.export_urdf(robot, tmp_path / "cal.urdf")
+    (tmp_path / "program.csv").write_text("joint1,joint2\n0.1,1.0\n0.5,-1.0\n")
+    return tmp_path
+
+
+def test_compensate_never_writes_over_the_calibrations_sidecar(calibrated):
+    inputs = {"cal.urdf", "cal.calibration.json", "program.csv"}
+    argv = [*COMPENSATE, "--out", "cal.calibration.json"]
+    outcome = run_checked(calibrated, argv, inputs)
+    assert outcome.code == 2 and "is the input cal.calibration.json" in outcome.err
+
+
+@pytest.mark.parametrize("what", ["workcell mesh", "workcell urdf", "robot mesh"])
+def test_no_output_replaces_a_file_an_input_names(meshes, what):
+    (meshes / "cell.urdf").write_text(
+        '<robot name="cell"><link name="world"><collision><geometry><mesh filename="cube.stl"/>'
+        "</geometry></collision></link></robot>"
+    )
+    (meshes / "cell_urdf.yaml").write_text("workcell:\n  urdf: cell.urdf\n")
+    (meshes / "robot_cube.urdf").write_text(_robot_with_mesh("cube.stl", "1 1 1"))
+    robot, constraints, target = {
+        "workcell mesh": ("planar_2r", "cell.yaml", "flat.stl"),
+        "workcell urdf": ("planar_2r", "cell_urdf.yaml", "cell.urdf"),
+        "robot mesh": ("robot_cube.urdf", "cell.yaml", "cube.stl"),
+    }[what]
+    argv = [
+        "campaign",
+        robot,
+        "--tip",
+        "tip",
+        "--plan",
+        "plan.csv",
+        "--constraints",
+        constraints,
+        "--out",
+        target,
+    ]
+    inputs = {"plan.csv", constraints, target, robot, "cube.stl", "flat.stl"}
+    outcome = run_checked(meshes, argv, inputs)
+    assert outcome.code == 2 and f"is the input {target}" in outcome.err.replace(str(meshes) + "/", "")
+    if what == "workcell urdf":  # and the cell's own mesh
+        outcome = run_checked(meshes, [*argv[:-1], "cube.stl"], inputs)
+        assert outcome.code == 2 and "pincal never overwrites an input" in outcome.err
+
+
+# ------------------------------------------------------------------------ the sidecar, checked
+SIDECAR_MUTATIONS = {
+    "a null base": (lambda s: s.update(base=None), "'base' must be the robot base"),
+    "a base that is no rotation": (
+        lambda s: s["base"].update(matrix=[[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]),
+        "'base.matrix' must be a rigid transform",
+    ),
+    "a non-string tip": (lambda s: s.update(tip=5), "'tip' must be the name of the tip frame"),
+    "a null tip": (lambda s: s.update(tip=None), "'tip' must be the name of the tip frame"),
+    "a boolean gain": (lambda s: s["joint_gains"].update(joint1=True), "'joint_gains' must be"),
+    "a gain of -1": (lambda s: s["joint_gains"].update(joint2=-1), "a gain error must lie within ±0.5"),
+    "a string compliance": (
+        lambda s: s["joint_compliances"].update(joint1="1e-6"), "'joint_compliances' must be"),
+    "boolean markers": (lambda s: s.update(markers=[[True, 0, 0]]), "'markers' must be"),
+    "flat markers": (lambda s: s.update(markers=[0.1, 0.2, 0.3]), "'markers' must be [[x, y, z], ...]"),
+    "boolean gravity": (lambda s: s.update(gravity=[0, 0, False]), "'gravity' must be 3 numbers"),
+    "a residual model that is a list": (
+        lambda s: s.update(residual_model=[1, 2]), "'residual_model' must be"),
+    "a residual model without its data": (
+        lambda s: s.update(residual_model={"kind": "gp"}), "'residual_model':"),
+    "a residual model of booleans": (
+        lambda s: s.update(residual_model={"kind": "gp", "amplitude": True}),
+        "'residual_model.amplitude' must be",
+    ),
+    "gains that are a list": (
+        lambda s: s.update(joint_gains=[0.1, 0.2]), "joint_gains must map the chain's joints"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(SIDECAR_MUTATIONS))
+def test_a_malformed_sidecar_is_one_line_naming_the_field(calibrated, case):
+    change, expected = SIDECAR_MUTATIONS[case]
+    side = calibrated / "cal.calibration.json"
+    content = json.loads(side.read_text())
+    change(content)
+    side.write_text(json.dumps(content))
+    argv = [*COMPENSATE, "--out", "out.csv"]
+    outcome = run_checked(calibrated, argv, {"cal.urdf", "cal.calibration.json", "program.csv"})
+    assert outcome.code == 2 and expected in outcome.err, outcome.err
+
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [("[" * 100_000 + "]" * 100_000, "nested too deeply"), ('{"tip": "tip", "gravity": [NaN, 0, 0]}', "NaN")],
+)
+def test_a_sidecar_that_is_no_json_object_is_one_line(calibrated, text, expected):
+    (calibrated / "cal.calibration.json").write_text(text)
+    argv = [*COMPENSATE, "--out", "out.csv"]
+    outcome = run_checked(calibrated, argv, {"cal.urdf", "cal.calibration.json", "program.csv"})
+    assert outcome.code == 2 and expected in outcome.err, outcome.err
+
+
+def test_the_checked_sidecar_still_compensates(calibrated):
+    argv = [*COMPENSATE, "--out", "out.csv"]
+    outcome = run_checked(calibrated, argv, {"cal.urdf", "cal.calibration.json", "program.csv"})
+    assert outcome.code == 0, outcome.err
+    assert (calibrated / "out.csv").read_text().startswith("joint1,joint2\n")
