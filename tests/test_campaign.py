@@ -63,7 +63,7 @@ def test_trapezoid_and_triangle_by_hand(planar2):
     "kw, match",
     [
         (dict(speeds=[1.0]), None),
-        (dict(speeds=[1.0, 0.0]), "speeds must be 2 positive numbers"),
+        (dict(speeds=[1.0, 0.0]), "speeds must be 2 numbers from 1e-06 to 1000"),
         (dict(accelerations=[1, 2, 3]), "accelerations must be 2"),
         (dict(speed_fraction=1.5), "speed_fraction"),
         (dict(dwell="laser"), "dwell must be seconds"),

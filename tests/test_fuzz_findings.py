@@ -267,3 +267,67 @@ def test_the_checked_sidecar_still_compensates(calibrated):
     outcome = run_checked(calibrated, argv, {"cal.urdf", "cal.calibration.json", "program.csv"})
     assert outcome.code == 0, outcome.err
     assert (calibrated / "out.csv").read_text().startswith("joint1,joint2\n")
+
+
+# ------------------------------------------------------------------ a campaign's times and CSV
+@pytest.mark.parametrize(
+    "option, value, expected",
+    [
+        ("--joint-speeds", "1e-320", "--joint-speeds: speeds must be 2 numbers from 1e-06 to 1000"),
+        ("--joint-speeds", "1e308", "--joint-speeds: speeds must be 2 numbers from 1e-06 to 1000"),
+        (
+            "--joint-accelerations",
+            "1e-320",
+            "--joint-accelerations: accelerations must be 2 numbers from 1e-06",
+        ),
+        ("--settle", "1e308", "--settle: settle must be seconds from 0 to 86400"),
+        ("--dwell", "1e308", "--dwell: dwell must be seconds from 0 to 86400"),
+        ("--speed", "1e-320", "--speed: speed_fraction must be from 0.001 to 1"),
+    ],
+)
+def test_a_campaign_refuses_non_physical_times(tmp_path, option, value, expected):
+    (tmp_path / "plan.csv").write_text(PLAN)
+    argv = [
+        "campaign",
+        "planar_2r",
+        "--tip",
+        "tip",
+        "--plan",
+        "plan.csv",
+        option,
+        value,
+        "--json",
+        "--out",
+        "c.csv",
+    ]
+    outcome = run_checked(tmp_path, argv, {"plan.csv"})
+    assert outcome.code == 2 and expected in outcome.err, outcome.err
+
+
+def test_joint_names_with_commas_are_quoted_in_every_program(tmp_path):
+    (tmp_path / "comma.urdf").write_text(PLANAR.replace('"joint1"', '"a,b"'))
+    (tmp_path / "plan.csv").write_text('"a,b",joint2\n0.1,1.0\n0.5,-1.0\n1.0,2.0\n')
+    robot = pincal.load_robot(tmp_path / "comma.urdf", tip="tip")
+    pincal.export_urdf(robot.replace(joint_gains=[0.001, -0.002]), tmp_path / "cal.urdf")
+    inputs = {"comma.urdf", "plan.csv", "cal.urdf", "cal.calibration.json"}
+    campaign = [
+        "campaign",
+        "comma.urdf",
+        "--tip",
+        "tip",
+        "--plan",
+        "plan.csv",
+        "--settle",
+        "86400",
+        "--out",
+        "c.csv",
+    ]
+    assert run_checked(tmp_path, campaign, inputs).code == 0
+    lines = (tmp_path / "c.csv").read_text().splitlines()
+    assert lines[1] == '"a,b",joint2,pose,wait' and all(len(line.split(",")) == 4 for line in lines[2:])
+    assert float(lines[3].split(",")[-1]) == 86400 + 2  # settle and dwell, as they are: never inf
+    compensate = ["compensate", "comma.urdf", "--tip", "tip", "--calibration", "cal.urdf",
+                  "--targets", "plan.csv", "--out", "corrected.csv"]  # fmt: skip
+    assert run_checked(tmp_path, compensate, inputs).code == 0
+    back = pincal.Plan.from_csv(tmp_path / "corrected.csv", robot=robot)  # read back by name
+    assert back.joint_names == ("a,b", "joint2") and len(back) == 3

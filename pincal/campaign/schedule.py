@@ -28,7 +28,8 @@ from pincal.campaign.line_of_sight import Occlusion, occlusions
 from pincal.campaign.motion import Detour, MoveCheck, certify_move, find_detour
 from pincal.campaign.ordering import best_tour, tour_cost
 from pincal.campaign.timing import Timing
-from pincal.files import atomic_write_text
+from pincal.errors import CannotWrite
+from pincal.files import atomic_write_text, csv_header
 from pincal.model.robot import Robot
 from pincal.planning.constraints import (
     AnyConstraint,
@@ -196,9 +197,14 @@ class Campaign:
         the time spent there [s]."""
         out = io.StringIO()
         out.write("# pincal campaign: " + self.summary() + "\n")
-        out.write(",".join([*self.robot.joint_names, "pose", "wait"]) + "\n")
+        out.write(csv_header([*self.robot.joint_names, "pose", "wait"]))  # a name with a comma quoted
         for q, pose, wait in self.waypoints():
             values = self.robot.to_degrees(q) if degrees else q
+            if not (np.all(np.isfinite(values)) and math.isfinite(wait)):
+                raise CannotWrite(
+                    f"the campaign's waypoint {list(map(float, values))} (wait {wait!r} s) is not finite: "
+                    "no robot program is written"
+                )
             out.write(",".join([*(repr(float(v)) for v in values), str(pose), f"{wait:g}"]) + "\n")
         return out.getvalue()
 

@@ -36,17 +36,32 @@ DEFAULT_SETTLE = 0.5
 """Time [s] the robot is left to settle at a measurement pose before the instrument reads."""
 
 
-def _positive_vector(values: object, n: int, what: str, names: tuple[str, ...]) -> np.ndarray:
+SPEED_RANGE = (1e-6, 1e3)
+"""Joint speeds a campaign takes [rad/s or m/s]: a joint slower than a micro-radian per second
+never arrives, one faster than 1000 rad/s is no robot (and the times stay finite)."""
+ACCELERATION_RANGE = (1e-6, 1e6)
+"""Joint accelerations a campaign takes [rad/s² or m/s²]."""
+MAX_WAIT = 86_400.0
+"""Longest settle or dwell a campaign takes at a pose [s]: a day."""
+MIN_SPEED_FRACTION = 1e-3
+"""Smallest fraction of the speeds a campaign runs at."""
+
+
+def _positive_vector(
+    values: object, n: int, what: str, names: tuple[str, ...], valid: tuple[float, float]
+) -> np.ndarray:
+    """``values``, one per joint or one for all, each within ``valid``, or BadArgument naming it."""
     try:
         arr = np.array(values, dtype=float).reshape(-1)
     except (TypeError, ValueError):
         arr = np.empty(0)
     if arr.size == 1:
         arr = np.full(n, arr[0])
-    if arr.size != n or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
+    low, high = valid
+    if arr.size != n or not np.all((arr >= low) & (arr <= high)):  # NaN fails too
         raise BadArgument(
-            f"{what} must be {n} positive numbers (one per joint: {', '.join(names)}) or one for all, "
-            f"got {values!r}",
+            f"{what} must be {n} numbers from {low:g} to {high:g} (one per joint: {', '.join(names)}) "
+            f"or one for all, got {values!r}",
             argument=what,
             value=values,
         )
@@ -65,9 +80,9 @@ def dwell_seconds(dwell: float | str | None) -> tuple[float, str]:
         value = float(dwell)
     except (TypeError, ValueError):
         value = math.nan
-    if not (math.isfinite(value) and value >= 0):
+    if not (0 <= value <= MAX_WAIT):  # NaN fails too
         raise BadArgument(
-            f"dwell must be seconds ≥ 0 or an instrument "
+            f"dwell must be seconds from 0 to {MAX_WAIT:g} or an instrument "
             f"({', '.join(f'{k}: {v:g} s' for k, v in DWELLS.items())}), got {dwell!r}",
             argument="dwell",
             value=dwell,
@@ -136,26 +151,31 @@ class Timing:
                     argument="speeds",
                 )
             speeds, source = urdf, "URDF velocity limits"
-        v = _positive_vector(speeds, robot.nq, "speeds", names)
+        v = _positive_vector(speeds, robot.nq, "speeds", names, SPEED_RANGE)
         a = (
             None
             if accelerations is None
-            else _positive_vector(accelerations, robot.nq, "accelerations", names)
+            else _positive_vector(accelerations, robot.nq, "accelerations", names, ACCELERATION_RANGE)
         )
         try:
             fraction = float(speed_fraction)
         except (TypeError, ValueError):
             fraction = math.nan
-        if not (0 < fraction <= 1):
+        if not (MIN_SPEED_FRACTION <= fraction <= 1):
             raise BadArgument(
-                f"speed_fraction must be in (0, 1], got {speed_fraction!r}", argument="speed_fraction"
+                f"speed_fraction must be from {MIN_SPEED_FRACTION:g} to 1, got {speed_fraction!r}",
+                argument="speed_fraction",
             )
         try:
             settle_s = float(settle)
         except (TypeError, ValueError):
             settle_s = math.nan
-        if not (math.isfinite(settle_s) and settle_s >= 0):
-            raise BadArgument(f"settle must be seconds ≥ 0, got {settle!r}", argument="settle", value=settle)
+        if not (0 <= settle_s <= MAX_WAIT):  # NaN fails too
+            raise BadArgument(
+                f"settle must be seconds from 0 to {MAX_WAIT:g}, got {settle!r}",
+                argument="settle",
+                value=settle,
+            )
         dwell_s, instrument = dwell_seconds(dwell)
         if fraction < 1:
             source += f" × {fraction:g}"

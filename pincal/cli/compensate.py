@@ -18,7 +18,7 @@ from pincal.cli._common import (
 from pincal.compensation.calibration_file import load_calibration
 from pincal.compensation.compensate import compensate
 from pincal.errors import BadArgument, BadPlanFile, warn
-from pincal.files import atomic_write_text, column_mismatch, read_numeric_csv
+from pincal.files import atomic_write_text, column_mismatch, csv_header, read_numeric_csv
 from pincal.model.statics import Payload
 
 HELP = COMMANDS["compensate"].help
@@ -114,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     )
     commands = nominal.to_degrees(result.commands) if args.deg else result.commands
     rows = "".join(",".join(repr(float(v)) for v in row) + "\n" for row in commands)
-    atomic_write_text(args.out, ",".join(nominal.joint_names) + "\n" + rows)
+    atomic_write_text(args.out, csv_header(nominal.joint_names) + rows)  # a name with a comma quoted
     _warn(result)
     summary = _summary(result, nominal, deployed, payload, cartesian, args)
     if args.json:
