@@ -64,7 +64,7 @@ from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
 from pincal.planning.objectives import CRITERIA
 from pincal.planning.placement import STEPS, Placement, place_instrument
 from pincal.planning.plan import Plan
-from pincal.planning.results import DesignResult, RandomPlans
+from pincal.planning.results import DesignResult, RandomPlans, dropped_line
 from pincal.planning.safety import safety_margins
 from pincal.viewing import plots
 
@@ -260,8 +260,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def print_warnings(records: list) -> None:
-    for w in records:
-        print(f"pincal: warning: {w.message}", file=sys.stderr)
+    """Each warning recorded, once (a design, its baseline and its D-optimal plan may say the same)."""
+    for message in dict.fromkeys(str(w.message) for w in records):
+        print(f"pincal: warning: {message}", file=sys.stderr)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -353,7 +354,6 @@ def _check_payload_design(args: argparse.Namespace, loads: dict) -> None:
         "--polish": (bool(args.polish), CONTINUOUS_WHY),
     }
     if "residual_model" in loads:
-        refused["--pool"] = (bool(args.pool), "its pool adds candidates near the test pose")
         refused["--accuracy-plot"] = (bool(args.accuracy_plot), "the plot has no residual model")
     given = [f"{name} ({why})" for name, (on, why) in refused.items() if on]
     if given:
@@ -546,6 +546,8 @@ def print_design(
         f"{result.starts} starts, {result.continued} run to convergence, {result.time_s:.3g} s)"
     )
     print(f"{len(params)} parameters ({source}); {sigma_text}")
+    if result.dropped:
+        print(f"{dropped_line(result.dropped, result.starts)} (none of their random plans was regular)")
     if result.rho0_each is not None and result.rho0 is not None and len(result.rho0_each) > 1:
         agg = "worst" if result.criterion == "test-pose-worst" else "root mean square"
         print(

@@ -38,6 +38,8 @@ examples:
   pincal next kr270 --data measured.csv --plan plan.csv -k 3 --test-pose=0,-60,60,0,45,0 --around 10deg \\
       --deg --marker 0.1,0.05,0.2 --target 0.02mm --out next.csv
   pincal next kr270 --data measured.csv --plan plan.csv --deg --mm --base --test-path weld.csv --json
+  pincal next kr270 --data measured.csv --plan plan.csv --deg --pool taught.csv -k 3 \\
+      --test-pose=0,-60,60,0,45,0
 
 What it does, from --data (the measurement CSV, as 'pincal identify' reads it) and --plan (the poses
 planned so far: those not in the data are unreachable, and the next poses keep
@@ -74,6 +76,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "those without data are taken as unreachable and the next poses keep away from them",
     )
     p.add_argument("-k", type=count("-k"), default=3, help="poses to choose next (default 3)")
+    p.add_argument(
+        "--pool",
+        metavar="POOL.csv",
+        help="choose the next poses among these configurations only (plan CSV: taught or measured poses; "
+        "degrees with --deg), instead of a generated pool",
+    )
     add_test_pose_argument(p, required=False)
     add_region_arguments(p)
     p.add_argument(
@@ -128,6 +136,7 @@ def run(args: argparse.Namespace) -> int:
     target = None if args.target is None else parse_length(args.target, "--target")
     data = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm)
     plan = read_plan(robot, args.plan, args.deg) if args.plan else None
+    pool = read_plan(robot, args.pool, args.deg, what="pool") if args.pool else None
     region = test_region_from_args(robot, args)
     prior = prior_from_args(args)
     constraints = safe_constraints_from_args(robot, args)
@@ -146,6 +155,7 @@ def run(args: argparse.Namespace) -> int:
             starts=args.starts,
             seed=args.seed,
             workers=args.workers,
+            pool=pool,
             progress=args.progress,
         )
     if args.out and not result.stop:

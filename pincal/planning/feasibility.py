@@ -11,7 +11,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from pincal.errors import BadConstraint, Infeasible
+from pincal.errors import BadConstraint, Infeasible, warn
 from pincal.model.robot import Robot
 from pincal.planning.constraints import (
     TOLERANCE,
@@ -90,12 +90,35 @@ class Feasibility:
         """
         qs = self.robot.configurations(pool, what="pool configuration")
         ok = self.feasible(qs)
+        dropped = self._dropped_by(qs, ok)
         if ok.sum() < m:
             raise Infeasible(
-                f"only {int(ok.sum())} of the {len(qs)} pool configurations satisfy the constraints; "
-                f"{m} are needed"
+                f"only {int(ok.sum())} of the {len(qs)} pool configurations satisfy the constraints "
+                f"({dropped}); {m} are needed"
+            )
+        if not ok.all():
+            warn(
+                f"{int((~ok).sum())} of the {len(qs)} pool configurations dropped ({dropped}): a robot "
+                "that reached them while measuring is mounted otherwise than the default says: give its "
+                "mount (--mount wall|ceiling|none|NX,NY,NZ,OFFSET; mount=) or its cell"
+                if "mount" in dropped
+                else f"{int((~ok).sum())} of the {len(qs)} pool configurations dropped ({dropped})"
             )
         return qs[ok], int((~ok).sum())
+
+    def _dropped_by(self, qs: np.ndarray, ok: np.ndarray) -> str:
+        """Which constraints drop the configurations not ``ok``, in words: ``"mount 241, joint
+        limits 3"`` (a configuration counts under each constraint it breaks)."""
+        bad = np.flatnonzero(~ok)
+        if not len(bad):
+            return "none"
+        counts = {
+            "joint limits (and their margins)": int((~self.limits.satisfied(_LimitsOnly(qs[bad]))).sum())
+        }  # type: ignore[arg-type]
+        kin = self.kinematics(qs[bad])
+        for key, b in self.bound:
+            counts[key.replace("_", " ")] = int((~b.satisfied(kin)).sum())
+        return ", ".join(f"{name} {n}" for name, n in counts.items() if n)
 
     def spacing_ok(self, qs: np.ndarray) -> bool:
         """True when every pair of configurations is at least the minimum spacing apart."""
