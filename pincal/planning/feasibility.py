@@ -112,9 +112,8 @@ class Feasibility:
         bad = np.flatnonzero(~ok)
         if not len(bad):
             return "none"
-        counts = {
-            "joint limits (and their margins)": int((~self.limits.satisfied(_LimitsOnly(qs[bad]))).sum())
-        }  # type: ignore[arg-type]
+        outside = ~self.limits.satisfied(_LimitsOnly(qs[bad]))  # type: ignore[arg-type]  # reads q only
+        counts = {"joint limits (and their margins)": int(outside.sum())}
         kin = self.kinematics(qs[bad])
         for key, b in self.bound:
             counts[key.replace("_", " ")] = int((~b.satisfied(kin)).sum())
