@@ -286,11 +286,12 @@ def _csv_rows(path: Path, what: str, error: type[Exception]) -> Iterator[tuple[i
         yield reader.line_num, row, comment
 
 
-def read_yaml(path: str | os.PathLike, what: str, error: type[Exception]) -> object:
+def read_yaml(path: str | os.PathLike, what: str, error: type[Exception], documents: bool = False) -> object:
     """The data of a YAML file, within the depth and size limits, every number finite.
 
     Anchors and aliases are refused (they can expand a small file into a huge tree), and so are
-    numbers that are not finite or beyond float range.
+    numbers that are not finite or beyond float range. With ``documents``, the list of the
+    file's documents (a stream separated by ``---``, as ``ros2 topic echo`` prints messages).
     """
     import yaml
 
@@ -323,7 +324,7 @@ def read_yaml(path: str | os.PathLike, what: str, error: type[Exception]) -> obj
                 nodes += 1
                 if nodes > MAX_YAML_NODES:
                     raise _error(error, f"{where}: more than {MAX_YAML_NODES} values", path)
-        data = yaml.safe_load(text)
+        data = list(yaml.safe_load_all(text)) if documents else yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         at = f", line {mark.line + 1}" if mark is not None else ""

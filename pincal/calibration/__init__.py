@@ -1,8 +1,11 @@
 """Calibrating: measurement files (:mod:`.measurements`), identification (:mod:`.identification`
 in stages over :mod:`.state`, :mod:`.noise`, :mod:`.problem`, :mod:`.solver`, :mod:`.sanity`,
 :mod:`.result`), held-out errors (:mod:`.validation`), synthetic data (:mod:`.synthetic`), the
-Monte-Carlo check of a plan (:mod:`.monte_carlo`) and the calibrated URDF (:mod:`.urdf_export`)."""
+Monte-Carlo check of a plan (:mod:`.monte_carlo`), the calibrated URDF (:mod:`.urdf_export`) and
+other tools' measurement files (:mod:`.formats`: FIGAROH, robot_calibration, industrial_calibration,
+MoveIt Calibration)."""
 
+from pincal.calibration.formats import read_measurements
 from pincal.calibration.identification import identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
@@ -26,6 +29,7 @@ __all__ = [
     "kfold",
     "monte_carlo",
     "random_errors",
+    "read_measurements",
     "simulate_measurements",
     "validate",
 ]

@@ -15,6 +15,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, joint_range, positive_int, positive_sigma, sigma_note
+from pincal.calibration.formats.robot_calibration import BAG_SUFFIXES, ROS_EXTRA
 from pincal.errors import BadArgument, BadConfiguration, MissingDependency, warn
 from pincal.files import check_output
 from pincal.instruments.identifiability import identifiable
@@ -123,7 +124,8 @@ XACRO_EXTRA = "pincal[xacro]"
 def check_optional_packages(args: argparse.Namespace, names: dict[str, str]) -> None:
     """Refuse, before any work, an option that needs a package pincal does not require: a figure
     (matplotlib, checked with the outputs' formats), ``--residual-model gp`` (scikit-learn), a
-    scene (``show``, ``--html``: meshcat) and a ``.xacro`` input (xacro). One line names the option
+    scene (``show``, ``--html``: meshcat), a ``.xacro`` input (xacro) and a ROS bag input (``.db3``,
+    ``.mcap``, ``.bag``: rosbags). One line names the option
     and the pip command, rather than an internal error after the work.
 
     Raises:
@@ -144,6 +146,9 @@ def check_optional_packages(args: argparse.Namespace, names: dict[str, str]) -> 
             xacro = isinstance(v, str) and v.lower().endswith(".xacro") and os.path.isfile(v)
             if xacro and dest not in OUTPUT_OPTIONS:
                 _require_xacro(f"{names.get(dest, dest)} {v}")
+            bag = isinstance(v, str) and v.lower().endswith(BAG_SUFFIXES) and os.path.exists(v)
+            if bag and dest not in OUTPUT_OPTIONS:
+                require("rosbags", f"{names.get(dest, dest)} {v} (a ROS bag)", ROS_EXTRA)
 
 
 SIGMA_LIKE_MILLIMETRES = 1e-3

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, fraction, positive_int, positive_sigma, ratio
+from pincal.calibration.formats import FORMATS, format_of, read_measurements
 from pincal.calibration.identification import LOSSES, METHODS, RESIDUAL_MODELS, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.urdf_export import export_urdf, sidecar_path
@@ -64,12 +65,21 @@ examples:
       --anchor 0.5,-1.5,0.2                                  # draw-wires; the anchors are identified
   pincal identify panda --data corners.csv --camera rig.yaml --out panda_cal.urdf   # a camera
   pincal identify kr270 --data tracker.csv --base --marker 0.1,0.05,0.2 --instrument tracker
+  pincal identify ur10 --data config/ur10_config.yaml --base --marker 0.05,0,0.12   # FIGAROH's data
+  pincal identify ur10 --data calibration_data.db3 --sensor camera --base --marker 0.02,0,0.1 \
+      --marker -0.02,0,0.1                  # robot_calibration's bag (pip install "pincal[ros]")
+  pincal identify ur10 --data samples.yaml --joint-states joint_states.yaml --base   # MoveIt Calibration
 
 MEAS.csv: a header row, then one configuration per row: one column per joint, named as in the URDF
 (radians; degrees with --deg), and the measured point(s): x,y,z for one marker or x0,y0,z0,x1,y1,z1,...
 for several, in the order of --marker (metres; millimetres with --mm). Optional uncertainty columns
 s (or sx,sy,sz; per marker s0,... or sx0,...), in the coordinates' unit, weight each point by 1/s^2.
 Rows with a missing or non-numeric cell, NaN, or a joint outside its limits are errors naming the line.
+Other tools' data (--format, else found from the file): FIGAROH's calibration CSV or configuration
+YAML (figaroh), ROS robot_calibration's CalibrationData bag (.db3, .mcap, .bag) or YAML
+(robot_calibration; --sensor NAME picks the sensor), industrial_calibration's observations YAML
+(industrial_calibration) and MoveIt Calibration's hand-eye samples YAML with its joint states
+(moveit; --joint-states FILE, one per --data): metres and radians, joints matched by name.
 --base: the points are in the instrument's frame, not the robot base frame: the base placement
 (base.*) is identified too, starting from a rigid fit (the "before" residual is the one after it),
 and the chain parameters it makes redundant are dropped. Several --data files, each measured from its
@@ -129,6 +139,20 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--mm", action="store_true", help="measured coordinates (and s columns) are in millimetres"
     )
     p.add_argument("--deg", action="store_true", help="joint values are in degrees")
+    p.add_argument(
+        "--format",
+        choices=tuple(FORMATS),
+        help="the --data files' format (default: found from each file): pincal's CSV or another tool's",
+    )
+    p.add_argument(
+        "--sensor", metavar="NAME", help="robot_calibration data: the sensor whose points were measured"
+    )
+    p.add_argument(
+        "--joint-states",
+        action="append",
+        metavar="FILE.yaml",
+        help="MoveIt Calibration samples: the joint states saved with them (one per --data, in order)",
+    )
     add_base_argument(p)
     p.add_argument(
         "--sigma",
@@ -197,11 +221,29 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def _check_outputs(args: argparse.Namespace, robot) -> None:
     """The sidecar --out writes must not be an input either (main checks --out and --plot)."""
-    inputs = [*args.data, robot.urdf_path, args.validate]
+    inputs = [*args.data, *(args.joint_states or []), robot.urdf_path, args.validate]
     if args.out and sidecar_path(args.out).resolve() in [Path(p).resolve() for p in inputs if p]:
         raise OverwriteRefused(
             f"the sidecar of --out {args.out} would overwrite an input: choose another name"
         )
+
+
+def _read_data(args: argparse.Namespace, robot, path: str, kind, index: int) -> MeasurementData:
+    """One --data (or --validate) file, in its format: pincal's CSV, or another tool's data."""
+    name = args.format or format_of(path)
+    if name == "pincal":
+        return MeasurementData.from_csv(path, robot, degrees=args.deg, millimetres=args.mm, kind=kind)
+    given = [o for o, on in (("--deg", args.deg), ("--mm", args.mm), ("--measure", args.measure)) if on]
+    if given:
+        raise BadArgument(
+            f"{', '.join(given)}: for pincal's CSV; {path} is {FORMATS[name].tool}'s data, in metres and "
+            f"radians, and says what was measured"
+        )
+    options = {"sensor": args.sensor, "joint_states": args.joint_states[index] if args.joint_states else None}
+    data = read_measurements(path, robot, format=name, **options)
+    if kind is not None and type(data.measure) is not type(kind):
+        raise BadArgument(f"{path} holds {data.measure.describe()} measurements, not {kind.describe()}")
+    return data
 
 
 def run(args: argparse.Namespace) -> int:
@@ -222,10 +264,11 @@ def run(args: argparse.Namespace) -> int:
     # --measure says what a file's columns leave open (x,y alone is a partial measurement, not a
     # point file missing its z); without it, the columns (and --camera) say what was measured.
     kind = kind_from_args(args, robot) if args.measure else rig.kind if rig is not None else None
-    sessions = [
-        MeasurementData.from_csv(d, robot, degrees=args.deg, millimetres=args.mm, kind=kind)
-        for d in args.data
-    ]
+    if args.joint_states and len(args.joint_states) != len(args.data):
+        raise BadArgument(
+            f"{len(args.joint_states)} --joint-states for {len(args.data)} --data: give one per --data file"
+        )
+    sessions = [_read_data(args, robot, d, kind, i) for i, d in enumerate(args.data)]
     kinds = {type(d.measure).__name__ for d in sessions}
     if len(kinds) > 1:
         raise BadArgument(
@@ -245,9 +288,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         result = identify(params, sessions, **options)
         if args.validate:
-            other = MeasurementData.from_csv(
-                args.validate, robot, degrees=args.deg, millimetres=args.mm, kind=sessions[0].measure
-            )
+            other = _read_data(args, robot, args.validate, sessions[0].measure, 0)
             validation = validate(result, other)
         elif args.kfold is not None:
             validation = kfold(params, sessions, args.kfold, seed=args.seed, **options)
