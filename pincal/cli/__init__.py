@@ -82,6 +82,11 @@ COMMANDS: dict[str, Command] = {
             "residuals)"
         ),
     ),
+    "iso9283": Command(
+        "pincal.cli.iso9283",
+        "ISO 9283 pose accuracy and repeatability (AP, RP, orientation, distance) from poses measured "
+        "in cycles, before and after calibration",
+    ),
     "show": Command(
         "pincal.cli.show",
         "see a plan: meshcat scene of the measurement poses and the test pose's error ellipsoid",

@@ -3,8 +3,10 @@ criterion interface (:mod:`.criterion`) and one module per criterion — the tes
 (:mod:`.test_pose`, :mod:`.test_pose_worst`), D, A, E, cond (:mod:`.d_optimal`, :mod:`.a_optimal`,
 :mod:`.e_optimal`, :mod:`.condition`) — by name in :mod:`.registry`, the classic criteria of a
 plan together (:mod:`.classic`), where the robot works (:mod:`.region`), prior knowledge
-(:mod:`.prior`), the predicted accuracy of a plan (:mod:`.accuracy`) and what a plan's data can
-identify (:mod:`.data_check`)."""
+(:mod:`.prior`), the predicted accuracy of a plan (:mod:`.accuracy`), what a plan's data can
+identify (:mod:`.data_check`), and the ISO 9283 pose characteristics of poses measured in cycles
+(:mod:`.iso9283`, the poses in :mod:`.pose_cycles`, the IPA ISO-cube reader in :mod:`.ipa_iso_cubes`,
+the instrument's frame by :mod:`.rigid_fit`)."""
 
 from pincal.evaluation.accuracy import (
     AccuracyReport,
@@ -19,6 +21,8 @@ from pincal.evaluation.classic import Criteria, criteria
 from pincal.evaluation.criterion import Criterion
 from pincal.evaluation.data_check import DataCheck, check_plan
 from pincal.evaluation.information import information_matrix
+from pincal.evaluation.iso9283 import Iso9283Report, iso9283
+from pincal.evaluation.pose_cycles import PoseCycles, read_pose_cycles
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import CartesianBox, Neighbourhood, TestPath, TestRegion, around, cartesian_box
 from pincal.evaluation.registry import CRITERIA, make_criterion
@@ -33,7 +37,9 @@ __all__ = [
     "Criterion",
     "DataCheck",
     "ErrorProfile",
+    "Iso9283Report",
     "Neighbourhood",
+    "PoseCycles",
     "PredictedError",
     "Prior",
     "ResidualCriterion",
@@ -49,8 +55,10 @@ __all__ = [
     "error_profile",
     "expected_error",
     "information_matrix",
+    "iso9283",
     "make_criterion",
     "position_covariance",
+    "read_pose_cycles",
     "rho0",
     "rho0_each",
     "rho0_split",

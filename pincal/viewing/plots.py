@@ -17,6 +17,7 @@ function is called, never when pincal is imported.
   one point per plan size.
 * :func:`placement_map`: the predicted error at the test region against the instrument's position
   over the box searched (:func:`pincal.planning.placement.place_instrument`).
+* :func:`iso9283_characteristics`: ISO 9283 AP and RP pose by pose, before and after calibration.
 """
 
 from __future__ import annotations
@@ -452,4 +453,39 @@ def placement_map(placement: Any, unit: str = "mm", title: str | None = None) ->
             )
         )
     )
+    return fig
+
+
+def iso9283_characteristics(reports: Mapping[str, Any], unit: str = "mm", title: str | None = None) -> Figure:
+    """ISO 9283 position accuracy AP (top) and repeatability RP (bottom) pose by pose, one series
+    per report (``{"before": ..., "after": ...}``, :class:`pincal.evaluation.iso9283.Iso9283Report`
+    values over the same poses). A pose without repeatability (one cycle) has no RP point."""
+    factor = _factor(unit)
+    reports = dict(reports)
+    if not reports:
+        raise BadArgument("iso9283_characteristics: no report to draw")
+    first = next(iter(reports.values()))
+    labels = [f"{p.test} {p.pose}".strip() for p in first.poses]
+    index = np.arange(len(labels))
+    fig = _figure((max(6.4, min(16.0, 0.35 * len(labels) + 2.0)), 5.6))
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    width = 0.8 / len(reports)
+    for k, (name, report) in enumerate(reports.items()):
+        color = _COLORS[k % len(_COLORS)]
+        shift = (k - (len(reports) - 1) / 2) * width
+        ap = np.array([p.ap for p in report.poses]) * factor
+        top.bar(index + shift, ap, width=width, color=color, label=f"{name}: AP max {ap.max():.3g} {unit}")
+        rp = np.array([np.nan if p.rp is None else p.rp for p in report.poses]) * factor
+        if np.isfinite(rp).any():
+            bottom.bar(index + shift, np.nan_to_num(rp), width=width, color=color, label=name)
+    top.set_ylabel(f"AP [{unit}]")
+    top.legend(fontsize="small")
+    top.grid(True, axis="y", alpha=0.3)
+    bottom.set_ylabel(f"RP [{unit}]")
+    bottom.grid(True, axis="y", alpha=0.3)
+    if len(labels) <= 40:
+        bottom.set_xticks(index, labels, rotation=90, fontsize=7)
+    else:
+        bottom.set_xlabel(f"pose ({len(labels)} poses, in the data's order)")
+    fig.suptitle(title or "ISO 9283 pose accuracy and repeatability", fontsize="medium")
     return fig
