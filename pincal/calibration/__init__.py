@@ -8,6 +8,7 @@ MoveIt Calibration)."""
 from pincal.calibration.formats import read_measurements
 from pincal.calibration.identification import identify
 from pincal.calibration.measurements import MeasurementData
+from pincal.calibration.mjcf_export import export_mjcf
 from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
 from pincal.calibration.result import IdentificationResult
 from pincal.calibration.sanity import Outlier
@@ -23,6 +24,7 @@ __all__ = [
     "RandomErrors",
     "SmoothField",
     "Validation",
+    "export_mjcf",
     "export_urdf",
     "holdout",
     "identify",

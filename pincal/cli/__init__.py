@@ -95,6 +95,10 @@ COMMANDS: dict[str, Command] = {
         "pincal.cli.robots",
         "list the robots loadable by name (shipped URDFs and example-robot-data) and the chains each offers",
     ),
+    "export": Command(
+        "pincal.cli.export",
+        "write a calibration (a calibrated URDF and its sidecar) in another format: MJCF for MuJoCo",
+    ),
     "urdf-from-dh": Command(
         "pincal.cli.from_dh",
         "write the URDF of a robot given by a DH table (standard or modified convention)",

@@ -12,6 +12,7 @@ from pincal.arguments import DEFAULT_SIGMA, fraction, positive_int, positive_sig
 from pincal.calibration.formats import FORMATS, format_of, read_measurements
 from pincal.calibration.identification import LOSSES, METHODS, RESIDUAL_MODELS, identify
 from pincal.calibration.measurements import MeasurementData
+from pincal.calibration.mjcf_export import export_mjcf, writes_mjcf
 from pincal.calibration.urdf_export import export_urdf, sidecar_path
 from pincal.calibration.validation import holdout, kfold, validate
 from pincal.cli import COMMANDS
@@ -99,7 +100,9 @@ A result no real robot has (a link origin or the tool frame moving by over 5 cm,
 --mm; a forgotten --marker; --base; columns).
 --out writes the user's URDF with corrected joint origins (joint offsets folded into them) and the
 tip's fixed joint corrected, and a sidecar CAL.calibration.json with the base, markers, sigma and
-conditioning: p = base * oMf[tip] * marker predicts the instrument's coordinates.
+conditioning: p = base * oMf[tip] * marker predicts the instrument's coordinates. A MuJoCo robot
+(ROBOT.xml), or an --out ending in .xml, is written as MJCF: the bodies' pos/quat, the joints' ref
+(the offsets), the markers as sites, everything else kept (README, MJCF).
 Estimates are errors relative to the nominal URDF (m, rad); text output shows mm and mrad.
 Exit code 2 when the data cannot identify the parameters, the fit does not converge, or the result is
 implausible (then no URDF, unless --force: the URDF is written, with a warning, and the exit code is 0).
@@ -199,7 +202,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--plot", metavar="FILE.png", help="save the validation errors before/after (a figure)" + FIGURE_NOTE
     )
     p.add_argument(
-        "--out", metavar="CALIBRATED.urdf", help="write the calibrated URDF (and its sidecar) here"
+        "--out",
+        metavar="CALIBRATED.urdf",
+        help="write the calibrated URDF (and its sidecar) here; MJCF for a MuJoCo robot or an .xml name",
     )
     p.add_argument("--force", action="store_true", help="write the URDF of an implausible result anyway")
     add_test_pose_argument(p, required=False)
@@ -222,6 +227,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def _check_outputs(args: argparse.Namespace, robot) -> None:
     """The sidecar --out writes must not be an input either (main checks --out and --plot)."""
     inputs = [*args.data, *(args.joint_states or []), robot.urdf_path, args.validate]
+    if args.out:
+        writes_mjcf(robot, args.out)  # an MJCF robot's calibration is MJCF: refused before the work
     if args.out and sidecar_path(args.out).resolve() in [Path(p).resolve() for p in inputs if p]:
         raise OverwriteRefused(
             f"the sidecar of --out {args.out} would overwrite an input: choose another name"
@@ -293,7 +300,8 @@ def run(args: argparse.Namespace) -> int:
         elif args.kfold is not None:
             validation = kfold(params, sessions, args.kfold, seed=args.seed, **options)
     writable = result.success or (args.force and result.status == "implausible")
-    out = export_urdf(result, args.out, force=args.force) if args.out and writable else None
+    writer = export_mjcf if args.out and writes_mjcf(robot, args.out) else export_urdf
+    out = writer(result, args.out, force=args.force) if args.out and writable else None
     if args.plot and validation is not None:
         save_figure(validation_errors(validation), args.plot)
     accuracy = None
@@ -333,7 +341,8 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         print(f"validation figure written to {args.plot}")
     if out:
-        print(f"calibrated URDF written to {out} (sidecar {sidecar_path(out)})")
+        format_name = "MJCF" if writer is export_mjcf else "URDF"
+        print(f"calibrated {format_name} written to {out} (sidecar {sidecar_path(out)})")
     if not result.success:
         print(f"pincal: warning: the result is {result.status}; written because of --force", file=sys.stderr)
     return 0

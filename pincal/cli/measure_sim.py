@@ -8,6 +8,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.arguments import DEFAULT_SIGMA, MAX_ANGLE, check_lengths, generator, number
+from pincal.calibration.mjcf_export import export_mjcf, writes_mjcf
 from pincal.calibration.synthetic import random_errors, simulate_measurements
 from pincal.calibration.urdf_export import export_urdf
 from pincal.cli import COMMANDS
@@ -73,7 +74,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     truth.add_argument("--true", metavar="TRUE.urdf", help="the 'real' robot, a URDF with the same joints")
     truth.add_argument("--error-std", metavar="LEN,ANG", help="or: ROBOT with random errors of this std")
     p.add_argument(
-        "--save-true", metavar="TRUE.urdf", help="with --error-std: write the true robot as a URDF"
+        "--save-true",
+        metavar="TRUE.urdf",
+        help="with --error-std: write the true robot as a URDF (MJCF for a MuJoCo robot)",
     )
     p.add_argument("--sigma", type=sigma_type(zero=True), default=None, help=SIGMA_HELP + "; 0: exact points")
     p.add_argument("--out", required=True, metavar="MEAS.csv", help="the measurement file to write")
@@ -136,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
     data = simulate_measurements(measured, plan, sigma, seed=rng, measure=kind, instrument=error)
     data.to_csv(args.out, degrees=args.deg, millimetres=args.mm, robot=robot)
     if args.save_true:
-        export_urdf(true_robot, args.save_true)
+        (export_mjcf if writes_mjcf(robot, args.save_true) else export_urdf)(true_robot, args.save_true)
     unit = "mm" if args.mm else "m"
     angles = joint_units(robot, args.deg)
     what = f"{data.n_markers} marker(s)" if data.is_points else data.measure.describe()

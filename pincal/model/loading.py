@@ -23,6 +23,7 @@ from pincal.errors import (
     warn,
 )
 from pincal.model.chain import Candidate, candidates, chain_model, default_root, default_tip, frame_id
+from pincal.model.mjcf import is_mjcf, read_mjcf
 from pincal.model.robot import Robot
 from pincal.model.urdf import parse_joint_ranges, read_urdf
 from pincal.typing import PointsLike, RobotSource
@@ -83,6 +84,8 @@ def _resolve_source(
     text = os.fspath(source)
     path = Path(text)
     if path.suffix.lower() in (".urdf", ".xacro") or _exists(path) or os.sep in text:
+        if is_mjcf(path):
+            return read_mjcf(path, ranges), path.resolve(), _stem(path), False
         return read_urdf(path, ranges, package_dirs), path.resolve(), _stem(path), False
     checked_name(text, "robot name")
     shipped = shipped_robots()
@@ -114,7 +117,7 @@ def _exists(path: Path) -> bool:
 
 def _stem(path: Path) -> str:
     name = path.name
-    for suffix in (".xacro", ".urdf"):
+    for suffix in (".xacro", ".urdf", ".xml", ".mjcf"):
         name = name[: -len(suffix)] if name.lower().endswith(suffix) else name
     return name
 
