@@ -362,3 +362,24 @@ def test_menagerie_arm(tmp_path, arm):
     truth = perturbed(path)
     out = export_mjcf(truth, tmp_path / "cal.xml")
     assert worst_mujoco_error(out, truth) < 1e-9
+
+
+def test_geometry_for_the_view_and_collisions(tmp_path):
+    """The 3-D view and the self-collision constraint get Pinocchio's MJCF geometry; a geom whose
+    mesh file cannot be found is left out and named."""
+    from pincal.model.geometry import urdf_geometry
+
+    robot = quiet_load(SIX_AXIS)
+    visual = urdf_geometry(robot, pin.GeometryType.VISUAL)
+    collision = urdf_geometry(robot, pin.GeometryType.COLLISION)
+    assert visual.model.ngeoms >= 8 and not visual.missing
+    assert {o.name for o in collision.model.geometryObjects} == {"finger_leftGeom_0", "finger_rightGeom_0"}
+    text = SIX_AXIS.read_text().replace(
+        "<worldbody>", '<asset><mesh name="shell" file="missing_shell.stl"/></asset>\n  <worldbody>'
+    )
+    path = tmp_path / "meshes.xml"
+    path.write_text(
+        text.replace('<geom type="cylinder" size="0.09 0.08"/>', '<geom type="mesh" mesh="shell"/>')
+    )
+    loaded = urdf_geometry(quiet_load(path), pin.GeometryType.VISUAL)
+    assert loaded.missing == ("missing_shell.stl",) and loaded.model.ngeoms == visual.model.ngeoms - 1

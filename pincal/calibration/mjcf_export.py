@@ -1,6 +1,6 @@
 """Calibrated MJCF export: the user's MuJoCo XML with only what calibration changes written into it.
 
-What :func:`export_mjcf` writes for a robot loaded from an MJCF file (docs/method.md, MJCF
+What :func:`export_mjcf` writes for a robot loaded from an MJCF file (docs/method.md §5.9, MJCF
 conventions):
 
 * For each joint of the measured chain, the ``pos`` and ``quat`` of the body holding it become the

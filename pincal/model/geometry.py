@@ -23,6 +23,7 @@ from lxml import etree
 
 from pincal.errors import UrdfError
 from pincal.files import note_input
+from pincal.model.mjcf import build_geometry, geometry_text, is_mjcf
 from pincal.model.robot import Robot
 from pincal.model.urdf import read_tree, resolve_mesh
 
@@ -43,8 +44,11 @@ class UrdfGeometry:
 
 
 def robot_tree(robot: Robot) -> etree._Element | None:
-    """The XML tree of the robot's URDF (a xacro source expanded again), or None without one."""
-    return None if robot.urdf_path is None else read_tree(Path(robot.urdf_path), dict(robot.package_dirs))
+    """The XML tree of the robot's URDF (a xacro source expanded again), or None without one (or
+    with an MJCF file)."""
+    if robot.urdf_path is None or is_mjcf(robot.urdf_path):
+        return None
+    return read_tree(Path(robot.urdf_path), dict(robot.package_dirs))
 
 
 def urdf_geometry(
@@ -64,6 +68,8 @@ def urdf_geometry(
     if robot.urdf_path is None:
         return UrdfGeometry(pin.GeometryModel(), ())
     path = Path(robot.urdf_path)
+    if is_mjcf(path):  # a MuJoCo robot: Pinocchio's MJCF geometry (docs/method.md §5.9)
+        return _mjcf_geometry(robot, path, kind)
     dirs = [str(d) for d in search]
     root = copy.deepcopy(tree) if tree is not None else robot_tree(robot)
     assert root is not None  # the robot has a URDF (above)
@@ -90,6 +96,21 @@ def urdf_geometry(
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise UrdfError(f"cannot read the {tag} geometry of {str(path)!r}: {first}") from None
     return UrdfGeometry(geometry, tuple(sorted(missing)))
+
+
+def _mjcf_geometry(robot: Robot, path: Path, kind: pin.GeometryType) -> UrdfGeometry:
+    """The geometry of ``kind`` of a MuJoCo robot (Pinocchio sorts its geoms into visual and
+    collision ones), the geoms whose mesh file cannot be found left out and named."""
+    text, missing = geometry_text(path)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            geometry = build_geometry(robot.model, text, kind)
+    except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
+        said = str(exc).split("message:", 1)[-1].strip()
+        first = said.splitlines()[0] if said else type(exc).__name__
+        raise UrdfError(f"cannot read the geometry of {str(path)!r}: {first}") from None
+    return UrdfGeometry(geometry, missing)
 
 
 def convex_hulls(geometry: pin.GeometryModel) -> pin.GeometryModel:

@@ -14,7 +14,7 @@ does (checked against MuJoCo's own forward kinematics, tests/test_mjcf.py):
   world body): Pinocchio drops the placement of a top-level body without a joint;
 * bodies and joints without a name are named ``body<i>`` and ``joint<i>`` (MuJoCo's ids).
 
-A hinge joint moves by qpos − ``ref`` (docs/method.md, MJCF conventions): Pinocchio folds ``ref``
+A hinge joint moves by qpos − ``ref`` (docs/method.md §5.9): Pinocchio folds ``ref``
 into the joint placement, so a configuration is MuJoCo's qpos. Joint limits are MuJoCo's: a
 ``range`` when the joint is limited (``limited="true"``, or ``"auto"`` with a range and
 ``<compiler autolimits="true">``, MuJoCo's default); a hinge without one is given one turn
@@ -416,6 +416,38 @@ def build_geometry(model: pin.Model, text: str, kind: pin.GeometryType) -> pin.G
     """Pinocchio's geometry of ``kind`` for a prepared MJCF text."""
     with _text_file(text) as name:
         return pin.buildGeomFromMJCF(model, name, kind)
+
+
+def geometry_text(path: Path) -> tuple[str, tuple[str, ...]]:
+    """The prepared MJCF text of ``path`` for its geometry, the geoms whose mesh file cannot be
+    found left out, and the ``file`` of each such mesh (sorted); the files found are inputs of the
+    command (:func:`pincal.files.note_input`)."""
+    tree = read_document(path)
+    folder = path.resolve().parent
+    root = tree.getroot()
+    meshdir = folder
+    for element in root.iter("compiler"):
+        for key in ("assetdir", "meshdir"):
+            if element.get(key) is not None:
+                meshdir = folder / str(element.get(key))
+    missing: set[str] = set()
+    gone: set[str] = set()
+    for asset in root.iter("asset"):
+        for mesh in [m for m in asset if m.tag == "mesh" and m.get("file")]:
+            file = str(mesh.get("file"))
+            found = meshdir / file
+            if found.is_file():
+                files.note_input(found)
+                continue
+            missing.add(file)
+            gone.add(mesh.get("name") or Path(file).stem)
+            asset.remove(mesh)
+    for geom in [g for g in root.iter("geom") if g.get("mesh") in gone]:
+        parent = geom.getparent()
+        assert parent is not None
+        parent.remove(geom)
+    text, _ = prepared(tree, folder)
+    return text, tuple(sorted(missing))
 
 
 def read_mjcf(path: Path, ranges: Mapping[str, tuple[float, float]] | None = None) -> pin.Model:
