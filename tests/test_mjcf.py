@@ -383,3 +383,19 @@ def test_geometry_for_the_view_and_collisions(tmp_path):
     )
     loaded = urdf_geometry(quiet_load(path), pin.GeometryType.VISUAL)
     assert loaded.missing == ("missing_shell.stl",) and loaded.model.ngeoms == visual.model.ngeoms - 1
+
+
+@needs_mujoco
+def test_export_with_a_root(tmp_path):
+    """With --root, points are in the root's frame: the file places the robot so that MuJoCo's world
+    is the instrument's, and the sidecar's base puts pincal's reloaded chain there too."""
+    robot = quiet_load(SIX_AXIS, root="link1", markers=MARKERS)
+    params = robot.parameters("full,offsets,markers,base")
+    truth = pincal.random_errors(params, seed=1, error_std={"length": 2e-3, "angle": 5e-3}).robot
+    out = export_mjcf(truth, tmp_path / "cal.xml")
+    assert worst_mujoco_error(out, truth, n=30) < 1e-9
+    side = json.loads((tmp_path / "cal.calibration.json").read_text())
+    again = quiet_load(out, root="link1", tip=side["tip"], markers=side["markers"])
+    again = again.replace(base=pin.SE3(np.array(side["base"]["matrix"])))
+    qs = truth.random_configurations(20, 0)
+    assert np.abs(again.points(qs) - truth.points(qs)).max() < 1e-9
