@@ -103,6 +103,10 @@ COMMANDS: dict[str, Command] = {
         "pincal.cli.from_dh",
         "write the URDF of a robot given by a DH table (standard or modified convention)",
     ),
+    "example": Command(
+        "pincal.cli.example",
+        "the input files the README and the --help examples use (a camera rig, a workcell, a program, ...)",
+    ),
 }
 """Every subcommand, in --help order. A subcommand's module (and what it imports: NumPy, Pinocchio,
 SciPy) is imported only when that subcommand is parsed, so that ``pincal --help`` lists them all

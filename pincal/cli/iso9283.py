@@ -21,8 +21,10 @@ from pincal.viewing import plots
 HELP = COMMANDS["iso9283"].help
 EXAMPLES = """\
 examples:
+  pincal example cycles --out cycles.csv                 # an ISO test (yours instead)
   pincal iso9283 --data cycles.csv --mm --deg            # attained poses already in the robot's frame
-  pincal iso9283 --data tracker.csv --mm --fit-frame     # in the tracker's frame: best rigid fit
+  pincal iso9283 --data cycles.csv --mm --deg --fit-frame   # in an instrument's frame: best rigid fit
+  pincal example iso_cubes --out measurements_iso_cubes.csv   # a slice of the public IPA UR10 set
   pincal iso9283 --data measurements_iso_cubes.csv --format ipa --test "cube 1" --json
   pincal iso9283 --data measurements_iso_cubes.csv --format ipa --robot ur10 \\
       --calibration ur10_cal.urdf --plot iso.png      # before and after calibration
