@@ -23,8 +23,8 @@ from pincal.instruments.instrument import RowsEngine
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning.plan import Plan
-from pincal.planning.results import DesignResult, StartRecord
-from pincal.planning.search import Outcome, Pool, Settings, plan_conditioning
+from pincal.planning.results import DesignResult, StartRecord, dropped_line
+from pincal.planning.search import Outcome, Pool, Settings, dropped_count, plan_conditioning
 
 SINGULAR_WARNING = 1e-3
 """A plan whose conditioning is below this is effectively singular: some parameter combinations
@@ -127,10 +127,11 @@ def design_result(
     plan = Plan.for_robot(params.robot, q)
     value, rho0, rho0_each = _report(params, plan, s, engine.jacobian(q, frame="tip"))
     continued = sum(h.continued for h in choice.history)
-    n_starts = len(outcomes)
+    n_starts, dropped = len(outcomes), dropped_count(outcomes)
     message = (
         f"{s.method}: best of {n_starts} starts (start {choice.winner}), {continued} run to convergence, "
         f"{s.criterion} = {value:.6g} in {elapsed:.3g} s; conditioning floor {s.floor:.3g}"
+        + (f"; {dropped_line(dropped, n_starts)}" if dropped else "")
         + (
             f"; {choice.below_floor} start(s) ended below the conditioning floor"
             if choice.below_floor
@@ -159,6 +160,7 @@ def design_result(
         pool_rejected=pooled.rejected,
         conditioning=choice.conditioning,
         message=message,
+        dropped=dropped,
         prior=s.prior,
         instrument=s.instrument,
         orientation_length=s.orientation_length,

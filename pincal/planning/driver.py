@@ -224,7 +224,8 @@ def design(
 
     Raises:
         SingularPlan: m is too small for the parameters (the message names the minimum), or
-            no regular plan can be formed.
+            no start could form a regular plan (a start that cannot is dropped and counted,
+            ``result.dropped``, while another can).
         Infeasible: no configuration (or not enough) satisfies the constraints.
         DegenerateOptimum: every start ended on a plan below the conditioning floor (exchange).
         UnknownName: unknown criterion (the message lists the valid ones).

@@ -24,7 +24,7 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, positive_int, positive_sigma, seed_entropy
-from pincal.errors import BadArgument, FloorUnreachable, SingularPlan
+from pincal.errors import BadArgument, FloorUnreachable, PincalError, SingularPlan
 from pincal.evaluation.classic import criteria_from_jacobian
 from pincal.evaluation.data_check import MIN_DATA_CONDITIONING
 from pincal.evaluation.information import conditioning
@@ -42,7 +42,8 @@ from pincal.planning.exchange import fedorov
 from pincal.planning.feasibility import Feasibility
 from pincal.planning.objectives import checked_test_poses
 from pincal.planning.plan import Plan
-from pincal.planning.results import DesignResult, StartRecord
+from pincal.planning.results import DesignResult, StartRecord, dropped_line
+from pincal.planning.search import Outcome, degenerate, every_start_failed
 from pincal.planning.starts import pick
 from pincal.typing import PayloadLike, SeedLike, TestPoseLike
 
@@ -155,7 +156,7 @@ def design_with_payloads(
         assert test_poses is not None  # J0 is theirs
         objective = ResidualCriterion(residual_model, J0, test_poses, sigma, pool=q_pool)
     floor = _floor(min_conditioning, information)
-    outcomes, history = [], []
+    outcomes, history, failed = [], [], []
     for i, child in enumerate(sequence.spawn(starts)):
         t = time.perf_counter()
         while True:
@@ -166,12 +167,23 @@ def design_with_payloads(
                 if min_conditioning is not None or floor <= MIN_DATA_CONDITIONING:
                     raise
                 floor = max(error.reached / 2, MIN_DATA_CONDITIONING)
+            except PincalError as error:  # a start that fails alone is dropped, as design() drops it
+                if not degenerate(error):
+                    raise
+                start = None
+                failed.append(error)
+                history.append(Outcome.degenerate(i, error).record)
+                break
+        if start is None:
+            continue
         out = fedorov(objective, J_pool, q_pool, start, floor=floor)
-        outcomes.append(out)
+        outcomes.append((i, out))
         value = float(objective.report(out.F))
         history.append(StartRecord(i, value, None, out.sweeps, time.perf_counter() - t, True, True))
-    winner = int(np.argmin([o.F for o in outcomes]))
-    index = outcomes[winner].index
+    if not outcomes:
+        raise every_start_failed(failed, starts)
+    winner, best = min(outcomes, key=lambda o: (o[1].F, o[0]))  # the first of equals, as argmin
+    index = best.index
     plan = Plan.for_robot(params.robot, q_pool[index], w_pool[index])
     J = engine.jacobian(plan.q, frame="tip", payload=plan.payload)
     flat = J.reshape(-1, len(params))
@@ -186,15 +198,11 @@ def design_with_payloads(
         if each is None
         else float(each.max() if criterion == "test-pose-worst" else np.sqrt(np.mean(each**2)))
     )
-    value = (
-        rho0
-        if criterion in TEST_POSE_CRITERIA and rho0 is not None
-        else float(objective.report(outcomes[winner].F))
-    )
+    value = rho0 if criterion in TEST_POSE_CRITERIA and rho0 is not None else float(objective.report(best.F))
     if criterion not in TEST_POSE_CRITERIA and prior is None:
         value = float(criteria_from_jacobian(J, len(plan)).by_criterion(criterion))
     if residual_model is not None:  # the criterion minimised: the expected error with the residual model
-        value = float(objective.report(outcomes[winner].F))
+        value = float(objective.report(best.F))
         criterion = ResidualCriterion.name
     elapsed = time.perf_counter() - t0
     masses = ", ".join(f"{w:g}" for w in rows[:, 0])
@@ -209,7 +217,7 @@ def design_with_payloads(
         sigma=sigma,
         method="exchange over (configuration, payload) pairs",
         starts=starts,
-        continued=starts,
+        continued=len(outcomes),
         seed=entropy,
         time_s=elapsed,
         history=tuple(history),
@@ -220,7 +228,9 @@ def design_with_payloads(
             f"exchange over {len(candidates)} configurations x payloads {masses} kg: best of {starts} "
             f"starts (start {winner}), {criterion} = {value:.6g} in {elapsed:.3g} s; payloads chosen: "
             f"{chosen}; conditioning floor {floor:.3g}"
+            + (f"; {dropped_line(len(failed), starts)}" if failed else "")
         ),
+        dropped=len(failed),
         prior=prior,
         instrument=instrument,
         orientation_length=orientation_length,

@@ -78,6 +78,8 @@ class DesignResult:
         orientation_length: L [m] of the test-pose criterion's orientation part, or None.
         instrument_at: (x, y, z) the instrument's position chosen with the plan
             (:func:`pincal.planning.place_instrument`) [m], or None.
+        dropped: starts that failed alone and were dropped (degenerate: none of their random plans
+            was regular), of ``starts``; the plan is the best of the others.
         d_optimal: the D-optimal design from the same starts (``design(..., with_d_optimal=True)``),
             or None; not in :meth:`as_dict`.
     """
@@ -102,6 +104,7 @@ class DesignResult:
     instrument: Instrument | None = None
     orientation_length: float | None = None
     instrument_at: tuple[float, float, float] | None = None
+    dropped: int = 0
     d_optimal: DesignResult | None = None
 
     @property
@@ -122,6 +125,7 @@ class DesignResult:
             "sigma": self.sigma,
             "method": self.method,
             "starts": self.starts,
+            "dropped_starts": self.dropped,
             "continued": self.continued,
             "seed": self.seed,
             "time_s": self.time_s,
@@ -195,6 +199,11 @@ class RandomPlans:
             "criterion": self.criterion,
             "sigma": self.sigma,
         }
+
+
+def dropped_line(dropped: int, starts: int) -> str:
+    """What a design says of its dropped starts: ``"2 of 8 starts were degenerate and dropped"``."""
+    return f"{dropped} of {starts} starts were degenerate and dropped"
 
 
 def finite_or_none(v: float | None) -> float | None:

@@ -1,6 +1,9 @@
 """The search stage of a design: the starts drawn from the pool, each searched (exchange or
 continuous) on an executor, the best exchange plans polished; one :class:`Outcome` per start.
 
+A start that fails alone (:func:`degenerate`: none of its random plans is regular) is dropped
+and counted, the others go on; only when every start fails is its error raised.
+
 The values passed between the stages of :func:`pincal.planning.driver.design` live here too:
 :class:`Settings` (the checked arguments), :class:`Pool` (where the starts come from) and
 :class:`Outcome`. They are frozen; each stage returns new ones.
@@ -15,6 +18,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from pincal.errors import FloorUnreachable, Infeasible, PincalError, SingularPlan
 from pincal.evaluation.criterion import Criterion
 from pincal.evaluation.information import conditioning
 from pincal.evaluation.prior import Prior
@@ -89,15 +93,49 @@ class Outcome:
 
     Attributes:
         record: what the start did (reported in the history).
-        q: (m, nq) its final plan; None if it was dropped after screening.
+        q: (m, nq) its final plan; None if it was dropped after screening, or degenerate.
         F: the objective at q (exact).
         usable: q satisfies every constraint.
+        dropped: the start failed alone (:func:`degenerate`) and was dropped.
     """
 
     record: StartRecord
     q: np.ndarray | None
     F: float
     usable: bool
+    dropped: bool = False
+
+    @classmethod
+    def degenerate(cls, start: int, error: PincalError) -> Outcome:
+        """The outcome of start ``start``, dropped for ``error``."""
+        message = f"degenerate, dropped: {error}"
+        return cls(
+            StartRecord(start, math.inf, None, 0, 0.0, False, False, message), None, math.inf, False, True
+        )
+
+
+Drawn = np.ndarray | PincalError
+"""A start's plan (its pool indices), or the error it failed with alone (:func:`degenerate`)."""
+
+
+def degenerate(error: BaseException) -> bool:
+    """``error`` ends one start and not the design: none of the start's random plans was regular
+    (SingularPlan), or none could be spaced (Infeasible). The other starts draw other plans; the
+    design fails only when every start does. A floor no plan reaches (FloorUnreachable) is the
+    design's: its floor adapts, or it fails."""
+    return isinstance(error, (SingularPlan, Infeasible)) and not isinstance(error, FloorUnreachable)
+
+
+def dropped_count(outcomes: tuple[Outcome, ...]) -> int:
+    """The starts dropped as degenerate."""
+    return sum(o.dropped for o in outcomes)
+
+
+def every_start_failed(errors: list[PincalError], n: int) -> PincalError:
+    """The first start's error, saying that all ``n`` starts failed so."""
+    error = errors[0]
+    error.args = (f"all {n} starts were degenerate (the first: {error})",) + error.args[1:]
+    return error
 
 
 # ---------------------------------------------------------------------------- search
@@ -108,23 +146,31 @@ def draw_starts(
     begin: int = 0,
     end: int | None = None,
     exchanged: dict | None = None,
-) -> tuple[np.ndarray, ...]:
+) -> tuple[Drawn, ...]:
     """The pool indices of the plans of starts ``begin`` to ``end`` (default: the last), drawn
     here, each from its own child seed (see :func:`pincal.planning.starts.draw_start`; ``exchanged``
-    keeps their D-optimal exchanges for drawing them again under another floor)."""
-    return tuple(
-        draw_start(
-            J_pool,
-            pool,
-            settings.m,
-            settings.feasibility.spacing,
-            start_seed(settings.entropy, i),
-            settings.floor,
-            settings.prior_information,
-            exchanged,
-        )
-        for i in range(begin, settings.starts if end is None else end)
-    )
+    keeps their D-optimal exchanges for drawing them again under another floor); for a start that
+    failed alone (:func:`degenerate`), its error."""
+    drawn: list[Drawn] = []
+    for i in range(begin, settings.starts if end is None else end):
+        try:
+            drawn.append(
+                draw_start(
+                    J_pool,
+                    pool,
+                    settings.m,
+                    settings.feasibility.spacing,
+                    start_seed(settings.entropy, i),
+                    settings.floor,
+                    settings.prior_information,
+                    exchanged,
+                )
+            )
+        except PincalError as error:
+            if not degenerate(error):
+                raise
+            drawn.append(error)
+    return tuple(drawn)
 
 
 def search(
@@ -132,7 +178,7 @@ def search(
     params: ParameterSet,
     engine: JacobianEngine | RowsEngine,
     pooled: Pool,
-    first: tuple[np.ndarray, ...],
+    first: tuple[Drawn, ...],
     executor: Executor | None,
     progress: bool,
     with_d_optimal: bool = False,
@@ -148,12 +194,16 @@ def search(
     Its outcomes are those of a design with ``criterion="D"`` and the same settings (the starts,
     the pool and the floor do not depend on the criterion), without drawing the starts again.
 
+    A start that fails alone (:func:`degenerate`) is dropped: its outcome says so
+    (``Outcome.dropped``), and it is neither searched further nor polished.
+
     Returns:
         (the outcomes of this design's criterion, those of the D-optimal design or None).
 
     Raises:
         FloorUnreachable: a start found no plan above the conditioning floor (the caller adapts
             a default floor and searches again).
+        SingularPlan, Infeasible: every start failed alone (the first start's error, saying so).
     """
     s = settings
     spec = _multistart.ProblemSpec(
@@ -189,7 +239,9 @@ def search(
             if s.method == "continuous":
                 J_pool = pool_rows(engine, pooled.candidates)
                 indices = first + draw_starts(s, J_pool, pooled.candidates, len(first))
-                x0s = list(pooled.init) + [pooled.candidates[i] for i in indices]
+                x0s = list(pooled.init) + [
+                    i if isinstance(i, PincalError) else pooled.candidates[i] for i in indices
+                ]
                 outcomes = _continuous(spec, ex, x0s, n_keep, s.screen_iterations, s.maxiter, objective, bar)
                 return outcomes, None
             bar.stage("searched", n_starts)
@@ -216,28 +268,50 @@ def _exchange(
     spec, ex, candidates, first, starts: int, objective: Criterion, bar, d_spec=None, d_objective=None
 ) -> list[Searched]:
     """The exchange search from each start's plan (the first given, the others drawn by the
-    workers); with ``d_spec``, the D-optimal design's exchange from the same plans, in the same task."""
-    items = [(spec, i, first[i] if i < len(first) else None, d_spec) for i in range(starts)]
-    results = _multistart.run(ex, _multistart.exchange_task, items, lambda i, r: bar(_first(r)))
-    for r in results:
+    workers); with ``d_spec``, the D-optimal design's exchange from the same plans, in the same task.
+    A start that failed alone (:func:`degenerate`), given so or in its task, is dropped."""
+    failed: dict[int, PincalError] = {i: f for i, f in enumerate(first) if isinstance(f, PincalError)}
+    searched = [i for i in range(starts) if i not in failed]
+    items = [(spec, i, first[i] if i < len(first) else None, d_spec) for i in searched]
+    for _ in failed:
+        bar(None)
+    results = dict(
+        zip(
+            searched,
+            _multistart.run(ex, _multistart.exchange_task, items, lambda i, r: bar(_first(r))),
+            strict=True,
+        )
+    )
+    for i in searched:
+        r = results[i]
         if isinstance(r, _multistart.CarriedError):
-            raise r.error()
-    designs = [(spec, _exchanged(candidates, [r[0] for r in results], objective), objective)]
+            error = r.error()
+            if not (isinstance(error, PincalError) and degenerate(error)):
+                raise error
+            failed[i] = error
+    if len(failed) == starts:
+        raise every_start_failed([failed[i] for i in sorted(failed)], starts)
+    own = [failed[i] if i in failed else results[i][0] for i in range(starts)]
+    designs = [(spec, _exchanged(candidates, own, objective), objective)]
     if d_spec is not None:
         assert d_objective is not None
-        designs.append((d_spec, _exchanged(candidates, [r[1] for r in results], d_objective), d_objective))
+        other = [failed[i] if i in failed else results[i][1] for i in range(starts)]
+        designs.append((d_spec, _exchanged(candidates, other, d_objective), d_objective))
     return designs
 
 
 def _first(result):
     """The task's outcome for the design's own criterion, for the progress bar (None for a start
-    that could not be drawn: its error is raised once every task is back)."""
+    that could not be drawn: it is dropped, or its error raised, once every task is back)."""
     return None if isinstance(result, _multistart.CarriedError) else result[0]
 
 
 def _exchanged(candidates, outcomes, objective: Criterion) -> tuple[Outcome, ...]:
+    """Each start's exchange outcome (or the error it was dropped for) as its :class:`Outcome`."""
     return tuple(
-        Outcome(
+        Outcome.degenerate(s, o)
+        if isinstance(o, PincalError)
+        else Outcome(
             StartRecord(
                 start=s,
                 value=float(objective.report(o.F)),
@@ -266,7 +340,8 @@ def _polish(
     items: list[tuple] = []
     for d in reversed(range(len(designs))):
         spec, outcomes, _ = designs[d]
-        order = sorted(range(len(outcomes)), key=lambda s: (outcomes[s].F, s))[:n_keep]
+        live = [s for s in range(len(outcomes)) if not outcomes[s].dropped]
+        order = sorted(live, key=lambda s: (outcomes[s].F, s))[:n_keep]
         orders.append((d, order, len(items)))
         items += [(spec, outcomes[s].q, outcomes[s].q, maxiter) for s in order]
     own = orders[-1][2]  # this design's items come last; the bar reports its values only
@@ -292,27 +367,36 @@ def _polish(
 
 
 def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, bar) -> tuple[Outcome, ...]:
-    """Screen every start, continue the best ``n_keep`` to convergence."""
+    """Screen every start, continue the best ``n_keep`` to convergence; a start that failed alone
+    (its error in ``x0s`` in place of its plan) is dropped."""
     n = len(x0s)
-    screened = None
-    if n_keep < n and screen_iterations > 0:
-        items = [(spec, x0, screen_iterations) for x0 in x0s]
-        bar.stage("screened", n)
-        screened = _multistart.run(ex, _multistart.screen_task, items, lambda i, r: bar(r))
-        order = sorted(range(n), key=lambda s: (screened[s].F, s))
+    failed = {s: x for s, x in enumerate(x0s) if isinstance(x, PincalError)}
+    if len(failed) == n:
+        raise every_start_failed(list(failed.values()), n)
+    live = [s for s in range(n) if s not in failed]
+    screened: dict | None = None
+    if n_keep < len(live) and screen_iterations > 0:
+        items = [(spec, x0s[s], screen_iterations) for s in live]
+        bar.stage("screened", len(live))
+        screens = _multistart.run(ex, _multistart.screen_task, items, lambda i, r: bar(r))
+        screened = dict(zip(live, screens, strict=True))
+        order = sorted(live, key=lambda s: (screened[s].F, s))
         kept = sorted(order[:n_keep])
         starts_from = [screened[s].q for s in kept]
     else:
-        kept = list(range(n))
+        kept = live
         starts_from = [x0s[s] for s in kept]
     polish_items = [(spec, q, x0s[s], maxiter) for s, q in zip(kept, starts_from, strict=True)]
     bar.stage(
-        "run to convergence" if len(kept) == n else f"run to convergence (the best {len(kept)})", len(kept)
+        "run to convergence" if len(kept) == len(live) else f"run to convergence (the best {len(kept)})",
+        len(kept),
     )
     runs = _multistart.run(ex, _multistart.polish_task, polish_items, lambda i, r: bar(r))
     finals = dict(zip(kept, runs, strict=True))
 
     def outcome(s: int) -> Outcome:
+        if s in failed:
+            return Outcome.degenerate(s, failed[s])
         first = None if screened is None else screened[s]
         screen_value = None if first is None else _report_value(objective, first.F)
         final = finals.get(s)
