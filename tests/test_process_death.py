@@ -94,6 +94,7 @@ def design_running(tmp_path):
             cwd=run,
             stdout=out,
             stderr=err,
+            start_new_session=True,  # its own process group, which a test may signal whole
         )
     tree: dict[int, int] = {}
     try:
@@ -114,9 +115,15 @@ def design_running(tmp_path):
             os.kill(pid, signal.SIGKILL)
 
 
-def test_sigterm_stops_a_design_like_ctrl_c(design_running):
+@pytest.mark.parametrize("to", ["pincal", "its process group"])
+def test_sigterm_stops_a_design_like_ctrl_c(design_running, to):
+    """SIGTERM to pincal alone (docker stop, a kill), or to its whole group at once (systemd,
+    Slurm): the workers dying of it first do not make it an internal error."""
     process, tree, run, logs = design_running
-    process.send_signal(signal.SIGTERM)
+    if to == "pincal":
+        process.send_signal(signal.SIGTERM)
+    else:
+        os.killpg(process.pid, signal.SIGTERM)
     code = process.wait(timeout=ENDING_S)
     assert code == 143, (logs / "stderr").read_text()
     assert "pincal: stopped (SIGTERM)" in (logs / "stderr").read_text()
