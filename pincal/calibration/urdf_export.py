@@ -26,7 +26,10 @@ What :func:`export_urdf` writes, precisely:
   residuals, and what is not geometry: gravity in the robot's base frame [m/s²], the joint gains
   and compliances (``{joint: value}``, when the calibration has any) and the residual model (its
   hyperparameters and training data): everything ``pincal compensate`` needs
-  (:mod:`pincal.compensation.calibration_file`)::
+  (:mod:`pincal.compensation.calibration_file`); and, for ``pincal export`` (the corrections as
+  an overlay of the unchanged source, :mod:`pincal.calibration.corrections`), the source file
+  (``source``, its absolute path) and the joint offsets folded into the origins
+  (``joint_offsets``, ``{joint: value}`` [rad or m])::
 
       p = base · oMf[tip] · marker,   oMf from pin.framesForwardKinematics on the URDF's model
 
@@ -73,8 +76,13 @@ def sidecar_path(path: str | os.PathLike) -> Path:
     return Path(path).with_suffix(".calibration.json")
 
 
-def sidecar(calibrated: IdentificationResult | Robot, urdf: str | os.PathLike) -> dict:
-    """The sidecar's content for ``calibrated`` exported to ``urdf`` (see the module doc)."""
+def sidecar(
+    calibrated: IdentificationResult | Robot,
+    urdf: str | os.PathLike,
+    source: str | os.PathLike | None = None,
+) -> dict:
+    """The sidecar's content for ``calibrated`` exported to ``urdf`` from ``source`` (the robot's
+    own file by default; see the module doc)."""
     result = calibrated if isinstance(calibrated, IdentificationResult) else None
     robot = calibrated.robot if isinstance(calibrated, IdentificationResult) else calibrated
     base = robot.base
@@ -90,7 +98,11 @@ def sidecar(calibrated: IdentificationResult | Robot, urdf: str | os.PathLike) -
         },
         "units": "metres and radians; points p = base * oMf[tip] * marker",
         "gravity": robot.gravity.tolist(),
+        "joint_offsets": dict(zip(robot.joint_names, robot.joint_offsets.tolist())),
     }
+    origin = source if source is not None else robot.urdf_path
+    if origin is not None:
+        out["source"] = str(Path(origin).resolve())
     if robot.is_elastic:
         out["joint_gains"] = dict(zip(robot.joint_names, robot.joint_gains.tolist()))
         out["joint_compliances"] = dict(zip(robot.joint_names, robot.joint_compliances.tolist()))
@@ -202,7 +214,8 @@ def export_urdf(
         written = atomic_write_text(out, new)
         if write_sidecar:
             atomic_write_text(
-                sidecar_path(out), json.dumps(sidecar(calibrated, out), indent=2, allow_nan=False) + "\n"
+                sidecar_path(out),
+                json.dumps(sidecar(calibrated, out, source), indent=2, allow_nan=False) + "\n",
             )
     return written
 
