@@ -25,8 +25,11 @@ EXAMPLES = """\
 examples:
   pincal identify kr270 --data meas.csv --marker 0.1,0.05,0.2 --out cal.urdf
   pincal export cal.urdf --format mjcf --out cal_mujoco.xml      # the calibration for MuJoCo
-  pincal export cal.urdf --format xacro --out cal.urdf.xacro     # an overlay of your xacro
-  pincal export cal.urdf --format yaml --out cal.yaml --source robot.urdf
+  pincal export cal.urdf --format yaml --out cal.yaml            # corrections of the kr270's URDF
+  pincal export cal.urdf --format ros2_control --out cal_offsets.xml
+
+For a xacro description that reads its joint origins from a kinematics YAML (ur_description does):
+  pincal export cal.urdf --format xacro --out cal.urdf.xacro     # an overlay, the description unchanged
 
 The calibration is a calibrated robot file and its sidecar (CAL.calibration.json: tip, markers,
 base, gains, residual model, the description it was made from), as 'pincal identify --out' writes
