@@ -235,11 +235,13 @@ def test_campaign_checks_every_move_against_the_cell(kr270_marker, kr_plan):
     table = Obstacle("table", "box", (1.0, 1.0, 0.1), (1.9, 0.0, 0.4))
     cell = Workcell((table,), min_distance=0.02)
     campaign = plan_campaign(kr270_marker, kr_plan, constraints=[cell], seed=1)
-    world = cell.world(kr270_marker, self_collision=True, mount_points=Mount("floor").bind(kr270_marker))
+    floor = Mount("floor").bind(kr270_marker)
+    world = cell.world(kr270_marker, self_collision=True, mount_points=floor)
     assert campaign.checked and "capsules" in campaign.geometry
     # The KR 270's zero has joint_a2 outside [-140°, -5°]: home is the plan's first pose, and said.
     assert np.array_equal(campaign.home, kr_plan[0]) and "outside the joint limits" in campaign.home_source
-    assert campaign.required == {"self": 0.0, "obstacle": 0.02, "floor": 0.0}
+    # The safe defaults' clearance, 5 cm, from the floor and the table (above the cell's own 2 cm).
+    assert campaign.required == {"self": 0.0, "obstacle": 0.05, "floor": 0.05}
     for mv in campaign.moves:
         ends = [campaign.home if i == HOME else kr_plan[i] for i in (mv.start, mv.end)]
         stops = [ends[0], *([] if mv.detour is None else [mv.detour.via]), ends[1]]
@@ -248,7 +250,7 @@ def test_campaign_checks_every_move_against_the_cell(kr270_marker, kr_plan):
         # What the campaign certifies holds on a dense sampling of every move it runs.
         for a, b in zip(stops[:-1], stops[1:], strict=True):
             dense = world.distances_many(a[None] + np.linspace(0, 1, 101)[:, None] * (b - a)[None])
-            need = np.where(np.array(world.kinds) == "obstacle", 0.02, 0.0)
+            need = np.where(np.array(world.kinds) == "self", 0.0, 0.05)
             assert np.all(dense >= need - 1e-9)
     payload = json.loads(json.dumps(campaign.as_dict()))
     assert payload["order"] == list(campaign.order) and len(payload["moves"]) == 8

@@ -14,6 +14,7 @@ import pincal
 from pincal.errors import BadArgument, BadConstraint, Infeasible
 from pincal.planning.constraints import (
     DEFAULT_JOINT_LIMITS,
+    Clearance,
     JointLimits,
     Mount,
     SelfCollision,
@@ -57,10 +58,11 @@ def test_default_margin_takes_at_most_a_tenth_of_a_narrow_range():
 
 def test_with_safety_adds_the_defaults_once(kr270_marker):
     full = with_safety(kr270_marker)
-    assert [type(c).__name__ for c in full] == ["JointLimits", "Mount"]
-    assert full[0] == DEFAULT_JOINT_LIMITS and full[1] == Mount("floor")
+    assert [type(c).__name__ for c in full] == ["JointLimits", "Mount", "SelfCollision", "Clearance"]
+    assert full[0] == DEFAULT_JOINT_LIMITS and full[1] == Mount("floor", clearance=0.05)
+    assert full[2] == SelfCollision(optional=True) and full[3] == Clearance(0.05)
     assert with_safety(kr270_marker, full) == full  # idempotent
-    assert with_safety(kr270_marker, (), 0, "none") == (JointLimits(0.0), Mount("none"))
+    assert with_safety(kr270_marker, (), 0, "none", clearance=0)[:2] == (JointLimits(0.0), Mount("none"))
     assert with_safety(kr270_marker, (), (0.1, 0.02))[0] == JointLimits(0.1, 0.02)
     with pytest.raises(BadArgument, match="given twice"):
         with_safety(kr270_marker, full, joint_margin=0.1)
@@ -243,8 +245,9 @@ def test_safety_report_names_a_pose_where_the_robot_meets_itself(ur10):
 
 
 def test_design_and_evaluate_warn_of_a_folded_pose(tmp_path, cli, ur10):
-    """A design is not kept clear of its own links by default (that costs the search); its report
-    checks the plan's poses and warns, naming the pose and the pair; evaluate likewise."""
+    """A design keeps clear of its own links by default (the UR10 has collision geometry): a pool
+    pose where the robot meets itself is dropped, named; evaluate checks a plan's poses and warns,
+    naming the pose and the pair."""
     from pincal.planning.constraints.collision_world import CollisionWorld
     from pincal.planning.feasibility import Feasibility
 
@@ -254,19 +257,17 @@ def test_design_and_evaluate_warn_of_a_folded_pose(tmp_path, cli, ur10):
     pool = tmp_path / "pool.csv"
     pincal.Plan.for_robot(ur10, np.vstack([clear, UR10_FOLDED])).to_csv(pool, degrees=True)
     argv = ["ur10", "--marker", "0.1,0.05,0.2", "--deg", "--test-pose=0,-70,90,-110,-90,0", "--no-accuracy"]
-    code, out, err = cli.run(
-        "design", *argv, "-m", 13, "--pool", pool, "--starts", 2, "--workers", 1, "--json"
-    )  # every pool pose in the plan, the folded one included
+    design = ["design", *argv, "--pool", pool, "--starts", 2, "--workers", 1, "--json", "--clearance", 0]
+    code, out, err = cli.run(*design, "-m", 12)  # the folded pose is dropped from the pool, named
     assert code == 0, err
     payload = json.loads(out)
-    row = int(np.argmin(np.abs(np.array(payload["plan"]) - UR10_FOLDED).sum(axis=1)))  # radians
-    np.testing.assert_allclose(payload["plan"][row], UR10_FOLDED, atol=1e-9)
-    s = payload["safety"]["self_collision"]
-    assert s["pose"] == row and s["value"] < -0.05 and not payload["safety"]["ok"]
-    assert f"pincal: warning: pose {row + 1} of the plan: the robot collides with itself ({s['what']}" in err
+    assert "1 of the 13 pool configurations dropped (self collision 1)" in err
+    assert payload["safety"]["self_collision"]["value"] > 0 and payload["safety"]["ok"]
+    cli.fails(*design, "-m", 13, match="only 12 of the 13 pool configurations")
     evaluated = cli.run("evaluate", *argv, "--plan", pool)
     assert evaluated.code == 0 and "pose 13 of the plan: the robot collides with itself" in evaluated.err
-    assert f"self-collision: {s['what']} overlap" in evaluated.out and "at pose 13" in evaluated.out
+    assert "self-collision: " in evaluated.out and "overlap (by up to" in evaluated.out
+    assert "at pose 13" in evaluated.out
 
 
 def test_geometry_coal_cannot_take_leaves_the_links_unchecked_and_says_so(ur10, monkeypatch):

@@ -265,6 +265,7 @@ def next_poses(
     constraints: Iterable[AnyConstraint] = (),
     joint_margin: JointMargin = None,
     mount: MountSpec = None,
+    clearance: float | None = None,
     reject: float = OUTLIER_SCORE,
     starts: int = 8,
     seed: Seed = 0,
@@ -287,7 +288,8 @@ def next_poses(
             of the rows kept (or the data's uncertainty columns); while too few rows are kept to
             estimate it, the prediction is unknown and the campaign does not stop.
         prior: the errors' prior before any measurement, or None.
-        constraints, joint_margin, mount: the workcell and the safe defaults, as for
+        constraints, joint_margin, mount, clearance: the workcell and the safe defaults (the
+            clearance from the floor and the obstacles, the robot clear of itself), as for
             :func:`pincal.design`.
         reject: rows beyond this many robust σ are outliers, dropped.
         starts, seed, workers, pool, polish, progress: the next design's search (see
@@ -318,7 +320,7 @@ def next_poses(
     noise = DEFAULT_SIGMA if a.sigma_source == "unknown" else a.sigma  # unknown: to rank poses by only
     _check_enough(a.params, a.measured, noise, k)
     cell = tuple(constraints) + ((AvoidPoses(a.unreachable, AVOID_DISTANCE),) if len(a.unreachable) else ())
-    cell = with_safety(robot, cell, joint_margin, mount)
+    cell = with_safety(robot, cell, joint_margin, mount, clearance=clearance)
     with warnings.catch_warnings():
         # The next k poses alone need not determine every parameter: the data so far do the rest.
         warnings.simplefilter("ignore", DegenerateOptimumWarning)

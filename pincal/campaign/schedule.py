@@ -174,6 +174,17 @@ class Campaign:
         assert self.pose_required is not None  # set with pose_clearance (a checked campaign)
         return tuple(int(i) for i in np.flatnonzero(self.pose_clearance < self.pose_required - 1e-12))
 
+    @property
+    def closest_pose(self) -> int | None:
+        """The pose (0-based plan row) whose closest pair comes nearest to its clearance (None:
+        not checked, or nothing to check)."""
+        if self.pose_clearance is None or self.pose_required is None or not self.m:
+            return None
+        excess = self.pose_clearance - self.pose_required
+        if not np.isfinite(excess).any():
+            return None
+        return int(np.argmin(excess))
+
     def _name(self, index: int) -> str:
         return "home" if index == HOME else f"pose {index + 1}"
 
@@ -242,6 +253,7 @@ class Campaign:
             "pose_closest": list(self.pose_closest),
             "blocked": list(self.blocked),
             "unsafe_poses": list(self.unsafe_poses),
+            "closest_pose": self.closest_pose,
             "home_short": self.home_short,
             "occlusions": [o.as_dict() for o in self.occlusions],
             "skipped_pairs": list(self.skipped_pairs),
@@ -301,6 +313,16 @@ class Campaign:
                     f"  clearance kept: self {r['self'] * 1e3:.3g} mm, "
                     f"obstacles {r['obstacle'] * 1e3:.3g} mm, floor {r['floor'] * 1e3:.3g} mm"
                 )
+            closest = self.closest_pose
+            if closest is not None:
+                i = closest
+                assert self.pose_clearance is not None and self.pose_required is not None  # checked
+                short = "  ** closer than the clearance **" if i in self.unsafe_poses else ""
+                out.append(
+                    f"  closest pose: pose {i + 1}, {self.pose_closest[i]} "
+                    f"{self.pose_clearance[i] * 1e3:.4g} mm "
+                    f"(kept: {self.pose_required[i] * 1e3:.3g} mm){short}"
+                )
             if self.skipped_pairs:
                 out.append(
                     "  not checked (in contact at the reference configuration): "
@@ -344,6 +366,7 @@ def plan_campaign(
     constraints: Iterable[AnyConstraint] = (),
     joint_margin: JointMargin = None,
     mount: MountSpec = None,
+    clearance: float | None = None,
     check: bool = True,
     self_collision: bool = True,
     seed: Seed = 0,
@@ -363,7 +386,9 @@ def plan_campaign(
             :class:`~pincal.planning.constraints.SelfCollision` (its clearance between links),
             :class:`~pincal.planning.constraints.Visibility` (line of sight from its tracker); the
             safe defaults are added as a design adds them (``joint_margin``, ``mount``).
-        joint_margin, mount: as :func:`pincal.design`'s (the mount is the floor of the checks).
+        joint_margin, mount, clearance: as :func:`pincal.design`'s (the mount is the floor of the
+            checks; a pose or a move closer to the floor or an obstacle than the clearance is not
+            clear).
         check: certify the moves and check the poses (False: order and time only).
         self_collision: check the robot against itself too.
         seed: the random draws of the detours.
@@ -381,7 +406,7 @@ def plan_campaign(
     qs = robot.configurations(plan)
     plan = Plan.for_robot(robot, qs)
     timing = Timing.for_robot(robot) if timing is None else timing
-    constraints = with_safety(robot, constraints, joint_margin, mount)
+    constraints = with_safety(robot, constraints, joint_margin, mount, clearance=clearance)
     world, need = _world(robot, constraints, self_collision) if check else (None, None)
     if home is not None:
         home_q, home_source = robot.configurations(home, what="home")[0], "given"
@@ -496,6 +521,6 @@ def _world(robot: Robot, constraints: tuple, self_collision: bool) -> tuple[Coll
     keep = {
         "obstacle": max((c.min_distance for c in cells), default=0.0),
         "self": max((c.min_distance for c in selfs), default=0.0),
-        "floor": 0.0,
+        "floor": max((c.clearance for c in mounts), default=0.0),
     }
     return world, np.array([keep[k] for k in world.kinds])

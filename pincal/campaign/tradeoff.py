@@ -120,6 +120,7 @@ def accuracy_vs_time(
     constraints: Iterable[AnyConstraint] = (),
     joint_margin: JointMargin = None,
     mount: MountSpec = None,
+    clearance: float | None = None,
     **options: Any,  # passed on to design(), which checks each
 ) -> Tradeoff:
     """The predicted error over the test region and the campaign time for each plan size.
@@ -130,7 +131,7 @@ def accuracy_vs_time(
         sizes: the plan sizes (default :data:`DEFAULT_SIZES`, 6 … 30).
         timing: the campaign's time model (default: the URDF's speeds, a laser tracker's dwell).
         home: where each campaign starts and ends (see :func:`plan_campaign`).
-        sigma, prior, constraints, joint_margin, mount: as :func:`pincal.design`'s.
+        sigma, prior, constraints, joint_margin, mount, clearance: as :func:`pincal.design`'s.
         options: more :func:`pincal.design` options (starts, seed, workers, method, pool, ...).
 
     Raises:
@@ -139,7 +140,7 @@ def accuracy_vs_time(
     robot = params.robot
     sizes = tuple(sorted({positive_int(m, "plan size") for m in sizes}))
     timing = Timing.for_robot(robot) if timing is None else timing
-    constraints = with_safety(robot, constraints, joint_margin, mount)
+    constraints = with_safety(robot, constraints, joint_margin, mount, clearance=clearance)
     rows, skipped = [], []
     minimum = -(-len(params) // (3 * robot.n_markers))
     for m in sizes:

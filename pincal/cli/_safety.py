@@ -1,5 +1,5 @@
-"""Safe by default on the command line: --joint-margin and --mount, the constraints with the safe
-defaults added, and the safety lines of a report."""
+"""Safe by default on the command line: --joint-margin, --mount and --clearance, the constraints with
+the safe defaults added, and the safety lines of a report."""
 
 from __future__ import annotations
 
@@ -14,9 +14,12 @@ from pincal.planning.constraints import DEFAULT_JOINT_LIMITS, MOUNTS, JointLimit
 
 SAFETY_HELP = """\
 Safe by default: a plan keeps 2 degrees inside every joint limit (1 cm on prismatic joints, at most a
-tenth of a joint's range; --joint-margin 0 keeps none) and, for a fixed-base robot, the markers, the
-tip and every link origin the joints move above the plane it is mounted on (--mount floor; none for
-a floating base). The report names the smallest margin to a limit, to the floor and to an obstacle.
+tenth of a joint's range; --joint-margin 0 keeps none), for a fixed-base robot the markers, the tip
+and every link origin the joints move 5 cm above the plane it is mounted on (--mount floor; none for
+a floating base), the robot 5 cm from every obstacle of a workcell (--clearance 5cm: the
+uncalibrated robot's error and the marker's size; 0 keeps only what --constraints asks), and the
+robot clear of itself when its URDF has collision geometry. The report names the smallest margin to
+a limit, to the floor, to an obstacle and between two links, with the pose.
 """
 
 _VALUE = re.compile(r"^\s*([0-9.eE+-]+)\s*([a-zµ]*)\s*$")
@@ -25,7 +28,7 @@ _LENGTHS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
 
 
 def add_safety_arguments(parser: argparse.ArgumentParser) -> None:
-    """--joint-margin and --mount."""
+    """--joint-margin, --mount and --clearance."""
     parser.add_argument(
         "--joint-margin",
         metavar="ANGLE[,LENGTH]",
@@ -39,9 +42,18 @@ def add_safety_arguments(parser: argparse.ArgumentParser) -> None:
         "(z = 0 of the base frame, or none), or NX,NY,NZ,OFFSET (normal.p >= OFFSET, metres) "
         "(default floor; none for a floating base)",
     )
+    parser.add_argument(
+        "--clearance",
+        metavar="LENGTH",
+        help="kept from the mounting plane (markers, tip, link origins) and from every obstacle, "
+        "e.g. 5cm, 20mm, 0.05 (metres), 0 for only what --constraints asks (default 5cm: the "
+        "uncalibrated robot's error and the marker's size)",
+    )
 
 
-def _number(token: str, units: dict[str, float], bare: float, what: str) -> float:
+def _number(
+    token: str, units: dict[str, float], bare: float, what: str, option: str = "--joint-margin"
+) -> float:
     match = _VALUE.match(token)
     try:
         value = float(match.group(1)) if match else math.nan
@@ -50,12 +62,17 @@ def _number(token: str, units: dict[str, float], bare: float, what: str) -> floa
     unit = match.group(2) if match else ""
     if not (math.isfinite(value) and value >= 0) or (unit and unit not in units):
         raise BadArgument(
-            f"--joint-margin {what} {token.strip()!r}: expected a number ≥ 0 with a unit "
+            f"{option} {what}{' ' if what else ''}{token.strip()!r}: expected a number ≥ 0 with a unit "
             f"({', '.join(units)})",
-            argument="--joint-margin",
+            argument=option,
             value=token,
         )
     return value * (units[unit] if unit else bare)
+
+
+def parse_clearance(text: str) -> float:
+    """``5cm``, ``20mm``, ``0.05`` (metres), ``0``: the clearance [m]."""
+    return _number(str(text).lower(), _LENGTHS, 1.0, "", "--clearance")
 
 
 def parse_joint_margin(text: str, degrees: bool) -> JointLimits:
@@ -75,16 +92,21 @@ def parse_joint_margin(text: str, degrees: bool) -> JointLimits:
 
 
 def safe_constraints_from_args(robot: Robot, args: argparse.Namespace) -> tuple:
-    """The constraints of --constraints with the safe defaults (or --joint-margin, --mount) added."""
+    """The constraints of --constraints with the safe defaults (or --joint-margin, --mount,
+    --clearance) added."""
     constraints = constraints_from_args(args)
     margin = getattr(args, "joint_margin", None)
     mount = getattr(args, "mount", None)
+    given = getattr(args, "clearance", None)
     limits = None if margin is None else parse_joint_margin(margin, getattr(args, "deg", False))
     plane = None if mount is None else Mount.parse(mount)
+    clearance = None if given is None else parse_clearance(given)
     try:
-        return with_safety(robot, constraints, limits, plane)
+        return with_safety(robot, constraints, limits, plane, clearance=clearance)
     except BadArgument as exc:
-        option = "--joint-margin" if exc.argument == "joint_margin" else "--mount"
+        option = {"joint_margin": "--joint-margin", "clearance": "--clearance"}.get(
+            str(exc.argument), "--mount"
+        )
         raise BadArgument(
             f"{option} and the --constraints file both give it: keep one", argument=option
         ) from None

@@ -129,6 +129,7 @@ def design(
     orientation_length: float | None = None,
     joint_margin: JointMargin = None,
     mount: MountSpec = None,
+    clearance: float | None = None,
     with_d_optimal: bool = False,
 ) -> DesignResult:
     """Find the m measurement configurations that minimise a criterion, within the constraints.
@@ -213,6 +214,13 @@ def design(
             :class:`~pincal.planning.constraints.Mount`; default (None) ``floor`` for a fixed-base
             robot measured from its URDF root, ``none`` otherwise (or the Mount among
             ``constraints``).
+        clearance: kept from the mounting plane and from every obstacle of a workcell by the
+            markers, the tip and the link origins (the obstacles: by the robot's collision
+            geometry) [m]; default (None) 5 cm,
+            :data:`~pincal.planning.constraints.DEFAULT_CLEARANCE` (the uncalibrated robot's
+            error and the marker's size); 0: only what the Mount and Workcell ask themselves. The
+            robot is also kept clear of itself when its URDF has collision geometry (a
+            ``SelfCollision`` among ``constraints`` replaces that default).
         with_d_optimal: also design the D-optimal plan from the same starts, as the baseline to
             judge this plan against (the CLI's ``--baseline``): ``result.d_optimal`` is the design
             ``criterion="D"`` with the same arguments returns (the same starts, pool and floor:
@@ -258,7 +266,8 @@ def design(
         with _multistart.single_threaded_blas():
             return _payloads.design_with_payloads(
                 params, m, test_pose, [0.0] if payloads is None else payloads, task_payload=task_payload,
-                criterion=criterion, constraints=with_safety(params.robot, constraints, joint_margin, mount),
+                criterion=criterion,
+                constraints=with_safety(params.robot, constraints, joint_margin, mount, clearance=clearance),
                 pool=1000 if pool is None else pool,  # type: ignore[arg-type]
                 starts=starts, seed=seed, sigma=sigma, prior=prior, min_conditioning=min_conditioning,
                 residual_model=residual_model, instrument=measured,
@@ -286,7 +295,7 @@ def design(
             prior=prior,
             instrument=optional_instrument(measure, instrument, positive_sigma(sigma)),
             orientation_length=orientation_length,
-            safety=(joint_margin, mount),
+            safety=(joint_margin, mount, clearance),
         )
         pooled = _pool(params, settings, pool, init)
         engine = rows_engine(params, settings.instrument)
@@ -348,7 +357,7 @@ def _validate(
     prior: Prior | None = None,
     instrument: Instrument | None = None,
     orientation_length: float | None = None,
-    safety: tuple[JointMargin, MountSpec] = (None, None),
+    safety: tuple[JointMargin, MountSpec, float | None] = (None, None, None),
 ) -> Settings:
     """Check every argument (in the order of the signature) and settle the defaults."""
     criterion = criterion_name(criterion)
@@ -376,7 +385,10 @@ def _validate(
     floor = (MIN_CONDITIONING if prior is None else 0.0) if min_conditioning is None else min_conditioning
     name = "min_conditioning" + (" (0 only with a prior)" if prior is None else "")
     floor = number(floor, name, 0.0, 0.1, low_open=prior is None, high_open=True)
-    constraints = with_safety(params.robot, constraints, *safety)  # safe by default
+    margin, mount, clearance = safety
+    constraints = with_safety(
+        params.robot, constraints, margin, mount, clearance=clearance
+    )  # safe by default
     feasibility = Feasibility(params.robot, constraints)
     entropy = seed_entropy(seed)
     if method == "continuous":

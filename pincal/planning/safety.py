@@ -8,9 +8,11 @@ an obstacle, and the smallest distance between two links of the robot (its URDF 
 geometry, else capsules from the kinematics; negative: they overlap) — with the joint, point or
 pair and the configuration where each occurs, and what the constraints ask (the margin kept, the
 clearance). Every report that prints a plan (design, evaluate, show, campaign) prints these lines.
-A design keeps clear of its own links only with a ``self_collision`` constraint (its search checks
-each candidate, which costs); the report checks the plan's m configurations always, and warns
-naming the pose and the pair when two links meet.
+A design keeps clear of the floor and the obstacles by the clearance of the safe defaults (5 cm),
+and of its own links when the robot's URDF has collision geometry (a ``self_collision`` constraint
+by default); the report checks the plan's m configurations always — with capsules derived from the
+kinematics when the URDF has no collision geometry — and warns naming the pose and the pair when
+two links meet.
 """
 
 from __future__ import annotations
@@ -134,7 +136,7 @@ class SafetyReport:
             f = self.floor
             out.append(
                 f"  floor: {f.what} {_mm(f.value)} above the mounting plane at pose {f.pose + 1} "
-                f"(mount {self.mount.describe()}){flag(f)}"
+                f"(kept: {_mm(f.required)}; mount {self.mount.describe()}){flag(f)}"
             )
         else:
             why = "mount none" if self.mount.kind == "none" else "nothing the joints move leaves its height"
@@ -183,8 +185,9 @@ def safety_margins(
         plan: (m, nq) configurations [rad or m] or a Plan.
         constraints: the constraints the plan was designed with, the safe defaults included (see
             :func:`~pincal.planning.constraints.with_safety`): their JointLimits give the margin
-            asked at each joint, their Mount the plane (none: ``none``), their workcell the
-            obstacles, their SelfCollision the clearance between links (default 0).
+            asked at each joint, their Mount the plane and its clearance (none: ``none``), their
+            workcell the obstacles and the clearance kept from them, their SelfCollision the
+            clearance between links (default 0).
         self_collision: check each configuration's links against each other (one distance pass
             per configuration: milliseconds); a pose where two links meet is warned of
             (:class:`~pincal.errors.PincalWarning`, naming the pose, from 1, and the pair).
@@ -213,7 +216,7 @@ def safety_margins(
     heights = bound.margins(Kinematics(robot, qs))
     if heights.size:
         i, k = np.unravel_index(int(np.argmin(heights)), heights.shape)
-        floor = Closest(float(heights[i, k]), int(i), bound.names[k], 0.0)
+        floor = Closest(float(heights[i, k]) + mount.clearance, int(i), bound.names[k], mount.clearance)
     obstacle, note = None, ""
     for c in constraints:
         if isinstance(c, Workcell):
@@ -229,8 +232,8 @@ def safety_margins(
                 if itself.value <= 0
                 else "two links of the robot come closer"
             )
-            + f" ({_self_line(itself)}); a design keeps its links apart with the constraint "
-            "'self_collision:' (--constraints)",
+            + f" ({_self_line(itself)}); a design keeps its links apart when the robot's URDF has "
+            "collision geometry (its 'self_collision:' constraint, --constraints, by default)",
             PincalWarning,
         )
     return SafetyReport(kinds[0], kinds[1], floor, obstacle, mount, note, itself, self_note)

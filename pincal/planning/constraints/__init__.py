@@ -8,7 +8,10 @@ the robot has a base placement); angles in radians. :func:`load_constraints` rea
 * :class:`JointLimits` — the URDF limits shrunk by a margin (always applied; a design keeps 2°,
   1 cm on prismatic joints, by default: :data:`DEFAULT_JOINT_LIMITS`).
 * :class:`Mount` — the measured points, the tip and every moving link origin on the robot's side
-  of its mounting plane (a design keeps ``floor`` by default for a fixed-base robot).
+  of its mounting plane, a clearance above it (a design keeps ``floor`` by default for a
+  fixed-base robot, 5 cm above it: :data:`DEFAULT_CLEARANCE`).
+* :class:`Clearance` — the distance kept from the mounting plane and from every obstacle (checked
+  by the Mount and the Workcell; a design keeps :data:`DEFAULT_CLEARANCE` by default).
 * :class:`WorkspaceBox` — every marker inside an axis-aligned box.
 * :class:`HalfSpace` — every marker on one side of a plane (``normal · p ≥ offset``).
 * :class:`Visibility` — a laser tracker at a known position sees every marker: distance within
@@ -26,7 +29,9 @@ the robot has a base placement); angles in radians. :func:`load_constraints` rea
 * :class:`MinSpacing` — any two configurations of a plan at least ``distance`` apart in joint space
   (Euclidean norm of the joint differences [rad]).
 
-A design adds the safe defaults with :func:`with_safety` (see
+A design adds the safe defaults with :func:`with_safety` (the joint margin, the mount, the
+clearance from the mount and the obstacles, the robot against itself when its URDF has collision
+geometry; see
 :mod:`pincal.planning.constraints.defaults`).
 
 Inside the continuous search the constraints are inequalities on the joint values (SLSQP): each
@@ -43,9 +48,12 @@ import numpy as np
 from pincal.model.robot import Robot
 from pincal.planning.constraints.avoid_poses import AvoidPoses
 from pincal.planning.constraints.base import TOLERANCE, Bound, Constraint, Kinematics
+from pincal.planning.constraints.clearance import Clearance
 from pincal.planning.constraints.defaults import (
+    DEFAULT_CLEARANCE,
     JointMargin,
     MountSpec,
+    clearance_of,
     default_mount,
     joint_limits_of,
     joint_margins,
@@ -68,12 +76,14 @@ AnyConstraint = Constraint | MinSpacing
 """Any constraint object: a per-configuration :class:`Constraint` or the plan-wide :class:`MinSpacing`."""
 
 __all__ = [
+    "DEFAULT_CLEARANCE",
     "DEFAULT_JOINT_LIMITS",
     "MOUNTS",
     "TOLERANCE",
     "AnyConstraint",
     "AvoidPoses",
     "Bound",
+    "Clearance",
     "Constraint",
     "HalfSpace",
     "JointLimits",
@@ -90,6 +100,7 @@ __all__ = [
     "Visibility",
     "Workcell",
     "WorkspaceBox",
+    "clearance_of",
     "constraints_from_dict",
     "default_mount",
     "joint_limits_of",

@@ -202,6 +202,32 @@ def motion_weights(robot: Robot, joint: int, extent: float, after: int = 0) -> n
     return w
 
 
+def touching_at_reference(
+    robot: Robot, geom: pin.GeometryModel, pairs: Sequence[tuple[int, int]]
+) -> list[bool]:
+    """For each pair of shapes of ``geom`` (on ``robot``'s joints), whether they touch or overlap at
+    the reference configuration (the zero clipped into the joint limits): such a pair, like two
+    shapes meeting at a wrist, touches everywhere and is not checked."""
+    import coal
+
+    reference = np.clip(np.zeros(robot.nq), robot.model.lowerPositionLimit, robot.model.upperPositionLimit)
+    data, gdata = robot.model.createData(), geom.createData()
+    pin.updateGeometryPlacements(robot.model, data, geom, gdata, reference + robot.joint_offsets)
+    out = []
+    for a, b in pairs:
+        request, result = coal.DistanceRequest(), coal.DistanceResult()
+        d = coal.distance(
+            geom.geometryObjects[a].geometry,
+            coal.Transform3s(gdata.oMg[a].rotation, gdata.oMg[a].translation),
+            geom.geometryObjects[b].geometry,
+            coal.Transform3s(gdata.oMg[b].rotation, gdata.oMg[b].translation),
+            request,
+            result,
+        )
+        out.append(bool(d <= 1e-9))
+    return out
+
+
 @dataclass(frozen=True)
 class Pair:
     """Two shapes whose distance is checked.
@@ -330,27 +356,7 @@ class CollisionWorld:
         return out
 
     def _touching_at_reference(self, geom: pin.GeometryModel, candidates: list[Pair]) -> list[bool]:
-        robot = self.robot
-        reference = np.clip(
-            np.zeros(robot.nq), robot.model.lowerPositionLimit, robot.model.upperPositionLimit
-        )
-        gdata = geom.createData()
-        pin.updateGeometryPlacements(self.model, self.data, geom, gdata, reference + robot.joint_offsets)
-        out = []
-        import coal
-
-        for p in candidates:
-            request, result = coal.DistanceRequest(), coal.DistanceResult()
-            d = coal.distance(
-                geom.geometryObjects[p.a].geometry,
-                coal.Transform3s(gdata.oMg[p.a].rotation, gdata.oMg[p.a].translation),
-                geom.geometryObjects[p.b].geometry,
-                coal.Transform3s(gdata.oMg[p.b].rotation, gdata.oMg[p.b].translation),
-                request,
-                result,
-            )
-            out.append(d <= 1e-9)
-        return out
+        return touching_at_reference(self.robot, geom, [(p.a, p.b) for p in candidates])
 
     @property
     def size(self) -> int:

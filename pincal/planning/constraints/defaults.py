@@ -8,21 +8,41 @@
 * the robot's mounting plane, ``Mount("floor")``, for a fixed-base robot whose chain starts at its
   URDF root, unless the constraints hold a :class:`Mount` or a ``mount`` is given (``"none"`` keeps
   none); a floating base (held at the chain's root) and a chain from another ``root`` link keep
-  none by default: their base plane is not a floor.
+  none by default: their base plane is not a floor;
+* a **clearance** from that plane and from the obstacles of a workcell, :data:`DEFAULT_CLEARANCE`
+  (5 cm: the uncalibrated robot's error and the marker's own size, docs/method.md §12.5), unless a
+  ``clearance`` (or a :class:`Clearance` among the constraints) is given (0 keeps only what the
+  constraints themselves ask): the Mount keeps its points that far above the plane, a Workcell at
+  least that far from every obstacle (a larger ``min_distance`` of its own is kept); the Clearance
+  stays among the constraints, so that adding the defaults again keeps it;
+* the robot against itself, a :class:`SelfCollision` checked when the robot's URDF has collision
+  geometry (``optional``: nothing is checked without it), unless the constraints hold one.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
+from dataclasses import replace
 
 import numpy as np
 
+from pincal.arguments import MAX_LENGTH, number
 from pincal.errors import BadArgument
 from pincal.model.robot import Robot
 from pincal.planning.constraints.base import Constraint
+from pincal.planning.constraints.clearance import Clearance
 from pincal.planning.constraints.joint_limits import DEFAULT_JOINT_LIMITS, JointLimits
 from pincal.planning.constraints.min_spacing import MinSpacing
 from pincal.planning.constraints.mount import Mount
+from pincal.planning.constraints.self_collision import SelfCollision
+from pincal.planning.constraints.workcell import Workcell
+
+DEFAULT_CLEARANCE = 0.05
+"""The clearance a design keeps from the mounting plane and from every obstacle [m] by default
+(docs/method.md §12.5): the largest error of an uncalibrated industrial robot's tool (a few
+millimetres; 1 mm and 1 mrad errors put a 2.7 m arm's tool up to about a centimetre off), a laser
+tracker's reflector (a 1.5" ball: 19 mm from its centre, the measured point, to its surface) and
+the floor's own unevenness, with room to spare."""
 
 JointMargin = float | tuple[float, float] | JointLimits | None
 """What ``joint_margin`` accepts: a number (kept from every limit, [rad], or [m] for a prismatic
@@ -75,11 +95,24 @@ def mount_of(robot: Robot, mount: MountSpec) -> Mount:
     )
 
 
+def clearance_of(clearance: float | None) -> float:
+    """The clearance [m] of a ``clearance`` argument (None: :data:`DEFAULT_CLEARANCE`).
+
+    Raises:
+        BadArgument: not a finite number ≥ 0 (a boolean or text included).
+    """
+    if clearance is None:
+        return DEFAULT_CLEARANCE
+    return number(clearance, "clearance", 0.0, MAX_LENGTH, unit="m")
+
+
 def with_safety(
     robot: Robot,
     constraints: Iterable[Constraint | MinSpacing] = (),
     joint_margin: JointMargin = None,
     mount: MountSpec = None,
+    *,
+    clearance: float | None = None,
 ) -> tuple[Constraint | MinSpacing, ...]:
     """``constraints`` with the safe defaults added (see the module doc); idempotent.
 
@@ -90,10 +123,13 @@ def with_safety(
             JointLimits among ``constraints``, else the default 2° / 1 cm.
         mount: the mounting plane (see :data:`MountSpec`); None: the Mount among ``constraints``,
             else :func:`default_mount`.
+        clearance: kept from the mounting plane and from every obstacle [m] (None: the
+            Clearance among ``constraints``, else :data:`DEFAULT_CLEARANCE`; 0: only what the
+            Mount and the Workcell ask themselves).
 
     Raises:
-        BadArgument: a ``joint_margin`` (or ``mount``) given both as an argument and among the
-            constraints, or of the wrong kind.
+        BadArgument: a ``joint_margin`` (or ``mount``, ``clearance``) given both as an argument
+            and among the constraints, or of the wrong kind.
     """
     constraints = tuple(constraints)
     limits = [c for c in constraints if isinstance(c, JointLimits)]
@@ -109,12 +145,35 @@ def with_safety(
         )
     if len(mounts) > 1:
         raise BadArgument("a robot has one mount: give one Mount constraint", argument="mount")
+    clearances = [c for c in constraints if isinstance(c, Clearance)]
+    if clearance is not None and clearances:
+        raise BadArgument(
+            "the clearance is given twice (clearance and a Clearance constraint): give it once",
+            argument="clearance",
+        )
+    if len(clearances) > 1:
+        raise BadArgument("give one Clearance constraint", argument="clearance")
+    keep = clearances[0].distance if clearances else clearance_of(clearance)
     added: list[Constraint | MinSpacing] = []
     if not limits:
         added.append(joint_limits_of(joint_margin))
     if not mounts:
         added.append(mount_of(robot, mount))
-    return constraints + tuple(added)
+    if not any(isinstance(c, SelfCollision) for c in constraints):
+        dirs = tuple(d for c in constraints if isinstance(c, Workcell) for d in c.package_dirs)
+        added.append(SelfCollision(package_dirs=dirs, optional=True))
+    if not clearances:
+        added.append(Clearance(keep))
+    return tuple(_with_clearance(c, keep) for c in constraints + tuple(added))
+
+
+def _with_clearance(constraint: Constraint | MinSpacing, clearance: float) -> Constraint | MinSpacing:
+    """A Mount or a Workcell keeping at least ``clearance`` [m]; any other constraint as it is."""
+    if isinstance(constraint, Mount) and constraint.kind != "none" and constraint.clearance < clearance:
+        return replace(constraint, clearance=clearance)
+    if isinstance(constraint, Workcell) and constraint.min_distance < clearance:
+        return replace(constraint, min_distance=clearance)
+    return constraint
 
 
 def joint_margins(robot: Robot, constraints: Iterable[Constraint | MinSpacing]) -> np.ndarray:

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from pincal.errors import BadConstraint
 from pincal.files import read_yaml
 from pincal.planning.constraints.base import number
+from pincal.planning.constraints.clearance import Clearance
 from pincal.planning.constraints.half_space import HalfSpace
 from pincal.planning.constraints.joint_limits import JointLimits
 from pincal.planning.constraints.line_of_sight import LineOfSight
@@ -28,6 +29,7 @@ if TYPE_CHECKING:  # the union of the constraint classes, defined where they are
 _KEYS = (
     "joint_limits",
     "mount",
+    "clearance",
     "workspace_box",
     "half_space",
     "visibility",
@@ -96,6 +98,8 @@ def constraints_from_dict(data: object, folder: str | os.PathLike | None = None)
                 raise BadConstraint(
                     "mount needs plane: floor|wall|ceiling|none, or normal: [x, y, z] and offset"
                 )
+    if "clearance" in data:
+        out.append(Clearance(data["clearance"]))
     if "workspace_box" in data:
         e = _check_keys(data["workspace_box"], "workspace_box", ("lower", "upper"))
         if "lower" not in e or "upper" not in e:
@@ -153,6 +157,7 @@ def load_constraints(path: str | os.PathLike) -> tuple[AnyConstraint, ...]:
 
         joint_limits: {margin_deg: 5, prismatic: 0.02}   # default 2 deg, 1 cm on prismatic joints
         mount: floor                     # floor, wall, ceiling, none, or {normal: [0, 0, 1], offset: -0.8}
+        clearance: 0.05                  # kept from the mount and the obstacles (default 0.05; 0: none)
         workspace_box: {lower: [0.5, -1.5, 0.2], upper: [2.8, 1.5, 2.2]}
         half_space:                      # one mapping or a list; keeps normal·p >= offset
           - {normal: [0, 0, 1], offset: 0.3}

@@ -11,6 +11,10 @@ the robot is installed, so the three name how the robot hangs (reports say which
 same plane; give another plane as a normal and an offset (``normal · p ≥ offset``), e.g. a robot
 on a riser whose floor lies 0.8 m below its base: ``Mount.parse("0,0,1,-0.8")``.
 
+The plane keeps a clearance: every checked point stays at least ``clearance`` [m] above it (a design
+adds the default of :data:`~pincal.planning.constraints.defaults.DEFAULT_CLEARANCE`, 5 cm, which
+covers the uncalibrated robot's error and the marker's own size; docs/method.md §12.5).
+
 A point the joints cannot move off its height (the first joint's origin, every point of a planar
 arm moving in its base plane) is where the robot is built, not a choice of the plan: it is left
 out. Which points are checked is :attr:`MountBound.names`.
@@ -45,18 +49,21 @@ class Mount(Constraint):
     """Keep what the joints move on the robot's side of its mounting plane (robot base frame).
 
     Example: ``Mount("floor")`` keeps the markers, the tip and every moving link origin at z ≥ 0
-    of the base frame; ``Mount("plane", (0, 0, 1), -0.8)`` at z ≥ −0.8 m.
+    of the base frame; ``Mount("plane", (0, 0, 1), -0.8)`` at z ≥ −0.8 m;
+    ``Mount("floor", clearance=0.05)`` at z ≥ 5 cm.
 
     Attributes:
         kind: ``floor``, ``wall``, ``ceiling`` (the plane z = 0 of the base frame), ``plane``
             (``normal`` and ``offset`` as given) or ``none`` (nothing kept).
         normal: (3,) normal of the plane, towards the robot (normalised on construction).
         offset: the plane is ``normal · p = offset`` [m]; the robot's side ``normal · p ≥ offset``.
+        clearance: how far above the plane every checked point stays [m] (≥ 0).
     """
 
     kind: str = "floor"
     normal: tuple[float, float, float] = (0.0, 0.0, 1.0)
     offset: float = 0.0
+    clearance: float = 0.0
     key = "mount"
     reach = 0.05
 
@@ -75,6 +82,7 @@ class Mount(Constraint):
             )
         object.__setattr__(self, "normal", tuple(float(v) for v in n / np.linalg.norm(n)))
         object.__setattr__(self, "offset", number(self.offset, "mount offset"))
+        object.__setattr__(self, "clearance", number(self.clearance, "mount clearance", 0.0))
 
     @classmethod
     def parse(cls, text: str) -> Mount:
@@ -100,7 +108,8 @@ class Mount(Constraint):
         return cls("plane", (values[0], values[1], values[2]), values[3])
 
     def describe(self) -> str:
-        """``floor (z ≥ 0 of the base frame)``: the mount in words."""
+        """``floor (z ≥ 0 m in the base frame)``: the mount in words (the plane; its clearance is
+        :attr:`clearance`)."""
         if self.kind == "none":
             return "none"
         n = np.array(self.normal)
@@ -135,6 +144,7 @@ class MountBound(Bound):
     def __init__(self, robot: Robot, spec: Mount) -> None:
         self.robot, self.spec = robot, spec
         self.normal, self.offset = np.array(spec.normal), spec.offset
+        self.clearance = spec.clearance
         self.data = robot.model.createData()
         self.placements = JointPlacements(robot.model)
         joints = list(range(1, robot.model.njoints))
@@ -188,16 +198,17 @@ class MountBound(Bound):
         return points[:, self.keep] @ self.normal - self.offset
 
     def margins(self, kin: Kinematics) -> np.ndarray:
+        """(m, kept) the heights above the plane less the clearance [m]."""
         if not len(self.keep):
             return np.zeros((len(kin.qs), 0))
-        return self._heights(kin.qs)
+        return self._heights(kin.qs) - self.clearance
 
     def satisfied(self, kin: Kinematics) -> np.ndarray:
         if not len(self.keep):
             return np.ones(len(kin.qs), dtype=bool)
-        return np.all(self._heights(kin.qs) >= -TOLERANCE, axis=1)
+        return np.all(self._heights(kin.qs) - self.clearance >= -TOLERANCE, axis=1)
 
     def strictly_satisfied(self, kin: Kinematics) -> np.ndarray:
         if not len(self.keep):
             return np.ones(len(kin.qs), dtype=bool)
-        return np.all(self._heights(kin.qs) > 0, axis=1)
+        return np.all(self._heights(kin.qs) - self.clearance > 0, axis=1)

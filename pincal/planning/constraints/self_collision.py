@@ -14,6 +14,7 @@ from pincal.model.geometry import convex_hulls, urdf_geometry
 from pincal.model.robot import Robot
 from pincal.model.urdf import few
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number
+from pincal.planning.constraints.collision_world import touching_at_reference
 
 
 @dataclass(frozen=True)
@@ -21,19 +22,25 @@ class SelfCollision(Constraint):
     """No two non-adjacent links of the chain closer than ``min_distance``.
 
     Uses the URDF's ``<collision>`` geometry (Pinocchio + coal). Pairs of geometries on the same
-    link or on two links joined by one joint are not checked. The exact test (coal collision with
-    a security margin) decides feasibility; the continuous search steers by the distances between
-    the geometries' convex hulls, which never exceed the true distances.
+    link or on two links joined by one joint are not checked, nor pairs already in contact at the
+    reference configuration (the zero clipped into the limits: they touch everywhere; the
+    campaign's checks leave out the same). The exact test (coal collision with a security margin)
+    decides feasibility; the continuous search steers by the distances between the geometries'
+    convex hulls, which never exceed the true distances.
 
     Attributes:
         min_distance: clearance kept between links [m] (0: only no contact).
         package_dirs: more folders holding package folders, searched for ``package://NAME/``
             mesh paths as ``DIR/NAME/...`` (the robot's own ``package_dirs`` and the folders
             above the URDF are searched too, as :func:`~pincal.load_robot` searches them).
+        optional: check only when the robot has usable collision geometry, else nothing (the safe
+            default a design adds, :func:`~pincal.planning.constraints.with_safety`); False: a
+            robot without it is refused.
     """
 
     min_distance: float = 0.0
     package_dirs: tuple[str, ...] = ()
+    optional: bool = False
     key = "self_collision"
 
     def __post_init__(self) -> None:
@@ -43,7 +50,26 @@ class SelfCollision(Constraint):
         object.__setattr__(self, "package_dirs", tuple(str(p) for p in self.package_dirs))
 
     def bind(self, robot: Robot) -> Bound:
-        return CollisionBound(robot, self)
+        if not self.optional:
+            return CollisionBound(robot, self)
+        try:
+            return CollisionBound(robot, self)
+        except (BadConstraint, RuntimeError):  # no usable geometry (coal: a mesh it cannot take)
+            return NoCollisionGeometry()
+
+
+class NoCollisionGeometry(Bound):
+    """The optional self-collision check of a robot without usable collision geometry: nothing."""
+
+    @property
+    def empty(self) -> bool:
+        return True
+
+    def margins(self, kin: Kinematics) -> np.ndarray:
+        return np.zeros((len(kin.qs), 0))
+
+    def satisfied(self, kin: Kinematics) -> np.ndarray:
+        return np.ones(len(kin.qs), dtype=bool)
 
 
 def collision_geometry(robot: Robot, package_dirs: tuple[str, ...], what: str) -> pin.GeometryModel:
@@ -88,17 +114,26 @@ class CollisionBound(Bound):
             raise BadConstraint(
                 f"self_collision: the URDF {urdf.name} has no collision geometry on non-adjacent links"
             )
+        hulls = convex_hulls(geom)  # fast, smooth distances that never exceed the true ones
+        touching = touching_at_reference(robot, hulls, pairs)
+        self.skipped = [
+            (objects[a].name, objects[b].name) for (a, b), t in zip(pairs, touching, strict=True) if t
+        ]
+        pairs = [p for p, t in zip(pairs, touching, strict=True) if not t]
+        if not pairs:
+            raise BadConstraint(
+                f"self_collision: every pair of non-adjacent links of {urdf.name} is in contact at the "
+                "zero configuration: nothing to check"
+            )
         for a, b in pairs:
             geom.addCollisionPair(pin.CollisionPair(a, b))
+            hulls.addCollisionPair(pin.CollisionPair(a, b))
         self.names = [(objects[a].name, objects[b].name) for a, b in pairs]
         self.model, self.data = model, model.createData()
         self.offsets = robot.joint_offsets
         self.exact, self.exact_data = geom, geom.createData()
         for request in self.exact_data.collisionRequests:
             request.security_margin = spec.min_distance
-        hulls = convex_hulls(geom)  # fast, smooth distances that never exceed the true ones
-        for a, b in pairs:
-            hulls.addCollisionPair(pin.CollisionPair(a, b))
         self.hulls, self.hull_data = hulls, hulls.createData()
         self.min_distance = spec.min_distance
 
