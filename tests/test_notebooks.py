@@ -135,6 +135,7 @@ def test_the_five_notebooks_are_there():
         "03_your_robot.ipynb",
         "04_beyond_geometry.ipynb",
         "05_instruments.ipynb",
+        "07_your_stack.ipynb",
     ]
 
 

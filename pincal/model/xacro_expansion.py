@@ -82,7 +82,11 @@ def expand(
     seconds = XACRO_SECONDS if seconds is None else seconds
     memory = XACRO_MEMORY if memory is None else memory
     dirs = dict(package_dirs or {})
-    request = json.dumps({"path": str(path), "package_dirs": dirs, "max_bytes": max_bytes, "memory": memory})
+    # absolute: xacro resolves a relative name (xacro.abs_filename, load_yaml) against the folder of
+    # the file as it was named, which a relative name breaks once an include changes folder
+    request = json.dumps(
+        {"path": str(Path(path).resolve()), "package_dirs": dirs, "max_bytes": max_bytes, "memory": memory}
+    )
     # PYTHONPATH is kept (ROS puts xacro there); the current folder is not searched.
     script = (
         "import runpy, sys; sys.path[:] = filter(None, sys.path); "
