@@ -112,7 +112,7 @@ def fit_hyperparameters(
     starts += [rng.uniform(bounds[:, 0], bounds[:, 1]) for _ in range(restarts)]
     best: tuple[float, np.ndarray] = (np.inf, starts[0])
     for k, theta0 in enumerate(starts):
-        steps.stage(f"likelihood evaluations (start {k + 1} of {len(starts)}, at most)", EVALUATIONS)
+        steps.stage(f"of the likelihood (start {k + 1} of {len(starts)}; at most)", EVALUATIONS)
 
         def objective(theta: np.ndarray) -> tuple[float, np.ndarray]:
             steps.advance()
@@ -165,7 +165,7 @@ class Fitc:
                 jitter *= 10
         B, c = np.eye(m), np.zeros((m, Y.shape[1]))
         blocks = range(0, n, BLOCK)
-        steps.stage("training blocks summed", len(blocks))
+        steps.stage("of training configurations summed", len(blocks))
         largest = (0, 0)
         for start in blocks:
             V = solve_triangular(L, correlation(Z, X[start : start + BLOCK]), lower=True)
@@ -180,13 +180,17 @@ class Fitc:
         return cls(Z, L, LB, solve_triangular(L, inner, lower=True, trans="T"), largest)
 
     def mean(self, Xs: np.ndarray) -> np.ndarray:
-        """(k, p) the posterior mean at scaled features Xs (in Y's units)."""
-        return correlation(Xs, self.Z) @ self.weights
+        """(k, p) the posterior mean at scaled features Xs (in Y's units), ``BLOCK`` at a time."""
+        blocks = [correlation(Xs[i : i + BLOCK], self.Z) @ self.weights for i in range(0, len(Xs), BLOCK)]
+        return np.concatenate(blocks) if blocks else np.zeros((0, self.weights.shape[1]))
 
     def variance(self, Xs: np.ndarray) -> np.ndarray:
-        """(k,) the posterior variance of f at scaled features Xs, over s²."""
+        """(k,) the posterior variance of f at scaled features Xs, over s², ``BLOCK`` at a time."""
         from scipy.linalg import solve_triangular
 
-        v = solve_triangular(self.L, correlation(self.Z, Xs), lower=True)
-        u = solve_triangular(self.LB, v, lower=True)
-        return np.maximum(1.0 - np.sum(v**2, axis=0) + np.sum(u**2, axis=0), 0.0)
+        out = np.empty(len(Xs))
+        for i in range(0, len(Xs), BLOCK):
+            v = solve_triangular(self.L, correlation(self.Z, Xs[i : i + BLOCK]), lower=True)
+            u = solve_triangular(self.LB, v, lower=True)
+            out[i : i + BLOCK] = np.maximum(1.0 - np.sum(v**2, axis=0) + np.sum(u**2, axis=0), 0.0)
+        return out

@@ -22,7 +22,7 @@ That is O(n³) time and O(n²) memory (scikit-learn's likelihood gradient O(n² 
 :attr:`Approximation.above` configurations (500) the model is approximate instead
 (:mod:`pincal.model._sparse_gp`): the hyperparameters maximise the exact marginal likelihood of a
 seeded subset of :attr:`Approximation.subset` configurations (1 000), and the predictions use every
-configuration through :attr:`Approximation.inducing` inducing configurations (1 000, the first of
+configuration through :attr:`Approximation.inducing` inducing configurations (1 500, the first of
 the same seeded order) by FITC: O(n m²) time, O(block·m) memory. Up to the threshold nothing
 changes; :meth:`ResidualModel.summary` and :meth:`ResidualModel.describe` say which was used.
 """
@@ -63,7 +63,7 @@ class Approximation:
 
     above: int = 500
     subset: int = 1000
-    inducing: int = 1000
+    inducing: int = 1500
 
     def __post_init__(self) -> None:
         for name in ("above", "subset", "inducing"):
