@@ -137,7 +137,7 @@ def identify(
             process over joint space (:mod:`pincal.model.residual`, docs/method.md §11.5),
             hyperparameters by marginal likelihood on these data only (the rows kept); the
             result's :meth:`~IdentificationResult.predict` adds its mean. None: no residual model.
-            Beyond 500 configurations it is approximate (FITC through 1 000 inducing
+            Beyond 500 configurations it is approximate (FITC through 1 500 inducing
             configurations; :class:`~pincal.model.residual.Approximation`).
         instrument: the instrument's error model (:mod:`pincal.instruments`: ``PerCoordinate``,
             ``Tracker``): the weights of data without uncertainty columns (a tracker's

@@ -177,7 +177,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--residual-model",
         choices=RESIDUAL_MODELS,
         help="gp: model what the fit leaves as a Gaussian process over joint space (needs pincal[gp]); "
-        "exact up to 500 configurations, beyond approximate (FITC through 1000 inducing configurations)",
+        "exact up to 500 configurations, beyond approximate (FITC through 1500 inducing configurations)",
     )
     p.add_argument(
         "--maxiter",
