@@ -50,7 +50,7 @@ ARM_KINEMATICS = """kinematics:
   j2: {x: 0.05, y: 0, z: 0.1, roll: 0, pitch: 0, yaw: 0}
   j3: {x: 0.5, y: 0, z: 0, roll: 0, pitch: 0, yaw: 0}
 """
-FORMATS = ("mjcf", "robot_calibration", "ros2_control", "urdf", "xacro", "yaml")
+FORMATS = ("mjcf", "robot_calibration", "ros2_control", "sdf", "urdf", "xacro", "yaml")
 
 
 def _calibrated(robot, seed=2, gains=True):

@@ -171,6 +171,7 @@ from pincal.calibration.sanity import (  # noqa: E402
     TOOL_LIMIT,
     ZERO_SCALE,
 )
+from pincal.calibration.sdf_export import SDF_VERSION  # noqa: E402
 from pincal.calibration.synthetic import DEFAULT_ERROR_STD  # noqa: E402
 from pincal.calibration.urdf_export import ROUND_TRIP_TOLERANCE  # noqa: E402
 from pincal.campaign.adaptive import AVOID_DISTANCE  # noqa: E402
@@ -452,6 +453,11 @@ CLAIMS: tuple[Claim, ...] = (
         asserted_in("tests/test_mjcf.py", "assert worst_mujoco_error(out, truth) < 1e-9"),
     ),
     Claim("a hand-made 2-link arm", GIVEN),
+    Claim("SDFormat 1.9", equals(float(SDF_VERSION))),
+    Claim(
+        "the marker frames on the calibration's points to 1e-9 m at 100 configurations",
+        asserted_in("tests/test_export_sdf.py", "assert float(np.max(error)) <= 1e-9"),
+    ),
     Claim("held-out errors within 3× the noise", asserted_in("tests/test_mjcf.py", "rms < 3 * sigma")),
     # What accuracy to expect: benchmarks/realdata/run.py's figures
     Claim(

@@ -11,6 +11,7 @@ from pathlib import Path
 from pincal.calibration.corrections import corrections_of, corrections_yaml, source_of
 from pincal.calibration.mjcf_export import export_mjcf
 from pincal.calibration.ros_exports import robot_calibration_text, ros2_control_text
+from pincal.calibration.sdf_export import export_sdf
 from pincal.calibration.urdf_export import export_urdf, sidecar_path
 from pincal.calibration.xacro_export import corrections_path, export_xacro
 from pincal.cli import COMMANDS
@@ -27,6 +28,7 @@ examples:
   pincal export cal.urdf --format mjcf --out cal_mujoco.xml      # the calibration for MuJoCo
   pincal export cal.urdf --format yaml --out cal.yaml            # corrections of the kr270's URDF
   pincal export cal.urdf --format ros2_control --out cal_offsets.xml
+  pincal export cal.urdf --format sdf --out cal.sdf              # the calibration for Gazebo
 
 For a xacro description that reads its joint origins from a kinematics YAML (ur_description does):
   pincal export cal.urdf --format xacro --out cal.urdf.xacro     # an overlay, the description unchanged
@@ -59,6 +61,12 @@ them; --source names that description when the sidecar does not (older sidecars)
          placement; a sidecar OUT.calibration.json beside it. Read back with Pinocchio, it must
          reproduce the calibration's points to 1e-9 m before it is written (atomically, never
          over an input).
+  sdf    SDFormat 1.9 (Gazebo): a <model>, every link and joint, each pose <pose relative_to=...>
+         (a joint's to its parent link, a link's to its joint), joint offsets folded into the
+         joint poses (SDF has no <calibration>), limits kept, the markers as <frame>s
+         pincal_marker<k> attached to the tip, the base as the model's <pose>. Read back, its
+         frames must reproduce the calibration's points to 1e-9 m before it is written (gains and
+         compliances have no SDF element: in its comment, with a warning).
 """
 
 
@@ -69,6 +77,10 @@ def _mjcf(calibration: DeployedCalibration, out: Path, source: str | None) -> Pa
 def _corrections(calibration: DeployedCalibration, source: str | None):
     path = source_of(calibration.sidecar, calibration.urdf, source)
     return corrections_of(calibration.robot, calibration.sidecar, path)
+
+
+def _sdf(calibration: DeployedCalibration, out: Path, source: str | None) -> Path:
+    return export_sdf(calibration.robot, out, source=calibration.urdf)
 
 
 def _urdf(calibration: DeployedCalibration, out: Path, source: str | None) -> Path:
@@ -108,6 +120,7 @@ FORMATS: dict[str, Callable[[DeployedCalibration, Path, str | None], Path]] = {
     "mjcf": _mjcf,
     "robot_calibration": _robot_calibration,
     "ros2_control": _ros2_control,
+    "sdf": _sdf,
     "urdf": _urdf,
     "xacro": _xacro,
     "yaml": _yaml,
@@ -187,6 +200,7 @@ WITH_SIDECAR = ("mjcf", "urdf", "xacro")
 """The formats written with a sidecar beside them."""
 CHECKED = {
     "mjcf": "; checked: it reproduces the calibration's points to 1e-9 m",
+    "sdf": "; checked: its marker frames reproduce the calibration's points to 1e-9 m",
     "urdf": "; checked: it reproduces the calibration's points to 1e-9 m",
     "xacro": "; checked: expanded with xacro, it reproduces the calibration's points to 1e-9 m",
 }
