@@ -78,7 +78,13 @@ EXAMPLES_SHIPPED: dict[str, Example] = {
         "pincal.examples",
         "iso_cubes.csv",
         "measurements_iso_cubes.csv",
-        "ISO cubes of the public IPA UR10 set, a slice (MIT: pincal/examples/iso_cubes.LICENSE.md) (iso9283)",
+        "ISO cubes of the public IPA UR10 set, a slice (MIT: pincal/examples/ipa_ur10.LICENSE.md) (iso9283)",
+    ),
+    "ipa_random": Example(
+        "pincal.examples",
+        "ipa_random.csv",
+        "ipa_random.csv",
+        "600 random poses of a real UR10 measured by a laser tracker (IPA set, series C; MIT) (notebook 06)",
     ),
     "table": Example("dh", "ur5_dh", "table.yaml", "a DH table: Universal Robots' UR5 (urdf-from-dh)"),
 }
