@@ -171,6 +171,11 @@ def test_design_places_the_tracker_from_the_command_line(cli, tmp_path):
     assert "instrument placed at (1.5, 0, 0.75) m" in text and "times the chosen position's" in text
     cli.fails(*common, "--place-instrument", "1,2,3", match="X0,Y0,Z0,X1,Y1,Z1")
     cli.fails(*common, "--placement-plot", picture, match="--place-instrument")
+    assert placement["screen"] == 3 and sum(placement["designed_in_full"]) <= 4  # the best 3, the default
+    cli.fails(*common, "--place-screen", "all", match="--place-instrument")
+    cli.fails(
+        *common, "--place-instrument", "1.5,0,0.75,9,0,0.75", "--place-screen", "0", match="--place-screen"
+    )
 
 
 def test_a_polished_placement_keeps_the_line_of_sight(params, ur10):
@@ -185,3 +190,40 @@ def test_a_polished_placement_keeps_the_line_of_sight(params, ur10):
     assert LineOfSight(at).satisfied(ur10, plan).all()
     assert Visibility(at, 40.0, 1.0, (0, 0, 1), np.radians(30)).satisfied(ur10, plan).all()
     assert polished.result.value <= rough.result.value
+
+
+def test_the_screened_search_finds_the_exhaustive_searchs_position(params, placement, monkeypatch):
+    """Screened (the default) or designed in full at every position (screen=None), the same position
+    and, there, the same full design; the screen runs one quick design per position tried and a full
+    design at the best ``screen`` of them and at the default placement, no more."""
+    import pincal.planning.placement as placement_module
+
+    options = dict(steps=3, refine=1, starts=2, pool=300, polish=False, seed=3, workers=1)
+    exhaustive = place_instrument(params, 12, Q0, BOX, screen=None, **options)
+    assert exhaustive.full.all() and exhaustive.screen is None
+    np.testing.assert_array_equal(placement.at, exhaustive.at)
+    assert placement.result.value <= exhaustive.result.value * (1 + 1e-12)
+    assert placement.default.value <= exhaustive.default.value * (1 + 1e-12)
+    calls: list[str] = []
+
+    def counted(*args, **kwargs):
+        calls.append("quick" if isinstance(kwargs.get("pool"), np.ndarray) else "full")
+        return design(*args, **kwargs)
+
+    design = placement_module.design
+    monkeypatch.setattr(placement_module, "design", counted)
+    for screen in (1, 2):
+        calls.clear()
+        # the default placement is the best position: it is designed in full among the screen's best
+        found = place_instrument(params, 12, Q0, BOX, screen=screen, default_at=exhaustive.at, **options)
+        assert calls.count("full") == screen == found.designed_in_full == int(found.full.sum())
+        assert calls.count("quick") == len(found.positions)
+        np.testing.assert_array_equal(found.at, exhaustive.at)
+        assert found.factor == 1.0
+        assert (
+            f"{len(found.positions)} positions of the box screened, {screen} designed in full"
+            in (found.lines()[0])
+        )
+    assert found.as_dict()["designed_in_full"] == found.full.tolist() and found.as_dict()["screen"] == 2
+    with pytest.raises(BadArgument, match="screen"):
+        place_instrument(params, 12, Q0, BOX, screen=0, **options)

@@ -97,3 +97,50 @@ def test_steps_draw_a_bar_on_a_terminal_and_nothing_when_off(every_step):
     lines = Steps(True, "monte carlo", "trial", log)
     list(lines.each("done", range(2)))
     assert log.getvalue().splitlines()[-1].startswith("pincal: monte carlo: 2 of 2 trials done, ")
+
+
+def test_payload_top_up_and_placement_designs_report_progress(tmp_path, cli, every_step):
+    """The designs that went without a word: with payloads, a residual model's top-up, and the
+    instrument's placement (its positions screened, then designed in full)."""
+    payloads = ["design", "planar_2r", "-m", "6", "--test-pose=0.3,1.2", "--payloads", "0,1", "--starts", "2",
+                "--pool-size", "50", "--no-accuracy", "--json"]  # fmt: skip
+    code, out, err = cli.run(*payloads)
+    assert code == 0 and len(json.loads(out)["plan"]) == 6
+    assert "pincal: design test-pose: 2 of 2 starts searched, best ρ0" in err
+    code, out, err = cli.run(*payloads, "--no-progress")
+    assert code == 0 and "pincal: design" not in err
+    ur10 = ["ur10", "-m", "12", "--test-pose=0,-1.2,1.5,-1,-1.5,0", "--marker", "0.05,0.02,0.1"]
+    placed = ["design", *ur10, "--place-instrument", "1.5,0,0.75,9,0,0.75", "--place-steps", "2",
+              "--no-polish", "--pool-size", "300", "--starts", "2", "--workers", "1", "--no-accuracy",
+              "--json"]  # fmt: skip
+    code, out, err = cli.run(*placed, "--place-screen", "1")
+    assert code == 0 and json.loads(out)["placement"]["screen"] == 1
+    lines = [line.split(",")[0] for line in err.splitlines() if line.startswith("pincal: placement:")]
+    assert lines[:2] == [f"pincal: placement: {k} of 2 positions screened" for k in (1, 2)]
+    assert "pincal: placement: 1 of 2 positions designed in full" in lines  # the best, the default
+    assert "pincal: design test-pose: 2 of 2 starts searched, best ρ0" in err  # a full design's own
+    code, out, err = cli.run(*placed, "--place-screen", "1", "--no-progress")
+    assert code == 0 and "pincal: placement" not in err and "pincal: design" not in err
+
+
+def test_a_top_up_design_reports_progress(tmp_path, cli, every_step):
+    pytest.importorskip("sklearn")
+    import pincal
+
+    robot = pincal.load_robot("planar_2r")
+    params = robot.parameters("full,offsets").identifiable().identifiable
+    data = pincal.simulate_measurements(
+        pincal.random_errors(params, seed=1), robot.random_configurations(40, 3), 1e-5, seed=4
+    )
+    data.to_csv(tmp_path / "meas.csv")
+    cal = tmp_path / "cal.urdf"
+    code, _, err = cli.run("identify", "planar_2r", "--data", tmp_path / "meas.csv", "--residual-model", "gp",
+                           "--out", cal, "--no-progress")  # fmt: skip
+    assert code == 0, err
+    top_up = ["design", "planar_2r", "-m", "6", "--test-pose=0.3,1.2", "--residual-model", cal,
+              "--starts", "2", "--pool-size", "50", "--no-accuracy", "--json"]  # fmt: skip
+    code, out, err = cli.run(*top_up)
+    assert code == 0 and json.loads(out)["criterion"] == "test-pose-gp"
+    assert "pincal: design test-pose-gp: 2 of 2 starts searched, best expected error" in err
+    code, out, err = cli.run(*top_up, "--no-progress")
+    assert code == 0 and "pincal: design" not in err

@@ -62,7 +62,7 @@ from pincal.model.statics import Payload
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
 from pincal.planning.objectives import CRITERIA
-from pincal.planning.placement import STEPS, Placement, place_instrument
+from pincal.planning.placement import SCREEN, STEPS, Placement, place_instrument
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans, dropped_line
 from pincal.planning.safety import safety_margins
@@ -113,8 +113,13 @@ gives your own, e.g. taught poses, in the plan CSV format, and keeps the plan on
 limits and --constraints) and of the D-optimal plan, next to the designed plan's.
 --place-instrument X0,Y0,Z0,X1,Y1,Z1: choose the tracker's position in that box (instrument frame,
 metres) together with the plan: a grid of --place-steps per axis (default 3), then the best
-position's neighbours at half the step; at each position the plan is designed with the tracker
-there (--instrument tracker, --tracker-sigma: its error; default the AT500's), under its range (1 to
+position's neighbours at half the step, each position screened by a quick design (2 exchange starts
+over 500 of one pool's configurations it sees, no polish: a fraction of a second), then the best
+--place-screen N (default 3) and the default position designed in full (a design's cost each:
+seconds to tens of seconds with the line of sight); --place-screen all designs every position in
+full (27 + 6 on a 3-step box: minutes to an hour). At each position the plan is designed with the
+tracker there (--instrument tracker, --tracker-sigma: its error; default the AT500's), under its
+range (1 to
 40 m), a 30-degree acceptance angle about the reflector's normal (the tip frame's z) and the line of
 sight (nothing of the robot's collision geometry within 1 cm of the beam; unchecked, and said so,
 when the URDF has none). With --camera (eye-to-hand), the camera is placed, aimed at the target at
@@ -247,6 +252,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help=f"grid positions per axis of the --place-instrument box (default {STEPS})",
     )
     p.add_argument(
+        "--place-screen",
+        type=_screen_type,
+        metavar="N|all",
+        help=f"positions of the --place-instrument box designed in full after the screen (default {SCREEN}; "
+        "all: every position, the exhaustive search)",
+    )
+    p.add_argument(
         "--placement-plot",
         metavar="FILE.png",
         help="save the map of rho0 against the instrument's position over the box (--place-instrument)",
@@ -302,13 +314,15 @@ def run(args: argparse.Namespace) -> int:
         loads["residual_model"] = residual_model_from_args(robot, args.residual_model)
     if loads:
         _check_payload_design(args, loads)
-        options = {k: v for k, v in options.items() if k not in ("method", "polish", "workers", "progress")}
+        options = {k: v for k, v in options.items() if k not in ("method", "polish", "workers")}
         options.update(loads)
     placement = None
     if args.place_instrument is not None:
         placement, options = _placed(args, params, q0, criterion, options, taught, loads)
-    elif args.placement_plot or args.place_steps is not None:
-        raise BadArgument("--placement-plot and --place-steps go with --place-instrument X0,Y0,Z0,X1,Y1,Z1")
+    elif args.placement_plot or args.place_steps is not None or args.place_screen is not None:
+        raise BadArgument(
+            "--placement-plot, --place-steps and --place-screen go with --place-instrument X0,Y0,Z0,X1,Y1,Z1"
+        )
     with recorded_warnings() as records:
         if placement is None:
             # --baseline's D-optimal plan is searched from the same starts, on the same workers
@@ -379,11 +393,12 @@ def _placed(args, params, q0, criterion: str, options: dict, taught, loads: dict
     kind, error = options.get("measure"), options.get("instrument")
     rest = {k: v for k, v in options.items() if k not in ("measure", "instrument", "constraints", "progress")}
     default_at = getattr(error, "at", None) if getattr(args, "instrument_at", None) else None
+    screen = {None: SCREEN, "all": None}.get(args.place_screen, args.place_screen)
     with recorded_warnings() as records:
         placement = place_instrument(
             params, args.m, q0, (box[:3], box[3:]), criterion=criterion, measure=kind, instrument=error,
             constraints=options["constraints"], steps=args.place_steps or STEPS, default_at=default_at,
-            **rest,
+            screen=screen, progress=args.progress, **rest,
         )  # fmt: skip
     print_warnings(records)
     options = dict(options)
@@ -394,6 +409,13 @@ def _placed(args, params, q0, criterion: str, options: dict, taught, loads: dict
     else:  # a camera: its fixture moved; the accuracy report would be of the nominal camera
         args.no_accuracy = True
     return placement, options
+
+
+def _screen_type(value: str) -> int | str:
+    """--place-screen: a count, or ``all``."""
+    if value.strip().lower() == "all":
+        return "all"
+    return count("--place-screen")(value)  # type: ignore[return-value]  # an int
 
 
 CONTINUOUS_WHY = "the continuous search cannot choose among discrete payloads"

@@ -183,7 +183,8 @@ def design(
             criterion tr(J₀(M/σ² + Σp⁻¹)⁻¹J₀ᵀ) for the test pose), finite for every plan, so m may
             be below the number of parameters. ``sigma`` must then be the real noise [m].
         progress: report progress on stderr, stage by stage (starts searched, then polished; the
-            best value so far in its units): a bar on a terminal, else a line every few seconds.
+            best value so far in its units): a bar on a terminal, else a line every few seconds;
+            designs with payloads or a residual model report their starts searched.
         payloads: the payloads the experiment can mount (masses [kg] or :class:`~pincal.Payload`,
             e.g. ``[0, 50, 100]``): each configuration is chosen with one of them, the plan carries
             them (:mod:`pincal.planning.payloads`: an exchange over (configuration, payload) pairs
@@ -271,7 +272,7 @@ def design(
                 pool=1000 if pool is None else pool,  # type: ignore[arg-type]
                 starts=starts, seed=seed, sigma=sigma, prior=prior, min_conditioning=min_conditioning,
                 residual_model=residual_model, instrument=measured,
-                orientation_length=orientation_length_of(orientation_length),
+                orientation_length=orientation_length_of(orientation_length), progress=progress,
             )  # fmt: skip
     with _multistart.single_threaded_blas():  # small matrices: BLAS threads only contend
         t_start = time.perf_counter()

@@ -42,6 +42,7 @@ from pincal.planning.exchange import fedorov
 from pincal.planning.feasibility import Feasibility
 from pincal.planning.objectives import checked_test_poses
 from pincal.planning.plan import Plan
+from pincal.planning.progress import Progress
 from pincal.planning.results import DesignResult, StartRecord, dropped_line
 from pincal.planning.search import Outcome, degenerate, every_start_failed
 from pincal.planning.starts import pick
@@ -80,6 +81,7 @@ def design_with_payloads(
     residual_model: ResidualModel | None = None,
     instrument: Instrument | None = None,
     orientation_length: float | None = None,
+    progress: bool = False,
 ) -> DesignResult:
     """The m (configuration, payload) pairs that minimise a criterion (see module doc).
 
@@ -102,6 +104,8 @@ def design_with_payloads(
             its payload, as :func:`~pincal.design` takes them without payloads.
         orientation_length: L [m]: ρ0² also counts L² times the tool's expected squared
             orientation error at the test pose(s) (docs/method.md §13.3).
+        progress: report the starts searched on stderr, with the best value so far (a bar on a
+            terminal, else a line every few seconds).
 
     Returns:
         the design; its plan carries the payload of each configuration, and ρ0 is under the task's
@@ -156,6 +160,8 @@ def design_with_payloads(
         assert test_poses is not None  # J0 is theirs
         objective = ResidualCriterion(residual_model, J0, test_poses, sigma, pool=q_pool)
     floor = _floor(min_conditioning, information)
+    report = Progress(progress, criterion if residual_model is None else ResidualCriterion.name, objective)
+    report.stage("searched", starts)
     outcomes, history, failed = [], [], []
     for i, child in enumerate(sequence.spawn(starts)):
         t = time.perf_counter()
@@ -175,11 +181,14 @@ def design_with_payloads(
                 history.append(Outcome.degenerate(i, error).record)
                 break
         if start is None:
+            report(None)
             continue
         out = fedorov(objective, J_pool, q_pool, start, floor=floor)
         outcomes.append((i, out))
         value = float(objective.report(out.F))
         history.append(StartRecord(i, value, None, out.sweeps, time.perf_counter() - t, True, True))
+        report(out)
+    report.close()
     if not outcomes:
         raise every_start_failed(failed, starts)
     winner, best = min(outcomes, key=lambda o: (o[1].F, o[0]))  # the first of equals, as argmin

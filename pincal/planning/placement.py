@@ -14,10 +14,16 @@ that position brings —
 * a camera fixed in the cell (eye-to-hand): it looks at the target where the test pose holds it,
   and a configuration counts only the target points it sees in its image (its field of view);
 
-— and keeps the position whose plan is best. The criterion of every position tried is kept: the
-map of the predicted error at the test region against the instrument's position
+— and keeps the position whose plan is best. A whole design at every position is slow (the
+continuous polish with the line of sight takes seconds to tens of seconds a position), so the
+positions are screened first: one pool of candidate configurations is drawn for the whole box, and
+at each position a quick design (:data:`SCREEN_STARTS` exchange starts, no polish) picks the plan
+among the candidates that position sees; only the best ``screen`` positions of the screen
+(:data:`SCREEN`) are designed in full. ``screen=None`` designs every position in full (the
+exhaustive search, ``--place-screen all``). The criterion of every position tried is kept: the map
+of the predicted error at the test region against the instrument's position
 (:func:`pincal.viewing.plots.placement_map`). A default placement (the box's centre unless given)
-is designed the same way, so the gain of placing the instrument is a measured factor.
+is designed in full too, so the gain of placing the instrument is a measured factor.
 """
 
 from __future__ import annotations
@@ -30,15 +36,25 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from pincal.arguments import positive_int, seed_entropy
 from pincal.errors import BadArgument, BadConstraint, DegenerateOptimum, Infeasible, SingularPlan, warn
 from pincal.evaluation.region import resolve_test_poses
 from pincal.instruments.error_model import ErrorModel, Tracker
 from pincal.instruments.image import Image
 from pincal.instruments.kind import Kind
 from pincal.model.parameters import ParameterSet
-from pincal.planning.constraints import AnyConstraint, LineOfSight, Visibility
-from pincal.planning.driver import design
+from pincal.planning.constraints import (
+    AnyConstraint,
+    Constraint,
+    Kinematics,
+    LineOfSight,
+    Visibility,
+    with_safety,
+)
+from pincal.planning.driver import DEFAULT_POOL, design
+from pincal.planning.feasibility import Feasibility
 from pincal.planning.results import DesignResult
+from pincal.progress import Steps
 from pincal.typing import TestPoseLike
 
 TRACKER_RANGE = (1.0, 40.0)
@@ -47,6 +63,14 @@ metre; 40 m is far beyond any robot cell (give yours with ``Sight``)."""
 
 STEPS = 3
 """Default grid positions per axis of the box searched."""
+
+SCREEN = 3
+"""Default number of positions designed in full: the best of the screen. On the UR10's boxes of
+benchmarks/RESULTS.md (bench_placement), the position and ρ0 the exhaustive search finds, for a third
+of its CPU without the polish and a fraction with it (a polished design a position)."""
+
+SCREEN_STARTS = 2
+"""Exchange starts of a position's quick design in the screen."""
 
 ACCEPTANCE = math.radians(30.0)
 """Default acceptance half-angle of a tracker's reflector [rad]: a 1.5" red-ring reflector's ±30°."""
@@ -82,12 +106,15 @@ class Placement:
         at: (3,) the chosen position in the instrument's frame [m].
         result: the plan designed with the instrument there (``result.instrument_at`` is ``at``).
         positions: (n, 3) every position tried [m].
-        values: (n,) the criterion of the plan designed at each (ρ0 [m] for the test-pose
-            criteria; inf where no feasible plan was found).
+        values: (n,) the criterion of the best plan designed at each (ρ0 [m] for the test-pose
+            criteria; inf where no feasible plan was found): the screen's quick design, or the
+            full design where one ran (the better of the two).
         default_at: (3,) the default placement compared with [m].
         default: the plan designed at the default placement, or None if none was feasible.
         box: ((x0, y0, z0), (x1, y1, z1)) the box searched [m].
         notes: what was not checked, in words (line of sight without collision geometry).
+        full: (n,) True where the position was designed in full (every position: ``screen=None``).
+        screen: the number of positions designed in full after the screen; None: every position.
     """
 
     at: np.ndarray
@@ -98,6 +125,8 @@ class Placement:
     default: DesignResult | None
     box: tuple[tuple[float, float, float], tuple[float, float, float]]
     notes: tuple[str, ...] = field(default=())
+    full: np.ndarray | None = None
+    screen: int | None = None
 
     @property
     def factor(self) -> float:
@@ -108,18 +137,21 @@ class Placement:
         """The placement in words: where, the criterion there and at the default, their factor."""
 
         def value(v: float) -> str:
-            if self.result.criterion in ("test-pose", "test-pose-worst"):
-                return f"rho0 {v * 1e3:.4g} mm"
-            return f"{self.result.criterion} {v:.4g}"
+            return _value_text(self.result.criterion, v)
 
         def where(p: np.ndarray) -> str:
             return "(" + ", ".join(f"{v:.3g}" for v in p) + ") m"
 
         tried = len(self.values)
         infeasible = int(np.sum(~np.isfinite(self.values)))
+        how = (
+            f"{tried} positions of the box tried"
+            if self.screen is None
+            else f"{tried} positions of the box screened, {self.designed_in_full} designed in full"
+        )
         out = [
             f"instrument placed at {where(self.at)}: {value(self.result.value)} "
-            f"({tried} positions of the box tried, {infeasible} without a feasible plan)"
+            f"({how}, {infeasible} without a feasible plan)"
         ]
         if self.default is None:
             out.append(f"  at the default position {where(self.default_at)}: no feasible plan")
@@ -131,12 +163,21 @@ class Placement:
         out += [f"  note: {n}" for n in self.notes]
         return out
 
+    @property
+    def designed_in_full(self) -> int:
+        """How many positions of ``positions`` were designed in full."""
+        return len(self.values) if self.full is None else int(np.sum(self.full))
+
     def as_dict(self) -> dict:
         return {
             "instrument_at": self.at.tolist(),
             "box": [list(self.box[0]), list(self.box[1])],
             "positions": self.positions.tolist(),
             "values": [None if not np.isfinite(v) else float(v) for v in self.values],
+            "designed_in_full": (
+                [True] * len(self.values) if self.full is None else [bool(f) for f in self.full]
+            ),
+            "screen": self.screen,
             "default_at": self.default_at.tolist(),
             "default_value": None if self.default is None else self.default.value,
             "factor": None if not np.isfinite(self.factor) else self.factor,
@@ -158,6 +199,8 @@ def place_instrument(
     steps: int = STEPS,
     refine: int = 1,
     default_at: object = None,
+    screen: int | None = SCREEN,
+    progress: bool = False,
     **options: Any,
 ) -> Placement:
     """The instrument's position in ``box`` and the plan that together minimise the criterion.
@@ -175,8 +218,16 @@ def place_instrument(
         steps: grid positions per axis of the box (an axis of zero width has one).
         refine: rounds of the best position's six neighbours at half the previous step.
         default_at: the placement compared with (default: the box's centre).
+        screen: how many positions are designed in full: the best of the screen, where every
+            position gets a quick design (:data:`SCREEN_STARTS` exchange starts over one pool drawn
+            for the whole box, no polish; see the module doc). None: every position designed in
+            full (the exhaustive search, a full design per position). The default placement is
+            designed in full as well.
+        progress: report the positions screened and designed in full on stderr, with the full
+            designs' own progress: a bar on a terminal, else a line every few seconds.
         options: more arguments of :func:`pincal.design` (``starts``, ``seed``, ``pool``,
-            ``workers``, ``orientation_length``, ...).
+            ``workers``, ``orientation_length``, ...), for the full designs; the screen's quick
+            designs take the pool's size, the seed and the criterion's options.
 
     Raises:
         BadArgument: a bad box, or an instrument pincal cannot place (a camera on the tool, a
@@ -184,6 +235,8 @@ def place_instrument(
         Infeasible: no position of the box gives a feasible plan.
     """
     lower, upper = _box(box)
+    if screen is not None:
+        screen = positive_int(screen, "screen (positions designed in full)")
     kind = measure
     camera = isinstance(kind, Image)
     if isinstance(kind, Image) and kind.eye_in_hand:
@@ -199,52 +252,175 @@ def place_instrument(
             )
         tracker = instrument or Tracker()
     base_constraints, notes = tuple(constraints), _sight_notes(params, sight, camera)
+    options = dict(options, seed=seed_entropy(options.get("seed", 0)))  # one seed for every design
+    quick = {k: v for k, v in options.items() if k not in FULL_ONLY}
+    quick.update(starts=SCREEN_STARTS, workers=1, polish=False)
+    shared = None if screen is None else _Screen(params, base_constraints, options, m)
+    steps_done = Steps(progress, "placement", "position")
 
-    def designed(at: np.ndarray) -> DesignResult | None:
+    def designed(at: np.ndarray, quickly: _Screen | None = None) -> DesignResult | None:
+        """The plan designed with the instrument at ``at``: in full, or quickly (the screen)."""
         placed, extra = _placed(params, kind, tracker, at, test_pose, sight, notes)
         error = instrument if tracker is None else replace(tracker, at=tuple(at))
+        how = options
         try:
+            if quickly is not None:
+                pool = quickly.seen(placed, extra)
+                if len(pool) < m:
+                    raise Infeasible(
+                        f"only {len(pool)} of the screen's candidate configurations are seen from "
+                        f"({', '.join(f'{v:.3g}' for v in at)}) m, {m} needed"
+                    )
+                how = dict(quick, pool=pool)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 result = design(placed, m, test_pose, criterion=criterion, measure=measure, instrument=error,
-                                constraints=base_constraints + extra, **options)  # fmt: skip
+                                constraints=base_constraints + extra, progress=progress and quickly is None,
+                                **how)  # fmt: skip
         except (Infeasible, SingularPlan, DegenerateOptimum) as failure:  # nothing it can see there
             reasons.setdefault(type(failure).__name__, str(failure))
             return None
         return replace(result, instrument_at=(float(at[0]), float(at[1]), float(at[2])))
 
+    def look(at: np.ndarray) -> None:
+        """The position tried: screened, or designed in full when nothing is screened."""
+        if tuple(at) not in tried:
+            tried[tuple(at)] = designed(at, shared)
+            if shared is None:
+                full.add(tuple(at))
+        steps_done.advance(_best_note(tried, criterion))
+
+    def in_full(at: tuple[float, ...]) -> None:
+        """The position designed in full: its best plan, the screen's or the full design's."""
+        result = designed(np.array(at))
+        full.add(at)
+        screened = tried.get(at)
+        if screened is None or (result is not None and result.value <= screened.value):
+            tried[at] = result
+        steps_done.advance(_best_note(tried, criterion))
+
     reasons: dict[str, str] = {}
     tried: dict[tuple[float, ...], DesignResult | None] = {}
-    for at in _grid(lower, upper, steps):
-        tried[tuple(at)] = designed(at)
+    full: set[tuple[float, ...]] = set()
+    grid = _grid(lower, upper, steps)
+    steps_done.stage("designed in full" if shared is None else "screened", len(grid))
+    for at in grid:
+        look(at)
     step = (upper - lower) / max(steps - 1, 1)
     for _ in range(refine):
         best = _best(tried)
         if best is None:
             break
         step = step / 2
+        steps_done.stage("refined", 6)
         for axis in range(3):
             for sign in (-1, 1):
-                at = np.clip(np.array(best) + sign * step * np.eye(3)[axis], lower, upper)
-                if tuple(at) not in tried:
-                    tried[tuple(at)] = designed(at)
-    best = _best(tried)
-    if best is None:
+                look(np.clip(np.array(best) + sign * step * np.eye(3)[axis], lower, upper))
+    if _best(tried) is None:
+        screened = (
+            "" if shared is None else " (screened: a larger pool, or screen=None, designs each in full)"
+        )
         raise Infeasible(
             f"no position of the box {lower.tolist()} - {upper.tolist()} lets the instrument see a feasible "
             f"plan of {m} configurations: move or grow the box, or relax the sight limits "
-            f"({'; '.join(reasons.values())})"
+            f"({'; '.join(reasons.values())}){screened}"
         )
     default = (lower + upper) / 2 if default_at is None else _point(default_at, "default_at")
-    default_result = tried.get(tuple(default)) if tuple(default) in tried else designed(default)
+    ranked = [] if shared is None else [at for _, at in sorted((r.value, at) for at, r in tried.items() if r)]
+    key, chosen = tuple(default), ranked[:screen]
+    alone = key not in tried  # the default placement, designed apart from the positions tried
+    last = [] if key in full or key in chosen else [key]
+    if chosen or last:
+        steps_done.stage("designed in full", len(chosen) + len(last))
+    for at in chosen + ([] if alone else last):  # the best of the screen, then the default placement
+        in_full(at)
+    default_result = tried[key] if not alone else designed(default)
+    if alone:
+        steps_done.advance(_best_note(tried, criterion))
+    steps_done.close()
+    best = _best(tried)
+    assert best is not None  # a position with a feasible plan was found above
     positions = np.array(list(tried))
     values = np.array([math.inf if r is None else r.value for r in tried.values()])
     for note in notes:
         warn(note)
-    chosen = tried[best]
-    assert chosen is not None  # _best picks a position with a feasible plan
-    return Placement(np.array(best), chosen, positions, values, default, default_result,
-                     (tuple(lower.tolist()), tuple(upper.tolist())), tuple(notes))  # fmt: skip
+    result = tried[best]
+    assert result is not None  # _best picks a position with a feasible plan
+    return Placement(np.array(best), result, positions, values, default, default_result,
+                     (tuple(lower.tolist()), tuple(upper.tolist())), tuple(notes),
+                     np.array([at in full for at in tried]), screen)  # fmt: skip
+
+
+FULL_ONLY = frozenset(
+    ("pool", "starts", "workers", "polish", "executor", "init", "method", "keep", "screen_iterations",
+     "maxiter", "with_d_optimal", "progress")
+)  # fmt: skip
+"""The options of :func:`pincal.design` that the full designs take and the screen's quick designs
+do not (they run :data:`SCREEN_STARTS` exchange starts over the shared pool, in this process)."""
+
+
+class _Screen:
+    """The screen's candidates: configurations drawn once for the whole box within the constraints
+    every position shares (the workcell's and the safe defaults), their kinematics computed once; a
+    position's quick design chooses among the first :attr:`size` of them it sees, so that every
+    position chooses among as many as a design there would (one that sees fewer, fewer).
+
+    Args:
+        params: the parameters (on the robot).
+        constraints: the workcell's constraints.
+        options: :func:`pincal.design`'s options: ``pool`` (a size, or configurations: the
+            feasible ones are the candidates), ``joint_margin``, ``mount``, ``seed`` (an int).
+        m: configurations a plan needs.
+    """
+
+    def __init__(
+        self, params: ParameterSet, constraints: tuple[AnyConstraint, ...], options: dict, m: int
+    ) -> None:
+        robot, pool = params.robot, options.get("pool")
+        safe = with_safety(robot, constraints, options.get("joint_margin"), options.get("mount"))
+        feasibility = Feasibility(robot, safe)
+        if pool is None or isinstance(pool, (int, np.integer)):
+            self.size = min(SCREEN_POOL, DEFAULT_POOL if pool is None else positive_int(pool, "pool size", m))
+            rng = np.random.default_rng(np.random.SeedSequence(options["seed"]))
+            self.qs = feasibility.sample(SCREEN_DRAWS * self.size, rng, minimum=m)
+        else:
+            self.qs = feasibility.feasible_pool(pool, m)[0]
+            self.size = len(self.qs)
+        self.kinematics = Kinematics(robot, self.qs)
+
+    def seen(self, params: ParameterSet, extra: tuple[AnyConstraint, ...]) -> np.ndarray:
+        """The candidates within the constraints a position brings (each checked on those the ones
+        before kept: the visibility first, then the line of sight), the first :attr:`size`."""
+        kept = np.arange(len(self.qs))
+        for constraint in extra:
+            if not len(kept):
+                break
+            assert isinstance(constraint, Constraint)  # a position brings visibility, line of sight
+            bound = constraint.bind(params.robot)
+            kept = kept[bound.satisfied(self.kinematics.subset(kept))]
+        return self.qs[kept[: self.size]]
+
+
+SCREEN_POOL = 500
+"""Candidate configurations a position's quick design in the screen chooses from (at most the
+pool's size)."""
+
+SCREEN_DRAWS = 40
+"""The screen draws this many times :data:`SCREEN_POOL` feasible configurations for the box: a
+position that sees one in 40 of them (a tracker's reflector, 30° about its normal, sees one
+direction in 15) still has its :data:`SCREEN_POOL`."""
+
+
+def _best_note(tried: dict[tuple[float, ...], DesignResult | None], criterion: str) -> str:
+    """The best value so far, for the progress line."""
+    values = [r.value for r in tried.values() if r is not None]
+    return f"best {_value_text(criterion, min(values))}" if values else ""
+
+
+def _value_text(criterion: str, v: float) -> str:
+    return (
+        f"rho0 {v * 1e3:.4g} mm" if criterion in ("test-pose", "test-pose-worst") else f"{criterion} {v:.4g}"
+    )
 
 
 def _box(box: object) -> tuple[np.ndarray, np.ndarray]:
