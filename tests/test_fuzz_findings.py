@@ -331,3 +331,25 @@ def test_joint_names_with_commas_are_quoted_in_every_program(tmp_path):
     assert run_checked(tmp_path, compensate, inputs).code == 0
     back = pincal.Plan.from_csv(tmp_path / "corrected.csv", robot=robot)  # read back by name
     assert back.joint_names == ("a,b", "joint2") and len(back) == 3
+
+
+# ------------------------------------------------------------------------ runs without an end
+@pytest.mark.parametrize(
+    "option, expected",
+    [
+        ("--campaign-m=6:1000000:1", "more than 50 sizes (each is a design); give 1 to 50 sizes"),
+        ("--campaign-m=6:1000000000000000000000", "more than 50 sizes"),
+        ("--campaign-m=" + ",".join(str(m) for m in range(6, 57)), "more than 50 sizes"),
+    ],
+)
+def test_a_campaign_of_endless_sizes_is_refused(tmp_path, option, expected):
+    argv = ["design", "planar_2r", "--tip", "tip", "-m", "3", "--test-pose=0.3,1.2", "--campaign", option,
+            "--no-progress"]  # fmt: skip
+    outcome = run_checked(tmp_path, argv, set())
+    assert outcome.code == 2 and expected in outcome.err, outcome.err
+
+
+def test_fifty_sizes_are_still_taken():
+    from pincal.campaign.tradeoff import MAX_SIZES, parse_sizes
+
+    assert parse_sizes("1:50") == tuple(range(1, 51)) and MAX_SIZES == 50

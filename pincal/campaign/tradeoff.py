@@ -27,6 +27,9 @@ from pincal.planning.plan import Plan
 from pincal.typing import JointValues, TestPoseLike
 
 DEFAULT_SIZES = (6, 8, 10, 12, 15, 18, 21, 24, 27, 30)
+
+MAX_SIZES = 50
+"""The most plan sizes a trade-off designs: each size is a full design."""
 """The plan sizes of the trade-off by default (m = 6 … 30)."""
 
 
@@ -86,7 +89,8 @@ class Tradeoff:
 
 
 def parse_sizes(text: str) -> tuple[int, ...]:
-    """``6:30:3`` (start:stop:step, stop included), ``6,8,12`` or ``12``: plan sizes."""
+    """``6:30:3`` (start:stop:step, stop included), ``6,8,12`` or ``12``: plan sizes, at most
+    :data:`MAX_SIZES` of them."""
     text = str(text).strip()
     try:
         if ":" in text:
@@ -94,11 +98,20 @@ def parse_sizes(text: str) -> tuple[int, ...]:
             if len(parts) not in (2, 3) or (len(parts) == 3 and parts[2] < 1):
                 raise ValueError
             start, stop, step = parts[0], parts[1], parts[2] if len(parts) == 3 else 1
-            sizes = tuple(range(start, stop + 1, step))
+            # at most one size beyond the bound: never a range too long to count
+            sizes = tuple(range(start, min(stop, start + MAX_SIZES * step) + 1, step))
         else:
             sizes = tuple(int(p) for p in text.split(","))
     except ValueError:
         sizes = ()
+    if len(set(sizes)) > MAX_SIZES:
+        raise BadArgument(
+            f"plan sizes {text!r}: more than {MAX_SIZES} sizes (each is a design); give 1 to {MAX_SIZES} "
+            "sizes, e.g. 6:30:3",
+            argument="sizes",
+            value=text,
+            valid=(1, MAX_SIZES),
+        )
     if not sizes or min(sizes) < 1:
         raise BadArgument(
             f"plan sizes {text!r}: expected START:STOP[:STEP] (e.g. 6:30:3), or M1,M2,... (integers > 0)",
@@ -135,10 +148,18 @@ def accuracy_vs_time(
         options: more :func:`pincal.design` options (starts, seed, workers, method, pool, ...).
 
     Raises:
-        BadArgument: a size that is not a positive integer, or a bad design option.
+        BadArgument: a size that is not a positive integer, more than :data:`MAX_SIZES` sizes, or a
+            bad design option.
     """
     robot = params.robot
     sizes = tuple(sorted({positive_int(m, "plan size") for m in sizes}))
+    if len(sizes) > MAX_SIZES:
+        raise BadArgument(
+            f"{len(sizes)} plan sizes: at most {MAX_SIZES} (each is a design)",
+            argument="sizes",
+            value=len(sizes),
+            valid=(1, MAX_SIZES),
+        )
     timing = Timing.for_robot(robot) if timing is None else timing
     constraints = with_safety(robot, constraints, joint_margin, mount, clearance=clearance)
     rows, skipped = [], []
