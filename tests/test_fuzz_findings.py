@@ -353,3 +353,18 @@ def test_fifty_sizes_are_still_taken():
     from pincal.campaign.tradeoff import MAX_SIZES, parse_sizes
 
     assert parse_sizes("1:50") == tuple(range(1, 51)) and MAX_SIZES == 50
+
+
+@pytest.mark.parametrize(
+    "box, steps, expected",
+    [
+        ("1,1,0,3,3,1", "1000", "1000 steps per axis make a grid of 1,000,000,000 positions"),
+        ("1,1,0,3,3,1", "22", "at most 10,000 (steps from 1 to 21 on 3 axes)"),
+        ("1,1,0.5,3,3,0.5", "101", "10,201 positions over the box's 2 axes of non-zero width"),
+    ],
+)
+def test_a_placement_grid_beyond_ten_thousand_positions_is_refused(tmp_path, box, steps, expected):
+    argv = ["design", "planar_2r", "--tip", "tip", "-m", "3", "--test-pose=0.3,1.2", "--place-instrument",
+            box, "--place-steps", steps, "--no-progress"]  # fmt: skip
+    outcome = run_checked(tmp_path, argv, set())
+    assert outcome.code == 2 and expected in outcome.err, outcome.err

@@ -64,6 +64,10 @@ metre; 40 m is far beyond any robot cell (give yours with ``Sight``)."""
 STEPS = 3
 """Default grid positions per axis of the box searched."""
 
+MAX_POSITIONS = 10_000
+"""The most grid positions a placement searches: each is a design (a quick one when screened), and
+a grid of ``steps`` ** 3 positions grows beyond any run's time and memory (1 000 steps: 10⁹)."""
+
 SCREEN = 3
 """Default number of positions designed in full: the best of the screen. On the UR10's boxes of
 benchmarks/RESULTS.md (bench_placement), the position and ρ0 the exhaustive search finds, for a third
@@ -230,11 +234,12 @@ def place_instrument(
             designs take the pool's size, the seed and the criterion's options.
 
     Raises:
-        BadArgument: a bad box, or an instrument pincal cannot place (a camera on the tool, a
-            distance sensor).
+        BadArgument: a bad box, a grid of more than :data:`MAX_POSITIONS` positions, or an
+            instrument pincal cannot place (a camera on the tool, a distance sensor).
         Infeasible: no position of the box gives a feasible plan.
     """
     lower, upper = _box(box)
+    _grid_size(lower, upper, steps)
     if screen is not None:
         screen = positive_int(screen, "screen (positions designed in full)")
     kind = measure
@@ -442,10 +447,31 @@ def _point(value: object, what: str) -> np.ndarray:
     return arr
 
 
+def _grid_size(lower: np.ndarray, upper: np.ndarray, steps: int) -> int:
+    """The number of grid positions: ``steps`` per axis of the box (one on an axis of zero width).
+
+    Raises:
+        BadArgument: ``steps`` is no positive integer, or the grid has more than
+            :data:`MAX_POSITIONS` positions.
+    """
+    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
+        raise BadArgument(f"steps must be a positive integer, got {steps!r}")
+    wide = sum(1 for lo, hi in zip(lower, upper) if hi > lo)
+    size = steps**wide
+    if size > MAX_POSITIONS:
+        raise BadArgument(
+            f"{steps} steps per axis make a grid of {size:,} positions over the box's {wide} axes of "
+            f"non-zero width: at most {MAX_POSITIONS:,} (steps from 1 to "
+            f"{math.floor(MAX_POSITIONS ** (1 / wide) + 1e-9)} on {wide} axes)",
+            argument="steps",
+            value=steps,
+        )
+    return size
+
+
 def _grid(lower: np.ndarray, upper: np.ndarray, steps: int) -> list[np.ndarray]:
     """The grid's positions: ``steps`` per axis of the box (one on an axis of zero width)."""
-    if not isinstance(steps, int) or steps < 1:
-        raise BadArgument(f"steps must be a positive integer, got {steps!r}")
+    _grid_size(lower, upper, steps)
     axes = [np.linspace(lo, hi, steps) if hi > lo else np.array([lo]) for lo, hi in zip(lower, upper)]
     return [np.array(p) for p in np.array(np.meshgrid(*axes, indexing="ij")).reshape(3, -1).T]
 
