@@ -368,3 +368,35 @@ def test_a_placement_grid_beyond_ten_thousand_positions_is_refused(tmp_path, box
             box, "--place-steps", steps, "--no-progress"]  # fmt: skip
     outcome = run_checked(tmp_path, argv, set())
     assert outcome.code == 2 and expected in outcome.err, outcome.err
+
+
+def _chain_urdf(joints: int) -> str:
+    """A serial chain of ``joints`` revolute joints, axes alternating z and y, 0.1 m apart."""
+    inertial = ('<inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" '
+                'iyz="0"/></inertial>')  # fmt: skip
+    parts = ['<robot name="chain"><link name="l0"/>']
+    for i in range(joints):
+        axis = "0 0 1" if i % 2 == 0 else "0 1 0"
+        parts.append(
+            f'<link name="l{i + 1}">{inertial}</link><joint name="j{i}" type="revolute"><parent link="l{i}"/>'
+            f'<child link="l{i + 1}"/><origin xyz="0 0 0.1"/><axis xyz="{axis}"/>'
+            '<limit lower="-3" upper="3" effort="10" velocity="1"/></joint>'
+        )
+    parts.append(f'<link name="tip"/><joint name="tip_joint" type="fixed"><parent link="l{joints}"/>'
+                 '<child link="tip"/><origin xyz="0 0 0.1"/></joint></robot>')  # fmt: skip
+    return "".join(parts)
+
+
+def test_params_of_a_long_chain_solves_its_combinations_at_once(tmp_path, monkeypatch):
+    # a 300-joint chain ran > 15 minutes: one least-squares solve per dropped column (~1 500 of
+    # them against 600 rows); and per-joint forward kinematics, each on new Data, in the loader
+    (tmp_path / "chain.urdf").write_text(_chain_urdf(120))
+    calls = []
+    lstsq = np.linalg.lstsq
+    monkeypatch.setattr(np.linalg, "lstsq", lambda *a, **k: calls.append(1) or lstsq(*a, **k))
+    argv = ["params", "chain.urdf", "--tip", "tip", "--json"]
+    outcome = run_checked(tmp_path, argv, {"chain.urdf"})
+    assert outcome.code == 0, outcome.err
+    report = json.loads(outcome.out)
+    assert len(report["params"]) > 700 and report["rank"] == len(report["identifiable"])
+    assert len(report["combinations"]) > 100 and len(calls) <= 2

@@ -249,8 +249,14 @@ def identifiability(
     nearly: dict[str, float] = {}
     compliant = [i for i, p in enumerate(params.parameters) if p.kind == "compliance"]
     torques = robot.joint_torques(qs, payload=loads, check=False) if compliant else np.zeros((0, robot.nq))
+    # every dropped visible column against the kept ones: one least-squares solve for them all
+    # (one a column cost minutes on a chain of hundreds of joints)
+    kept_set = set(kept)
+    redundant = [i for i in range(len(params)) if i not in kept_set and visible[i]]
+    solved = np.linalg.lstsq(J[:, kept], J[:, redundant], rcond=None)[0] if redundant else None
+    coefficients = {i: solved[:, k] for k, i in enumerate(redundant)} if solved is not None else {}
     for i in range(len(params)):
-        if i in kept:
+        if i in kept_set:
             continue
         if not visible[i]:
             dropped[names[i]] = (
@@ -259,7 +265,7 @@ def identifiability(
                 else "invisible: it does not move the measured point(s) in any configuration"
             )
             continue
-        coef, *_ = np.linalg.lstsq(J[:, kept], J[:, i], rcond=None)
+        coef = coefficients[i]
         big = np.abs(coef) > 1e-6 * max(np.abs(coef).max(), 1e-300)
         combo = {names[kept[k]]: float(round(coef[k], 9)) for k in np.flatnonzero(big)}
         combinations[names[i]] = combo

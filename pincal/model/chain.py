@@ -299,8 +299,9 @@ def _rerooted(model: pin.Model, root: str) -> pin.Model:
     if placement.isIdentity():
         return model
     inverse = placement.inverse()
+    parents = list(model.parents)
     for j in range(1, model.njoints):
-        if model.parents[j] == 0:
+        if parents[j] == 0:
             model.jointPlacements[j] = inverse * model.jointPlacements[j]
     for i, frame in enumerate(model.frames):
         if frame.parentJoint == 0:

@@ -40,15 +40,22 @@ def _frame_names(model: pin.Model) -> list[str]:
     return [f.name for f in model.frames]
 
 
-def _motion_axis(model: pin.Model, joint: int) -> np.ndarray:
-    """Motion subspace S (6,) of a one-dof joint, in the joint frame: motion = exp6(S q)."""
+def _motion_axes(model: pin.Model) -> np.ndarray:
+    """(njoints, 6) motion subspace S of each one-dof joint, in its joint frame: motion = exp6(S q)
+    (row 0 unused). One forward kinematics for all: a joint's motion ``liMi`` depends on its own
+    coordinates only."""
     data = model.createData()
     q = pin.neutral(model)
     step = 1e-3
-    q[model.idx_qs[joint]] += step
+    idx_qs, placements = list(model.idx_qs), list(model.jointPlacements)
+    for joint in range(1, model.njoints):
+        q[idx_qs[joint]] += step
     pin.forwardKinematics(model, data, q)
-    motion = model.jointPlacements[joint].inverse() * data.liMi[joint]
-    return pin.log6(motion).vector / step
+    axes = np.zeros((model.njoints, 6))
+    for joint in range(1, model.njoints):
+        motion = placements[joint].inverse() * data.liMi[joint]
+        axes[joint] = pin.log6(motion).vector / step
+    return axes
 
 
 def _origin_parent(model: pin.Model, frame: int, joint: int) -> pin.SE3:
@@ -199,10 +206,7 @@ class Robot:
     @cached_property
     def motion_axes(self) -> np.ndarray:
         """(njoints, 6) motion subspace of each joint in its own frame (row 0 unused)."""
-        axes = np.zeros((self.model.njoints, 6))
-        for j in range(1, self.model.njoints):
-            axes[j] = _motion_axis(self.model, j)
-        return axes
+        return _motion_axes(self.model)
 
     @cached_property
     def origins(self) -> tuple[Origin, ...]:

@@ -341,13 +341,14 @@ def _check_lengths(model: pin.Model, where: str) -> None:
 def _check_axes(model: pin.Model, where: str) -> None:
     """Every one-dof joint moves: an ``<axis xyz="0 0 0"/>`` (or a non-finite one) is refused."""
     data = model.createData()
-    for j in range(1, model.njoints):
-        if model.nqs[j] != 1:
-            continue
-        q = pin.neutral(model)
-        q[model.idx_qs[j]] += 1e-3
-        pin.forwardKinematics(model, data, q)
-        motion = pin.log6(model.jointPlacements[j].inverse() * data.liMi[j]).vector / 1e-3
+    nqs, idx_qs, placements = list(model.nqs), list(model.idx_qs), list(model.jointPlacements)
+    one_dof = [j for j in range(1, model.njoints) if nqs[j] == 1]
+    q = pin.neutral(model)
+    for j in one_dof:  # all at once: a joint's motion liMi depends on its own coordinate only
+        q[idx_qs[j]] += 1e-3
+    pin.forwardKinematics(model, data, q)
+    for j in one_dof:
+        motion = pin.log6(placements[j].inverse() * data.liMi[j]).vector / 1e-3
         if not np.all(np.isfinite(motion)) or np.linalg.norm(motion) < 1e-6:
             raise UrdfError(
                 f"URDF {where}: joint {model.names[j]!r} does not move (its <axis> is zero or not a "
