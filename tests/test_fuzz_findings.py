@@ -400,3 +400,13 @@ def test_params_of_a_long_chain_solves_its_combinations_at_once(tmp_path, monkey
     report = json.loads(outcome.out)
     assert len(report["params"]) > 700 and report["rank"] == len(report["identifiable"])
     assert len(report["combinations"]) > 100 and len(calls) <= 2
+
+
+# ------------------------------------------------------------------------- next --reject nan
+@pytest.mark.parametrize("command", ["next", "identify"])
+@pytest.mark.parametrize("value", ["nan", "inf", "-1", "0"])
+def test_a_reject_threshold_that_is_no_positive_number_is_refused(tmp_path, command, value):
+    argv = [command, "planar_2r", "--tip", "tip", "--data", "m.csv", "--reject", value]
+    argv += ["--test-pose=0.3,1.2"] if command == "next" else []
+    outcome = run_checked(tmp_path, argv, set())
+    assert outcome.code == 2 and "argument --reject: must be a positive number up to 1e+12" in outcome.err

@@ -7,6 +7,7 @@ import math
 import re
 import sys
 
+from pincal.arguments import ratio
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.sanity import OUTLIER_SCORE
 from pincal.campaign.adaptive import AVOID_DISTANCE, next_poses
@@ -20,6 +21,7 @@ from pincal.cli._common import (
     add_progress_argument,
     add_robot_arguments,
     add_test_pose_argument,
+    checked,
     count,
     emit_json,
     params_from_args,
@@ -96,7 +98,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mm", action="store_true", help="measured coordinates are in millimetres")
     p.add_argument(
         "--reject",
-        type=float,
+        type=checked("--reject", ratio),
         default=OUTLIER_SCORE,
         metavar="K",
         help="outliers: rows beyond K robust sigma",
