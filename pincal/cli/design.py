@@ -59,6 +59,7 @@ from pincal.evaluation.test_pose import rho0_split
 from pincal.instruments.error_model import Tracker
 from pincal.instruments.instrument import Instrument
 from pincal.model.statics import Payload
+from pincal.planning import stopping as _stopping
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
 from pincal.planning.objectives import CRITERIA
@@ -204,7 +205,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="exchange: refine the best plans with the continuous search (default: on, off with --pool)",
     )
-    p.add_argument("--starts", type=count("--starts"), default=8, help="number of starts (default 8)")
+    p.add_argument(
+        "--starts",
+        type=_starts_type,
+        default=None,
+        metavar="N|auto",
+        help=f"number of starts, run exactly; default auto: batches of {_stopping.BATCH} until "
+        f"{_stopping.AGREE} starts match the best within {100 * _stopping.TOLERANCE:g} %%, "
+        f"at most {_stopping.CAP}",
+    )
     p.add_argument(
         "--workers",
         type=count("--workers"),
@@ -269,6 +278,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_instrument_arguments(p, test_pose=True)
     add_output_arguments(p)
     p.set_defaults(run=run)
+
+
+def _starts_type(value: str) -> int | None:
+    """--starts: a count, or ``auto`` (None: the adaptive number, :mod:`pincal.planning.stopping`)."""
+    if value.strip().lower() == "auto":
+        return None
+    return count("--starts")(value)  # type: ignore[return-value]
+
+
+def _starts_text(result: DesignResult) -> str:
+    """How many starts ran: ``"16 starts (auto: 3 within 1 % of the best)"``."""
+    if not result.adaptive:
+        return f"{result.starts} starts"
+    within = f"{result.matched} within {100 * _stopping.TOLERANCE:g} % of the best"
+    return f"{result.starts} starts (auto: {within})"
 
 
 def print_warnings(records: list) -> None:
@@ -565,7 +589,7 @@ def print_design(
 ) -> None:
     print(
         f"{robot.name}: {result.m} configurations designed for {result.criterion} ({result.method}, "
-        f"{result.starts} starts, {result.continued} run to convergence, {result.time_s:.3g} s)"
+        f"{_starts_text(result)}, {result.continued} run to convergence, {result.time_s:.3g} s)"
     )
     print(f"{len(params)} parameters ({source}); {sigma_text}")
     if result.dropped:

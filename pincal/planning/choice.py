@@ -22,9 +22,18 @@ from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.instruments.instrument import RowsEngine
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
+from pincal.planning import stopping as _stopping
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, StartRecord, dropped_line
-from pincal.planning.search import Outcome, Pool, Settings, dropped_count, plan_conditioning
+from pincal.planning.search import (
+    Outcome,
+    Pool,
+    Settings,
+    dropped_count,
+    log_scale,
+    plan_conditioning,
+    values,
+)
 
 SINGULAR_WARNING = 1e-3
 """A plan whose conditioning is below this is effectively singular: some parameter combinations
@@ -128,8 +137,12 @@ def design_result(
     value, rho0, rho0_each = _report(params, plan, s, engine.jacobian(q, frame="tip"))
     continued = sum(h.continued for h in choice.history)
     n_starts, dropped = len(outcomes), dropped_count(outcomes)
+    matched = _stopping.matched(values(outcomes), log_scale(s))
+    within = f"{matched} within {100 * _stopping.TOLERANCE:g} % of the best"
     message = (
-        f"{s.method}: best of {n_starts} starts (start {choice.winner}), {continued} run to convergence, "
+        f"{s.method}: best of {n_starts} starts (start {choice.winner}"
+        + (f"; adaptive: {within}" if s.adaptive else "")
+        + f"), {continued} run to convergence, "
         f"{s.criterion} = {value:.6g} in {elapsed:.3g} s; conditioning floor {s.floor:.3g}"
         + (f"; {dropped_line(dropped, n_starts)}" if dropped else "")
         + (
@@ -161,6 +174,8 @@ def design_result(
         conditioning=choice.conditioning,
         message=message,
         dropped=dropped,
+        matched=matched,
+        adaptive=s.adaptive,
         prior=s.prior,
         instrument=s.instrument,
         orientation_length=s.orientation_length,

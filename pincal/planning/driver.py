@@ -64,6 +64,7 @@ from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.planning import multistart as _multistart
 from pincal.planning import payloads as _payloads
+from pincal.planning import stopping as _stopping
 from pincal.planning.choice import SINGULAR_WARNING, choose, design_result
 from pincal.planning.constraints import AnyConstraint, JointMargin, MountSpec, with_safety
 from pincal.planning.feasibility import Feasibility
@@ -108,7 +109,7 @@ def design(
     method: str = "exchange",
     constraints: Iterable[AnyConstraint] = (),
     pool: PoolLike = None,
-    starts: int = 8,
+    starts: int | None = None,
     seed: SeedLike = 0,
     sigma: float = DEFAULT_SIGMA,
     executor: Executor | None = None,
@@ -149,9 +150,13 @@ def design(
         pool: candidates for the exchange method: (N, nq) configurations or a Plan (infeasible
             ones are dropped), or the number of random feasible candidates to draw (default
             2000; the continuous method draws its starts from it).
-        starts: number of starts (default 8: on the README's design, 8 starts land within 1 % of
-            what 64 starts of the search before reach, on 10 seeds; see benchmarks/RESULTS.md,
-            bench_speed).
+        starts: number of starts, run exactly; default (None) adaptive: batches of
+            :data:`~pincal.planning.stopping.BATCH` starts, each searched and polished as a design
+            of that many, until :data:`~pincal.planning.stopping.AGREE` starts match the best value
+            within :data:`~pincal.planning.stopping.TOLERANCE` or
+            :data:`~pincal.planning.stopping.CAP` starts have run (``result.starts`` says how many
+            ran, ``result.matched`` how many matched); designs with payloads or a residual model
+            run 8. See docs/method.md §7.6.
         seed: seed of every random choice: an int, or a numpy Generator (one int is drawn from
             it), or None (fresh entropy); the int used is ``result.seed``: pass it to repeat.
         sigma: measurement noise per coordinate [m]; ρ0 is proportional to it.
@@ -270,7 +275,8 @@ def design(
                 criterion=criterion,
                 constraints=with_safety(params.robot, constraints, joint_margin, mount, clearance=clearance),
                 pool=1000 if pool is None else pool,  # type: ignore[arg-type]
-                starts=starts, seed=seed, sigma=sigma, prior=prior, min_conditioning=min_conditioning,
+                starts=_stopping.BATCH if starts is None else starts, seed=seed, sigma=sigma, prior=prior,
+                min_conditioning=min_conditioning,
                 residual_model=residual_model, instrument=measured,
                 orientation_length=orientation_length_of(orientation_length), progress=progress,
             )  # fmt: skip
@@ -378,7 +384,8 @@ def _validate(
             f"{MAX_WORST_POSES}); take every k-th point of the path, or minimise the mean (test-pose), whose "
             "cost does not depend on the number of poses"
         )
-    starts = positive_int(starts, "starts")
+    adaptive = starts is None
+    starts = _stopping.BATCH if adaptive else positive_int(starts, "starts")
     workers = _multistart.default_workers() if workers is None else positive_int(workers, "workers")
     keep = fraction(keep, "keep", one=True)
     screen_iterations = positive_int(screen_iterations, "screen_iterations", 0)
@@ -424,6 +431,7 @@ def _validate(
         prior_information=information,
         instrument=instrument,
         orientation_length=orientation_length_of(orientation_length),
+        adaptive=adaptive,
     )
 
 

@@ -63,6 +63,10 @@ class DesignResult:
         sigma: measurement noise per coordinate [m].
         method: the search method.
         starts: starts run.
+        matched: starts whose value is within
+            :data:`~pincal.planning.stopping.TOLERANCE` of the best, the best included.
+        adaptive: the number of starts was the adaptive default (``starts=None``): batches until
+            :data:`~pincal.planning.stopping.AGREE` starts matched or the cap was reached.
         continued: starts run to convergence.
         seed: the entropy of the seed sequence (pass it as ``seed`` to repeat the design).
         time_s: wall time [s].
@@ -106,6 +110,8 @@ class DesignResult:
     instrument_at: tuple[float, float, float] | None = None
     dropped: int = 0
     d_optimal: DesignResult | None = None
+    matched: int = 0
+    adaptive: bool = False
 
     @property
     def m(self) -> int:
@@ -126,6 +132,8 @@ class DesignResult:
             "method": self.method,
             "starts": self.starts,
             "dropped_starts": self.dropped,
+            "starts_matched": self.matched,
+            "starts_adaptive": self.adaptive,
             "continued": self.continued,
             "seed": self.seed,
             "time_s": self.time_s,

@@ -4,6 +4,10 @@ continuous) on an executor, the best exchange plans polished; one :class:`Outcom
 A start that fails alone (:func:`degenerate`: none of its random plans is regular) is dropped
 and counted, the others go on; only when every start fails is its error raised.
 
+With the adaptive number of starts (``Settings.adaptive``), the starts run in batches, each searched
+and polished as a design of ``Settings.starts`` starts, until they agree or their cap is reached
+(:mod:`pincal.planning.stopping`).
+
 The values passed between the stages of :func:`pincal.planning.driver.design` live here too:
 :class:`Settings` (the checked arguments), :class:`Pool` (where the starts come from) and
 :class:`Outcome`. They are frozen; each stage returns new ones.
@@ -27,6 +31,7 @@ from pincal.instruments.instrument import Instrument, RowsEngine, pool_rows, too
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning import multistart as _multistart
+from pincal.planning import stopping as _stopping
 from pincal.planning.constraints import AnyConstraint
 from pincal.planning.continuous import load_optimiser
 from pincal.planning.feasibility import Feasibility
@@ -47,7 +52,7 @@ class Settings:
     m: int
     test_poses: np.ndarray | None
     sigma: float
-    starts: int
+    starts: int  # the starts, or with ``adaptive`` those of one batch
     workers: int
     keep: float
     screen_iterations: int
@@ -62,6 +67,7 @@ class Settings:
     prior_information: np.ndarray | None = None  # Λ = σ²Σp⁻¹, added to M by every criterion
     instrument: Instrument | None = None  # what is measured and how well; None: points with sigma
     orientation_length: float | None = None  # [m]: ρ0 counts the tool's orientation error too
+    adaptive: bool = False  # batches of ``starts`` until they agree (pincal.planning.stopping)
 
     def seed_sequence(self, *key: int) -> np.random.SeedSequence:
         """The child ``key`` of the design's seed sequence: (0,) draws the pool, (1, i) start i
@@ -78,12 +84,13 @@ class Pool:
     init: tuple[np.ndarray, ...]
 
     def n_starts(self, settings: Settings) -> int:
-        """The init plans first, then the drawn starts."""
+        """The init plans first, then the drawn starts (of the first batch, when adaptive)."""
         return len(self.init) + settings.starts
 
-    def n_keep(self, settings: Settings) -> int:
-        """Starts run to convergence after screening (continuous), or polished (exchange)."""
-        n = self.n_starts(settings)
+    def n_keep(self, settings: Settings, n: int | None = None) -> int:
+        """Of ``n`` starts (default :meth:`n_starts`), those run to convergence after screening
+        (continuous), or polished (exchange)."""
+        n = self.n_starts(settings) if n is None else n
         return n if settings.keep >= 1 else max(1, math.ceil(settings.keep * n))
 
 
@@ -197,13 +204,20 @@ def search(
     A start that fails alone (:func:`degenerate`) is dropped: its outcome says so
     (``Outcome.dropped``), and it is neither searched further nor polished.
 
+    With ``settings.adaptive``, batches of ``settings.starts`` starts are searched one after the
+    other, each as a design of that many starts (polished, or screened and run to convergence, on
+    its own), until the starts agree on the best value or their cap is reached
+    (:mod:`pincal.planning.stopping`; the D-optimal design follows the same starts). Start k draws
+    its plan from its own seed whatever its batch.
+
     Returns:
         (the outcomes of this design's criterion, those of the D-optimal design or None).
 
     Raises:
         FloorUnreachable: a start found no plan above the conditioning floor (the caller adapts
             a default floor and searches again).
-        SingularPlan, Infeasible: every start failed alone (the first start's error, saying so).
+        SingularPlan, Infeasible: every start failed alone (the first start's error, saying so;
+            adaptive: every start of the first batch).
     """
     s = settings
     spec = _multistart.ProblemSpec(
@@ -236,23 +250,42 @@ def search(
             load_optimiser()  # once here, not in each forked worker
     try:
         with _multistart.executor_for(executor, s.workers, n_starts) as ex:
-            if s.method == "continuous":
-                J_pool = pool_rows(engine, pooled.candidates)
-                indices = first + draw_starts(s, J_pool, pooled.candidates, len(first))
-                x0s = list(pooled.init) + [
-                    i if isinstance(i, PincalError) else pooled.candidates[i] for i in indices
-                ]
-                outcomes = _continuous(spec, ex, x0s, n_keep, s.screen_iterations, s.maxiter, objective, bar)
-                return outcomes, None
-            bar.stage("searched", n_starts)
-            designs = _exchange(
-                spec, ex, pooled.candidates, first, s.starts, objective, bar, d_spec, d_objective
-            )
-            if s.polish:
-                also = "" if d_spec is None else f", and {n_keep} D-optimal"
-                bar.stage(f"polished (the best {n_keep} of {n_starts}{also})", n_keep * len(designs))
-                designs = _polish(ex, designs, n_keep, s.maxiter, engine, s.floor, bar)
-            return designs[0][1], None if d_spec is None else designs[1][1]
+            own: tuple[Outcome, ...] = ()
+            other: tuple[Outcome, ...] | None = None if d_spec is None else ()
+            J_pool = pool_rows(engine, pooled.candidates) if s.method == "continuous" else None
+            begin = 0  # the batch's first drawn start
+            while True:
+                end = begin + s.starts
+                if s.method == "continuous":
+                    assert J_pool is not None
+                    indices = first[begin:] + draw_starts(
+                        s, J_pool, pooled.candidates, max(begin, len(first)), end
+                    )
+                    init = list(pooled.init) if begin == 0 else []
+                    x0s = init + [i if isinstance(i, PincalError) else pooled.candidates[i] for i in indices]
+                    n_keep = pooled.n_keep(s, len(x0s))
+                    offset = 0 if begin == 0 else len(pooled.init) + begin
+                    own += _continuous(
+                        spec, ex, x0s, n_keep, s.screen_iterations, s.maxiter, objective, bar, offset
+                    )
+                else:
+                    bar.stage("searched" + _which(s, begin, end), end - begin)
+                    designs = _exchange(
+                        spec, ex, pooled.candidates, first, begin, end, objective, bar, d_spec, d_objective
+                    )
+                    if s.polish:
+                        also = "" if d_spec is None else f", and {n_keep} D-optimal"
+                        bar.stage(
+                            f"polished (the best {n_keep} of {end - begin}{_which(s, begin, end)}{also})",
+                            n_keep * len(designs),
+                        )
+                        designs = _polish(ex, designs, n_keep, s.maxiter, engine, s.floor, bar)
+                    own += designs[0][1]
+                    if other is not None:
+                        other += designs[1][1]
+                if not s.adaptive or end >= _stopping.CAP or _stopping.enough(values(own), log_scale(s)):
+                    return own, other
+                begin = end
     finally:
         bar.close()
         _multistart.forget(spec)
@@ -260,18 +293,46 @@ def search(
             _multistart.forget(d_spec)
 
 
+def values(outcomes: tuple[Outcome, ...]) -> list[float]:
+    """The starts' final values in the criterion's units; inf for a start without a usable plan."""
+    return [o.record.value if o.usable else math.inf for o in outcomes]
+
+
+def log_scale(settings: Settings) -> bool:
+    """The criterion's values are logarithms (D: log det M⁻¹; see
+    :func:`pincal.planning.stopping.matched`)."""
+    return settings.criterion == D_OPTIMAL
+
+
+def _which(settings: Settings, begin: int, end: int) -> str:
+    """Which starts a stage of an adaptive design runs: ``" (starts 9-16)"``; "" otherwise."""
+    return f" (starts {begin + 1}-{end})" if settings.adaptive else ""
+
+
 Searched = tuple[_multistart.ProblemSpec, tuple[Outcome, ...], Criterion]
 """One design's exchange outcomes, with its spec and criterion (for its polish)."""
 
 
 def _exchange(
-    spec, ex, candidates, first, starts: int, objective: Criterion, bar, d_spec=None, d_objective=None
+    spec,
+    ex,
+    candidates,
+    first,
+    begin: int,
+    end: int,
+    objective: Criterion,
+    bar,
+    d_spec=None,
+    d_objective=None,
 ) -> list[Searched]:
-    """The exchange search from each start's plan (the first given, the others drawn by the
-    workers); with ``d_spec``, the D-optimal design's exchange from the same plans, in the same task.
-    A start that failed alone (:func:`degenerate`), given so or in its task, is dropped."""
-    failed: dict[int, PincalError] = {i: f for i, f in enumerate(first) if isinstance(f, PincalError)}
-    searched = [i for i in range(starts) if i not in failed]
+    """The exchange search from the plan of each start ``begin`` to ``end`` (the first given, the
+    others drawn by the workers); with ``d_spec``, the D-optimal design's exchange from the same
+    plans, in the same task. A start that failed alone (:func:`degenerate`), given so or in its
+    task, is dropped; when every start of the first batch (``begin`` 0) did, its error is raised."""
+    failed: dict[int, PincalError] = {
+        i: f for i, f in enumerate(first) if isinstance(f, PincalError) and begin <= i < end
+    }
+    searched = [i for i in range(begin, end) if i not in failed]
     items = [(spec, i, first[i] if i < len(first) else None, d_spec) for i in searched]
     for _ in failed:
         bar(None)
@@ -289,14 +350,14 @@ def _exchange(
             if not (isinstance(error, PincalError) and degenerate(error)):
                 raise error
             failed[i] = error
-    if len(failed) == starts:
-        raise every_start_failed([failed[i] for i in sorted(failed)], starts)
-    own = [failed[i] if i in failed else results[i][0] for i in range(starts)]
-    designs = [(spec, _exchanged(candidates, own, objective), objective)]
+    if begin == 0 and len(failed) == end:
+        raise every_start_failed([failed[i] for i in sorted(failed)], end)
+    own = [failed[i] if i in failed else results[i][0] for i in range(begin, end)]
+    designs = [(spec, _exchanged(candidates, own, objective, begin), objective)]
     if d_spec is not None:
         assert d_objective is not None
-        other = [failed[i] if i in failed else results[i][1] for i in range(starts)]
-        designs.append((d_spec, _exchanged(candidates, other, d_objective), d_objective))
+        other = [failed[i] if i in failed else results[i][1] for i in range(begin, end)]
+        designs.append((d_spec, _exchanged(candidates, other, d_objective, begin), d_objective))
     return designs
 
 
@@ -306,8 +367,9 @@ def _first(result):
     return None if isinstance(result, _multistart.CarriedError) else result[0]
 
 
-def _exchanged(candidates, outcomes, objective: Criterion) -> tuple[Outcome, ...]:
-    """Each start's exchange outcome (or the error it was dropped for) as its :class:`Outcome`."""
+def _exchanged(candidates, outcomes, objective: Criterion, begin: int = 0) -> tuple[Outcome, ...]:
+    """Each start's exchange outcome (or the error it was dropped for) as its :class:`Outcome`
+    (the first is start ``begin``)."""
     return tuple(
         Outcome.degenerate(s, o)
         if isinstance(o, PincalError)
@@ -326,7 +388,7 @@ def _exchanged(candidates, outcomes, objective: Criterion) -> tuple[Outcome, ...
             o.F,
             True,
         )
-        for s, o in enumerate(outcomes)
+        for s, o in enumerate(outcomes, begin)
     )
 
 
@@ -366,12 +428,15 @@ def _polish(
     return out
 
 
-def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, bar) -> tuple[Outcome, ...]:
+def _continuous(
+    spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, bar, offset: int = 0
+) -> tuple[Outcome, ...]:
     """Screen every start, continue the best ``n_keep`` to convergence; a start that failed alone
-    (its error in ``x0s`` in place of its plan) is dropped."""
+        (its error in ``x0s`` in place of its plan) is dropped; when every start of the first batch
+    (``offset`` 0) did, its error is raised. The first start is start ``offset``."""
     n = len(x0s)
     failed = {s: x for s, x in enumerate(x0s) if isinstance(x, PincalError)}
-    if len(failed) == n:
+    if len(failed) == n and offset == 0:  # a later batch of an adaptive design: the others remain
         raise every_start_failed(list(failed.values()), n)
     live = [s for s in range(n) if s not in failed]
     screened: dict | None = None
@@ -396,14 +461,14 @@ def _continuous(spec, ex, x0s, n_keep, screen_iterations, maxiter, objective, ba
 
     def outcome(s: int) -> Outcome:
         if s in failed:
-            return Outcome.degenerate(s, failed[s])
+            return Outcome.degenerate(offset + s, failed[s])
         first = None if screened is None else screened[s]
         screen_value = None if first is None else _report_value(objective, first.F)
         final = finals.get(s)
         last = final if final is not None else first
         assert last is not None  # a start is screened, run to convergence, or both
         record = StartRecord(
-            start=s,
+            start=offset + s,
             value=_report_value(objective, last.F),
             screen_value=screen_value,
             iterations=(0 if first is None else first.iterations)
