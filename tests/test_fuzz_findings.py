@@ -410,3 +410,45 @@ def test_a_reject_threshold_that_is_no_positive_number_is_refused(tmp_path, comm
     argv += ["--test-pose=0.3,1.2"] if command == "next" else []
     outcome = run_checked(tmp_path, argv, set())
     assert outcome.code == 2 and "argument --reject: must be a positive number up to 1e+12" in outcome.err
+
+
+# ---------------------------------------------------------------- measurement inputs, checked
+RIG = """camera:
+  fx: 600.0
+  fy: 600.0
+  cx: 320.0
+  cy: 240.0
+  width: 640
+  height: 480
+  mount: tool
+  xyz: [0.05, 0.0, 0.05]
+target:
+  grid: {columns: 6, rows: 5, spacing: 0.03}
+  xyz: [0.5, 0.0, 0.0]
+  rpy_deg: [180, 0, 0]
+pixel_sigma: 0.5
+"""
+RIG_BOOLEANS = {
+    "fx": ("fx: 600.0", "fx: true", "camera fx must be a number, got True"),
+    "width": ("width: 640", "width: true", "camera width must be a positive number of pixels, got True"),
+    "xyz": ("xyz: [0.05, 0.0, 0.05]", "xyz: [true, 0.0, 0.05]", "camera xyz must be a list of finite"),
+    "rpy_deg": ("rpy_deg: [180, 0, 0]", "rpy_deg: [180, false, 0]", "target rpy_deg must be a list of"),
+    "spacing": ("spacing: 0.03", "spacing: true", "target grid spacing must be a number, got True"),
+    "pixel_sigma": ("pixel_sigma: 0.5", "pixel_sigma: true", "pixel_sigma must be a positive number"),
+    "a string": ("xyz: [0.5, 0.0, 0.0]", "xyz: ['0.5', 0.0, 0.0]", "target xyz must be a list of finite"),
+    "points": ("grid: {columns: 6, rows: 5, spacing: 0.03}", "points: 5", "target points must be a list"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(RIG_BOOLEANS))
+def test_a_rig_refuses_booleans_where_numbers_go(tmp_path, case):
+    old, new, expected = RIG_BOOLEANS[case]
+    assert old in RIG
+    (tmp_path / "rig.yaml").write_text(RIG.replace(old, new))
+    outcome = run_checked(tmp_path, ["params", "panda", "--camera", "rig.yaml"], {"rig.yaml"})
+    assert outcome.code == 2 and expected in outcome.err, outcome.err
+
+
+def test_the_checked_rig_still_loads(tmp_path):
+    (tmp_path / "rig.yaml").write_text(RIG)
+    assert run_checked(tmp_path, ["params", "panda", "--camera", "rig.yaml"], {"rig.yaml"}).code == 0

@@ -79,18 +79,20 @@ def rig_from_dict(data: object, where: str = "camera rig") -> Rig:
     if mount not in ("tool", "cell"):
         raise BadArgument(f"{where}: camera mount {mount!r}; valid: tool (eye-in-hand), cell (eye-to-hand)")
     intrinsics = Camera(
-        fx=_number(camera, "fx", where),
-        fy=_number(camera, "fy", where),
-        cx=_number(camera, "cx", where),
-        cy=_number(camera, "cy", where),
+        fx=_number(camera, "fx", f"{where}: camera"),
+        fy=_number(camera, "fy", f"{where}: camera"),
+        cx=_number(camera, "cx", f"{where}: camera"),
+        cy=_number(camera, "cy", f"{where}: camera"),
         distortion=tuple(_numbers(camera.get("distortion", []), f"{where}: camera distortion")),
-        width=camera.get("width"),
-        height=camera.get("height"),
+        width=_pixels(camera, "width", where),
+        height=_pixels(camera, "height", where),
     )
     kind = Image(intrinsics, _points(target, where), eye_in_hand=mount == "tool")
     fixtures = kind.fixtures(_placement(camera, f"{where}: camera"), _placement(target, f"{where}: target"))
     sigma = data.get("pixel_sigma", DEFAULT_SIGMA_PX)
-    if not (isinstance(sigma, (int, float)) and math.isfinite(sigma) and sigma > 0):
+    if isinstance(sigma, bool) or not (
+        isinstance(sigma, (int, float)) and math.isfinite(sigma) and sigma > 0
+    ):
         raise BadArgument(f"{where}: pixel_sigma must be a positive number of pixels, got {sigma!r}")
     return Rig(kind, fixtures, float(sigma))
 
@@ -104,23 +106,32 @@ def _mapping(value: object, where: str, valid: tuple[str, ...]) -> dict:
     return value
 
 
+def _is_number(value: object) -> bool:
+    """A finite int or float as YAML reads it: never a boolean (``true`` is no 1), never a string."""
+    return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+
+
 def _number(entry: dict, key: str, where: str) -> float:
     value = entry.get(key)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise BadArgument(f"{where}: camera {key} must be a number, got {value!r}")
-    return float(value)
+    if not _is_number(value):
+        raise BadArgument(f"{where} {key} must be a number, got {value!r}")
+    return float(value)  # type: ignore[arg-type]  # an int or a float: _is_number
+
+
+def _pixels(entry: dict, key: str, where: str) -> int | None:
+    """The image's width or height [px]: a positive integer, or absent."""
+    value = entry.get(key)
+    if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
+        raise BadArgument(f"{where}: camera {key} must be a positive number of pixels, got {value!r}")
+    return value
 
 
 def _numbers(value: object, where: str, size: int | None = None) -> list[float]:
-    try:
-        # value is whatever the YAML held (an object to mypy): a value that is not a list of
-        # numbers raises TypeError or ValueError, refused just below.
-        out = [float(v) for v in value]  # type: ignore[attr-defined]
-    except (TypeError, ValueError):
-        raise BadArgument(f"{where} must be a list of numbers, got {value!r}") from None
-    if (size is not None and len(out) != size) or not all(math.isfinite(v) for v in out):
-        raise BadArgument(f"{where} must be {size or 'some'} finite numbers, got {value!r}")
-    return out
+    if not isinstance(value, (list, tuple)) or not all(_is_number(v) for v in value):
+        raise BadArgument(f"{where} must be a list of finite numbers, got {value!r}")
+    if size is not None and len(value) != size:
+        raise BadArgument(f"{where} must be {size} finite numbers, got {value!r}")
+    return [float(v) for v in value]
 
 
 def _placement(entry: dict, where: str) -> pin.SE3:
@@ -140,7 +151,10 @@ def _points(target: dict, where: str) -> np.ndarray:
             f"{where}: the target needs grid: {{columns, rows, spacing}} or points: [[x, y, z], ...]"
         )
     if "points" in target:
-        points = [_numbers(p, f"{where}: target point", 3) for p in target["points"]]
+        given = target["points"]
+        if not isinstance(given, list) or not given:
+            raise BadArgument(f"{where}: target points must be a list [[x, y, z], ...], got {given!r}")
+        points = [_numbers(p, f"{where}: target point", 3) for p in given]
         return np.array(points)
     g = _mapping(target["grid"], f"{where}: target grid", ("columns", "rows", "spacing"))
     columns, rows = g.get("columns"), g.get("rows")
