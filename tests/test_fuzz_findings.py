@@ -452,3 +452,29 @@ def test_a_rig_refuses_booleans_where_numbers_go(tmp_path, case):
 def test_the_checked_rig_still_loads(tmp_path):
     (tmp_path / "rig.yaml").write_text(RIG)
     assert run_checked(tmp_path, ["params", "panda", "--camera", "rig.yaml"], {"rig.yaml"}).code == 0
+
+
+def _measured(folder: Path, *options: str) -> list[list[str]]:
+    """measure-sim's planar_2r data of PLAN and three more (header first), as rows of strings."""
+    (folder / "plan.csv").write_text(PLAN + "0.3,0.4\n-0.5,1.5\n0.7,-2\n")
+    argv = ["measure-sim", "planar_2r", "--tip", "tip", "--plan", "plan.csv", "--error-std", "1e-3,1e-3",
+            "--out", "m.csv", *options]  # fmt: skip
+    assert run_checked(folder, argv, {"plan.csv"}).code == 0
+    return [line.split(",") for line in (folder / "m.csv").read_text().splitlines()]
+
+
+@pytest.mark.parametrize("other, expected", [("2e-10", "line 4: cov_x_y = 1e-10 and cov_y_x = 2e-10 differ"),
+                                             ("1e-10", None)])  # fmt: skip
+def test_a_covariance_given_twice_must_agree(tmp_path, other, expected):
+    rows = _measured(tmp_path, "--measure", "x,y")
+    rows[0] += ["s", "cov_x_y", "cov_y_x"]
+    for i, row in enumerate(rows[1:]):
+        row += ["3e-5", "1e-10", other if i == 2 else "1e-10"]  # the third row: line 4
+    (tmp_path / "m.csv").write_text("\n".join(",".join(r) for r in rows) + "\n")
+    argv = ["identify", "planar_2r", "--tip", "tip", "--data", "m.csv", "--measure", "x,y", "--params",
+            "joint2.tx,tip.tx"]  # fmt: skip
+    outcome = run_checked(tmp_path, argv, {"m.csv"})
+    if expected is None:
+        assert outcome.code == 0, outcome.err
+    else:
+        assert outcome.code == 2 and expected in outcome.err, outcome.err

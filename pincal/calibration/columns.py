@@ -173,9 +173,15 @@ def unit_scale(units: tuple[str, ...], millimetres: bool) -> np.ndarray:
 
 
 def uncertainties(
-    kind: Kind, robot: Robot, header: list[str], rows: np.ndarray, where: str
+    kind: Kind,
+    robot: Robot,
+    header: list[str],
+    rows: np.ndarray,
+    where: str,
+    lines: np.ndarray | None = None,
 ) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """((m, r) standard deviations or None, (m, r, r) covariances or None), as written."""
+    """((m, r) standard deviations or None, (m, r, r) covariances or None), as written; ``lines``
+    the rows' line numbers, for messages."""
     names, units = kind.coordinates(robot), kind.units(robot)
     columns = [h for h in header if is_uncertainty(h)]
     if not columns:
@@ -202,7 +208,8 @@ def uncertainties(
         )
     if not covariances:
         return std, None
-    return None, _covariance(std, covariances, names, header, rows, where)
+    lines = np.arange(2, len(rows) + 2) if lines is None else np.asarray(lines)
+    return None, _covariance(std, covariances, names, header, rows, where, lines)
 
 
 def _covariance(
@@ -212,8 +219,10 @@ def _covariance(
     header: list[str],
     rows: np.ndarray,
     where: str,
+    lines: np.ndarray,
 ) -> np.ndarray:
     cov = np.einsum("mi,ij->mij", std**2, np.eye(len(names)))
+    given: dict[tuple[int, int], str] = {}
     for column in columns:
         pair = column[4:].split("_")
         if len(pair) != 2 or not all(p in names for p in pair) or pair[0] == pair[1]:
@@ -222,5 +231,15 @@ def _covariance(
                 f"({', '.join(names)})"
             )
         a, b = names.index(pair[0]), names.index(pair[1])
-        cov[:, a, b] = cov[:, b, a] = rows[:, header.index(column)]
+        values = rows[:, header.index(column)]
+        first = given.setdefault((min(a, b), max(a, b)), column)
+        if first != column:  # cov_x_y and cov_y_x: one covariance, given twice
+            differ = ~np.isclose(values, cov[:, a, b], rtol=1e-9, atol=0.0)
+            if differ.any():
+                row = int(np.flatnonzero(differ)[0])
+                raise BadMeasurementData(
+                    f"{where}, line {lines[row]}: {first} = {cov[row, a, b]:.6g} and {column} = "
+                    f"{values[row]:.6g} differ: a covariance is symmetric (give one of the two columns)"
+                )
+        cov[:, a, b] = cov[:, b, a] = values
     return cov

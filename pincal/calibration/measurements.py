@@ -353,7 +353,7 @@ class MeasurementData:
         else:
             kind.check(robot)
             values = _columns.values_of(kind, robot, header, rows, where, lines)
-            std, covariance = _columns.uncertainties(kind, robot, header, rows, where)
+            std, covariance = _columns.uncertainties(kind, robot, header, rows, where, lines)
             scale = _columns.unit_scale(kind.units(robot), millimetres)
             std = None if std is None else std * scale
             covariance = None if covariance is None else covariance * np.outer(scale, scale)
