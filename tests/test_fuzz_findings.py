@@ -478,3 +478,24 @@ def test_a_covariance_given_twice_must_agree(tmp_path, other, expected):
         assert outcome.code == 0, outcome.err
     else:
         assert outcome.code == 2 and expected in outcome.err, outcome.err
+
+
+@pytest.mark.parametrize("output", [["--out", "cal.urdf"], ["--json"]])
+def test_images_that_mostly_see_no_target_point_are_fitted_as_far_as_they_go(tmp_path, output):
+    # a random Panda plan: 28 of the 30 images measure-sim writes see no target point, one sees
+    # them all; identify ran into inf (a standard error of 0 in a numerically singular inverse)
+    (tmp_path / "rig.yaml").write_text(RIG)
+    panda = pincal.load_robot("panda")
+    pincal.Plan(panda.random_configurations(30, 1), panda.joint_names).to_csv(tmp_path / "plan.csv")
+    simulate = ["measure-sim", "panda", "--plan", "plan.csv", "--camera", "rig.yaml", "--error-std",
+                "1e-3,1e-3", "--out", "images.csv"]  # fmt: skip
+    assert run_checked(tmp_path, simulate, {"plan.csv", "rig.yaml"}).code == 0
+    rows = (tmp_path / "images.csv").read_text().splitlines()[2:]
+    assert sum(set(row.split(",")[7:]) == {""} for row in rows) > len(rows) // 2
+    identify = ["identify", "panda", "--data", "images.csv", "--camera", "rig.yaml", *output]
+    outcome = run_checked(tmp_path, identify, {"plan.csv", "rig.yaml", "images.csv"})
+    assert outcome.code == 0, outcome.err
+    if "--json" in output:
+        assert json.loads(outcome.out)["dropped"]
+    else:
+        assert "expected error of a prediction: undetermined" in outcome.out

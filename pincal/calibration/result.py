@@ -169,7 +169,8 @@ class IdentificationResult:
         readings ``q``, summed over its three coordinates, from each source: the parameters'
         uncertainty, tr(J C Jᵀ) over the point's rows (J the Jacobian of the *fitted* model under
         ``payload``, the one C belongs to, so that where the URDF puts the base does not matter;
-        C :attr:`covariance`; a dropped parameter, held nominal, adds nothing), and what the model
+        C :attr:`covariance`; a dropped parameter, held nominal, adds nothing; NaN when a parameter
+        estimated has no standard error), and what the model
         does not explain: the residual model's posterior variance, 3·v(q), or without one the
         residual level beyond the instrument's noise, 3·:attr:`unexplained`. NaN without an
         estimate."""
@@ -177,8 +178,9 @@ class IdentificationResult:
         qs = robot.configurations(q)
         K = robot.n_markers
         C = np.nan_to_num(self.covariance, nan=0.0)
-        if not np.any(np.isfinite(self.std)):
-            C = np.full_like(C, np.nan)
+        estimated = [name not in self.dropped for name in self.names]
+        if not np.any(np.isfinite(self.std)) or not np.all(np.isfinite(self.std[estimated])):
+            C = np.full_like(C, np.nan)  # a parameter estimated without a standard error: unknown
         linear, x, engine, mapping = self._fitted
         J = linear.points(x, qs, payload, engine, mapping).reshape(len(qs), K, 3, -1)
         parameters = np.einsum("mkip,pr,mkir->mk", J, C, J)
@@ -627,9 +629,15 @@ def _covariance(
     inside = free < n
     idx = free[inside]
     sub = cov[np.ix_(inside, inside)]
-    std[idx] = np.sqrt(np.clip(np.diag(sub), 0.0, None))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        correlation[np.ix_(idx, idx)] = sub / np.outer(std[idx], std[idx])
+    # a variance that is not positive (or not finite) is rounding in the inverse of a numerically
+    # singular M (data that barely see these parameters, e.g. one image of the target among many
+    # empty ones): unknown, NaN, never a standard error of 0 or a correlation of inf
+    variance = np.diag(sub)
+    known = np.isfinite(variance) & (variance > 0)
+    std[idx] = np.where(known, np.sqrt(np.where(known, variance, 1.0)), np.nan)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        block = sub / np.outer(std[idx], std[idx])
+    correlation[np.ix_(idx, idx)] = np.where(np.isfinite(block), block, np.nan)
     return std, correlation
 
 
