@@ -499,3 +499,62 @@ def test_images_that_mostly_see_no_target_point_are_fitted_as_far_as_they_go(tmp
         assert json.loads(outcome.out)["dropped"]
     else:
         assert "expected error of a prediction: undetermined" in outcome.out
+
+
+def _quaternion_rows(rows: list[list[str]]) -> list[list[str]]:
+    """Pose rows with rx,ry,rz turned into a unit quaternion qx,qy,qz,qw (scalar last)."""
+    from scipy.spatial.transform import Rotation
+
+    out = [rows[0][:5] + ["qx", "qy", "qz", "qw"]]
+    for row in rows[1:]:
+        out.append(
+            row[:5] + [repr(float(v)) for v in Rotation.from_rotvec([float(v) for v in row[5:8]]).as_quat()]
+        )
+    return out
+
+
+MAGNITUDES = {
+    # kind's options, the column (added with 3e-5 elsewhere when absent), its value, the message
+    "z": (["--measure", "z"], "z", "1e308", "column z = 1e+308 m: pincal accepts up to 1e+06 m"),
+    "d": (["--anchor", "2,2,0"], "d", "-1e308", "column d = -1e+308 m: pincal accepts up to 1e+06 m"),
+    "rz": (["--measure", "pose"], "rz", "1e308", "column rz = 1e+308 rad: pincal accepts up to 1e+06 rad"),
+    "qw": (["--measure", "pose"], "qw", "1e308", "column qw = 1e+308: pincal accepts up to 1e+06 (a unit"),
+    "s": (["--measure", "z"], "s", "1e308", "column s = 1e+308 m: pincal accepts from 1e-12 to 1000 m"),
+    "a tiny s": (["--measure", "z"], "sz", "1e-300", "column sz = 1e-300 m: pincal accepts from 1e-12"),
+    "srz": (["--measure", "pose"], "srz", "1e308", "column srz = 1e+308 rad: pincal accepts from 1e-12"),
+    "in mm": (["--measure", "z", "--mm"], "z", "1e308", "column z = 1e+308 mm: pincal accepts up to 1e+09"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(MAGNITUDES))
+def test_a_non_physical_magnitude_is_refused_naming_its_column_and_line(tmp_path, case):
+    options, column, value, expected = MAGNITUDES[case]
+    simulated = [o for o in options if o != "--mm"]
+    rows = _measured(tmp_path, *simulated)
+    if column == "qw":
+        rows = _quaternion_rows(rows)
+    if column not in rows[0]:
+        rows[0].append(column)
+        for row in rows[1:]:
+            row.append("3e-5")
+    rows[3][rows[0].index(column)] = value  # line 4
+    (tmp_path / "m.csv").write_text("\n".join(",".join(r) for r in rows) + "\n")
+    argv = ["identify", "planar_2r", "--tip", "tip", "--data", "m.csv", *options]
+    outcome = run_checked(tmp_path, argv, {"m.csv", "plan.csv"})
+    assert outcome.code == 2 and f"'m.csv', line 4: {expected}" in outcome.err, outcome.err
+
+
+def test_pixels_beyond_a_million_are_refused(tmp_path):
+    (tmp_path / "rig.yaml").write_text(RIG)
+    panda = pincal.load_robot("panda")
+    q = panda.random_configurations(3, 0)
+    pixels = [f"{c}{k}" for k in range(30) for c in "uv"]  # the rig's 6 x 5 grid; one point seen
+    header = ",".join([*panda.joint_names, *pixels]) + "\n"
+    rows = "".join(
+        ",".join(f"{v:.6f}" for v in qi) + f",{u},240" + "," * 58 + "\n"
+        for qi, u in zip(q, ["320", "1e308", "320"])
+    )
+    (tmp_path / "images.csv").write_text(header + rows)
+    argv = ["identify", "panda", "--data", "images.csv", "--camera", "rig.yaml"]
+    outcome = run_checked(tmp_path, argv, {"images.csv", "rig.yaml"})
+    assert outcome.code == 2 and "line 3: column u0 = 1e+308 px: pincal accepts up to 1e+06 px" in outcome.err

@@ -26,6 +26,7 @@ import re
 import numpy as np
 import pinocchio as pin
 
+from pincal.arguments import MAX_ANGLE, MAX_LENGTH, SIGMA_RANGE
 from pincal.errors import BadMeasurementData
 from pincal.instruments.distance import Distance
 from pincal.instruments.kind import POSE_COMPONENTS, Kind
@@ -138,6 +139,65 @@ def _with_quaternions(kind: Kind, robot: Robot) -> tuple[str, ...]:
     K = robot.n_markers
     suffix = [str(k) if K > 1 else "" for k in range(K)]
     return tuple(c + s for s in suffix for c in ("x", "y", "z") + QUATERNION)
+
+
+MAX_PIXELS = 1e6
+"""The largest pixel coordinate (and pixel uncertainty) a measurement file may hold [px]: no image
+is a million pixels across."""
+
+
+def check_magnitudes(
+    kind: Kind,
+    robot: Robot,
+    header: list[str],
+    rows: np.ndarray,
+    where: str,
+    lines: np.ndarray,
+    millimetres: bool,
+) -> None:
+    """Refuse a value no instrument gives, naming its column and line, before any arithmetic on it
+    (1e308 overflowed in the whitening): a length beyond :data:`~pincal.arguments.MAX_LENGTH`, an
+    angle beyond :data:`~pincal.arguments.MAX_ANGLE`, a pixel beyond :data:`MAX_PIXELS`, a
+    quaternion component beyond 1e6; an uncertainty outside :data:`~pincal.arguments.SIGMA_RANGE`
+    (in its column's unit: m, rad, px; zero and negative ones are refused later, as they always
+    were), a covariance beyond the product of the largest uncertainties."""
+    names, units = kind.coordinates(robot), kind.units(robot)
+    unit_of = dict(zip(names, units))
+    written = {"m": 1e3 if millimetres else 1.0, "rad": 1.0, "px": 1.0, "": 1.0}  # unit as written
+    limits = {"m": MAX_LENGTH, "rad": MAX_ANGLE, "px": MAX_PIXELS, "": 1e6}
+    shown = {"m": "mm" if millimetres else "m", "rad": "rad", "px": "px", "": ""}
+    shared = {"s": "m", "srot": "rad", "spx": "px"}
+    low, high = SIGMA_RANGE
+    for i, column in enumerate(header):
+        values = rows[:, i]
+        if column in unit_of or column.rstrip("0123456789") in QUATERNION:
+            unit = unit_of.get(column, "")
+            _refuse_outside(values, 0.0, limits[unit] * written[unit], shown[unit], where, column, lines)
+        elif column in shared or (column[:1] == "s" and column[1:] in unit_of):
+            unit = shared.get(column) or unit_of[column[1:]]
+            _refuse_outside(
+                values, low * written[unit], high * written[unit], shown[unit], where, column, lines
+            )
+        elif column.startswith("cov_") and all(p in unit_of for p in column[4:].split("_")[:2]):
+            first, second = (unit_of[p] for p in column[4:].split("_")[:2])
+            limit = high * written[first] * high * written[second]
+            _refuse_outside(values, 0.0, limit, f"{shown[first]}·{shown[second]}", where, column, lines)
+
+
+def _refuse_outside(
+    values: np.ndarray, low: float, high: float, unit: str, where: str, column: str, lines: np.ndarray
+) -> None:
+    """Refuse the first of ``values`` whose size is beyond ``high`` or, non-zero, below ``low``
+    [``unit``]; NaN (an empty cell) passes."""
+    size = np.abs(values)
+    outside = np.flatnonzero(~np.isnan(values) & ((size > high) | ((size > 0) & (size < low))))
+    if outside.size:
+        row = int(outside[0])
+        bounds = f"from {low:g} to {high:g} {unit}" if low else f"up to {high:g} {unit}"
+        raise BadMeasurementData(
+            f"{where}, line {lines[row]}: column {column} = {values[row]:.3g} {unit}".rstrip()
+            + f": pincal accepts {bounds.rstrip()} (a unit or number error?)"
+        )
 
 
 def values_of(

@@ -352,6 +352,7 @@ class MeasurementData:
             )
         else:
             kind.check(robot)
+            _columns.check_magnitudes(kind, robot, header, rows, where, lines, millimetres)
             values = _columns.values_of(kind, robot, header, rows, where, lines)
             std, covariance = _columns.uncertainties(kind, robot, header, rows, where, lines)
             scale = _columns.unit_scale(kind.units(robot), millimetres)
