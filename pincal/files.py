@@ -195,7 +195,7 @@ def read_numeric_csv(
         )
     _, header = lines[0]
     header = [h.strip() for h in header]
-    if any(_is_number(h) for h in header):
+    if all(_is_number(h) for h in header):  # a row of numbers: data, no header (a name may be nan)
         raise _error(
             error,
             f"{what} file {str(path)!r}: the first row must be a header of column names, "

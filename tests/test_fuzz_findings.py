@@ -558,3 +558,51 @@ def test_pixels_beyond_a_million_are_refused(tmp_path):
     argv = ["identify", "panda", "--data", "images.csv", "--camera", "rig.yaml"]
     outcome = run_checked(tmp_path, argv, {"images.csv", "rig.yaml"})
     assert outcome.code == 2 and "line 3: column u0 = 1e+308 px: pincal accepts up to 1e+06 px" in outcome.err
+
+
+# ------------------------------------------------ joints named like a measurement file's columns
+def _renamed(folder: Path, name: str) -> None:
+    """planar_2r with joint1 named ``name`` (j.urdf), and a plan of six configurations (plan.csv)."""
+    (folder / "j.urdf").write_text(PLANAR.replace('"joint1"', json.dumps(name)))
+    plan = PLAN + "0.3,0.4\n-0.5,1.5\n0.7,-2\n"
+    quoted = f'"{name}"' if "," in name else name
+    (folder / "plan.csv").write_text(plan.replace("joint1", quoted, 1))
+
+
+@pytest.mark.parametrize("name", ["sx", "d0", "u0", "cov_x_y", "payload_kg", "a,b", "1", "srot"])
+def test_joints_named_like_other_columns_make_the_round_trip(tmp_path, name):
+    _renamed(tmp_path, name)
+    simulate = ["measure-sim", "j.urdf", "--tip", "tip", "--plan", "plan.csv", "--error-std", "1e-3,1e-3",
+                "--out", "m.csv"]  # fmt: skip
+    assert run_checked(tmp_path, simulate, {"j.urdf", "plan.csv"}).code == 0
+    identify = ["identify", "j.urdf", "--tip", "tip", "--data", "m.csv", "--params", "joint2.tx,tip.tx",
+                "--json"]  # fmt: skip
+    outcome = run_checked(tmp_path, identify, {"j.urdf", "plan.csv", "m.csv"})
+    assert outcome.code == 0, outcome.err
+    assert json.loads(outcome.out)["status"] == "converged"
+
+
+@pytest.mark.parametrize(
+    "name, options", [("x", []), ("z", ["--measure", "z"]), ("rz", ["--measure", "pose"])]
+)
+def test_a_joint_named_like_a_measured_column_is_refused_before_writing(tmp_path, name, options):
+    _renamed(tmp_path, name)
+    simulate = ["measure-sim", "j.urdf", "--tip", "tip", "--plan", "plan.csv", "--error-std", "1e-3,1e-3",
+                "--out", "m.csv", *options]  # fmt: skip
+    outcome = run_checked(tmp_path, simulate, {"j.urdf", "plan.csv"})
+    assert outcome.code == 2 and f"joint {name!r} has the name of a measured column" in outcome.err
+
+
+@pytest.mark.parametrize("name", ["nan", "NaN", "inf", "-Infinity"])
+def test_a_joint_named_like_no_number_is_refused_at_load(tmp_path, name):
+    _renamed(tmp_path, name)
+    outcome = run_checked(tmp_path, ["params", "j.urdf", "--tip", "tip"], {"j.urdf", "plan.csv"})
+    assert outcome.code == 2 and f"joint {name!r} is named like a number that is none" in outcome.err
+
+
+def test_a_plan_without_its_header_is_still_refused(tmp_path):
+    (tmp_path / "plan.csv").write_text("0.1,1.0\n0.5,-1.0\n")
+    outcome = run_checked(
+        tmp_path, ["campaign", "planar_2r", "--tip", "tip", "--plan", "plan.csv"], {"plan.csv"}
+    )
+    assert outcome.code == 2 and "the first row must be a header of column names, got 0.1,1.0" in outcome.err

@@ -334,16 +334,20 @@ class MeasurementData:
             path, what="measurement", error=BadMeasurementData, may_be_empty=_columns.may_be_empty
         )
         where = f"measurement file {source!r}"
-        loads = [h for h in header if h.startswith("payload_")]
-        measured = [h for h in header if _MEASURED.match(h) or _columns.is_measured(h)]
-        uncertain = [h for h in header if _SIGMA.match(h) or _columns.is_uncertainty(h)]
-        joints = [h for h in header if not (h in measured or h in uncertain or h in loads)]
+        # the robot's joints first: a joint may be named like another kind's column (u0, d0, sx)
+        named = set(robot.joint_names)
+        others = [h for h in header if h not in named]
+        loads = [h for h in others if h.startswith("payload_")]
+        measured = [h for h in others if _MEASURED.match(h) or _columns.is_measured(h)]
+        uncertain = [h for h in others if _SIGMA.match(h) or _columns.is_uncertainty(h)]
+        joints = [h for h in header if h in named or not (h in measured or h in uncertain or h in loads)]
         _check_joint_names(tuple(joints), robot.joint_names, where)
         kind = _kind_of(measured, robot, kind, where)
         q = rows[:, [header.index(n) for n in robot.joint_names]]
         if degrees:
             q = robot.to_radians(q)
-        payload = payload_columns(header, rows, where, BadMeasurementData)
+        columns = [i for i, h in enumerate(header) if h not in named]
+        payload = payload_columns(others, rows[:, columns], where, BadMeasurementData)
         if millimetres:
             payload = None if payload is None else payload / [1.0, 1000.0, 1000.0, 1000.0]
         if kind is None:
@@ -437,6 +441,12 @@ class MeasurementData:
         if self.payload is not None:
             coords += list(PAYLOAD_COLUMNS)
             values.append(self.payload * ([1.0, 1000.0, 1000.0, 1000.0] if millimetres else 1.0))
+        clash = sorted(set(self.joint_names) & set(coords))
+        if clash:
+            raise BadMeasurementData(
+                f"joint {clash[0]!r} has the name of a measured column ({','.join(coords)}): a "
+                f"measurement file could not tell them apart; rename the joint (<joint name=> in the URDF)"
+            )
         out = io.StringIO()
         out.write(csv_header(list(self.joint_names) + coords))
         for row in np.hstack(values):

@@ -19,6 +19,7 @@ URDF parser's own first message), never the parser's multi-line report.
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import shlex
 import tempfile
@@ -317,6 +318,7 @@ def read_urdf(
         model = model_from_text(prepare(text, ranges or {}, where), where)
     _check_axes(model, where)
     _check_lengths(model, where)
+    _check_joint_names(model, where)
     if meshes:
         check_meshes(text, path, package_dirs)
     return model
@@ -335,6 +337,22 @@ def _check_lengths(model: pin.Model, where: str) -> None:
             limits = [model.lowerPositionLimit[i], model.upperPositionLimit[i]]
             check_lengths(
                 limits, f"URDF {where}: prismatic joint {model.names[j]!r} has a limit at", UrdfError
+            )
+
+
+def _check_joint_names(model: pin.Model, where: str) -> None:
+    """A joint named ``nan`` or ``inf`` is refused: every CSV reader (pincal's, numpy's, pandas')
+    takes it for a number that is none, and it heads a column of every plan and measurement file."""
+    for name in list(model.names)[1:]:
+        try:
+            number = float(name)
+        except ValueError:
+            continue
+        if not math.isfinite(number):
+            raise UrdfError(
+                f"URDF {where}: joint {name!r} is named like a number that is none (NaN or infinity): "
+                f"CSV files of plans and measurements, headed by the joints' names, would read it as "
+                f"one; rename the joint"
             )
 
 

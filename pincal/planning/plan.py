@@ -163,8 +163,12 @@ class Plan:
             degrees: the file holds degrees (converted to radians; prismatic joints untouched).
         """
         header, rows, lines = read_numeric_csv(path, what=what)
-        payload = payload_columns(header, rows, f"{what} file {str(path)!r}", BadPlanFile)
-        keep = [i for i, h in enumerate(header) if not h.startswith("payload_")]
+        named = set() if robot is None else set(robot.joint_names)  # a joint may be named payload_kg
+        loads = [i for i, h in enumerate(header) if h.startswith("payload_") and h not in named]
+        payload = payload_columns(
+            [header[i] for i in loads], rows[:, loads], f"{what} file {str(path)!r}", BadPlanFile
+        )
+        keep = [i for i in range(len(header)) if i not in loads]
         header, rows = [header[i] for i in keep], rows[:, keep]
         if robot is None:
             if degrees:
