@@ -606,3 +606,36 @@ def test_a_plan_without_its_header_is_still_refused(tmp_path):
         tmp_path, ["campaign", "planar_2r", "--tip", "tip", "--plan", "plan.csv"], {"plan.csv"}
     )
     assert outcome.code == 2 and "the first row must be a header of column names, got 0.1,1.0" in outcome.err
+
+
+# ------------------------------------------------------------ urdfdom's own lines, into pincal's
+BAD_CELLS = {
+    "a box of two sizes": ('<box size="1 1"/>', "", "Parser found 2 elements but 3 expected"),
+    "a joint without child": ('<box size="1 1 1"/>',
+                              '<joint name="j" type="fixed"><parent link="world"/></joint>',
+                              "Failed to build tree: Joint [j] is missing a parent and/or child link"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(BAD_CELLS))
+def test_a_malformed_workcell_urdf_is_one_line_without_urdfdoms(tmp_path, case):
+    box, joint, expected = BAD_CELLS[case]
+    (tmp_path / "cell.urdf").write_text(
+        f'<robot name="cell"><link name="world"><collision><geometry>{box}</geometry></collision></link>'
+        f"{joint}</robot>"
+    )
+    (tmp_path / "cell.yaml").write_text("workcell:\n  urdf: cell.urdf\n")
+    (tmp_path / "plan.csv").write_text(PLAN)
+    argv = ["campaign", "planar_2r", "--tip", "tip", "--plan", "plan.csv", "--constraints", "cell.yaml"]
+    outcome = run_checked(tmp_path, argv, {"cell.urdf", "cell.yaml", "plan.csv"}, child=True)
+    assert outcome.code == 2 and "workcell urdf 'cell.urdf': cannot read it: " + expected in outcome.err
+
+
+def test_a_robot_collision_urdfdom_cannot_read_is_one_warning(tmp_path):
+    bad = '<link name="link2"><collision><geometry><box size="1 1"/></geometry></collision></link>'
+    (tmp_path / "robot.urdf").write_text(PLANAR.replace('<link name="link2"/>', bad))
+    (tmp_path / "plan.csv").write_text(PLAN)
+    argv = ["campaign", "robot.urdf", "--tip", "tip", "--plan", "plan.csv"]
+    outcome = run_checked(tmp_path, argv, {"robot.urdf", "plan.csv"}, child=True)
+    assert outcome.code == 0 and "Error:" not in outcome.err
+    assert "leaves out what urdfdom could not read: Parser found 2 elements" in outcome.err

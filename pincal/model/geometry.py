@@ -21,11 +21,11 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from pincal.errors import UrdfError
+from pincal.errors import UrdfError, warn
 from pincal.files import note_input
 from pincal.model.mjcf import build_geometry, geometry_text, is_mjcf
 from pincal.model.robot import Robot
-from pincal.model.urdf import read_tree, resolve_mesh
+from pincal.model.urdf import captured_stderr, first_error, read_tree, resolve_mesh
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,15 +86,21 @@ def urdf_geometry(
                 break
             mesh.set("filename", str(found.resolve()))
             note_input(found)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # Pinocchio's notes on the meshes it reads
-            geometry = pin.buildGeomFromUrdfString(
-                robot.model, etree.tostring(root, encoding="unicode"), kind, package_dirs=dirs
-            )
-    except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise UrdfError(f"cannot read the {tag} geometry of {str(path)!r}: {first}") from None
+    failure = None
+    with captured_stderr() as stderr:  # urdfdom's own multi-line reports: into pincal's one line
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # Pinocchio's notes on the meshes it reads
+                geometry = pin.buildGeomFromUrdfString(
+                    robot.model, etree.tostring(root, encoding="unicode"), kind, package_dirs=dirs
+                )
+        except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
+            failure = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    reported = first_error(stderr)
+    if failure is not None:
+        raise UrdfError(f"cannot read the {tag} geometry of {str(path)!r}: {reported or failure}")
+    if reported is not None:  # built without the element urdfdom could not parse
+        warn(f"the {tag} geometry of {str(path)!r} leaves out what urdfdom could not read: {reported}")
     return UrdfGeometry(geometry, tuple(sorted(missing)))
 
 

@@ -242,8 +242,9 @@ def prepare(text: str, ranges: Mapping[str, tuple[float, float]], where: str) ->
 
 
 @contextlib.contextmanager
-def _captured_stderr():
-    """Collect what C++ code writes on file descriptor 2 (urdfdom's multi-line reports)."""
+def captured_stderr():
+    """Collect what C++ code writes on file descriptor 2 (urdfdom's multi-line reports): a list,
+    filled when the block ends (see :func:`first_error`)."""
     sink: list[str] = []
     try:
         fd = os.dup(2)
@@ -263,16 +264,22 @@ def _captured_stderr():
 
 def model_from_text(text: str, where: str) -> pin.Model:
     """Pinocchio's model of a URDF text, or one UrdfError line naming the first problem."""
-    with _captured_stderr() as stderr:
+    with captured_stderr() as stderr:
         try:
             model = pin.buildModelFromXML(text)
         except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
             model, error = None, str(exc).strip()
     if model is not None:
         return model
+    raise UrdfError(
+        f"cannot read URDF {where}: {first_error(stderr) or (error.splitlines() or ['invalid'])[0]}"
+    )
+
+
+def first_error(stderr: list[str]) -> str | None:
+    """The first ``Error:`` urdfdom reported in what :func:`captured_stderr` collected, or None."""
     report = [line.strip() for line in "".join(stderr).splitlines() if line.strip().startswith("Error:")]
-    first = report[0][len("Error:") :].strip() if report else (error.splitlines() or ["invalid"])[0]
-    raise UrdfError(f"cannot read URDF {where}: {first}")
+    return report[0][len("Error:") :].strip() if report else None
 
 
 def few(names: Sequence[str], limit: int = 3) -> str:

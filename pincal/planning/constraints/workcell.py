@@ -35,6 +35,7 @@ import pinocchio as pin
 from pincal.errors import BadConstraint
 from pincal.files import note_input
 from pincal.model.robot import Robot
+from pincal.model.urdf import captured_stderr, first_error
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number, vector
 from pincal.planning.constraints.collision_world import CollisionWorld
 from pincal.planning.constraints.mount import MountBound
@@ -123,14 +124,19 @@ def urdf_obstacles(path: str | os.PathLike, package_dirs: tuple[str, ...] = ()) 
     path = Path(path)
     if not path.is_file():
         raise BadConstraint(f"workcell urdf {str(path)!r} not found")
-    try:
-        model = pin.buildModelFromUrdf(str(path))
-        geom = pin.buildGeomFromUrdf(
-            model, str(path), pin.COLLISION, package_dirs=[str(path.parent), *package_dirs]
-        )
-    except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
-        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        raise BadConstraint(f"workcell urdf {str(path)!r}: cannot read it: {first}") from None
+    failure = None
+    with captured_stderr() as stderr:  # urdfdom's own multi-line reports: into pincal's one line
+        try:
+            model = pin.buildModelFromUrdf(str(path))
+            geom = pin.buildGeomFromUrdf(
+                model, str(path), pin.COLLISION, package_dirs=[str(path.parent), *package_dirs]
+            )
+        except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with long texts
+            failure = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    # an error urdfdom reports, even when it builds a model: a part of the cell left out
+    reported = first_error(stderr)
+    if failure is not None or reported is not None:
+        raise BadConstraint(f"workcell urdf {str(path)!r}: cannot read it: {reported or failure}")
     if model.nq:
         raise BadConstraint(
             f"workcell urdf {str(path)!r}: a cell must be rigid, but joint {model.names[1]!r} moves "
