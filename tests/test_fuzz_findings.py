@@ -639,3 +639,13 @@ def test_a_robot_collision_urdfdom_cannot_read_is_one_warning(tmp_path):
     outcome = run_checked(tmp_path, argv, {"robot.urdf", "plan.csv"}, child=True)
     assert outcome.code == 0 and "Error:" not in outcome.err
     assert "leaves out what urdfdom could not read: Parser found 2 elements" in outcome.err
+
+
+def test_an_empty_calibration_name_is_refused(cli, tmp_path):
+    """--residual-model '' (or --calibration ''): one line, not an internal error (fuzz, issue 32)."""
+    plan = tmp_path / "plan.csv"
+    plan.write_text("joint1,joint2\n0,1\n0.5,1.5\n")
+    cli.fails(
+        "evaluate", "planar_2r", "--plan", plan, "--test-pose=0.3,1.2", "--params", "joint2.tx,tip.tx",
+        "--residual-model", "", match="is no file",
+    )  # fmt: skip

@@ -15,6 +15,7 @@ from pincal.cli import main
 POOL_Q2 = (0.5, 1.5, 2.5)
 Q0 = (0.3, 1.0)
 PLANAR = ["planar_2r", "--params", "joint2.tx,tip.tx", "--sigma", "1"]  # rho0 in units of sigma
+QUIET = ["planar_2r", "--params", "joint2.tx,tip.tx"]  # no --sigma 1: it warns (looks like millimetres)
 KR = ["kr270", "--marker", "0.1,0.05,0.2", "--test-pose=0,-90,90,0,45,0", "--deg", "--sigma", "3e-5"]
 
 
@@ -87,7 +88,7 @@ def test_baseline_command_draws_from_the_pool(cli, pool_csv):
 
 
 def test_show_pool_needs_plot(cli, tmp_path, pool_csv):
-    cli.fails("show", *PLANAR, "--plan", pool_csv, "--test-pose=0.3,1.0", "--pool", pool_csv, match="--plot")
+    cli.fails("show", *QUIET, "--plan", pool_csv, "--test-pose=0.3,1.0", "--pool", pool_csv, match="--plot")
 
 
 # ------------------------------------------------------------------------ --base

@@ -164,6 +164,12 @@ def load_calibration(urdf: str | os.PathLike, nominal: Robot) -> DeployedCalibra
         BadArgument: the sidecar is missing or malformed (what is wrong is named).
     """
     urdf = Path(urdf)
+    if not urdf.name or urdf.is_dir():
+        raise BadArgument(
+            f"the calibration {str(urdf)!r} is no file: give the calibrated URDF 'pincal identify --out' "
+            "wrote (its sidecar beside it)",
+            argument="--calibration",
+        )
     side = sidecar_path(urdf)
     if not side.is_file():
         raise BadArgument(
