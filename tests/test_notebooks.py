@@ -128,13 +128,14 @@ def differences(stored, fresh) -> list[str]:
     return problems
 
 
-def test_the_five_notebooks_are_there():
+def test_the_notebooks_are_there():
     assert [p.name for p in NOTEBOOKS] == [
         "01_planar_2link.ipynb",
         "02_kr270.ipynb",
         "03_your_robot.ipynb",
         "04_beyond_geometry.ipynb",
         "05_instruments.ipynb",
+        "06_real_robots.ipynb",
         "07_your_stack.ipynb",
     ]
 

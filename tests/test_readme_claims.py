@@ -23,6 +23,7 @@ import pytest
 
 import pincal
 from pincal.instruments.error_model import TRACKER_RADIAL, TRACKER_TRANSVERSE
+from pincal.planning.constraints.defaults import DEFAULT_CLEARANCE
 from pincal.planning.placement import ACCEPTANCE, STEPS, Sight
 from tests.conftest import ROOT
 
@@ -366,6 +367,13 @@ CLAIMS: tuple[Claim, ...] = (
     # Beyond geometry: the error a calibration predicts
     Claim("is sqrt(tr(J C Jᵀ) + 3K·v(q))", GIVEN),  # a formula: three coordinates
     Claim("whether there is any; docs/method.md §11.6)", GIVEN),
+    # Safe by default: the clearance (1241624)
+    Claim(
+        "Those points keep a **clearance** of 5 cm above the plane, and the robot 5 cm from every obstacle",
+        equals(DEFAULT_CLEARANCE * 100, DEFAULT_CLEARANCE * 100),
+    ),
+    Claim("`clearance:` in `--constraints`; 0 keeps only", GIVEN),  # the switch off
+    Claim("with a reflector 19 mm around the measured point (docs/method.md §12.5)", GIVEN),  # a 1.5" SMR
     Claim("accuracy report (test pose, ±10°, ±20°, workspace) of the calibrated robot", equals(*AROUND)),
     Claim(
         "on a UR10 with a 0.3 mm unmodelled field the held-out error is 0.33 mm with the residual model, "
