@@ -641,6 +641,35 @@ def test_a_robot_collision_urdfdom_cannot_read_is_one_warning(tmp_path):
     assert "leaves out what urdfdom could not read: Parser found 2 elements" in outcome.err
 
 
+# ------------------------------------------------------------ plausible compliances in rehearsals
+@pytest.mark.parametrize("name, load", [("kr270", 270.0), ("ur10", 10.0), ("panda", 3.0)])
+def test_drawn_compliances_are_within_the_published_range(name, load):
+    # a light wrist under its own weight alone drew 86 urad/(N m): 38 mm under the payload
+    from pincal.calibration.synthetic import COMPLIANCE_RANGE
+
+    robot = pincal.load_robot(name)
+    params = robot.parameters("compliance")
+    qs = robot.random_configurations(100, 3)
+    for seed in range(3):
+        truth = pincal.random_errors(params, seed=seed, payload=load)
+        assert np.all((truth.values >= COMPLIANCE_RANGE[0]) & (truth.values <= COMPLIANCE_RANGE[1]))
+        bent = np.linalg.norm(truth.robot.points(qs, payload=load) - robot.points(qs, payload=load), axis=-1)
+        assert np.sqrt(np.mean(bent**2)) < 3e-3  # millimetres at the rated payload, never centimetres
+        if name != "kr270":  # (its A2 and A3 at the range's floor, 1e-7, bend it by 1-2 mm)
+            assert np.sqrt(np.mean(bent**2)) < 1e-3
+
+
+def test_measure_sim_draws_compliances_for_the_plans_heaviest_payload(tmp_path):
+    ur10 = pincal.load_robot("ur10")
+    qs = ur10.random_configurations(8, 0)
+    pincal.Plan.for_robot(ur10, qs, np.repeat([0.0, 10.0], 4)).to_csv(tmp_path / "plan.csv")
+    argv = ["measure-sim", "ur10", "--plan", "plan.csv", "--params", "compliance", "--error-std", "0,0",
+            "--sigma", "0", "--save-true", "true.urdf", "--out", "m.csv"]  # fmt: skip
+    assert run_checked(tmp_path, argv, {"plan.csv"}).code == 0
+    side = json.loads((tmp_path / "true.calibration.json").read_text())
+    assert max(side["joint_compliances"].values()) <= 1e-5
+
+
 def test_an_empty_calibration_name_is_refused(cli, tmp_path):
     """--residual-model '' (or --calibration ''): one line, not an internal error (fuzz, issue 32)."""
     plan = tmp_path / "plan.csv"

@@ -18,6 +18,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+import pinocchio as pin
 
 from pincal.arguments import DEFAULT_SIGMA, angle, generator, length, positive_sigma
 from pincal.calibration.measurements import MeasurementData
@@ -38,10 +39,23 @@ GAIN_STD = 5e-4
 """Standard deviation of random joint gains (dimensionless): published gear-ratio errors are 1e-4 to
 1e-3."""
 
-COMPLIANCE_DEFLECTION = 1e-3
-"""Random joint compliances deflect their joint by about this much at its reference torque [rad]
-(|N(0, 1)| times this over :attr:`ParameterSet.scales`): 2e-7 rad/(N·m) on a KR 270's A2, 1e-5 on a
-UR10's wrist, the published magnitudes."""
+COMPLIANCE_TIP_DEFLECTION = 3e-4
+"""Random joint compliances move the tip by about this much [m] at their joint's reference torque
+(the RMS gravity torque of the arm's own weight, :attr:`ParameterSet.scales`): |N(0, 1)| times this
+over the reference torque and over the joint's lever to the tip, a few tenths of a millimetre, as a
+real arm under its own weight (docs/method.md §11.2)."""
+
+COMPLIANCE_RANGE = (1e-7, 1e-5)
+"""The published range of industrial joint compliances [rad/(N·m)] (docs/method.md §11.2): a drawn
+revolute compliance is clipped into it (a light wrist under its own weight alone would otherwise get
+1e-4 and more, and a payload would bend it by degrees)."""
+
+LINEAR_COMPLIANCE_RANGE = (1e-9, 1e-6)
+"""The range of a drawn prismatic joint's compliance [m/N]: an axis of 1 to 1 000 N/µm."""
+
+_LEVER_FLOOR = 0.05
+"""The shortest lever [m] from a joint to the tip a draw assumes (a joint at the tip moves it little,
+its compliance is still bounded by :data:`COMPLIANCE_RANGE`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,6 +101,7 @@ def random_errors(
     *,
     error_std: Mapping[str, float] | None = None,
     seed: SeedLike = None,
+    payload: PayloadLike = None,
 ) -> RandomErrors:
     """Draw independent Gaussian errors for every parameter of ``params``.
 
@@ -94,8 +109,13 @@ def random_errors(
         params: the parameters to perturb (errors elsewhere stay zero).
         error_std: ``{"length": s [m], "angle": s [rad]}``; default 1 mm and 1 mrad. Prismatic
             joint offsets count as lengths. Gains get :data:`GAIN_STD`; compliances are positive,
-            of the size of :data:`COMPLIANCE_DEFLECTION` at each joint's reference torque.
+            of the size that moves the tip by :data:`COMPLIANCE_TIP_DEFLECTION` at each joint's
+            reference torque, within :data:`COMPLIANCE_RANGE` (m/N: :data:`LINEAR_COMPLIANCE_RANGE`).
         seed: an int, a numpy Generator, or None for fresh entropy.
+        payload: the heaviest payload the simulated measurements carry (a mass [kg], a
+            :class:`~pincal.model.statics.Payload` or one row [[kg, x, y, z]]): the compliances'
+            reference torques are then
+            those under it, so that it bends the arm by tenths of a millimetre, not by degrees.
 
     Returns:
         the true errors and the true robot (``.robot``), a perturbed copy of ``params.robot``.
@@ -103,18 +123,53 @@ def random_errors(
     length, angle = error_std_pair(error_std)
     rng = generator(seed)
     kinds = [p.kind for p in params]
+    compliant = np.array([kind == "compliance" for kind in kinds], dtype=bool)
     scale = np.array(
         [
-            GAIN_STD if kind == "gain" else COMPLIANCE_DEFLECTION / s if kind == "compliance" else length
-            if unit == "m" else angle
-            for kind, unit, s in zip(kinds, params.units, params.scales)
+            GAIN_STD if kind == "gain" else 1.0 if kind == "compliance" else length if unit == "m" else angle
+            for kind, unit in zip(kinds, params.units)
         ]
-    )  # fmt: skip
+    )
+    if compliant.any():
+        scale[compliant], low, high = _compliance_scales(params, compliant, payload)
     values = scale * rng.standard_normal(len(params))
-    compliant = np.array([kind == "compliance" for kind in kinds], dtype=bool)
-    values[compliant] = np.abs(values[compliant])  # a joint yields to its load, never against it
+    if compliant.any():  # a joint yields to its load, never against it; within the published range
+        values[compliant] = np.clip(np.abs(values[compliant]), low, high)
     values.flags.writeable = False
     return RandomErrors(params, values, params.apply(values))
+
+
+def _compliance_scales(
+    params: ParameterSet, compliant: np.ndarray, payload: PayloadLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(the std of each compliance's draw, its lowest and its highest value) [rad/(N·m) or m/N]:
+    :data:`COMPLIANCE_TIP_DEFLECTION` over the reference torque (or force; under ``payload`` when
+    given) and, for a revolute joint, over its lever: the RMS distance from the joint to the tip
+    over the reference configurations."""
+    robot = params.robot
+    joints = [p.index for p, c in zip(params.parameters, compliant) if c]
+    model, data = robot.model, robot.model.createData()
+    qs = robot.random_configurations(REFERENCE_LEVERS, 0)
+    levers = np.zeros((len(qs), robot.nq))
+    for n, q in enumerate(qs):
+        pin.framesForwardKinematics(model, data, q)
+        tip = data.oMf[robot.tip_frame].translation
+        levers[n] = [np.linalg.norm(tip - data.oMi[j + 1].translation) for j in range(robot.nq)]
+    lever = np.maximum(np.sqrt(np.mean(levers**2, axis=0)), _LEVER_FLOOR)
+    revolute = np.asarray(robot.revolute, dtype=bool)[joints]
+    torque = params.scales[compliant]
+    if payload is not None:
+        loads = np.repeat(payload_rows(payload, 1), len(qs), axis=0)
+        loaded = np.sqrt(np.mean(robot.joint_torques(qs, payload=loads, check=False) ** 2, axis=0))[joints]
+        torque = np.maximum(torque, loaded)
+    std = COMPLIANCE_TIP_DEFLECTION / (torque * np.where(revolute, lever[joints], 1.0))
+    low = np.where(revolute, COMPLIANCE_RANGE[0], LINEAR_COMPLIANCE_RANGE[0])
+    high = np.where(revolute, COMPLIANCE_RANGE[1], LINEAR_COMPLIANCE_RANGE[1])
+    return std, low, high
+
+
+REFERENCE_LEVERS = 50
+"""Configurations over which a joint's lever to the tip is averaged (seed 0: the same every draw)."""
 
 
 @dataclass(frozen=True, eq=False)

@@ -130,7 +130,8 @@ def run(args: argparse.Namespace) -> int:
         description = f"true robot {args.true}"
     else:
         params, source = params_from_args(robot, args, instrument_from_args(args, kind, given or None))
-        truth = random_errors(params, error_std=parse_error_std(args.error_std), seed=rng)
+        heaviest = None if plan.payload is None else plan.payload[[int(np.argmax(plan.payload[:, 0]))]]
+        truth = random_errors(params, error_std=parse_error_std(args.error_std), seed=rng, payload=heaviest)
         true_robot = truth.robot
         description = f"random errors of {len(params)} parameters ({source}), seed {args.seed}"
         if args.save_true:
