@@ -490,6 +490,7 @@ def test_docstring_examples_run():
     assert attempted > 0
 
 
+@pytest.mark.long  # a humanoid's arm kept clear of its own body: minutes of CPU
 def test_design_and_identification_agree_on_what_a_plan_separates():
     """tiago_pro writes 3.14 for π: with a tolerance of 1e-3 the base keeps arm_left_7_joint.tz
     1.4e-3 from the span of the others, and no plan conditions the set above 5e-7. The default

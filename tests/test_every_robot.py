@@ -47,6 +47,7 @@ def _check(name: str) -> None:
     assert result.error_after < result.error_before
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("name", FAST)
 def test_round_trip(name):
     _check(name)

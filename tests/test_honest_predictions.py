@@ -168,8 +168,8 @@ def test_cli_a_group_means_its_identifiable_part(cli, measured):
     assert any(name.endswith(".gain") for name in out["params"])
     # A parameter named one by one and not identifiable is refused, naming it and why.
     line = cli.fails(
-        "identify", "kr270", "--data", measured, "--marker", MARKER_ARG, "--params", "full,offsets,joint_a1.rz",
-        match="joint_a1.rz cannot be identified",
+        "identify", "kr270", "--data", measured, "--marker", MARKER_ARG,
+        "--params", "full,offsets,joint_a1.rz", match="joint_a1.rz cannot be identified",
     )  # fmt: skip
     assert "redundant" in line and "name its group" in line
 

@@ -167,6 +167,7 @@ def test_prose_quotes_no_number_the_code_does_not_hold(path):
             assert not typed, f"{path.name}: the prose types {typed} (compute them and display the result)"
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_stored_outputs_are_what_the_notebook_computes(path):
     stored = nbformat.read(path, as_version=4)

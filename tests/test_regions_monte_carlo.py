@@ -31,7 +31,7 @@ ERRORS = {"length": 1e-3, "angle": 1e-3}
 SWEEP = np.radians([30, 10, -10, 20, 15, 30])
 """The test path: q0 + t·SWEEP, t in [-1, 1] (a seam through the test pose)."""
 CASES = [
-    pytest.param(("kr270", np.radians([0, -60, 60, 0, 45, 0]), 150), id="kr270"),
+    pytest.param(("kr270", np.radians([0, -60, 60, 0, 45, 0]), 150), id="kr270", marks=pytest.mark.long),
     # The UR10 of example-robot-data with more trials (tighter statistics): about 90 s of CPU.
     pytest.param(
         ("ur10", np.array([0.0, -1.2, 1.5, -1.0, -1.5, 0.0]), 500), id="ur10", marks=pytest.mark.slow

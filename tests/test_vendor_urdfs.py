@@ -54,6 +54,7 @@ def test_rounded_angles_keep_the_identifiable_set(pair):
     assert s[b.rank - 1] > 1e-3 * s[0] and s[b.rank] < 1e-9 * s[0]
 
 
+@pytest.mark.long
 def test_design_and_identify_match_the_exact_robot_to_one_percent(pair):
     _, exact, rounded = pair
     q0 = exact.random_configurations(1, 7)
@@ -171,6 +172,7 @@ def test_gen3_identifiability_is_the_exact_arms(gen3):
     assert s[a.rank - 1] > 1e-3 * s[0] and s[a.rank] < 1e-9 * s[0]
 
 
+@pytest.mark.long
 def test_gen3_designs_and_identifies_like_the_exact_arm(gen3):
     published, exact = gen3
     params = published.parameters("full,offsets").identifiable().identifiable
