@@ -44,7 +44,7 @@ from lxml import etree
 
 from pincal.calibration._urdf_to_mjcf import urdf_to_mjcf
 from pincal.calibration.identification import IdentificationResult
-from pincal.calibration.urdf_export import sidecar, sidecar_path
+from pincal.calibration.urdf_export import check_reproduces, sidecar, sidecar_path
 from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused, PincalWarning, UrdfError
 from pincal.files import all_or_nothing, atomic_write_text
 from pincal.model.chain import default_root, frame_id
@@ -64,8 +64,6 @@ from pincal.model.mjcf import (
 from pincal.model.robot import Robot
 from pincal.version import __version__
 
-ROUND_TRIP_TOLERANCE = 1e-9
-"""Largest point distance [m] allowed between the exported MJCF and the calibrated model."""
 MARKER_SITE = "pincal_marker{}"
 """Name of the site of marker k."""
 
@@ -356,18 +354,4 @@ def _verify(text: str, out: Path, robot: Robot, markers: np.ndarray, base: pin.S
             exported = load_robot(
                 written, tip=robot.tip, markers=markers, root=robot.root, joint_ranges=ranges
             )
-    exported = exported.replace(
-        base=base, joint_gains=robot.joint_gains, joint_compliances=robot.joint_compliances
-    ).with_gravity(robot.gravity)
-    if exported.joint_names != robot.joint_names:
-        raise UrdfError(
-            f"the MJCF written does not match the robot: its chain to {robot.tip!r} has joints "
-            f"{', '.join(exported.joint_names)}, the robot {', '.join(robot.joint_names)}"
-        )
-    qs = robot.random_configurations(20, np.random.default_rng(0))
-    error = float(np.max(np.linalg.norm(exported.points(qs) - robot.points(qs), axis=-1)))
-    if error > ROUND_TRIP_TOLERANCE:
-        raise UrdfError(
-            f"the MJCF written for {robot.name!r} would not reproduce the calibrated model (points differ "
-            f"by up to {error:.3g} m): the source does not describe this robot"
-        )
+    check_reproduces(exported, robot, "the MJCF written", f"the MJCF written for {robot.name!r}", base=base)

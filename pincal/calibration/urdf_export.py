@@ -383,19 +383,41 @@ def _verify(text: str, robot: Robot, origins: dict[str, pin.SE3], source: Path) 
         warnings.simplefilter("ignore", PincalWarning)  # told when the source was loaded
         exported = load_robot(model, tip=robot.tip, markers=robot.markers, root=robot.root)
     # The sidecar's terms on top of the URDF's geometry: the exported pair must be the calibrated robot.
+    check_reproduces(
+        exported,
+        robot,
+        f"URDF {str(source)!r}",
+        f"the URDF written from {str(source)!r}",
+        f", or the tip frame {robot.tip!r} has no fixed joint of its own to carry its corrected placement",
+    )
+
+
+def check_reproduces(
+    exported: Robot, robot: Robot, source: str, written: str, hint: str = "", base: pin.SE3 | None = None
+) -> Robot:
+    """``exported`` (a written file read back) with the sidecar's terms of ``robot`` (its base, or
+    ``base``; gains, compliances, gravity); it must be the calibrated robot: the same chain, and the
+    same points to :data:`ROUND_TRIP_TOLERANCE` at 20 configurations.
+
+    Raises:
+        UrdfError: naming ``source`` (what does not match) or ``written`` (what would not reproduce
+            the calibrated model), with ``hint`` (more likely causes) after the first.
+    """
     exported = exported.replace(
-        base=robot.base, joint_gains=robot.joint_gains, joint_compliances=robot.joint_compliances
+        base=robot.base if base is None else base,
+        joint_gains=robot.joint_gains,
+        joint_compliances=robot.joint_compliances,
     ).with_gravity(robot.gravity)
     if exported.joint_names != robot.joint_names:
         raise UrdfError(
-            f"URDF {str(source)!r} does not match the robot: its chain to {robot.tip!r} has joints "
+            f"{source} does not match the robot: its chain to {robot.tip!r} has joints "
             f"{', '.join(exported.joint_names)}, the robot {', '.join(robot.joint_names)}"
         )
     qs = robot.random_configurations(20, np.random.default_rng(0))
     error = float(np.max(np.linalg.norm(exported.points(qs) - robot.points(qs), axis=-1)))
     if error > ROUND_TRIP_TOLERANCE:
         raise UrdfError(
-            f"the URDF written from {str(source)!r} would not reproduce the calibrated model (points "
-            f"differ by up to {error:.3g} m): the source does not describe this robot, or the tip "
-            f"frame {robot.tip!r} has no fixed joint of its own to carry its corrected placement"
+            f"{written} would not reproduce the calibrated model (points differ by up to {error:.3g} m): "
+            f"the source does not describe this robot{hint}"
         )
+    return exported
