@@ -205,16 +205,17 @@ def make_inputs(words: list[str], folder: Path, made: dict[str, tuple]) -> None:
         pincal_ok("measure-sim", *robot_args, "--plan", "_plan_for_data.csv", *deg,
                   "--error-std", "1e-3,1e-3", *extra, "--seed", seed, "--out", path)  # fmt: skip
 
+    for values in options.values():  # the shipped examples first: the others may read them (a rig)
+        for value in values:
+            if value in EXAMPLE_FILES and not (folder / value).exists():
+                pincal_ok("example", EXAMPLE_FILES[value], "--out", value)
+            if value == "cell.yaml" and not (folder / "fixture.stl").exists():
+                pincal_ok("example", "fixture", "--out", "fixture.stl")
     for name, values in options.items():
         for value in values:
-            if not value:
+            if not value or value in EXAMPLE_FILES:
                 continue
-            if value in EXAMPLE_FILES:
-                if not (folder / value).exists():
-                    pincal_ok("example", EXAMPLE_FILES[value], "--out", value)
-                if value == "cell.yaml" and not (folder / "fixture.stl").exists():
-                    pincal_ok("example", "fixture", "--out", "fixture.stl")
-            elif name in ("--plan", "--compare", "--pool"):
+            if name in ("--plan", "--compare", "--pool"):
                 plan(value, 60 if name == "--pool" else 30)
             elif name in ("--data", "--validate") and fresh(value):
                 data(value)
