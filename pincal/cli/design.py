@@ -76,7 +76,7 @@ examples:
       --params lengths,offsets --out plan.csv --baseline 1000
   pincal design planar_2r -m 2 --test-pose=0.3,1.2 --params joint2.tx,tip.tx --json
   pincal design ur10 -m 12 --test-pose=0,-1.2,1.5,-1,-1.5,0 --method exchange --pool taught.csv
-  pincal design kr270 -m 8 --test-pose=0,-90,90,0,45,0 --deg --constraints cell.yaml --starts 128
+  pincal design kr270 -m 10 --test-pose=0,-90,90,0,45,0 --deg --constraints cell.yaml --starts 32
   pincal design kr270 -m 12 --test-pose=0,-60,60,0,45,0 --deg --around 10deg --marker 0.1,0.05,0.2 \\
       --sigma 3e-5 --out plan.csv                   # accurate over ±10°, not only at the test pose
   pincal design kr270 -m 12 --test-path weld.csv --deg --marker 0.1,0.05,0.2 --sigma 3e-5
