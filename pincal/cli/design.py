@@ -85,7 +85,7 @@ examples:
       --params lengths,offsets,gains,joint_a2.compliance,joint_a3.compliance --payloads 0,135,270 \
       --task-payload 270 --payload-centre 0,0,0.25 --out plan.csv   # a payload per configuration
   pincal design ur10 -m 8 --test-pose=0,-1.2,1.5,-1,-1.5,0 --measure pose --sigma 1e-4 --sigma-rot 2e-3
-  pincal design panda -m 10 --test-pose=0,-0.3,0,-2.2,0,2,0.8 --camera rig.yaml   # a camera and a grid
+  pincal design panda -m 20 --test-pose=0,-0.3,0,-2.2,0,2,0.8 --camera rig.yaml   # a camera and a grid
   pincal design kr270 -m 12 --test-pose=0,-90,90,0,45,0 --deg --marker 0.1,0.05,0.2 \
       --instrument tracker --instrument-at 4,0,1    # a tracker's radial/transverse error, 4 m away
   pincal design ur10 -m 12 --test-pose=0,-1.2,1.5,-1,-1.5,0 --marker 0.05,0.02,0.1 \
