@@ -100,6 +100,21 @@ class Bound:
         return ok
 
 
+class NothingChecked(Bound):
+    """A bound that checks nothing (an optional check with nothing to check, a constraint another
+    one carries): empty, every configuration satisfies it."""
+
+    @property
+    def empty(self) -> bool:
+        return True
+
+    def margins(self, kin: Kinematics) -> np.ndarray:
+        return np.zeros((len(kin.qs), 0))
+
+    def satisfied(self, kin: Kinematics) -> np.ndarray:
+        return np.ones(len(kin.qs), dtype=bool)
+
+
 class Constraint:
     """Base of the per-configuration constraints."""
 

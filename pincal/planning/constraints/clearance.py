@@ -13,10 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from pincal.model.robot import Robot
-from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number
+from pincal.planning.constraints.base import Bound, Constraint, NothingChecked, number
 
 
 @dataclass(frozen=True)
@@ -37,15 +35,5 @@ class Clearance(Constraint):
         return _Carried()
 
 
-class _Carried(Bound):
+class _Carried(NothingChecked):
     """A Clearance bound to a robot: it checks nothing (the Mount and the Workcell do)."""
-
-    @property
-    def empty(self) -> bool:
-        return True
-
-    def margins(self, kin: Kinematics) -> np.ndarray:
-        return np.zeros((len(kin.qs), 0))
-
-    def satisfied(self, kin: Kinematics) -> np.ndarray:
-        return np.ones(len(kin.qs), dtype=bool)

@@ -13,7 +13,7 @@ from pincal.errors import BadConstraint, UrdfError
 from pincal.model.geometry import convex_hulls, urdf_geometry
 from pincal.model.robot import Robot
 from pincal.model.urdf import few
-from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number
+from pincal.planning.constraints.base import Bound, Constraint, Kinematics, NothingChecked, number
 from pincal.planning.constraints.collision_world import touching_at_reference
 
 
@@ -58,18 +58,8 @@ class SelfCollision(Constraint):
             return NoCollisionGeometry()
 
 
-class NoCollisionGeometry(Bound):
+class NoCollisionGeometry(NothingChecked):
     """The optional self-collision check of a robot without usable collision geometry: nothing."""
-
-    @property
-    def empty(self) -> bool:
-        return True
-
-    def margins(self, kin: Kinematics) -> np.ndarray:
-        return np.zeros((len(kin.qs), 0))
-
-    def satisfied(self, kin: Kinematics) -> np.ndarray:
-        return np.ones(len(kin.qs), dtype=bool)
 
 
 def collision_geometry(robot: Robot, package_dirs: tuple[str, ...], what: str) -> pin.GeometryModel:
