@@ -44,7 +44,7 @@ from lxml import etree
 
 from pincal.calibration._urdf_to_mjcf import urdf_to_mjcf
 from pincal.calibration.identification import IdentificationResult
-from pincal.calibration.urdf_export import check_reproduces, sidecar, sidecar_path
+from pincal.calibration.urdf_export import check_reproduces, placement_text, sidecar, sidecar_path
 from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused, PincalWarning, UrdfError
 from pincal.files import all_or_nothing, atomic_write_text
 from pincal.model.chain import default_root, frame_id
@@ -326,11 +326,7 @@ def _comment(
     lines += [
         "Joint offsets dq are in each joint's ref (ref <- ref - dq): qpos = the joint reading.",
         f"Markers: sites pincal_marker<k> on {robot.tip}; the robot base in the instrument frame: "
-        'xyz="'
-        + " ".join(f"{v + 0.0:.9g}" for v in base.translation)
-        + '" rpy="'
-        + " ".join(f"{v + 0.0:.9g}" for v in pin.rpy.matrixToRpy(base.rotation))
-        + '"',
+        f"{placement_text(base)}",
     ]
     if result is not None:
         lines.append(

@@ -40,6 +40,7 @@ from lxml import etree
 
 from pincal.calibration._urdf_to_mjcf import NO_INERTIA, NO_MASS
 from pincal.calibration.identification import IdentificationResult
+from pincal.calibration.urdf_export import placement_text
 from pincal.errors import BadArgument, IdentificationFailed, PincalWarning, UrdfError
 from pincal.files import atomic_write_text
 from pincal.model.robot import Robot
@@ -286,11 +287,7 @@ def _comment(robot: Robot, src: Path) -> str:
         "Joint offsets dq are folded into the joint poses: pose <- origin * exp(S dq), S the joint's",
         "motion axis; a joint value q on this model means what q + dq meant on the source.",
         f"Markers: frames pincal_marker<k> attached to {robot.tip}; the model's pose is the robot base",
-        'in the instrument frame: xyz="'
-        + " ".join(f"{v + 0.0:.9g}" for v in base.translation)
-        + '" rpy="'
-        + " ".join(f"{v + 0.0:.9g}" for v in pin.rpy.matrixToRpy(base.rotation))
-        + '"',
+        f"in the instrument frame: {placement_text(base)}",
     ]
     if robot.is_elastic:
         lines.append(

@@ -337,11 +337,7 @@ def _comment_text(robot: Robot, result: IdentificationResult | None, source: Pat
         "Not robot geometry, not written as URDF elements:",
         f"  markers in frame {robot.tip} [m]: "
         + "; ".join("(" + ", ".join(f"{v:.9g}" for v in m) + ")" for m in robot.markers),
-        '  robot base in the instrument frame: xyz="'
-        + " ".join(f"{v + 0.0:.9g}" for v in base.translation)
-        + '" rpy="'
-        + " ".join(f"{v + 0.0:.9g}" for v in pin.rpy.matrixToRpy(base.rotation))
-        + '"',
+        f"  robot base in the instrument frame: {placement_text(base)}",
     ]
     if result is not None:
         lines.append(
@@ -421,3 +417,10 @@ def check_reproduces(
             f"the source does not describe this robot{hint}"
         )
     return exported
+
+
+def placement_text(placement: pin.SE3) -> str:
+    """``xyz="..." rpy="..."`` of a placement [m, rad], as the written files' comments give the base."""
+    xyz = " ".join(f"{v + 0.0:.9g}" for v in placement.translation)
+    rpy = " ".join(f"{v + 0.0:.9g}" for v in pin.rpy.matrixToRpy(placement.rotation))
+    return f'xyz="{xyz}" rpy="{rpy}"'
