@@ -3,7 +3,7 @@ subpackage ships without editing anything), and the URDFs of ``robots/`` as ``pi
 
 ``pyproject.toml`` holds everything else (metadata, ``package-dir`` mapping ``robots/`` to
 ``pincal.robots``, package data). The discovery lives here because ``[tool.setuptools.packages.find]``
-cannot add a package that sits outside the folder it searches; tests/test_packaging.py checks the
+cannot add a package that sits outside the folder it searches; tests/contracts/test_packaging.py checks the
 built wheel against the source tree.
 """
 

@@ -28,8 +28,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import pincal  # noqa: E402
-from tests.robot_zoo import MARKER, chain_of, listed_robots, rehearse  # noqa: E402
-from tests.vendor_like import z_axis_urdf  # noqa: E402
+from tests.support.robot_zoo import MARKER, chain_of, listed_robots, rehearse  # noqa: E402
+from tests.support.vendor_like import z_axis_urdf  # noqa: E402
 
 VENDOR = [
     (

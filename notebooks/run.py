@@ -4,7 +4,7 @@
     python notebooks/run.py 02_kr270           # the ones named
 
 Run it after any change that moves the numbers the notebooks show (a design kernel, a default, the
-notebook itself), and commit the notebooks it rewrites: ``tests/test_notebooks.py`` re-executes each
+notebook itself), and commit the notebooks it rewrites: ``tests/contracts/test_notebooks.py`` re-executes each
 notebook and fails when a stored number is not what the code produces, to the tolerance its output
 declares. Each notebook runs in a fresh kernel in a temporary working directory (nothing is written
 into the repository) and is written back only when every cell ran without an error.

@@ -2,7 +2,7 @@
 
 :func:`read_mjcf` gives the Pinocchio model of the whole tree through Pinocchio's MJCF parser
 (``pinocchio.buildModelFromMJCF``), after writing the file in the forms that parser reads as MuJoCo
-does (checked against MuJoCo's own forward kinematics, tests/test_mjcf.py):
+does (checked against MuJoCo's own forward kinematics, tests/model/test_mjcf.py):
 
 * ``<include file>`` elements are replaced by the included file's content;
 * every orientation (``euler`` in the ``<compiler eulerseq>`` order, ``axisangle``, ``xyaxes``,

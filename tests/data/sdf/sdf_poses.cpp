@@ -1,4 +1,4 @@
-// Reads an SDFormat file with libsdformat and prints what tests/test_export_sdf.py composes the
+// Reads an SDFormat file with libsdformat and prints what tests/calibration/test_export_sdf.py composes the
 // forward kinematics from: the load errors, then the model's pose and, through the semantic pose
 // API, every link, joint and frame resolved in the model frame (the zero configuration), each
 // joint's type, parent, child, axis resolved in the joint's own frame and limits.
