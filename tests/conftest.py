@@ -1,4 +1,5 @@
-"""Shared fixtures: robots are loaded once per session (they are immutable)."""
+"""Shared fixtures: the robots (loaded once per session: they are immutable), the command line run
+in-process, a seeded generator; and the marker logic."""
 
 from __future__ import annotations
 
@@ -17,7 +18,8 @@ import pytest  # noqa: E402
 import pincal  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-OFF_AXIS = [(0.1, 0.05, 0.2)]
+OFF_AXIS = [(0.1, 0.05, 0.2)]  # the README's marker on the KR 270's flange
+UR10_MARKER = [(0.03, -0.02, 0.1)]  # the UR10's, unless a module asks for another
 
 
 @pytest.fixture(scope="session")
@@ -27,12 +29,35 @@ def planar():
 
 @pytest.fixture(scope="session")
 def kr270():
+    """The KR 270 from robots/kr270.urdf, tip tool0, no marker: the flange's origin is measured."""
     return pincal.load_robot(ROOT / "robots" / "kr270.urdf", tip="tool0")
 
 
 @pytest.fixture(scope="session")
 def kr270_marker():
+    """The shipped KR 270 with the README's off-axis marker (OFF_AXIS)."""
     return pincal.load_robot("kr270", tip="tool0", markers=OFF_AXIS)
+
+
+_UR10S: dict[tuple, pincal.Robot] = {}
+
+
+@pytest.fixture(scope="module")
+def ur10(request):
+    """The shipped UR10 with one marker (UR10_MARKER), loaded once per session for each variant.
+
+    A module that needs another UR10 says so once, ``pytestmark = pytest.mark.ur10(markers=[...])``
+    (``markers=None``: load_robot's default, the flange's origin), optionally with ``base=`` (an
+    SE3: where the robot stands in the instrument's frame).
+    """
+    mark = request.node.get_closest_marker("ur10")
+    options = {"markers": UR10_MARKER, "base": None} | (mark.kwargs if mark else {})
+    base = options["base"]
+    key = (repr(options["markers"]), None if base is None else base.homogeneous.tobytes())
+    if key not in _UR10S:
+        robot = pincal.load_robot("ur10", markers=options["markers"])
+        _UR10S[key] = robot if base is None else robot.replace(base=base)
+    return _UR10S[key]
 
 
 @pytest.fixture
@@ -91,6 +116,10 @@ def cli(capsys):
     """The command line, with ``.run(*argv) -> (code, out, err)``, ``.json(*argv)`` and
     ``.fails(*argv, match=...)``."""
     return Cli(capsys)
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "ur10(markers=..., base=...): which UR10 the ur10 fixture loads")
 
 
 def pytest_collection_modifyitems(config, items):

@@ -11,18 +11,16 @@ from pincal.calibration import holdout
 from pincal.calibration.synthetic import COMPLIANCE_RANGE, SmoothField
 
 SIGMA = 3e-5
-MARKER = [(0.1, 0.05, 0.2)]
 PAYLOADS = [0.0, 135.0, 270.0]  # kg, the KR 270's range
 
 
 @pytest.fixture(scope="module")
-def kr270():
-    return pincal.load_robot("kr270", markers=MARKER)
-
-
-@pytest.fixture(scope="module")
-def elastic(kr270):
-    return kr270.parameters("lengths,offsets,gains,compliance").identifiable(payloads=PAYLOADS).identifiable
+def elastic(kr270_marker):
+    return (
+        kr270_marker.parameters("lengths,offsets,gains,compliance")
+        .identifiable(payloads=PAYLOADS)
+        .identifiable
+    )
 
 
 def _loads(m: int, seed: int) -> np.ndarray:
@@ -41,9 +39,9 @@ def test_random_errors_have_published_magnitudes(elastic):
     assert np.all((compliances >= COMPLIANCE_RANGE[0]) & (compliances <= COMPLIANCE_RANGE[1]))
 
 
-def test_parameters_are_recovered_within_their_standard_errors(kr270, elastic):
+def test_parameters_are_recovered_within_their_standard_errors(kr270_marker, elastic):
     truth = pincal.random_errors(elastic, seed=2)
-    plan = kr270.random_configurations(80, 3, margin=0.1)
+    plan = kr270_marker.random_configurations(80, 3, margin=0.1)
     data = pincal.simulate_measurements(truth, plan, SIGMA, seed=4, payload=_loads(80, 5))
     assert data.payload is not None and set(data.payload[:, 0]) == set(PAYLOADS)
     result = pincal.identify(elastic, data, sigma=SIGMA)
@@ -56,10 +54,10 @@ def test_parameters_are_recovered_within_their_standard_errors(kr270, elastic):
     assert "ppm" in report and "µrad/(N·m)" in report
 
 
-def test_without_the_payload_columns_compliance_is_misread(kr270, elastic):
+def test_without_the_payload_columns_compliance_is_misread(kr270_marker, elastic):
     # The same data read as if nothing were carried: the fit cannot explain the loaded rows.
     truth = pincal.random_errors(elastic, seed=2)
-    plan = kr270.random_configurations(80, 3, margin=0.1)
+    plan = kr270_marker.random_configurations(80, 3, margin=0.1)
     data = pincal.simulate_measurements(truth, plan, SIGMA, seed=4, payload=_loads(80, 5))
     blind = pincal.MeasurementData(data.q, data.points, data.joint_names)
     result = pincal.identify(elastic, blind, sigma=SIGMA, sanity=False)

@@ -16,12 +16,6 @@ from pincal.evaluation.test_pose import rho0_each
 from pincal.model.residual import ResidualModel, features
 
 SIGMA = 1e-5
-MARKER = [(0.03, -0.02, 0.1)]
-
-
-@pytest.fixture(scope="module")
-def ur10():
-    return pincal.load_robot("ur10", markers=MARKER)
 
 
 @pytest.fixture(scope="module")

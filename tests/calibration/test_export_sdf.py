@@ -136,7 +136,7 @@ def _frame_positions(read: dict, joint_names, qs) -> np.ndarray:
 
 
 @pytest.fixture
-def kr270(tmp_path):
+def kr270_calibration(tmp_path):
     """The KR 270 with every origin, joint offset, marker and the base wrong: its calibration
     (cal.urdf and sidecar) and the calibrated robot."""
     robot = pincal.load_robot("kr270", markers=MARKERS)
@@ -144,8 +144,8 @@ def kr270(tmp_path):
     return export_urdf(truth, tmp_path / "cal.urdf"), truth
 
 
-def test_libsdformat_reads_the_calibration(tmp_path, kr270, cli, libsdformat):
-    urdf, truth = kr270
+def test_libsdformat_reads_the_calibration(tmp_path, kr270_calibration, cli, libsdformat):
+    urdf, truth = kr270_calibration
     out = tmp_path / "cal.sdf"
     code, said, err = cli.run("export", str(urdf), "--format", "sdf", "--out", str(out))
     assert code == 0, err
@@ -171,10 +171,10 @@ def test_libsdformat_reads_the_calibration(tmp_path, kr270, cli, libsdformat):
     assert float(np.max(np.linalg.norm(nominal.points(qs) - truth.points(qs), axis=-1))) > 1e-4
 
 
-def test_sdf_conventions(tmp_path, kr270):
+def test_sdf_conventions(tmp_path, kr270_calibration):
     """Every pose says what it is relative to: a joint's its parent link, a link's its joint; the
     joint offsets are in the joint poses (no <calibration>), the base is the model's pose."""
-    urdf, truth = kr270
+    urdf, truth = kr270_calibration
     out = export_sdf(truth, tmp_path / "cal.sdf", source=urdf)
     model = etree.parse(str(out)).getroot().find("model")
     assert etree.parse(str(out)).getroot().get("version") == "1.9"
@@ -192,8 +192,8 @@ def test_sdf_conventions(tmp_path, kr270):
     assert float(np.max(np.linalg.norm(points - truth.points(qs), axis=-1))) <= 1e-9
 
 
-def test_refusals(tmp_path, kr270, cli):
-    urdf, truth = kr270
+def test_refusals(tmp_path, kr270_calibration, cli):
+    urdf, truth = kr270_calibration
     before = urdf.read_bytes()
     cli.fails("export", str(urdf), "--format", "sdf", "--out", str(urdf), match="input")
     assert urdf.read_bytes() == before
@@ -213,9 +213,9 @@ def test_refusals(tmp_path, kr270, cli):
     assert not (tmp_path / "clash.sdf").exists()
 
 
-def test_gains_are_not_geometry(tmp_path, kr270):
+def test_gains_are_not_geometry(tmp_path, kr270_calibration):
     """SDF has no joint gain: the file holds the geometry, the gains its comment, with a warning."""
-    urdf, truth = kr270
+    urdf, truth = kr270_calibration
     elastic = truth.replace(joint_gains=np.full(truth.nq, 1e-3))
     with pytest.warns(PincalWarning, match="no joint gain"):
         out = export_sdf(elastic, tmp_path / "cal.sdf", source=urdf)

@@ -27,11 +27,7 @@ BASE = pin.SE3(pin.rpy.rpyToMatrix(0.1, -0.2, 0.3), np.array([1.5, -0.4, 0.2]))
 MARKER = (0.05, 0.0, 0.12)
 FEATURES = [(0.02, 0.0, 0.1), (-0.02, 0.0, 0.1)]
 MOVEIT = {"joint_states": DATA / "moveit" / "joint_states.yaml"}
-
-
-@pytest.fixture(scope="module")
-def ur10():
-    return pincal.load_robot("ur10").replace(base=BASE, markers=[MARKER])
+pytestmark = pytest.mark.ur10(markers=[MARKER], base=BASE)  # the ur10 fixture (tests/conftest.py)
 
 
 @pytest.mark.parametrize(

@@ -18,13 +18,7 @@ from pincal.campaign.adaptive import assess, next_poses
 from pincal.errors import BadArgument
 
 SIGMA = 3e-5
-MARKER = [(0.03, -0.02, 0.1)]
 FAST = dict(starts=2, pool=300, workers=1, polish=False)
-
-
-@pytest.fixture(scope="module")
-def ur10():
-    return pincal.load_robot("ur10", markers=MARKER)
 
 
 def test_identifiable_keeps_the_base_when_the_set_holds_it(ur10, kr270_marker):

@@ -25,13 +25,8 @@ MARKER = [(0.1, 0.05, 0.2)]
 
 
 @pytest.fixture(scope="module")
-def kr270():
-    return pincal.load_robot("kr270", markers=MARKER)
-
-
-@pytest.fixture(scope="module")
-def kr270_params(kr270):
-    return kr270.parameters("full,offsets").identifiable().identifiable
+def kr270_params(kr270_marker):
+    return kr270_marker.parameters("full,offsets").identifiable().identifiable
 
 
 def _data(robot, plan, sigma=0.0, seed=0):
@@ -62,18 +57,18 @@ def test_recovers_known_parameters_from_exact_data(name, tip, markers, spec):
     np.testing.assert_allclose(result.robot.points(q), truth.robot.points(q), rtol=0, atol=1e-10)
 
 
-def test_column_order_of_the_data_does_not_matter(kr270, kr270_params):
+def test_column_order_of_the_data_does_not_matter(kr270_marker, kr270_params):
     truth = random_errors(kr270_params, seed=4)
-    data = _data(truth.robot, kr270.random_configurations(30, 5), sigma=3e-5, seed=6)
+    data = _data(truth.robot, kr270_marker.random_configurations(30, 5), sigma=3e-5, seed=6)
     order = [5, 2, 0, 4, 1, 3]
     shuffled = MeasurementData(data.q[:, order], data.points, [data.joint_names[i] for i in order])
     a, b = identify(kr270_params, data), identify(kr270_params, shuffled)
     np.testing.assert_allclose(a.values, b.values, rtol=0, atol=1e-13)
 
 
-def test_unknown_base_far_away_and_rotated(kr270):
+def test_unknown_base_far_away_and_rotated(kr270_marker):
     """Data in an instrument frame metres away and turned by 2.8 rad: base.* from a rigid fit."""
-    params = kr270.parameters("full,offsets,base").identifiable(prefer="base").identifiable
+    params = kr270_marker.parameters("full,offsets,base").identifiable(prefer="base").identifiable
     assert [n for n in params.names if n.startswith("base.")] == [
         f"base.{c}" for c in ("tx", "ty", "tz", "rx", "ry", "rz")
     ]
@@ -82,7 +77,7 @@ def test_unknown_base_far_away_and_rotated(kr270):
     values[base] = [2.5, -1.2, 0.3, 0.2, -0.1, 2.8]
     truth = params.apply(values)
     for seed in (8, 9):  # two plans: what holds for any (the iteration count is the search's path)
-        result = identify(params, _data(truth, kr270.random_configurations(30, seed)))
+        result = identify(params, _data(truth, kr270_marker.random_configurations(30, seed)))
         assert result.success and result.method == "trf", result.message
         np.testing.assert_allclose(result.values, values, rtol=0, atol=1e-9)
         # Issue 10: "before" is after the initial rigid fit of the base, not at a base at the
@@ -90,18 +85,18 @@ def test_unknown_base_far_away_and_rotated(kr270):
         assert 1e-4 < result.residual_rms_before < 0.05
 
 
-def test_instrument_frame_data_without_base_are_implausible_not_converged(kr270, kr270_params):
+def test_instrument_frame_data_without_base_are_implausible_not_converged(kr270_marker, kr270_params):
     """Issue 10: data in a far, rotated frame without base.*: the first joint's origin would have
     to move by metres; that is no calibration, and the likely cause is named (behaviour changed:
     this used to 'converge' through Levenberg-Marquardt with joint_a1's origin moved by metres)."""
     truth = random_errors(kr270_params, seed=3).robot
     far = truth.replace(base=pin.SE3(pin.rpy.rpyToMatrix(0.1, -0.2, 2.5), np.array([-2.5, 1.0, 0.2])))
-    result = identify(kr270_params, _data(far, kr270.random_configurations(30, 1)))
+    result = identify(kr270_params, _data(far, kr270_marker.random_configurations(30, 1)))
     assert result.status == "implausible" and not result.success
     assert any("--base" in c for c in result.causes), result.causes
 
 
-def test_scipy_errors_do_not_leak(kr270, kr270_params, monkeypatch):
+def test_scipy_errors_do_not_leak(kr270_marker, kr270_params, monkeypatch):
     def broken(*args, **kwargs):
         raise ValueError("`x0` is infeasible")
 
@@ -109,18 +104,18 @@ def test_scipy_errors_do_not_leak(kr270, kr270_params, monkeypatch):
     monkeypatch.setattr("scipy.optimize.least_squares", broken)
     truth = random_errors(kr270_params, seed=3).robot
     far = truth.replace(base=pin.SE3(pin.rpy.rpyToMatrix(0.1, -0.2, 2.5), np.array([-2.5, 1.0, 0.2])))
-    result = identify(kr270_params, _data(far, kr270.random_configurations(30, 1)))
+    result = identify(kr270_params, _data(far, kr270_marker.random_configurations(30, 1)))
     assert result.status == "failed" and not result.success
     assert "least_squares" in result.message and "infeasible" in result.message
 
 
-def test_a_failed_or_rank_deficient_result_reports_what_was_asked(kr270, kr270_params, monkeypatch):
+def test_a_failed_or_rank_deficient_result_reports_what_was_asked(kr270_marker, kr270_params, monkeypatch):
     """The loss, method, prior, the data's own σ and the rows rejected of a fit that failed or could
     not start are those of the call (they were the defaults: linear, trf, no prior, σ estimated,
     nothing rejected)."""
     import scipy.optimize
 
-    same = _data(kr270, np.tile(kr270.random_configurations(1, 3), (30, 1)))
+    same = _data(kr270_marker, np.tile(kr270_marker.random_configurations(1, 3), (30, 1)))
     same = MeasurementData(same.q, same.points, same.joint_names, sigma=3e-5)
     prior = pincal.Prior(1e-3, 1e-3)
     deficient = identify(kr270_params, same, loss="huber", prior=prior)
@@ -130,7 +125,9 @@ def test_a_failed_or_rank_deficient_result_reports_what_was_asked(kr270, kr270_p
     assert deficient.as_dict()["loss"] == "huber" and deficient.as_dict()["prior"] == prior.as_dict()
     assert identify(kr270_params, same, method="lm").method == "lm"
 
-    data = _data(random_errors(kr270_params, seed=4).robot, kr270.random_configurations(30, 3), 3e-5, 2)
+    data = _data(
+        random_errors(kr270_params, seed=4).robot, kr270_marker.random_configurations(30, 3), 3e-5, 2
+    )
     points = np.array(data.points)
     points[7] += [0.0, 0.022, 0.0]
     real = scipy.optimize.least_squares
@@ -147,9 +144,9 @@ def test_a_failed_or_rank_deficient_result_reports_what_was_asked(kr270, kr270_p
     assert failed.residual_rms_before < 0.01  # the 22 mm row rejected is left out of it
 
 
-def test_non_convergence_is_a_status_not_an_exception(kr270, kr270_params, tmp_path):
+def test_non_convergence_is_a_status_not_an_exception(kr270_marker, kr270_params, tmp_path):
     truth = random_errors(kr270_params, error_std={"length": 1e-2, "angle": 1e-2}, seed=9)
-    result = identify(kr270_params, _data(truth.robot, kr270.random_configurations(30, 1)), maxiter=1)
+    result = identify(kr270_params, _data(truth.robot, kr270_marker.random_configurations(30, 1)), maxiter=1)
     assert result.status == "not_converged" and not result.success
     assert "no convergence" in result.message
     assert np.all(np.isfinite(result.values))
@@ -158,11 +155,11 @@ def test_non_convergence_is_a_status_not_an_exception(kr270, kr270_params, tmp_p
     assert not (tmp_path / "x.urdf").exists()
 
 
-def test_jacobian_in_total_coordinates_matches_finite_differences(kr270):
+def test_jacobian_in_total_coordinates_matches_finite_differences(kr270_marker):
     """Rotation errors compose as R·exp3(ω): the Jacobian uses the right Jacobian of exp3."""
-    params = kr270.parameters("full,offsets,base").identifiable(prefer="base").identifiable
-    params = params.on(kr270).select(",".join(params.names[:-2]) + ",base.rz")  # a partial base
-    data = _data(kr270, kr270.random_configurations(6, 2))
+    params = kr270_marker.parameters("full,offsets,base").identifiable(prefer="base").identifiable
+    params = params.on(kr270_marker).select(",".join(params.names[:-2]) + ",base.rz")  # a partial base
+    data = _data(kr270_marker, kr270_marker.random_configurations(6, 2))
     problem = Problem(params, [data], Noise.of([data], 1.0))
     x = 0.3 * np.random.default_rng(0).standard_normal(len(params))
     J = problem.jacobian(x)
@@ -190,9 +187,9 @@ def test_standard_errors_match_the_planar_closed_form():
     assert result.sigma == sigma and not result.sigma_estimated
 
 
-def test_sigma_is_estimated_from_the_residuals(kr270, kr270_params):
+def test_sigma_is_estimated_from_the_residuals(kr270_marker, kr270_params):
     truth = random_errors(kr270_params, seed=2).robot
-    data = _data(truth, kr270.random_configurations(200, 3), sigma=3e-5, seed=4)
+    data = _data(truth, kr270_marker.random_configurations(200, 3), sigma=3e-5, seed=4)
     result = identify(kr270_params, data)
     assert result.sigma_estimated
     dof = 3 * 200 - len(kr270_params)
@@ -244,9 +241,9 @@ def test_identical_rows_are_not_outliers():
     assert [o.row for o in identify(params, bad, reject=5).rejected] == [5]
 
 
-def test_degenerate_data_are_rank_deficient(kr270, kr270_params):
-    same = np.tile(kr270.random_configurations(1, 3), (30, 1))
-    result = identify(kr270_params, _data(kr270, same))
+def test_degenerate_data_are_rank_deficient(kr270_marker, kr270_params):
+    same = np.tile(kr270_marker.random_configurations(1, 3), (30, 1))
+    result = identify(kr270_params, _data(kr270_marker, same))
     assert result.status == "rank_deficient"
     assert (
         "1 distinct configuration" in result.message
@@ -255,12 +252,12 @@ def test_degenerate_data_are_rank_deficient(kr270, kr270_params):
     )
 
 
-def test_too_few_configurations_names_the_minimum(kr270, kr270_params):
+def test_too_few_configurations_names_the_minimum(kr270_marker, kr270_params):
     with pytest.raises(SingularPlan, match="at least 9 configurations"):
-        identify(kr270_params, _data(kr270, kr270.random_configurations(8, 3)))
+        identify(kr270_params, _data(kr270_marker, kr270_marker.random_configurations(8, 3)))
 
 
-def test_data_for_another_robot_are_refused(kr270, kr270_params):
+def test_data_for_another_robot_are_refused(kr270_marker, kr270_params):
     planar = pincal.load_robot("planar_2r")
     with pytest.raises(BadMeasurementData, match="missing joint_a1"):
         identify(kr270_params, _data(planar, planar.random_configurations(30, 1)))
@@ -268,7 +265,7 @@ def test_data_for_another_robot_are_refused(kr270, kr270_params):
     with pytest.raises(BadMeasurementData, match="2 measured point"):
         identify(kr270_params, _data(two, two.random_configurations(30, 1)))
     with pytest.raises(pincal.PincalError, match="sigma"):
-        identify(kr270_params, _data(kr270, kr270.random_configurations(30, 1)), sigma=-1.0)
+        identify(kr270_params, _data(kr270_marker, kr270_marker.random_configurations(30, 1)), sigma=-1.0)
 
 
 # ----------------------------------------------------------------------- measurement data
@@ -287,13 +284,13 @@ def test_csv_round_trip_in_every_unit(tmp_path):
             assert back.lines == (2, 3, 4, 5, 6)
 
 
-def test_csv_single_marker_columns_and_any_order(tmp_path, kr270):
+def test_csv_single_marker_columns_and_any_order(tmp_path, kr270_marker):
     path = tmp_path / "m.csv"
     path.write_text(
         "# tracker export\nz,joint_a6,joint_a5,joint_a4,joint_a3,joint_a2,joint_a1,y,x\n"
         "1000,0,0,0,0,-1.5,0,20,1500\n\n"
     )
-    data = MeasurementData.from_csv(path, kr270, millimetres=True)
+    data = MeasurementData.from_csv(path, kr270_marker, millimetres=True)
     np.testing.assert_allclose(data.q, [[0, -1.5, 0, 0, 0, 0]])
     np.testing.assert_allclose(data.points, [[[1.5, 0.02, 1.0]]])
 
@@ -351,21 +348,23 @@ def test_csv_single_marker_columns_and_any_order(tmp_path, kr270):
         ),
     ],
 )
-def test_bad_csv_files_are_refused_with_their_line(tmp_path, kr270, text, error, match):
+def test_bad_csv_files_are_refused_with_their_line(tmp_path, kr270_marker, text, error, match):
     path = tmp_path / "bad.csv"
     path.write_text(text)
     with pytest.raises(error, match=match):
-        MeasurementData.from_csv(path, kr270)
+        MeasurementData.from_csv(path, kr270_marker)
 
 
-def test_missing_file_and_degrees_hint(tmp_path, kr270):
+def test_missing_file_and_degrees_hint(tmp_path, kr270_marker):
     with pytest.raises(BadMeasurementData, match="does not exist"):
-        MeasurementData.from_csv(tmp_path / "none.csv", kr270)
+        MeasurementData.from_csv(tmp_path / "none.csv", kr270_marker)
     path = tmp_path / "deg.csv"
     path.write_text("joint_a1,joint_a2,joint_a3,joint_a4,joint_a5,joint_a6,x,y,z\n10,-60,30,0,45,0,1,2,3\n")
     with pytest.raises(BadConfiguration, match="look like degrees"):
-        MeasurementData.from_csv(path, kr270)
-    assert MeasurementData.from_csv(path, kr270, degrees=True).q[0, 1] == pytest.approx(np.radians(-60))
+        MeasurementData.from_csv(path, kr270_marker)
+    assert MeasurementData.from_csv(path, kr270_marker, degrees=True).q[0, 1] == pytest.approx(
+        np.radians(-60)
+    )
 
 
 def test_measurement_data_is_a_value_that_copies_its_inputs():

@@ -19,13 +19,12 @@ import pytest
 import pincal
 from pincal import MeasurementData, identify, random_errors, simulate_measurements
 
-MARKER = [(0.1, 0.05, 0.2)]
 SIGMA = 3e-5
 
 
 @pytest.fixture(scope="module")
-def robot():
-    return pincal.load_robot("kr270", markers=MARKER)
+def robot(kr270_marker):
+    return kr270_marker
 
 
 @pytest.fixture(scope="module")

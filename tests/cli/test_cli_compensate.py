@@ -11,14 +11,12 @@ import pytest
 import pincal
 from pincal.compensation.calibration_file import load_calibration
 
-MARKER = [(0.1, 0.05, 0.2)]
-
 
 @pytest.fixture(scope="module")
-def calibration(tmp_path_factory):
+def calibration(tmp_path_factory, kr270_marker):
     """A true KR 270 (geometric errors, gains, compliances) and its calibration exported."""
     folder = tmp_path_factory.mktemp("compensate")
-    robot = pincal.load_robot("kr270", markers=MARKER)
+    robot = kr270_marker
     params = robot.parameters("lengths,offsets,gains,compliance").identifiable().identifiable
     rng = np.random.default_rng(5)
     values = np.array(

@@ -16,22 +16,19 @@ from pincal.cli import main
 MARKER = ["--marker", "0.1,0.05,0.2"]
 
 
-@pytest.fixture(scope="module")
-def kr270():
-    return pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
-
-
 @pytest.fixture
-def plan_csv(tmp_path, kr270):
+def plan_csv(tmp_path, kr270_marker):
     path = tmp_path / "plan.csv"
-    pincal.Plan.for_robot(kr270, kr270.random_configurations(30, 1)).to_csv(path)
+    pincal.Plan.for_robot(kr270_marker, kr270_marker.random_configurations(30, 1)).to_csv(path)
     return path
 
 
-def test_rehearsal_measure_sim_then_identify(tmp_path, cli, kr270):
+def test_rehearsal_measure_sim_then_identify(tmp_path, cli, kr270_marker):
     meas, true_urdf, cal = tmp_path / "meas.csv", tmp_path / "true.urdf", tmp_path / "cal.urdf"
     plan_deg = tmp_path / "plan_deg.csv"
-    pincal.Plan.for_robot(kr270, kr270.random_configurations(30, 1)).to_csv(plan_deg, degrees=True)
+    pincal.Plan.for_robot(kr270_marker, kr270_marker.random_configurations(30, 1)).to_csv(
+        plan_deg, degrees=True
+    )
     code, out, _ = cli.run(
         "measure-sim",
         "kr270",
@@ -61,7 +58,7 @@ def test_rehearsal_measure_sim_then_identify(tmp_path, cli, kr270):
     result = json.loads(out)
     assert result["status"] == "converged" and result["iterations"] >= 1 and result["out"] == str(cal)
     assert result["residual_rms_before"] > 1e-3 > 1e-6 > result["residual_rms_after"]
-    params = kr270.parameters("full,offsets").identifiable().identifiable
+    params = kr270_marker.parameters("full,offsets").identifiable().identifiable
     truth = pincal.random_errors(
         params, error_std={"length": 1e-3, "angle": 1e-3}, seed=np.random.default_rng(3)
     )
@@ -72,7 +69,7 @@ def test_rehearsal_measure_sim_then_identify(tmp_path, cli, kr270):
     # The calibrated URDF and the true URDF agree to the noise level.
     calibrated = pincal.load_robot(cal, markers=[(0.1, 0.05, 0.2)])
     true = pincal.load_robot(true_urdf, markers=[(0.1, 0.05, 0.2)])
-    q = kr270.random_configurations(20, 9)
+    q = kr270_marker.random_configurations(20, 9)
     assert np.abs(calibrated.points(q) - true.points(q)).max() < 1e-5
     code, out, _ = cli.run("identify", "kr270", "--data", meas, "--mm", "--deg", *MARKER)
     assert code == 0 and "converged" in out and "joint_a2.offset" in out and "mrad" in out
@@ -208,7 +205,7 @@ def test_bad_measurement_files(tmp_path, cli, text, match):
     assert re.search(match, cli.fails("identify", "kr270", "--data", tmp_path / "m.csv", *MARKER))
 
 
-def test_identify_failures(tmp_path, cli, kr270, plan_csv):
+def test_identify_failures(tmp_path, cli, kr270_marker, plan_csv):
     meas = tmp_path / "meas.csv"
     cli.run(
         "measure-sim",
@@ -230,8 +227,8 @@ def test_identify_failures(tmp_path, cli, kr270, plan_csv):
     assert "unknown frame 'flange'" in cli.fails(
         "identify", "kr270", "--data", meas, "--tip", "flange", *MARKER
     )
-    same = np.tile(kr270.random_configurations(1, 0), (30, 1))
-    pincal.simulate_measurements(kr270, same, 0.0).to_csv(tmp_path / "same.csv")
+    same = np.tile(kr270_marker.random_configurations(1, 0), (30, 1))
+    pincal.simulate_measurements(kr270_marker, same, 0.0).to_csv(tmp_path / "same.csv")
     line = cli.fails("identify", "kr270", "--data", tmp_path / "same.csv", *MARKER)
     assert "1 distinct configuration" in line and "at least 9" in line
     line = cli.fails("identify", "kr270", "--data", meas, "--params", "full,offsets,joint_a1.rz", *MARKER)

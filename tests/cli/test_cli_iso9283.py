@@ -13,16 +13,15 @@ import pincal
 from tests.conftest import ROOT
 
 IPA_SLICE = ROOT / "tests" / "data" / "iso9283" / "measurements_iso_cubes_slice.csv"
-MARKER = [(0.1, 0.05, 0.2)]
 
 
 @pytest.fixture(scope="module")
-def cell(tmp_path_factory):
+def cell(tmp_path_factory, kr270_marker):
     """A true KR 270 (errors of about 0.5 mm), its calibration exported, and five poses commanded
     (the nominal model's) and attained (the true robot's, 5 µm noise) in 4 cycles, with the joint
     readings, as a CSV in millimetres and degrees."""
     folder = tmp_path_factory.mktemp("iso9283")
-    robot = pincal.load_robot("kr270", markers=MARKER)
+    robot = kr270_marker
     params = robot.parameters("lengths,offsets").identifiable().identifiable
     rng = np.random.default_rng(3)
     true = params.apply(rng.normal(0, 5e-4, len(params)))

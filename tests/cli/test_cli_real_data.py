@@ -20,8 +20,8 @@ SIGMA = 3e-5
 
 
 @pytest.fixture(scope="module")
-def robot():
-    return pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
+def robot(kr270_marker):
+    return kr270_marker
 
 
 @pytest.fixture(scope="module")

@@ -14,11 +14,6 @@ Q0 = "--test-pose=0.3,-1.2,1.4,-1,-1.4,0.2"
 
 
 @pytest.fixture(scope="module")
-def ur10():
-    return pincal.load_robot("ur10", markers=[(0.03, -0.02, 0.1)])
-
-
-@pytest.fixture(scope="module")
 def measured(ur10, tmp_path_factory):
     """(measurement CSV, the same configurations as a pool CSV, calibration URDF with a residual
     model) of a UR10 with 0.3 mm of unmodelled error."""

@@ -93,8 +93,8 @@ def test_show_pool_needs_plot(cli, tmp_path, pool_csv):
 
 # ------------------------------------------------------------------------ --base
 @pytest.fixture(scope="module")
-def kr_plan(tmp_path_factory):
-    robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
+def kr_plan(tmp_path_factory, kr270_marker):
+    robot = kr270_marker
     path = tmp_path_factory.mktemp("plan") / "plan.csv"
     pincal.Plan.for_robot(robot, robot.random_configurations(12, np.random.default_rng(7))).to_csv(
         path, degrees=True

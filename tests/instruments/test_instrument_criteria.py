@@ -23,11 +23,7 @@ from pincal.instruments.instrument import tool_rows
 from pincal.model.jacobian import JacobianEngine
 
 Q0 = np.array([0.0, -1.2, 1.5, -1.0, -1.5, 0.0])
-
-
-@pytest.fixture(scope="module")
-def ur10():
-    return pincal.load_robot("ur10", markers=[(0.05, 0.02, 0.1)])
+pytestmark = pytest.mark.ur10(markers=[(0.05, 0.02, 0.1)])  # the ur10 fixture (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")

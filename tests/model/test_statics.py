@@ -43,11 +43,6 @@ def vertical_2r(tmp_path_factory):
     return pincal.load_robot(path, tip="tip").with_gravity((0.0, -G, 0.0))
 
 
-@pytest.fixture(scope="module")
-def ur10():
-    return pincal.load_robot("ur10", markers=[(0.03, -0.02, 0.1)])
-
-
 def closed_form_torques(q: np.ndarray, mass: float, centre: float) -> np.ndarray:
     """τ = -∂V/∂q of the vertical 2-link arm carrying ``mass`` at ``centre`` along link 2 past the tip."""
     q1, q12 = q[:, 0], q[:, 0] + q[:, 1]

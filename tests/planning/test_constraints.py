@@ -8,7 +8,6 @@ import math
 import numpy as np
 import pytest
 
-import pincal
 from pincal.errors import BadConstraint, Infeasible
 from pincal.planning.constraints import (
     HalfSpace,
@@ -24,6 +23,8 @@ from pincal.planning.constraints import (
     satisfied,
 )
 from pincal.planning.feasibility import Feasibility
+
+pytestmark = pytest.mark.ur10(markers=None)  # the ur10 fixture (tests/conftest.py)
 
 
 def tip_point(q1: float, q2: float) -> np.ndarray:
@@ -206,11 +207,6 @@ def test_constraint_jacobian_and_repair(kr270_marker):
     assert np.min(feas.constraint_values(far)) < 0
     fixed = feas.repair(near, far)
     assert feas.plan_feasible(fixed)
-
-
-@pytest.fixture(scope="module")
-def ur10():
-    return pincal.load_robot("ur10")
 
 
 def test_self_collision_exact_and_hulls(ur10):

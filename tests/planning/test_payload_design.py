@@ -20,9 +20,12 @@ Q0 = np.radians([0, -60, 60, 0, 45, 0])
 
 
 @pytest.fixture(scope="module")
-def params():
-    robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
-    return robot.parameters("lengths,offsets,gains,compliance").identifiable(payloads=PAYLOADS).identifiable
+def params(kr270_marker):
+    return (
+        kr270_marker.parameters("lengths,offsets,gains,compliance")
+        .identifiable(payloads=PAYLOADS)
+        .identifiable
+    )
 
 
 @pytest.fixture(scope="module")
@@ -172,9 +175,8 @@ MOCAP = PerCoordinate(SIGMA, 1e-4)  # 30 µm and 0.1 mrad
 
 
 @pytest.fixture(scope="module")
-def pose_params():
-    robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
-    spec = robot.parameters("lengths,offsets,gains,compliance")
+def pose_params(kr270_marker):
+    spec = kr270_marker.parameters("lengths,offsets,gains,compliance")
     return Instrument(Pose(), MOCAP).identifiable(spec, payloads=PAYLOADS).identifiable
 
 

@@ -16,11 +16,7 @@ from pincal.viewing import plots
 
 Q0 = np.array([0.0, -1.2, 1.5, -1.0, -1.5, 0.0])
 BOX = ((1.5, 0.0, 0.75), (9.0, 0.0, 0.75))  # a line from 1.5 m to 9 m in front of the robot
-
-
-@pytest.fixture(scope="module")
-def ur10():
-    return pincal.load_robot("ur10", markers=[(0.05, 0.02, 0.1)])
+pytestmark = pytest.mark.ur10(markers=[(0.05, 0.02, 0.1)])  # the ur10 fixture (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")

@@ -27,6 +27,7 @@ from pincal.planning.safety import safety_margins
 
 KR_Q0 = np.radians([0, -60, 60, 0, 45, 0])
 FAST = dict(workers=1, starts=4, pool=400)
+pytestmark = pytest.mark.ur10(markers=[(0.1, 0.05, 0.2)])  # the ur10 fixture (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")
@@ -211,11 +212,6 @@ def test_show_and_evaluate_report_the_margins(tmp_path, cli, kr270_marker):
 # overlap by more than 5 cm; "fine" is clear of itself.
 UR10_FOLDED = np.radians([6.0, -149.4, -178.0, 209.7, -112.7, -49.8])
 UR10_FINE = np.radians([20.5, -64.5, 106.0, -100.3, -123.1, 48.5])
-
-
-@pytest.fixture(scope="module")
-def ur10():
-    return pincal.load_robot("ur10", markers=[(0.1, 0.05, 0.2)])
 
 
 def test_safety_report_names_a_pose_where_the_robot_meets_itself(ur10):
