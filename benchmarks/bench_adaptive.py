@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -28,8 +27,7 @@ import pincal
 from pincal.campaign.rehearsal import Faults, one_shot_plan, rehearse, summary
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import load, machine  # noqa: E402
-from bench_campaign import write_section  # noqa: E402
+from _common import footer, header, publish, timed  # noqa: E402
 
 SIGMA = 3e-5
 TARGET = 2e-5
@@ -41,20 +39,21 @@ def main(seeds: int) -> list[str]:
     robot = pincal.load_robot("kr270", tip="tool0", markers=[(0.1, 0.05, 0.2)])
     params = robot.parameters("lengths,offsets").identifiable().identifiable
     region = pincal.around(np.radians([0, -60, 60, 0, 45, 0]), np.radians(10), samples=64)
-    t0 = time.perf_counter()
-    plan = one_shot_plan(params, region, TARGET, SIGMA, seed=0, **OPTIONS)
-    results = []
-    for seed in range(seeds):
-        results.append(
-            rehearse(params, region, TARGET, plan=plan, seed=seed, faults=Faults(), design_options=OPTIONS)
-        )
-        r = results[-1]
-        print(f"seed {seed}: one-shot {r['one-shot'].poses}, adaptive {r['adaptive'].poses}", flush=True)
-    elapsed = time.perf_counter() - t0
+    lines = header()
+    with timed() as clock:
+        plan = one_shot_plan(params, region, TARGET, SIGMA, seed=0, **OPTIONS)
+        results = []
+        for seed in range(seeds):
+            results.append(
+                rehearse(
+                    params, region, TARGET, plan=plan, seed=seed, faults=Faults(), design_options=OPTIONS
+                )
+            )
+            r = results[-1]
+            print(f"seed {seed}: one-shot {r['one-shot'].poses}, adaptive {r['adaptive'].poses}", flush=True)
     s = summary(results, TARGET)
-    lines = [
-        f"Machine: {machine()}; load {load()}. Command: `python benchmarks/bench_adaptive.py --seeds {seeds} --write` "
-        f"({elapsed / 60:.0f} min).",
+    lines += [
+        f"- Time: {clock.cpu / 60:.0f} min CPU, {clock.wall / 60:.0f} min wall.",
         "",
         f"KR 270, 12 parameters, ±10° region, target {TARGET * 1e3:g} mm, nominal σ {SIGMA * 1e3:g} mm; one-shot "
         f"plan: {len(plan)} poses. {seeds} simulated campaigns (noise 1.5 σ on average, growing with the distance "
@@ -73,6 +72,8 @@ def main(seeds: int) -> list[str]:
         "",
         f"Adaptive measured fewer poses than one-shot in {s['adaptive_fewer']['fraction']:.0%} of the campaigns; "
         f"{s['adaptive_fewer']['ratio']:.2f}× the poses on average.",
+        "",
+        *footer(),
     ]
     return lines
 
@@ -84,7 +85,4 @@ if __name__ == "__main__":
         "--write", action="store_true", help="replace the bench_adaptive section of RESULTS.md"
     )
     args = parser.parse_args()
-    out = main(args.seeds)
-    print("\n".join(out))
-    if args.write:
-        write_section("bench_adaptive", out)
+    publish(main(args.seeds), "bench_adaptive", args.write)

@@ -16,9 +16,7 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import re
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -32,20 +30,10 @@ from pincal.planning.constraints import Mount, Obstacle, Workcell, with_safety
 from pincal.planning.feasibility import Feasibility
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import load, machine  # noqa: E402
+from _common import footer, header, publish, timed  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 Q0 = np.radians([0, -60, 60, 0, 45, 0])
-
-
-def write_section(name: str, lines: list[str]) -> None:
-    """Replace (or append) the ``## name`` section of benchmarks/RESULTS.md."""
-    path = ROOT / "benchmarks" / "RESULTS.md"
-    text = path.read_text()
-    section = f"## {name}\n\n" + "\n".join(lines).rstrip() + "\n"
-    pattern = re.compile(rf"## {re.escape(name)}\n.*?(?=\n## |\Z)", re.S)
-    text = pattern.sub(lambda _: section, text) if pattern.search(text) else text.rstrip() + "\n\n" + section
-    path.write_text(text.rstrip() + "\n")
 
 
 def ordering(robot) -> list[str]:
@@ -59,18 +47,18 @@ def ordering(robot) -> list[str]:
     ]
     for n in (6, 7, 8, 9):
         cost = timing.matrix(feasible.sample(n + 1, rng))
-        t0 = time.process_time()
-        exact = held_karp(cost)
-        t1 = time.process_time()
-        brute = min(tour_cost(cost, p) for p in itertools.permutations(range(1, n + 1)))
-        t2 = time.process_time()
-        lines.append(f"| {n} | {t1 - t0:.4f} | {t2 - t1:.2f} | {abs(exact.cost - brute) < 1e-12} |")
+        with timed() as exact_clock:
+            exact = held_karp(cost)
+        with timed() as brute_clock:
+            brute = min(tour_cost(cost, p) for p in itertools.permutations(range(1, n + 1)))
+        same = abs(exact.cost - brute) < 1e-12
+        lines.append(f"| {n} | {exact_clock.cpu:.4f} | {brute_clock.cpu:.2f} | {same} |")
         print(lines[-1], flush=True)
     for n in (10, 12):
         cost = timing.matrix(feasible.sample(n + 1, rng))
-        t0 = time.process_time()
-        held_karp(cost)
-        lines.append(f"| {n} | {time.process_time() - t0:.4f} | – | – |")
+        with timed() as clock:
+            held_karp(cost)
+        lines.append(f"| {n} | {clock.cpu:.4f} | – | – |")
     gaps = []
     for _ in range(20):
         cost = timing.matrix(feasible.sample(13, rng))
@@ -104,9 +92,9 @@ def certification(name: str, robot, constraints, m: int) -> list[str]:
     plan = pincal.design(
         params, m, pincal.around(q0, np.radians(10)), constraints=constraints, seed=0, starts=8, workers=1
     ).plan
-    t0 = time.process_time()
-    c = plan_campaign(robot, plan, constraints=constraints)
-    elapsed = time.process_time() - t0
+    with timed() as clock:
+        c = plan_campaign(robot, plan, constraints=constraints)
+    elapsed = clock.cpu
     cell = [x for x in constraints if isinstance(x, Workcell)]
     world = (cell[0] if cell else Workcell((Obstacle("far", "sphere", (0.01,), (100, 0, 0)),))).world(
         robot, self_collision=True, mount_points=Mount("floor").bind(robot)
@@ -131,10 +119,9 @@ def certification(name: str, robot, constraints, m: int) -> list[str]:
 
 def main() -> list[str]:
     warnings.simplefilter("ignore")
-    lines = [
-        f"Machine: {machine()}; load {load()} at the start. Command: `python benchmarks/bench_campaign.py --write`.",
-        "Times are CPU seconds of this one process (user + sys, `time.process_time`; every design here runs",
-        "with `workers=1`), not wall clock: the machine is shared.",
+    lines = header() + [
+        "- Times are CPU seconds (user + sys, of this process and its finished children; every design here",
+        "  runs with `workers=1`), not wall clock: the machine is shared.",
         "",
     ]
     kr = pincal.load_robot("kr270", tip="tool0", markers=[(0.1, 0.05, 0.2)])
@@ -155,7 +142,7 @@ def main() -> list[str]:
     ur = pincal.load_robot("ur10", markers=[(0.1, 0.05, 0.2)])
     lines += certification("ur10", ur, (), 12)
     print(lines[-1], flush=True)
-    lines += ["", f"Load at the end: {load()}."]
+    lines += ["", *footer()]
     return lines
 
 
@@ -165,7 +152,4 @@ if __name__ == "__main__":
         "--write", action="store_true", help="replace the bench_campaign section of RESULTS.md"
     )
     args = parser.parse_args()
-    out = main()
-    print("\n".join(out))
-    if args.write:
-        write_section("bench_campaign", out)
+    publish(main(), "bench_campaign", args.write)

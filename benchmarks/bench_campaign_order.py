@@ -11,10 +11,11 @@ beyond), URDF speeds, 0.5 s settle and a tracker's 2 s dwell. Ordering time in C
 
 from __future__ import annotations
 
-import time
+import argparse
 import warnings
 
 import numpy as np
+from _common import footer, header, timed  # benchmarks/ is on sys.path when run as a script
 
 import pincal
 from pincal.campaign import plan_campaign
@@ -24,6 +25,7 @@ Q0 = {"kr270": np.radians([0, -60, 60, 0, 45, 0]), "ur10": np.radians([0, -70, 9
 
 def main() -> None:
     warnings.simplefilter("ignore")
+    print("\n".join(header()), flush=True)
     for name in ("kr270", "ur10"):
         robot = pincal.load_robot(name, markers=[(0.1, 0.05, 0.2)])
         params = robot.parameters("lengths,offsets").identifiable().identifiable
@@ -31,9 +33,9 @@ def main() -> None:
             for seed in range(2):
                 region = pincal.around(Q0[name], np.radians(10))
                 plan = pincal.design(params, m, region, seed=seed, starts=2, workers=1).plan
-                t0 = time.process_time()
-                c = plan_campaign(robot, plan, check=False)
-                cpu = time.process_time() - t0
+                with timed() as clock:
+                    c = plan_campaign(robot, plan, check=False)
+                cpu = clock.cpu
                 saved = c.given_time - c.tour_time
                 moving = (c.given_time - c.stop_time, c.tour_time - c.stop_time)
                 print(
@@ -42,7 +44,11 @@ def main() -> None:
                     f"{'Held–Karp' if c.exact else '2-opt/Or-opt'} | {cpu:.3f} |",
                     flush=True,
                 )
+    print("\n".join(footer()))
 
 
 if __name__ == "__main__":
+    argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    ).parse_args()
     main()

@@ -19,7 +19,7 @@ import timeit
 
 import numpy as np
 import pinocchio as pin
-from _common import load, machine  # benchmarks/ is on sys.path when run as a script
+from _common import header  # benchmarks/ is on sys.path when run as a script
 
 import pincal
 from pincal.evaluation.test_pose import TestPoseCriterion
@@ -62,7 +62,7 @@ def main() -> None:
             timings[name].append(timeit.timeit(func, number=args.number) / args.number)
     best = {name: min(t) for name, t in timings.items()}
 
-    print(f"machine: {machine()}; load average {load()}")
+    print("\n".join(header()))
     print(f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '(unset)')}")
     print(
         f"problem: kr270, {len(params)} parameters, m = {len(qs)}, 1 test pose; "

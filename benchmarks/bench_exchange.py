@@ -28,7 +28,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from _common import load, machine  # benchmarks/ is on sys.path when run as a script
+from _common import footer, header, load  # benchmarks/ is on sys.path when run as a script
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -109,7 +109,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3, help="runs of each tree (default 3)")
     args = parser.parse_args()
     trees = [("this", ROOT)] + ([("before", args.before.resolve())] if args.before else [])
-    print(machine())
+    print("\n".join(header()))
     for k in range(args.repeat):
         for label, tree in trees:
             start = load()
@@ -122,6 +122,7 @@ def main() -> None:
                 f"exchange {exch:.2f} s (rho0 {value * 1e3:.7f} mm); load {start} -> {load()}",
                 flush=True,
             )
+    print("\n".join(footer()))
 
 
 if __name__ == "__main__":

@@ -36,11 +36,10 @@ import re
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
-from _common import cpu_seconds, header, write
+from _common import footer, header, publish, timed
 
 import pincal
 
@@ -189,12 +188,12 @@ def main() -> list[str]:
         params = robot.parameters("full").identifiable().identifiable
         designs = {}
         for criterion in ("D", "test-pose"):
-            c0, t0 = cpu_seconds(), time.perf_counter()
-            result = pincal.design(
-                params, m, q0, criterion=criterion, pool=pool, starts=16, seed=args.seed, workers=1,
-                joint_margin=0, mount="none",
-            )  # fmt: skip
-            designs[criterion] = (result.plan.q, cpu_seconds() - c0, time.perf_counter() - t0)
+            with timed() as clock:
+                result = pincal.design(
+                    params, m, q0, criterion=criterion, pool=pool, starts=16, seed=args.seed, workers=1,
+                    joint_margin=0, mount="none",
+                )  # fmt: skip
+            designs[criterion] = (result.plan.q, clock.cpu, clock.wall)
         plans = {
             f"FIGAROH iroc ({m})": figaroh["iroc"],
             f"FIGAROH top {m} by weight": figaroh["ranking"][:m],
@@ -227,9 +226,8 @@ def main() -> list[str]:
         rho = pincal.rho0(params, q, q0, sigma=SIGMA)
         d = pincal.criteria(params, q).log_det
         lines.append(f"| {name} | {rho * 1e3:.4f} | {d:.2f} | {scored[name]:.4g} |")
-    print("\n".join(lines))
-    if args.write:
-        write(lines, "bench_figaroh")
+    lines += ["", *footer()]
+    publish(lines, "bench_figaroh", args.write)
     return lines
 
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -25,7 +24,7 @@ import numpy as np
 import pincal
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import load, machine, write  # noqa: E402
+from _common import footer, header, publish, timed  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SIGMA = 3e-5
@@ -38,11 +37,10 @@ ROBOTS = {
 
 
 def run_one(params, q0, **kw):
-    t0 = time.perf_counter()
-    with warnings.catch_warnings(record=True) as caught:
+    with timed() as clock, warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = pincal.design(params, M, sigma=SIGMA, starts=16, seed=0, workers=1, **kw)
-    elapsed = time.perf_counter() - t0
+    elapsed = clock.cpu  # workers=1: all of it in this process
     report = pincal.accuracy(params, result.plan, q0, sigma=SIGMA, prior=kw.get("prior"), samples=512)
     rows = {r.where: r for r in report.plans[0].rows}
     warned = (
@@ -55,11 +53,10 @@ def run_one(params, q0, **kw):
 
 
 def main() -> list[str]:
-    lines = [
-        f"Machine: {machine()}; load {load()}. Command: `python benchmarks/bench_floor.py --write`.",
+    lines = header() + [
         "",
         "Predicted error after calibration [mm] (σ = 0.03 mm, m = 12, 16 starts): at the test pose, rms over",
-        "±10° and ±20° around it, workspace median; the plan's conditioning; whether design() warned; time.",
+        "±10° and ±20° around it, workspace median; the plan's conditioning; whether design() warned; CPU time.",
     ]
     for name, q0 in ROBOTS.items():
         robot = pincal.load_robot(name, tip="tool0", markers=[(0.1, 0.05, 0.2)])
@@ -68,7 +65,7 @@ def main() -> list[str]:
             "",
             f"### {name}, test pose {np.round(np.degrees(q0), 1).tolist()}°, {len(params)} parameters",
             "",
-            "| design | at q0 | ±10° | ±20° | workspace median | conditioning | warned | time [s] |",
+            "| design | at q0 | ±10° | ±20° | workspace median | conditioning | warned | CPU [s] |",
             "| --- | ---: | ---: | ---: | ---: | ---: | --- | ---: |",
         ]
         for floor in FLOORS:
@@ -92,22 +89,20 @@ def main() -> list[str]:
             + " |"
         )
         print(lines[-1], flush=True)
-        d = pincal.design(params, M, criterion="D", sigma=SIGMA, starts=16, seed=0, workers=1)
+        with timed() as clock:
+            d = pincal.design(params, M, criterion="D", sigma=SIGMA, starts=16, seed=0, workers=1)
         rep = pincal.accuracy(params, d.plan, q0, sigma=SIGMA, samples=512)
         rows = {r.where: r for r in rep.plans[0].rows}
         lines.append(
             f"| D-optimal | {rows['test pose'].rms * 1e3:.4f} | {rows['±10°'].rms * 1e3:.4f} | {rows['±20°'].rms * 1e3:.4f} | "
-            f"{rows['workspace'].median * 1e3:.4f} | {d.conditioning:.3g} | | {d.time_s:.1f} |"
+            f"{rows['workspace'].median * 1e3:.4f} | {d.conditioning:.3g} | | {clock.cpu:.1f} |"
         )
         print(lines[-1], flush=True)
-    return lines
+    return lines + ["", *footer()]
 
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help="replace the bench_floor section of RESULTS.md")
     args = parser.parse_args()
-    out = main()
-    print("\n".join(out))
-    if args.write:
-        write(out, "bench_floor")
+    publish(main(), "bench_floor", args.write)

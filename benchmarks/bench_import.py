@@ -21,10 +21,9 @@ import os
 import statistics
 import subprocess
 import sys
-import time
 from pathlib import Path
 
-from _common import load, machine, write  # benchmarks/ is on sys.path when run as a script
+from _common import footer, header, publish, timed  # benchmarks/ is on sys.path when run as a script
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -45,9 +44,9 @@ def wall(tree: Path, argv: list[str]) -> float:
     """Wall time [s] of ``python argv`` importing pincal from ``tree``, byte code cached."""
     env = dict(os.environ, PYTHONPATH=str(tree))
     env.pop("PYTHONDONTWRITEBYTECODE", None)
-    t0 = time.perf_counter()
-    subprocess.run([sys.executable, *argv], env=env, capture_output=True, check=True, cwd=tree)
-    return time.perf_counter() - t0
+    with timed() as clock:
+        subprocess.run([sys.executable, *argv], env=env, capture_output=True, check=True, cwd=tree)
+    return clock.wall
 
 
 def heaviest(tree: Path, argv: list[str], n: int = 6) -> list[tuple[str, float]]:
@@ -81,15 +80,14 @@ def main() -> list[str]:
         compileall.compile_dir(tree / "pincal", quiet=1)
     runs = [(name, label) for label in COMMANDS for name in (trees if label in TREE_COMMANDS else ["this"])]
     times: dict[tuple[str, str], list[float]] = {run: [] for run in runs}
-    start_load = load()
+    lines = header()
     for _ in range(args.repeat):
         for name, label in runs:
             times[name, label].append(wall(trees[name], COMMANDS[label]))
-    lines = [
-        f"Machine: {machine()}. Load average at the start: {start_load}, at the end: {load()}.",
-        f"Command: `python benchmarks/bench_import.py{' --before OLD' if args.before else ''} "
-        f"--repeat {args.repeat}`; each command in a fresh process, byte code cached, the commands "
-        "interleaved; median and best of the runs [s].",
+    lines += [
+        *footer(),
+        "- Each command in a fresh process, byte code cached, the commands interleaved; median and best of "
+        "the runs [s], wall time (a start-up is what a user waits for).",
         "",
         "| command | tree | median [s] | best [s] |",
         "| --- | --- | ---: | ---: |",
@@ -112,9 +110,7 @@ def main() -> list[str]:
     for label in ("import pincal", "pincal --help", "import pincal; pincal.load_robot"):
         shown = ", ".join(f"{n} {t:.3f} s" for n, t in heaviest(ROOT, COMMANDS[label]))
         lines.append(f"- `{label}`: {shown}.")
-    print("\n".join(lines))
-    if args.write:
-        write(lines, "bench_import")
+    publish(lines, "bench_import", args.write)
     return lines
 
 

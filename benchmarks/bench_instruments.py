@@ -21,7 +21,7 @@ import os
 
 import numpy as np
 import pinocchio as pin
-from _common import cpu_seconds, load, machine  # benchmarks/ is on sys.path when run as a script
+from _common import cpu_seconds, footer, header  # benchmarks/ is on sys.path when run as a script
 
 import pincal
 from pincal.errors import DegenerateOptimum, Infeasible, SingularPlan
@@ -294,7 +294,7 @@ def main() -> None:
     parser.add_argument("--trials", type=int, default=100, help="Monte-Carlo trials per campaign")
     parser.add_argument("--only", choices=("campaigns", "pose", "placement", "sight"))
     args = parser.parse_args()
-    print(f"- Machine: {machine()}; load average {load()} at start.")
+    print("\n".join(header()))
     sections = {
         "campaigns": lambda: campaigns(args.trials),
         "pose": lambda: pose_against_point(args.trials),
@@ -307,6 +307,7 @@ def main() -> None:
             rows = run()
             if not isinstance(rows, _Printed):
                 print("\n".join(rows), flush=True)
+    print("\n".join(footer()))
 
 
 if __name__ == "__main__":

@@ -18,12 +18,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import subprocess
 import sys
-import time
 
-from _common import load, machine  # benchmarks/ is on sys.path when run as a script
+from _common import footer, header, load, timed  # benchmarks/ is on sys.path when run as a script
 
 COMMON = ["design", "ur10", "-m", "12", "--test-pose=0,-1.2,1.5,-1,-1.5,0", "--marker", "0.05,0.02,0.1",
           "--instrument", "tracker", "--no-accuracy", "--no-progress", "--json"]  # fmt: skip
@@ -51,13 +49,10 @@ CASES = {
 def run(box: str, extra: list[str]) -> dict:
     """One command: its placement, wall time [s] and CPU seconds (the command and its workers)."""
     python = os.path.join(os.path.dirname(sys.executable), "python")
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t = time.perf_counter()
-    done = subprocess.run([python, "-m", "pincal", *COMMON, "--place-instrument", box, *extra],
-                          capture_output=True, text=True, check=True)  # fmt: skip
-    wall = time.perf_counter() - t
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    with timed() as clock:
+        done = subprocess.run([python, "-m", "pincal", *COMMON, "--place-instrument", box, *extra],
+                              capture_output=True, text=True, check=True)  # fmt: skip
+    wall, cpu = clock.wall, clock.cpu
     out = json.loads(done.stdout)
     placement = out["placement"]
     return {
@@ -75,7 +70,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", choices=tuple(CASES))
     args = parser.parse_args()
-    print(f"- Machine: {machine()}; load average {load()} at start.", flush=True)
+    print("\n".join(header()), flush=True)
     for name, cases in CASES.items():
         if args.only and name != args.only:
             continue
@@ -83,6 +78,7 @@ def main() -> None:
             row = run(box, extra)
             print(f"- {what} (--place-instrument {box} {' '.join(extra)}): {json.dumps(row)}; "
                   f"load average {load()}", flush=True)  # fmt: skip
+    print("\n".join(footer()))
 
 
 if __name__ == "__main__":

@@ -18,15 +18,12 @@ identifiable `lengths,offsets`, σ = 0.03 mm, m = 12:
 from __future__ import annotations
 
 import argparse
-import datetime
 import math
-import sys
-import time
 import timeit
 import warnings
 
 import numpy as np
-from _common import load, machine, write  # benchmarks/ is on sys.path when run as a script
+from _common import footer, header, timed, write  # benchmarks/ is on sys.path when run as a script
 from bench_design import mm
 
 import pincal
@@ -55,9 +52,9 @@ def quiet(function, *args, **kwargs):
 
 
 def timed_design(params, test_pose, **kwargs):
-    t0 = time.perf_counter()
-    result = quiet(pincal.design, params, M, test_pose, sigma=SIGMA, starts=STARTS, seed=0, **kwargs)
-    return result, time.perf_counter() - t0
+    with timed() as clock:
+        result = quiet(pincal.design, params, M, test_pose, sigma=SIGMA, starts=STARTS, seed=0, **kwargs)
+    return result, clock.wall  # workers=2: the pool's CPU is not this process's
 
 
 def main() -> list[str]:
@@ -67,11 +64,9 @@ def main() -> list[str]:
         print(text, flush=True)
         lines.append(text)
 
-    say(f"- Machine: {machine()}; load average at start {load()} (1/5/15 min; other work was running).")
-    say(
-        f"- Command: `python benchmarks/bench_regions.py{' --write' if '--write' in sys.argv else ''}` (workers = 2, all CPUs)."
-    )
-    say(f"- Date: {datetime.date.today().isoformat()}.")
+    for line in header():
+        say(line)
+    say("- Workers: 2 (all CPUs); design times are wall seconds.")
     say(
         f"- Problem: marker (0.1, 0.05, 0.2) m on tool0, identifiable `lengths,offsets`, σ = 0.03 mm, m = {M}, "
         f"{STARTS} starts, seed 0; path = q0 + t·(30, 10, −10, 20, 15, 30)°, t ∈ [−1, 1]."
@@ -118,9 +113,9 @@ def main() -> list[str]:
         plan = designs["path (1 000 points)"][0].plan.q
         setup, call = {}, {}
         for n in (10, 10_000):
-            t0 = time.perf_counter()
-            criterion = pincal.evaluation.TestPoseCriterion(params, pincal.TestPath(path(q0, n)), SIGMA)
-            setup[n] = time.perf_counter() - t0
+            with timed() as clock:
+                criterion = pincal.evaluation.TestPoseCriterion(params, pincal.TestPath(path(q0, n)), SIGMA)
+            setup[n] = clock.wall
             call[n] = min(timeit.repeat(lambda c=criterion, q=plan: c(q), number=200, repeat=5)) / 200
         say(
             f"Design time for a path of 10 points: {times[10]:.2f} s; of 10 000 points: {times[10_000]:.2f} s "
@@ -130,7 +125,8 @@ def main() -> list[str]:
             f"building it (the path's Jacobians, once): {setup[10] * 1e3:.1f} ms and {setup[10_000] * 1e3:.0f} ms."
         )
     say()
-    say(f"- Load average at the end: {load()}.")
+    for line in footer():
+        say(line)
     return lines
 
 

@@ -33,11 +33,10 @@ import json
 import resource
 import subprocess
 import sys
-import time
 from typing import Any
 
 import numpy as np
-from _common import cpu_seconds, header, write  # benchmarks/ is on sys.path when run as a script
+from _common import footer, header, timed, write  # benchmarks/ is on sys.path when run as a script
 
 SIGMA = 2e-5
 HELD_OUT = 2000
@@ -82,9 +81,9 @@ def child(kind: str, n: int) -> None:
 
     q, r, qh, rh, revolute = data(n)
     approximation = Approximation(above=n) if kind == "exact" else Approximation()
-    cpu, wall = cpu_seconds(), time.perf_counter()
-    model = ResidualModel.fit(q, r, revolute, seed=0, approximation=approximation, progress=True)
-    cpu, wall = cpu_seconds() - cpu, time.perf_counter() - wall
+    with timed() as clock:
+        model = ResidualModel.fit(q, r, revolute, seed=0, approximation=approximation, progress=True)
+    cpu, wall = clock.cpu, clock.wall
     rms, z = held_out(model, qh, rh)
     out = {"kind": kind, "n": n, "wall": wall, "cpu": cpu, "rms": rms, "z": z, "how": model.describe()}
     out["rss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # kB on Linux
@@ -113,9 +112,9 @@ def threads(n: int) -> None:
     times: dict[int, list[float]] = {1: [], 2: []}
     for k in (1, 2, 1, 2):
         with threadpool_limits(limits=k, user_api="blas"):
-            wall = time.perf_counter()
-            Fitc.build(X, r, Z, nu, Steps(False, "", ""))
-            times[k].append(time.perf_counter() - wall)
+            with timed() as clock:
+                Fitc.build(X, r, Z, nu, Steps(False, "", ""))
+            times[k].append(clock.wall)  # threads: the wall time is what they change
     out = {"n": n, "m": len(Z), "one": min(times[1]), "two": min(times[2])}
     print(json.dumps(out))
 
@@ -143,8 +142,7 @@ def main() -> None:
         else:
             child(kind, n)
         return
-    command = "python benchmarks/bench_residual.py" + (" --write" if args.write else "")
-    lines = header(command) + [
+    lines = header() + [
         "",
         "| fit | n | wall [s] | CPU [s] | peak RSS [MB] | held-out RMS [µm] | z RMS | subset alone [µm] |",
         "|---|---:|---:|---:|---:|---:|---:|---:|",
@@ -180,7 +178,7 @@ def main() -> None:
         f"(the fit uses one: on a shared machine threads contend).",
     ]
     print(lines[-1], flush=True)
-    lines += ["", READING]
+    lines += ["", *footer(), "", READING]
     if args.write:
         write(lines, "bench_residual")
 

@@ -15,10 +15,6 @@ after calibration against the predicted ρ0.
 from __future__ import annotations
 
 import argparse
-import datetime
-import os
-import platform
-import re
 import sys
 import tempfile
 import warnings
@@ -26,6 +22,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+
+from _common import footer, header, write  # noqa: E402  benchmarks/ is on sys.path as a script
 
 import pincal  # noqa: E402
 from tests.support.robot_zoo import MARKER, chain_of, listed_robots, rehearse  # noqa: E402
@@ -83,6 +81,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help="write the section into RESULTS.md")
     args = parser.parse_args()
+    intro = header() + [
+        "- Marker (0.05, 0.02, 0.03) m in the tip frame; σ = 30 µm; errors 1 mm / 1 mrad; seed 0.",
+        "",
+    ]
+    print("\n".join(intro), flush=True)
     lines = [
         "| robot | chain | nq | parameters identifiable/total | minimum m | design s (m = min + 2) "
         "| identify round trip: worst error; test-pose error before → after (predicted ρ0) |",
@@ -97,33 +100,9 @@ def main() -> None:
         for label, path in vendor() + vendor_like(Path(folder)):
             lines.append(row(label, pincal.load_robot(path, markers=MARKER), ""))
             print(lines[-1], flush=True)
-    if args.write:
-        load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
-        section = "\n".join(
-            [
-                "## bench_robots",
-                "",
-                f"- Machine: {platform.processor() or platform.machine()}, nproc {os.cpu_count()}, "
-                f"Python {platform.python_version()}; load average at end {load} (other work was running).",
-                "- Command: `python benchmarks/bench_robots.py --write`.",
-                f"- Date: {datetime.date.today()}.",
-                "- Marker (0.05, 0.02, 0.03) m in the tip frame; σ = 30 µm; errors 1 mm / 1 mrad; seed 0.",
-                "",
-                *lines,
-                "",
-            ]
-        )
-        path = ROOT / "benchmarks" / "RESULTS.md"
-        text = path.read_text()
-        # The header and the table are replaced; the notes written under the table are kept.
-        pattern = re.compile(r"## bench_robots\n.*?\n\| .*?\|\n(?!\|)", re.S)
-        found = pattern.search(text)
-        text = (
-            text[: found.start()] + section + text[found.end() :]
-            if found
-            else text.rstrip() + "\n\n" + section
-        )
-        path.write_text(text)
+    print("\n".join(footer()))
+    if args.write:  # the header and the table are replaced; the notes written under the table are kept
+        write([*intro[:-2], *footer(), *intro[-2:], *lines], "bench_robots", keep_notes=True)
 
 
 if __name__ == "__main__":

@@ -26,19 +26,16 @@ same run, each importing its own ``pincal`` (PYTHONPATH). Without it, only this 
 from __future__ import annotations
 
 import argparse
-import datetime
 import json
 import os
-import resource
 import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
-from _common import load, machine, write  # benchmarks/ is on sys.path when run as a script
+from _common import footer, header, load, timed, write  # benchmarks/ is on sys.path when run as a script
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (
@@ -217,15 +214,11 @@ def readme_wall(tree: Path) -> tuple[float, float]:
     env = dict(os.environ, PYTHONPATH=str(tree))
     with tempfile.TemporaryDirectory() as tmp:
         argv = README.format(out=Path(tmp) / "plan.csv").split()
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        t0 = time.perf_counter()
-        subprocess.run(
-            [sys.executable, "-m", "pincal", *argv], env=env, capture_output=True, check=True, cwd=tmp
-        )
-        wall = time.perf_counter() - t0
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-        return wall, cpu
+        with timed() as clock:
+            subprocess.run(
+                [sys.executable, "-m", "pincal", *argv], env=env, capture_output=True, check=True, cwd=tmp
+            )
+        return clock.wall, clock.cpu
 
 
 def best_wall(tree: Path, argv: list[str], repeat: int = 5) -> float:
@@ -233,9 +226,9 @@ def best_wall(tree: Path, argv: list[str], repeat: int = 5) -> float:
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     times = []
     for _ in range(repeat):
-        t0 = time.perf_counter()
-        subprocess.run([sys.executable, *argv], env=env, capture_output=True, check=True, cwd=tree)
-        times.append(time.perf_counter() - t0)
+        with timed() as clock:
+            subprocess.run([sys.executable, *argv], env=env, capture_output=True, check=True, cwd=tree)
+        times.append(clock.wall)
     return min(times)
 
 
@@ -263,11 +256,10 @@ def main() -> list[str]:
         print(text, flush=True)
         lines.append(text)
 
-    say(f"- Machine: {machine()}; load average at start {load()} (1/5/15 min).")
-    say(
-        f"- Command: `python benchmarks/bench_speed.py{' --before TREE' if args.before else ''}`"
-        f"{' (TREE: the code before, a detached worktree)' if args.before else ''}; date {datetime.date.today()}."
-    )
+    for line in header():
+        say(line)
+    if args.before:
+        say("- TREE: the code before, a detached worktree.")
     say()
     if "readme" not in skip:
         say("### The README's design command")
@@ -380,7 +372,8 @@ def main() -> list[str]:
                 f"(of which `import numpy, pinocchio` alone: {bare:.3f} s)."
             )
         say()
-    say(f"- Load average at the end: {load()}.")
+    for line in footer():
+        say(line)
     if args.write:
         write(lines, "bench_speed")
     return lines

@@ -19,11 +19,10 @@ The figures are printed (one Markdown table per design); copy them into benchmar
 from __future__ import annotations
 
 import argparse
-import time
 import warnings
 
 import numpy as np
-from _common import load, machine  # benchmarks/ is on sys.path when run as a script
+from _common import footer, header, timed  # benchmarks/ is on sys.path when run as a script
 
 import pincal
 
@@ -44,10 +43,10 @@ def cases():
     )
 
 
-def timed(args, **kw):
-    t = time.perf_counter()
-    result = pincal.design(*args, **kw)
-    return result, time.perf_counter() - t
+def timed_design(args, **kw):
+    with timed() as clock:
+        result = pincal.design(*args, **kw)
+    return result, clock.wall  # the default workers: the pool's CPU is not this process's
 
 
 def main() -> None:
@@ -56,7 +55,7 @@ def main() -> None:
     parser.add_argument("--best", type=int, default=256, help="starts of the best known value")
     opts = parser.parse_args()
     warnings.simplefilter("ignore")
-    print(f"Machine: {machine()}; {load()}\n")
+    print("\n".join(header()) + "\n")
     for title, args, kw in cases():
         print(f"### {title}\n")
         print(
@@ -65,9 +64,9 @@ def main() -> None:
         )
         print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
         for seed in opts.seeds:
-            best, _ = timed(args, starts=opts.best, seed=seed, **kw)
-            auto, t_auto = timed(args, seed=seed, **kw)
-            eight, t_eight = timed(args, starts=8, seed=seed, **kw)
+            best, _ = timed_design(args, starts=opts.best, seed=seed, **kw)
+            auto, t_auto = timed_design(args, seed=seed, **kw)
+            eight, t_eight = timed_design(args, starts=8, seed=seed, **kw)
             value = min(best.value, auto.value, eight.value)
             print(
                 f"| {seed} | {value:.6g} | {auto.starts} ({auto.matched}) | {auto.value / value:.4f} | "
@@ -75,6 +74,7 @@ def main() -> None:
                 flush=True,
             )
         print()
+    print("\n".join(footer()))
 
 
 if __name__ == "__main__":
