@@ -9,6 +9,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import json  # noqa: E402
+import shutil  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import NamedTuple  # noqa: E402
 
@@ -25,6 +26,15 @@ UR10_MARKER = [(0.03, -0.02, 0.1)]  # the UR10's, unless a module asks for anoth
 @pytest.fixture(scope="session")
 def planar():
     return pincal.load_robot(ROOT / "robots" / "planar_2r.urdf", tip="tip")
+
+
+@pytest.fixture
+def cell(tmp_path):
+    """A folder with the planar robot's URDF (robot.urdf) and a plan of 3 configurations (plan.csv),
+    as a user's cell would have them."""
+    shutil.copy(ROOT / "robots" / "planar_2r.urdf", tmp_path / "robot.urdf")
+    (tmp_path / "plan.csv").write_text("joint1,joint2\n0.1,1.0\n0.5,-1.0\n1.0,2.0\n")
+    return tmp_path
 
 
 @pytest.fixture(scope="session")

@@ -16,7 +16,7 @@ IPA_SLICE = ROOT / "tests" / "data" / "iso9283" / "measurements_iso_cubes_slice.
 
 
 @pytest.fixture(scope="module")
-def cell(tmp_path_factory, kr270_marker):
+def kr270_cell(tmp_path_factory, kr270_marker):
     """A true KR 270 (errors of about 0.5 mm), its calibration exported, and five poses commanded
     (the nominal model's) and attained (the true robot's, 5 µm noise) in 4 cycles, with the joint
     readings, as a CSV in millimetres and degrees."""
@@ -55,8 +55,8 @@ def cell(tmp_path_factory, kr270_marker):
     return path, urdf
 
 
-def test_before_and_after_calibration(cell, cli):
-    path, urdf = cell
+def test_before_and_after_calibration(kr270_cell, cli):
+    path, urdf = kr270_cell
     data = cli.json(
         "iso9283",
         "--data",
@@ -117,8 +117,8 @@ def test_the_figure_without_matplotlib_is_refused_before_any_work(cli, tmp_path,
     assert not (tmp_path / "iso.png").exists()
 
 
-def test_bad_input_is_one_line(cli, tmp_path, cell):
-    path, urdf = cell
+def test_bad_input_is_one_line(cli, tmp_path, kr270_cell):
+    path, urdf = kr270_cell
     cli.fails("iso9283", "--data", tmp_path / "missing.csv", match="missing.csv")
     cli.fails("iso9283", "--data", IPA_SLICE, match="expected the columns pose,cycle")
     cli.fails("iso9283", "--data", IPA_SLICE, "--format", "ipa", "--mm", match="no --mm or --deg")

@@ -17,18 +17,8 @@ import pincal
 from pincal.cli import main
 from pincal.files import atomic_write_text, guard_inputs
 from pincal.model import shipped_dh_tables
-from tests.conftest import ROOT
 
 PLANAR = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
-PLAN = "joint1,joint2\n0.1,1.0\n0.5,-1.0\n1.0,2.0\n"
-
-
-@pytest.fixture
-def cell(tmp_path):
-    """A folder with the planar robot's URDF and a plan, as a user's cell would have them."""
-    shutil.copy(ROOT / "robots" / "planar_2r.urdf", tmp_path / "robot.urdf")
-    (tmp_path / "plan.csv").write_text(PLAN)
-    return tmp_path
 
 
 def snapshot(folder: Path) -> dict:

@@ -5,22 +5,13 @@ other stages' cases are tests/<stage>/test_rough_edges.py."""
 from __future__ import annotations
 
 import os
-import shutil
 
 import pytest
 
 import pincal
 from pincal.files import all_or_nothing, atomic_write_text
-from tests.conftest import ROOT
 
 PLANAR = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
-
-
-@pytest.fixture
-def cell(tmp_path):
-    shutil.copy(ROOT / "robots" / "planar_2r.urdf", tmp_path / "robot.urdf")
-    (tmp_path / "plan.csv").write_text("joint1,joint2\n0.1,1.0\n0.5,-1.0\n1.0,2.0\n")
-    return tmp_path
 
 
 # ------------------------------------------------------------------ one conditioning number

@@ -3,23 +3,10 @@ readers with one-line messages, and runaway xacro sources stopped in one line.""
 
 from __future__ import annotations
 
-import shutil
-
 import pytest
 
 from pincal.cli import main
 from pincal.model import shipped_dh_tables, xacro_expansion
-from tests.conftest import ROOT
-
-PLAN = "joint1,joint2\n0.1,1.0\n0.5,-1.0\n1.0,2.0\n"
-
-
-@pytest.fixture
-def cell(tmp_path):
-    """A folder with the planar robot's URDF and a plan, as a user's cell would have them."""
-    shutil.copy(ROOT / "robots" / "planar_2r.urdf", tmp_path / "robot.urdf")
-    (tmp_path / "plan.csv").write_text(PLAN)
-    return tmp_path
 
 
 @pytest.mark.parametrize(

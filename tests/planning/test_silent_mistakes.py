@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import shutil
 import warnings
 
 import numpy as np
@@ -11,17 +10,9 @@ import pytest
 
 import pincal
 from pincal.errors import PincalWarning
-from tests.conftest import ROOT
 
 PLANAR = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
 TEST_POSE = "--test-pose=0.3,1.2"
-
-
-@pytest.fixture
-def cell(tmp_path):
-    shutil.copy(ROOT / "robots" / "planar_2r.urdf", tmp_path / "robot.urdf")
-    (tmp_path / "plan.csv").write_text("joint1,joint2\n0.1,1.0\n0.5,-1.0\n1.0,2.0\n")
-    return tmp_path
 
 
 def warnings_of(err: str) -> list[str]:

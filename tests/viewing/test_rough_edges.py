@@ -4,22 +4,12 @@ naming the extra."""
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
 
 import pytest
 
-from tests.conftest import ROOT
-
 PLANAR = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
-
-
-@pytest.fixture
-def cell(tmp_path):
-    shutil.copy(ROOT / "robots" / "planar_2r.urdf", tmp_path / "robot.urdf")
-    (tmp_path / "plan.csv").write_text("joint1,joint2\n0.1,1.0\n0.5,-1.0\n1.0,2.0\n")
-    return tmp_path
 
 
 # --------------------------------------------------------------- figures without matplotlib
