@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import pincal
-from tests.model.test_chains import XACRO_ARM
+from tests.support.urdfs import XACRO_ARM
 
 # ------------------------------------------------------------------- xacro robots export
 XACRO = XACRO_ARM  # planar 2-joint arm: properties, a macro, ${pi} limits

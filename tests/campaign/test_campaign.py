@@ -283,7 +283,7 @@ def test_animation_numbers_the_poses_in_execution_order(kr270_marker, kr_plan):
     from meshcat.servers.tree import walk
 
     from pincal.viewing.animation import campaign_scene
-    from tests.viewing.test_visualize import matrix, node
+    from tests.support.meshcat_nodes import matrix, node
 
     table = Obstacle("table", "box", (1.0, 1.0, 0.1), (1.9, 0.0, 0.4))
     campaign = plan_campaign(kr270_marker, kr_plan, check=False)
@@ -305,7 +305,7 @@ def test_view_frames_every_pose_and_keeps_the_floor_under_them(kr270_marker):
     under the lowest point."""
     from pincal.viewing import drawing
     from pincal.viewing.scene import static_viewer
-    from tests.viewing.test_visualize import matrix
+    from tests.support.meshcat_nodes import matrix
 
     qs = np.radians([[0, -90, 0, 0, 0, 0], [90, -10, 150, 0, -60, 0]])
     vis = static_viewer()

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pincal
 from pincal.errors import PincalWarning, warn
-from tests.model.test_chains import tree_urdf
+from tests.support.urdfs import tree_urdf
 
 visualize = importlib.import_module("pincal.viewing.scene")  # the module (pincal.viewing.scene: the function)
 

@@ -16,68 +16,7 @@ import pincal
 from pincal.cli import main
 from pincal.errors import AmbiguousTip, FrameNotFound, PincalWarning, UnsupportedJoint, UrdfError
 from pincal.model.loading import chain_ends
-
-
-def _joint(name, kind, parent, child, xyz="0 0 0", rpy="0 0 0", axis="0 0 1", limits=(-2.0, 2.0)):
-    limit = (
-        ""
-        if kind in ("fixed", "continuous")
-        else f'<limit lower="{limits[0]}" upper="{limits[1]}" effort="1" velocity="1"/>'
-    )
-    return (
-        f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
-        f'<origin xyz="{xyz}" rpy="{rpy}"/><axis xyz="{axis}"/>{limit}</joint>'
-    )
-
-
-def urdf(name: str, links: list[str], joints: list[str]) -> str:
-    """A URDF of bare links and the joints given (made with :func:`_joint`)."""
-    body = "".join(f'<link name="{link}"/>' for link in links)
-    return f'<?xml version="1.0"?><robot name="{name}">{body}{"".join(joints)}</robot>'
-
-
-def tree_urdf(arm2: bool = False, continuous: bool = True, zero: bool = False, mesh: str = "") -> str:
-    """A trunk with a 4-joint arm (joint a2 continuous), a hand with two fingers and a tcp, a
-    camera on the trunk, and optionally a second arm."""
-    links = ["trunk", "l1", "l2", "l3", "l4", "hand", "tcp", "left_finger", "right_finger", "camera"]
-    joints = [
-        _joint("a1", "revolute", "trunk", "l1", "0 0 0.4"),
-        _joint(
-            "a2",
-            "continuous" if continuous else "revolute",
-            "l1",
-            "l2",
-            "0 0.1 0.3",
-            "1.5707963267948966 0 0",
-        ),
-        _joint("a3", "revolute", "l2", "l3", "0.5 0 0", axis="0 0 1", limits=(0, 0) if zero else (-2.0, 2.0)),
-        _joint("a4", "revolute", "l3", "l4", "0.4 0 0.05", "0 1.5707963267948966 0"),
-        _joint("hand_mount", "fixed", "l4", "hand", "0 0 0.1"),
-        _joint("tcp_joint", "fixed", "hand", "tcp", "0 0 0.12"),
-        _joint(
-            "finger_left", "prismatic", "hand", "left_finger", "0 0.02 0.05", axis="0 1 0", limits=(0, 0.04)
-        ),
-        _joint(
-            "finger_right",
-            "prismatic",
-            "hand",
-            "right_finger",
-            "0 -0.02 0.05",
-            axis="0 -1 0",
-            limits=(0, 0.04),
-        ),
-        _joint("camera_joint", "fixed", "trunk", "camera", "0.1 0 0.6"),
-    ]
-    if arm2:
-        links += ["b1", "b2", "b_tool"]
-        joints += [
-            _joint("b1", "revolute", "trunk", "b1", "0 0.3 0.4"),
-            _joint("b2", "revolute", "b1", "b2", "0.4 0 0", axis="0 1 0"),
-            _joint("b_tool_joint", "fixed", "b2", "b_tool", "0.3 0 0"),
-        ]
-    visual = f'<visual><geometry><mesh filename="{mesh}"/></geometry></visual>' if mesh else ""
-    body = "".join(f'<link name="{name}">{visual if name == "l1" else ""}</link>' for name in links)
-    return f'<?xml version="1.0"?><robot name="tree">{body}{"".join(joints)}</robot>'
+from tests.support.urdfs import XACRO_ARM, joint_xml, tree_urdf, urdf
 
 
 @pytest.fixture
@@ -113,13 +52,13 @@ def hand_urdf() -> str:
         "hand_mrl_link",
     ]
     joints = [
-        _joint("middle_lumbar_Z", "revolute", "pelvis", "middle_abdomen", "0 0 0.2"),
-        _joint("a1", "revolute", "middle_abdomen", "l1", "0 0 0.3", axis="0 1 0"),
-        _joint("wrist", "revolute", "l1", "palm", "0.4 0 0", axis="1 0 0"),
-        _joint("LHand", "revolute", "palm", "LFinger11Link", "0.05 0 0", limits=(0, 1)),
-        _joint("LFinger12", "revolute", "LFinger11Link", "LFinger12Link", "0.02 0 0", limits=(0, 1)),
-        _joint("hand_index_joint", "revolute", "palm", "hand_index_link", "0.05 0.02 0", limits=(0, 1)),
-        _joint(
+        joint_xml("middle_lumbar_Z", "revolute", "pelvis", "middle_abdomen", "0 0 0.2"),
+        joint_xml("a1", "revolute", "middle_abdomen", "l1", "0 0 0.3", axis="0 1 0"),
+        joint_xml("wrist", "revolute", "l1", "palm", "0.4 0 0", axis="1 0 0"),
+        joint_xml("LHand", "revolute", "palm", "LFinger11Link", "0.05 0 0", limits=(0, 1)),
+        joint_xml("LFinger12", "revolute", "LFinger11Link", "LFinger12Link", "0.02 0 0", limits=(0, 1)),
+        joint_xml("hand_index_joint", "revolute", "palm", "hand_index_link", "0.05 0.02 0", limits=(0, 1)),
+        joint_xml(
             "hand_index_flex_2_joint",
             "revolute",
             "hand_index_link",
@@ -127,7 +66,7 @@ def hand_urdf() -> str:
             "0.02 0 0",
             limits=(0, 1),
         ),
-        _joint("hand_mrl_joint", "revolute", "palm", "hand_mrl_link", "0.05 -0.02 0", limits=(0, 1)),
+        joint_xml("hand_mrl_joint", "revolute", "palm", "hand_mrl_link", "0.05 -0.02 0", limits=(0, 1)),
     ]
     return urdf("hand", links, joints)
 
@@ -244,22 +183,6 @@ def test_frames_sharing_a_name_load():
     assert "gripper" not in robot.joint_names and robot.nq == 5
 
 
-XACRO_ARM = """<?xml version="1.0"?>
-<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="xarm">
-  <xacro:property name="l" value="0.4"/>
-  <xacro:macro name="revolute" params="name parent child xyz axis">
-    <joint name="${name}" type="revolute"><parent link="${parent}"/><child link="${child}"/>
-      <origin xyz="${xyz}"/><axis xyz="${axis}"/>
-      <limit lower="${-pi/2}" upper="${pi/2}" effort="1" velocity="1"/></joint>
-  </xacro:macro>
-  <link name="base"/><link name="l1"/><link name="l2"/><link name="tool0"/>
-  <xacro:revolute name="j1" parent="base" child="l1" xyz="0 0 ${l}" axis="0 0 1"/>
-  <xacro:revolute name="j2" parent="l1" child="l2" xyz="${l} 0 0" axis="0 1 0"/>
-  <joint name="t" type="fixed"><parent link="l2"/><child link="tool0"/><origin xyz="${l/2} 0 0"/></joint>
-</robot>
-"""
-
-
 def test_xacro_is_expanded_by_the_xacro_package(tmp_path):
     """The expanded robot is the one the macro describes: points against a hand-written URDF."""
     path = tmp_path / "arm.urdf.xacro"
@@ -268,9 +191,9 @@ def test_xacro_is_expanded_by_the_xacro_package(tmp_path):
     plain = tmp_path / "plain.urdf"
     plain.write_text(
         '<robot name="plain"><link name="base"/><link name="l1"/><link name="l2"/><link name="tool0"/>'
-        + _joint("j1", "revolute", "base", "l1", "0 0 0.4", limits=(-math.pi / 2, math.pi / 2))
-        + _joint("j2", "revolute", "l1", "l2", "0.4 0 0", axis="0 1 0", limits=(-math.pi / 2, math.pi / 2))
-        + _joint("t", "fixed", "l2", "tool0", "0.2 0 0")
+        + joint_xml("j1", "revolute", "base", "l1", "0 0 0.4", limits=(-math.pi / 2, math.pi / 2))
+        + joint_xml("j2", "revolute", "l1", "l2", "0.4 0 0", axis="0 1 0", limits=(-math.pi / 2, math.pi / 2))
+        + joint_xml("t", "fixed", "l2", "tool0", "0.2 0 0")
         + "</robot>"
     )
     reference = pincal.load_robot(plain)
@@ -414,12 +337,12 @@ def test_a_tool_frame_with_a_camera_hung_on_it_is_the_tip(tmp_path):
         "camera_depth_frame",
     ]
     joints = [
-        _joint("j1", "revolute", "base", "l1", "0 0 0.2"),
-        _joint("j2", "revolute", "l1", "l2", "0.3 0 0", axis="0 1 0"),
-        _joint("ee", "fixed", "l2", "end_effector_link", "0.1 0 0"),
-        _joint("camera_module", "fixed", "end_effector_link", "camera_link", "0 0.05 0"),
-        _joint("color", "fixed", "camera_link", "camera_color_frame", "0 0.01 0"),
-        _joint("depth", "fixed", "camera_link", "camera_depth_frame", "0 -0.01 0"),
+        joint_xml("j1", "revolute", "base", "l1", "0 0 0.2"),
+        joint_xml("j2", "revolute", "l1", "l2", "0.3 0 0", axis="0 1 0"),
+        joint_xml("ee", "fixed", "l2", "end_effector_link", "0.1 0 0"),
+        joint_xml("camera_module", "fixed", "end_effector_link", "camera_link", "0 0.05 0"),
+        joint_xml("color", "fixed", "camera_link", "camera_color_frame", "0 0.01 0"),
+        joint_xml("depth", "fixed", "camera_link", "camera_depth_frame", "0 -0.01 0"),
     ]
     path = tmp_path / "gen3_like.urdf"
     path.write_text(urdf("gen3_like", links, joints))
@@ -431,14 +354,14 @@ def test_chain_ends_are_listed_longest_first(tmp_path):
     """A humanoid's error lists its arms before its many short sensor chains (the list is cut)."""
     links = ["torso", "head", "camera", "a1", "a2", "a3", "hand", "leg", "sole"]
     joints = [
-        _joint("neck", "revolute", "torso", "head", "0 0 0.5"),
-        _joint("camera_joint", "fixed", "head", "camera", "0.1 0 0"),
-        _joint("hip", "revolute", "torso", "leg", "0 0 -0.2"),
-        _joint("ankle_fixed", "fixed", "leg", "sole", "0 0 -0.4"),
-        _joint("s1", "revolute", "torso", "a1", "0 0.2 0.4"),
-        _joint("s2", "revolute", "a1", "a2", "0 0.1 0", axis="0 1 0"),
-        _joint("e1", "revolute", "a2", "a3", "0.3 0 0", axis="0 1 0"),
-        _joint("w1", "fixed", "a3", "hand", "0.3 0 0"),
+        joint_xml("neck", "revolute", "torso", "head", "0 0 0.5"),
+        joint_xml("camera_joint", "fixed", "head", "camera", "0.1 0 0"),
+        joint_xml("hip", "revolute", "torso", "leg", "0 0 -0.2"),
+        joint_xml("ankle_fixed", "fixed", "leg", "sole", "0 0 -0.4"),
+        joint_xml("s1", "revolute", "torso", "a1", "0 0.2 0.4"),
+        joint_xml("s2", "revolute", "a1", "a2", "0 0.1 0", axis="0 1 0"),
+        joint_xml("e1", "revolute", "a2", "a3", "0.3 0 0", axis="0 1 0"),
+        joint_xml("w1", "fixed", "a3", "hand", "0.3 0 0"),
     ]
     path = tmp_path / "humanoid.urdf"
     path.write_text(urdf("humanoid", links, joints))

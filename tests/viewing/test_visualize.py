@@ -23,6 +23,7 @@ import umsgpack
 import pincal
 from pincal.cli import main
 from pincal.viewing.static_page import StaticWindow  # noqa: E402
+from tests.support.meshcat_nodes import matrix, node, unpack
 
 visualize = importlib.import_module("pincal.viewing.scene")  # the module (pincal.viewing.scene: the function)
 
@@ -36,19 +37,6 @@ def kr_scene(kr270_marker):
     plan = kr270_marker.random_configurations(12, 7)
     built = visualize.scene(params, plan, KR_Q0, sigma=SIGMA, instrument=(2.0, -1.5, 0.5))
     return params, plan, built
-
-
-def node(built, path):
-    return built.viewer.window.node(f"/meshcat/{visualize.ROOT}/{path}")
-
-
-def unpack(payload):
-    return umsgpack.unpackb(payload)
-
-
-def matrix(node_):
-    """The 4×4 transform of a scene node (meshcat sends it column-major)."""
-    return np.array(unpack(node_.transform)["matrix"]).reshape(4, 4).T
 
 
 def materials(node_):
