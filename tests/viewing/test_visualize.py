@@ -331,10 +331,10 @@ def test_cli_show_serves_until_ctrl_c(planar_plan):
                 url = line.split()[3]
                 break
         assert url and url.startswith("http://127.0.0.1:"), url
-        with urllib.request.urlopen(url, timeout=10) as page:
+        with urllib.request.urlopen(url, timeout=60) as page:
             assert page.status == 200 and b"MeshCat" in page.read()
         proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=20)
+        out, _ = proc.communicate(timeout=120)
         assert proc.returncode == 0 and "stopped" in out
     finally:
         if proc.poll() is None:
