@@ -1,7 +1,7 @@
 """What pincal 0.2 deprecates, and until when: names moved out of the top level (see
-``pincal/__init__.py``) and arguments passed by position after a function's first few
-(:func:`keywords_after`). Both keep working, with a DeprecationWarning naming what to write
-instead, until pincal :data:`REMOVAL`.
+``pincal/__init__.py``), modules moved to another stage (:func:`moved_module`) and arguments
+passed by position after a function's first few (:func:`keywords_after`). All keep working, with
+a DeprecationWarning naming what to write instead, until pincal :data:`REMOVAL`.
 
 Imports nothing but the standard library: ``import pincal`` reads :data:`REMOVAL`.
 """
@@ -9,12 +9,14 @@ Imports nothing but the standard library: ``import pincal`` reads :data:`REMOVAL
 from __future__ import annotations
 
 import functools
+import importlib
 import inspect
+import sys
 import warnings
 from collections.abc import Callable
 from typing import ParamSpec, TypeVar
 
-__all__ = ["REMOVAL", "keywords_after"]
+__all__ = ["REMOVAL", "keywords_after", "moved_module"]
 
 REMOVAL = "0.3"
 """The release that removes what 0.2 deprecates."""
@@ -66,3 +68,28 @@ def keywords_after(n: int) -> Callable[[Callable[P, R]], Callable[P, R]]:
         return call
 
     return decorate
+
+
+def moved_module(old: str, new: str, names: tuple[str, ...]) -> Callable[[str], object]:
+    """The module ``__getattr__`` of a module moved from ``old`` to ``new``: each of ``names`` read
+    from the old path is the new module's, with a DeprecationWarning at the caller's line naming
+    the new path, until pincal :data:`REMOVAL`; any other name is an AttributeError.
+
+    Usage, as the whole of the old module: ``__getattr__ = moved_module(__name__, "pincal.x.y",
+    ("A", "b"))``.
+    """
+
+    def __getattr__(name: str) -> object:
+        if name not in names:
+            raise AttributeError(f"module {old!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(new), name)
+        if not sys._getframe(1).f_code.co_filename.startswith("<frozen importlib"):
+            warnings.warn(
+                f"{old}.{name} is deprecated: use {new}.{name} ({old} moved to {new}; the old path "
+                f"stops working in pincal {REMOVAL})",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+        return value
+
+    return __getattr__

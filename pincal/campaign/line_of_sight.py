@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from pincal.planning.constraints.collision_world import CollisionWorld
+from pincal.model.collision import CollisionWorld
 
 TARGET_GAP = 0.01
 """Length [m] of the line of sight at the marker that is not checked (the target's mount)."""

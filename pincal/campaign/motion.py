@@ -3,7 +3,7 @@ r"""Moves certified collision-free, with a stated bound rather than a number of 
 
 A move from a to b runs the joints along the straight segment q(s) = a + s(b − a), s ∈ [0, 1]. For
 every pair the collision world checks (the robot against itself, the cell's obstacles and the
-floor: :class:`~pincal.planning.constraints.collision_world.CollisionWorld`), no point of the
+floor: :class:`~pincal.model.collision.CollisionWorld`), no point of the
 pair's moving shape travels farther, relative to the other shape, than λ = Σⱼ wⱼ |Δqⱼ| over a
 stretch of the segment where the joints move by Δq (w: the world's motion weights). So if the
 pair is η(s₀) apart at s₀ and η(s₁) apart at s₁, everywhere between them it is at least
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.planning.constraints.collision_world import CollisionWorld, with_exact
+from pincal.model.collision import CollisionWorld, with_exact
 
 MAX_EVALUATIONS = 1000
 """Distance evaluations one move may use before it is declared not certified."""

@@ -30,6 +30,7 @@ from pincal.campaign.ordering import best_tour, tour_cost
 from pincal.campaign.timing import Timing
 from pincal.errors import CannotWrite
 from pincal.files import atomic_write_text, csv_header
+from pincal.model.collision import CollisionWorld
 from pincal.model.robot import Robot
 from pincal.planning.constraints import (
     AnyConstraint,
@@ -42,7 +43,6 @@ from pincal.planning.constraints import (
     joint_margins,
     with_safety,
 )
-from pincal.planning.constraints.collision_world import CollisionWorld
 from pincal.planning.plan import Plan
 from pincal.progress import Steps
 from pincal.typing import ConfigurationsLike, JointValues

@@ -29,6 +29,7 @@ import pinocchio as pin
 
 from pincal.arguments import positive_int
 from pincal.errors import BadArgument
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
 from pincal.model.statics import payload_rows
@@ -84,16 +85,15 @@ class _Tool:
 
     def __init__(self, robot: Robot, residual: ResidualModel | None) -> None:
         self.robot = robot
-        self.model = robot.model
-        self.data = robot.model.createData()
+        self.forward = ForwardKinematics(robot)
+        self.model, self.data = robot.model, self.forward.data
         self.frame = robot.tip_frame
-        self.gravity = robot.gravity_model() if robot.joint_compliances.any() else None
         self.residual = residual
 
     def pose(self, q: np.ndarray, load: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(position, rotation, 6×nq world-aligned Jacobian with respect to the command) at command q
         under the payload row ``load`` [kg, x, y, z]."""
-        theta = self.robot.joint_values(q[None], payload=load[None], check=False, gravity=self.gravity)[0]
+        theta = self.forward.joint_values(q[None], load[None])[0]
         pin.computeJointJacobians(self.model, self.data, theta)
         pin.updateFramePlacements(self.model, self.data)
         placement = self.data.oMf[self.frame]
@@ -102,13 +102,7 @@ class _Tool:
         if self.residual is not None:
             position += self.residual.mean(q[None])[0, :3]
         # dθ/dq = (I - C ∂τ/∂θ)⁻¹ (I + K): the gains scale the reading, the compliance yields to it.
-        dtheta = np.diag(1.0 + self.robot.joint_gains)
-        if self.gravity is not None:
-            C = np.diag(self.robot.joint_compliances)
-            dtheta = np.linalg.solve(
-                np.eye(len(q)) - C @ self.gravity.torque_derivatives(theta, load), dtheta
-            )
-        return position, placement.rotation.copy(), J @ dtheta
+        return position, placement.rotation.copy(), J @ self.forward.reading_jacobian(theta, load)
 
 
 def _solve(tool: _Tool, start: np.ndarray, goal: tuple, load: np.ndarray, steps: int):

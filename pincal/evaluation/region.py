@@ -41,6 +41,7 @@ from pincal.arguments import length as _length
 from pincal.arguments import point as _point
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, Infeasible
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
 from pincal.typing import ArrayLike, ConfigurationsLike, JointValues, PointsLike, TestPoseLike
 
@@ -417,7 +418,10 @@ def cartesian_box(
 
 
 class _InverseKinematics:
-    """Damped least squares on the tip's SE(3) error (Pinocchio's CLIK), within the joint limits."""
+    """Damped least squares on the tip's SE(3) error (Pinocchio's CLIK), within the joint limits,
+    on the joints' readings: the tip at the joints' values θ and its Jacobian with respect to the
+    reading (:class:`~pincal.model.kinematics.ForwardKinematics`: a calibrated robot's gains and
+    compliances included)."""
 
     def __init__(
         self,
@@ -428,11 +432,10 @@ class _InverseKinematics:
         damping: float = 1e-8,
     ) -> None:
         self.robot = robot
-        self.model = robot.model
-        self.data = robot.model.createData()
+        self.forward = ForwardKinematics(robot)
         if rotation is None:  # the tool's orientation at the reference configuration
-            pin.framesForwardKinematics(self.model, self.data, reference + robot.joint_offsets)
-            rotation = (robot.base * self.data.oMf[robot.tip_frame]).rotation
+            R, p = self.forward.tip(np.asarray(reference, dtype=float)[None], instrument=False)
+            rotation = (robot.base * pin.SE3(R[0], p[0])).rotation
         self.rotation = np.array(rotation)
         self.iterations = iterations
         self.damping = damping
@@ -440,24 +443,25 @@ class _InverseKinematics:
     def solve(self, point: np.ndarray, start: np.ndarray) -> np.ndarray | None:
         """Joint values putting marker 0 at ``point`` (instrument frame) with the tool at
         ``rotation``; None if not found within the limits."""
-        robot, model, data = self.robot, self.model, self.data
+        robot, forward = self.robot, self.forward
         tip_position = point - self.rotation @ robot.markers[0]
         # The tip frame's target placement in the robot base frame (the model's world).
         target = robot.base.inverse() * pin.SE3(self.rotation, tip_position)
         offsets = robot.joint_offsets
         lo, hi = robot.lower, robot.upper
         q = np.array(start, dtype=float)
-        frame = robot.tip_frame
         for _ in range(self.iterations):
-            pin.framesForwardKinematics(model, data, q + offsets)
-            error_placement = data.oMf[frame].actInv(target)
+            placement, J = forward.frame_jacobian(q)
+            error_placement = placement.actInv(target)
             error = pin.log6(error_placement).vector
             if np.linalg.norm(error) < IK_TOLERANCE:
                 return q
-            J = pin.computeFrameJacobian(model, data, q + offsets, frame, pin.LOCAL)
             J = -pin.Jlog6(error_placement.inverse()) @ J
             step = -J.T @ np.linalg.solve(J @ J.T + self.damping * np.eye(6), error)
-            q = np.clip(pin.integrate(model, q + offsets, step) - offsets, lo, hi)
+            if forward.rigid:
+                q = np.clip(pin.integrate(forward.model, q + offsets, step) - offsets, lo, hi)
+            else:  # the step is one of the readings
+                q = np.clip(pin.integrate(forward.model, q, step), lo, hi)
         return None
 
 

@@ -28,6 +28,7 @@ from pincal.arguments import angle, generator, positive_int
 from pincal.errors import BadArgument, BadConfiguration
 from pincal.model.chain import frame_id
 from pincal.model.fixtures import Fixture, checked_fixtures
+from pincal.model.kinematics import marker_positions, tip_poses
 from pincal.model.parameters import ParameterSet
 from pincal.model.statics import Gravity, chain_mass, mounted, payload_rows
 from pincal.typing import ArrayLike, ConfigurationsLike, PayloadLike, SeedLike
@@ -375,8 +376,7 @@ class Robot:
         Returns:
             (m, K, 3) positions [m] (the leading axis is kept even for one configuration).
         """
-        rotations, positions = self.tip_poses(q, check=check, payload=payload)
-        return positions[:, None, :] + np.einsum("mij,kj->mki", rotations, self.markers)
+        return marker_positions(self, *self.tip_poses(q, check=check, payload=payload))
 
     def tip_poses(
         self,
@@ -387,7 +387,8 @@ class Robot:
         payload: PayloadLike = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Tip orientations (m, 3, 3) and positions (m, 3) [m] in the instrument frame: the one
-        forward-kinematics path (points, constraints and scenes use it).
+        forward-kinematics path (points, constraints and scenes use it;
+        :class:`~pincal.model.kinematics.ForwardKinematics` gives the joints and the rest).
 
         Args:
             q: (nq,) or (m, nq) joint values; with ``check=False`` an (m, nq) float array, used as is.
@@ -396,17 +397,8 @@ class Robot:
             payload: the payload at each configuration (see :meth:`points`).
         """
         qs = self.configurations(q) if check else np.asarray(q, dtype=float)
-        model = self.model
-        data = model.createData() if data is None else data
-        placement = model.frames[self.tip_frame].placement
-        rotations = np.empty((len(qs), 3, 3))
-        positions = np.empty((len(qs), 3))
-        for i, qi in enumerate(self.joint_values(qs, payload=payload, check=False)):
-            pin.forwardKinematics(model, data, qi)
-            tip = self.base * data.oMi[self.tip_joint] * placement
-            rotations[i] = tip.rotation
-            positions[i] = tip.translation
-        return rotations, positions
+        data = self.model.createData() if data is None else data
+        return tip_poses(self, self.joint_values(qs, payload=payload, check=False), data, self.base)
 
     # --------------------------------------------------------------------- statics
     @property

@@ -12,6 +12,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from pincal.errors import BadConstraint, Infeasible, warn
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
 from pincal.planning.constraints import (
     TOLERANCE,
@@ -56,7 +57,7 @@ class Feasibility:
         ]
         self.bound = [(key, b) for key, b in bound if not b.empty]  # a mount 'none' checks nothing
         self.spacing = spacing_of(constraints)
-        self.data = robot.model.createData()
+        self.forward = ForwardKinematics(robot)
 
     @property
     def trivial(self) -> bool:
@@ -64,7 +65,7 @@ class Feasibility:
         return not self.bound and self.spacing == 0
 
     def kinematics(self, qs: np.ndarray) -> Kinematics:
-        return Kinematics(self.robot, qs, self.data)
+        return Kinematics(self.robot, qs, forward=self.forward)
 
     def feasible(self, qs: np.ndarray, strict: bool = False) -> np.ndarray:
         """(m,) True where a configuration satisfies every per-configuration constraint (``strict``:

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pincal.errors import PincalWarning, warn
+from pincal.model.collision import CollisionWorld
 from pincal.model.robot import Robot
 from pincal.planning.constraints import (
     AnyConstraint,
@@ -33,7 +34,6 @@ from pincal.planning.constraints import (
     Workcell,
     joint_margins,
 )
-from pincal.planning.constraints.collision_world import CollisionWorld
 from pincal.typing import ConfigurationsLike
 
 __all__ = ["Closest", "SafetyReport", "safety_margins"]

@@ -29,9 +29,10 @@ import pinocchio as pin
 from pincal.campaign.schedule import HOME, Campaign
 from pincal.errors import BadArgument
 from pincal.files import atomic_write_text
+from pincal.model.collision import reach as robot_reach
+from pincal.model.kinematics import ForwardKinematics
 from pincal.optional import require
 from pincal.planning.constraints import AnyConstraint, Mount, Workcell
-from pincal.planning.constraints.collision_world import reach as robot_reach
 from pincal.viewing.drawing import (
     ROOT,
     add_label,
@@ -167,12 +168,11 @@ def campaign_scene(
     # The robot, then one keyframe per frame for each of its shapes.
     path = f"{ROOT}/campaign/robot"
     viz = add_robot(vis, robot, visual, campaign.home, path, rgb(ROBOT_COLOR) + (1.0,))
-    data, gdata = robot.model.createData(), visual.createData()
+    forward, gdata = ForwardKinematics(robot), visual.createData()
     animation = Animation(default_framerate=fps)
     names = [viz.getViewerNodeName(o, pin.GeometryType.VISUAL) for o in visual.geometryObjects]
     for i, q in enumerate(frames):
-        pin.forwardKinematics(robot.model, data, q + robot.joint_offsets)
-        pin.updateGeometryPlacements(robot.model, data, visual, gdata)
+        forward.place_geometry(visual, gdata, q)
         with animation.at_frame(vis, i) as frame:
             for g, obj in enumerate(visual.geometryObjects):
                 T = gdata.oMg[g].homogeneous.copy()

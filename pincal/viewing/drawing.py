@@ -13,9 +13,10 @@ import pinocchio as pin
 from lxml import etree
 
 from pincal.errors import UrdfError, warn
+from pincal.model.collision import segment_placement
 from pincal.model.geometry import robot_tree, urdf_geometry
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
-from pincal.planning.constraints.collision_world import segment_placement
 
 ROOT = "pincal"
 """Name of the scene's root node (under meshcat's ``/meshcat``)."""
@@ -129,7 +130,7 @@ def add_robot(vis, robot: Robot, geom: pin.GeometryModel, q: np.ndarray, path: s
         warnings.simplefilter("ignore")  # meshcat's own deprecation chatter
         viz.loadViewerModel(rootNodeName=path, visual_color=list(rgba))
     vis[path].set_transform(robot.base.homogeneous)
-    viz.display(q + robot.joint_offsets)
+    viz.display(ForwardKinematics(robot).joint_values(np.asarray(q, dtype=float)[None])[0])
     return viz
 
 
@@ -260,12 +261,9 @@ def add_instrument(vis, where: np.ndarray, points: np.ndarray, colors, reach: fl
 
 
 def _joint_origins(robot: Robot, qs: np.ndarray) -> np.ndarray:
-    model, data = robot.model, robot.model.createData()
-    out: list[np.ndarray] = []
-    for q in qs + robot.joint_offsets:
-        pin.forwardKinematics(model, data, q)
-        out.extend((robot.base * data.oMi[j]).translation for j in range(model.njoints))
-    return np.array(out).reshape(-1, 3)
+    """(m·njoints, 3) every joint's origin at each configuration, instrument frame [m]."""
+    origins = ForwardKinematics(robot).placements(np.asarray(qs, dtype=float)).joint_translations
+    return (origins.reshape(-1, 3) @ robot.base.rotation.T + robot.base.translation).reshape(-1, 3)
 
 
 VIEW_PAD = 0.08

@@ -19,8 +19,8 @@ from pincal.campaign.ordering import EXACT_LIMIT, best_tour, held_karp, improve,
 from pincal.campaign.schedule import HOME, plan_campaign
 from pincal.campaign.timing import DWELLS, Timing
 from pincal.errors import BadArgument
+from pincal.model.collision import TOUCHING, with_exact
 from pincal.planning.constraints import Mount, Obstacle, Workcell
-from pincal.planning.constraints.collision_world import TOUCHING, with_exact
 
 R = 0.05  # capsule radius of the planar scenes [m]
 
@@ -309,7 +309,7 @@ def test_view_frames_every_pose_and_keeps_the_floor_under_them(kr270_marker):
 
     qs = np.radians([[0, -90, 0, 0, 0, 0], [90, -10, 150, 0, -60, 0]])
     vis = static_viewer()
-    reach = drawing_reach = pincal.planning.constraints.collision_world.reach(kr270_marker)
+    reach = drawing_reach = pincal.model.collision.reach(kr270_marker)
     centre = drawing.set_view(vis, kr270_marker, qs, drawing_reach)
     shift = matrix(vis.window.node(f"/meshcat/{drawing.ROOT}"))[:3, 3]
     np.testing.assert_allclose(shift, -centre)

@@ -187,11 +187,11 @@ from pincal.evaluation.prior import PRIOR_RANGE  # noqa: E402
 from pincal.evaluation.region import DEFAULT_SAMPLES  # noqa: E402
 from pincal.files import MAX_CELL_CHARS, MAX_FILE_BYTES, MAX_LINE_CHARS, MAX_YAML_DEPTH, MAX_YAML_NODES  # noqa: E402
 from pincal.model.base_parameters import NEARLY_REDUNDANT  # noqa: E402
+from pincal.model.collision import LINK_RADIUS, REFINE_BELOW  # noqa: E402
 from pincal.model.urdf import MAX_URDF_BYTES, MAX_URDF_ELEMENTS, MAX_URDF_JOINTS  # noqa: E402
 from pincal.model.xacro_expansion import XACRO_MEMORY, XACRO_SECONDS  # noqa: E402
 from pincal.planning.choice import SINGULAR_WARNING  # noqa: E402
 from pincal.planning.constraints import DEFAULT_JOINT_LIMITS  # noqa: E402
-from pincal.planning.constraints.collision_world import LINK_RADIUS, REFINE_BELOW  # noqa: E402
 from pincal.planning.driver import DEFAULT_POOL, MIN_CONDITIONING  # noqa: E402
 from pincal.progress import EVERY as PROGRESS_EVERY  # noqa: E402
 

@@ -9,10 +9,10 @@ import pinocchio as pin
 import pytest
 
 import pincal
+from pincal.model.kinematics import BATCH
 from pincal.model.placements import JointPlacements
 from pincal.planning.constraints import Kinematics, Mount, MountBound
 from pincal.planning.constraints.base import TOLERANCE
-from pincal.planning.constraints.mount import BATCH
 from pincal.planning.feasibility import Feasibility
 
 MARKERS = [[0.1, 0.05, 0.2], [-0.03, 0.02, 0.08]]

@@ -13,6 +13,7 @@ import pytest
 import pincal
 from pincal.calibration.synthetic import random_errors
 from pincal.errors import BadArgument
+from pincal.model.collision import CollisionWorld
 from pincal.planning.constraints import (
     DEFAULT_CLEARANCE,
     Clearance,
@@ -23,7 +24,6 @@ from pincal.planning.constraints import (
     constraints_from_dict,
     with_safety,
 )
-from pincal.planning.constraints.collision_world import CollisionWorld
 from pincal.planning.feasibility import Feasibility
 from pincal.planning.safety import safety_margins
 

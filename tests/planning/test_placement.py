@@ -53,8 +53,9 @@ def _per_pair_margins(bound, kin):
     inverse = bound.base_inverse
     points = np.einsum("ij,mkj->mki", inverse.rotation, kin.points) + inverse.translation
     out = np.full((len(kin.qs), points.shape[1] * len(objects)), np.inf)
-    for i, q in enumerate(kin.qs + bound.offsets):
-        pin.updateGeometryPlacements(bound.model, bound.data, bound.hulls, bound.hull_data, q)
+    data = bound.model.createData()
+    for i, q in enumerate(kin.qs + kin.robot.joint_offsets):
+        pin.updateGeometryPlacements(bound.model, data, bound.hulls, bound.hull_data, q)
         placed = [coal.Transform3s(p.rotation, p.translation) for p in bound.hull_data.oMg]
         for k, point in enumerate(points[i]):
             axis = point - bound.instrument

@@ -244,7 +244,7 @@ def test_design_and_evaluate_warn_of_a_folded_pose(tmp_path, cli, ur10):
     """A design keeps clear of its own links by default (the UR10 has collision geometry): a pool
     pose where the robot meets itself is dropped, named; evaluate checks a plan's poses and warns,
     naming the pose and the pair."""
-    from pincal.planning.constraints.collision_world import CollisionWorld
+    from pincal.model.collision import CollisionWorld
     from pincal.planning.feasibility import Feasibility
 
     world = CollisionWorld(ur10, ())

@@ -11,8 +11,8 @@ import pytest
 
 import pincal
 from pincal.errors import BadConstraint
+from pincal.model.collision import CollisionWorld, capsule_geometry, reach
 from pincal.planning.constraints import Mount, Obstacle, Workcell, load_constraints, with_safety
-from pincal.planning.constraints.collision_world import CollisionWorld, capsule_geometry, reach
 from pincal.planning.safety import safety_margins
 
 R = 0.05  # capsule radius used in the hand-built scenes [m]

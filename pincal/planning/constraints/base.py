@@ -12,8 +12,10 @@ import pinocchio as pin
 from pincal import arguments
 from pincal.arguments import MAX_LENGTH
 from pincal.errors import BadConstraint
+from pincal.model.kinematics import ForwardKinematics, marker_positions
 from pincal.model.robot import Robot
-from pincal.typing import ConfigurationsLike
+from pincal.model.statics import payload_rows
+from pincal.typing import ConfigurationsLike, PayloadLike
 
 TOLERANCE = 1e-9
 """Slack [m or rad] allowed when checking a constraint exactly (rounding)."""
@@ -33,21 +35,35 @@ def number(value: object, what: str, low: float = -MAX_LENGTH, strict: bool = Fa
 
 class Kinematics:
     """Tip poses and marker positions of a batch of configurations, in the instrument frame,
-    computed when a constraint first reads them (the joint limits and the mount never do).
+    computed when a constraint first reads them (the joint limits never do), with the robot's
+    gains and compliances under the payload (:class:`~pincal.model.kinematics.ForwardKinematics`,
+    which the mount and the collision checks read too).
 
     Attributes:
-        qs: (m, nq) configurations.
+        qs: (m, nq) configurations (the joints' readings).
+        payload: (m, 4) the payload rows [kg, x, y, z] of the configurations, or None (none).
+        forward: the robot's forward kinematics.
         rotations: (m, 3, 3) tip orientations.
         positions: (m, 3) tip positions [m].
         points: (m, K, 3) marker positions [m].
     """
 
-    def __init__(self, robot: Robot, qs: np.ndarray, data: pin.Data | None = None) -> None:
-        self.robot, self.qs, self.data = robot, qs, data
+    def __init__(
+        self,
+        robot: Robot,
+        qs: np.ndarray,
+        data: pin.Data | None = None,
+        payload: PayloadLike = None,
+        *,
+        forward: ForwardKinematics | None = None,
+    ) -> None:
+        self.robot, self.qs = robot, qs
+        self.payload = None if payload is None else payload_rows(payload, len(qs))
+        self.forward = ForwardKinematics(robot, data) if forward is None else forward
 
     @cached_property
     def _tip(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.robot.tip_poses(self.qs, check=False, data=self.data)
+        return self.forward.tip(self.qs, self.payload)
 
     @property
     def rotations(self) -> np.ndarray:
@@ -59,11 +75,12 @@ class Kinematics:
 
     @cached_property
     def points(self) -> np.ndarray:
-        return self.positions[:, None, :] + np.einsum("mij,kj->mki", self.rotations, self.robot.markers)
+        return marker_positions(self.robot, self.rotations, self.positions)
 
     def subset(self, idx: np.ndarray) -> Kinematics:
         """The kinematics of configurations ``idx`` (what is computed already is kept, not redone)."""
-        sub = Kinematics(self.robot, self.qs[idx], self.data)
+        payload = None if self.payload is None else self.payload[idx]
+        sub = Kinematics(self.robot, self.qs[idx], payload=payload, forward=self.forward)
         if "_tip" in self.__dict__:
             sub.__dict__["_tip"] = (self.rotations[idx], self.positions[idx])
         if "points" in self.__dict__:

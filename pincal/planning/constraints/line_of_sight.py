@@ -10,6 +10,7 @@ import pinocchio as pin
 
 from pincal.errors import BadConstraint
 from pincal.model.geometry import convex_hulls
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number, vector
 from pincal.planning.constraints.self_collision import collision_geometry
@@ -79,8 +80,7 @@ class SightBound(Bound):
         self.coal = coal
         self.hulls = hull_geometry(robot, spec.package_dirs, "line_of_sight")
         self.hull_data = self.hulls.createData()
-        self.model, self.data = robot.model, robot.model.createData()
-        self.offsets = robot.joint_offsets
+        self.model, self.forward = robot.model, ForwardKinematics(robot)
         self.base_inverse = robot.base.inverse()
         self.instrument = self.base_inverse.act(np.array(spec.instrument))  # in the robot's base frame
         self.spec = spec
@@ -103,12 +103,13 @@ class SightBound(Bound):
         centre = self.instrument + z * (length / 2)[..., None]
         return length, z, R, centre
 
-    def _placements(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _placements(self, kin: Kinematics) -> tuple[np.ndarray, np.ndarray]:
         """(m, G, 3, 3), (m, G, 3) the hulls' placements at each configuration (one geometry update
-        each)."""
-        H = np.empty((len(qs), len(self.hulls.geometryObjects), 4, 4))
-        for i, q in enumerate(qs + self.offsets):
-            pin.updateGeometryPlacements(self.model, self.data, self.hulls, self.hull_data, q)
+        each, at the joints' values)."""
+        H = np.empty((len(kin.qs), len(self.hulls.geometryObjects), 4, 4))
+        data = self.forward.data
+        for i, theta in enumerate(self.forward.joint_values(kin.qs, kin.payload)):
+            pin.updateGeometryPlacements(self.model, data, self.hulls, self.hull_data, theta)
             H[i] = [placed.homogeneous for placed in self.hull_data.oMg]
         return H[:, :, :3, :3], H[:, :, :3, 3]
 
@@ -122,7 +123,7 @@ class SightBound(Bound):
             np.einsum("ij,mkj->mki", self.base_inverse.rotation, kin.points) + self.base_inverse.translation
         )
         length, z, R, centre = self._segments(points)
-        rotations, translations = self._placements(kin.qs)
+        rotations, translations = self._placements(kin)
         bounds = np.full(points.shape[:2] + (len(self.spheres),), np.inf)
         for g, (centres, radius) in enumerate(self.spheres):
             c = np.einsum("mij,sj->msi", rotations[:, g], centres) + translations[:, g, None]  # (m, S, 3)

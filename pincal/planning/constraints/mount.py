@@ -25,12 +25,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
 from pincal.errors import BadConstraint
-from pincal.model.placements import JointPlacements
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
 from pincal.planning.constraints.base import TOLERANCE, Bound, Constraint, Kinematics, number, vector
+from pincal.typing import PayloadLike
 
 MOUNTS = ("floor", "wall", "ceiling", "none")
 """How a robot can be mounted (``none``: no plane kept, e.g. a robot on a pedestal that reaches
@@ -39,9 +39,6 @@ below its base, or a floating base)."""
 MOVING = 1e-6
 """A point whose height above the plane varies by less than this [m] over random configurations
 is not moved by the joints (left out of the check)."""
-
-BATCH = 16
-"""Fewest configurations whose heights are computed in one batch (below, one at a time)."""
 
 
 @dataclass(frozen=True)
@@ -126,13 +123,14 @@ class Mount(Constraint):
 class MountBound(Bound):
     """The mount bound to a robot: the heights of the moving points above the plane.
 
-    The heights of many configurations at once (the random draws of a pool or of a baseline's
-    plans, the continuous search's constraints and their differences) read every joint's placement
-    of all the configurations in one batch (:class:`~pincal.model.placements.JointPlacements`,
-    which agrees with Pinocchio's forward kinematics to rounding, 1e-15 m); fewer than :data:`BATCH`
-    configurations (the repair's bisection, a report's single pose) run Pinocchio one
-    configuration at a time, which is cheaper there. The decisions and the margins come from the
-    same heights.
+    The points are the robot's forward kinematics' (:meth:`ForwardKinematics.chain_points
+    <pincal.model.kinematics.ForwardKinematics.chain_points>`: at the joints' values, gains and
+    compliances included, under the configurations' payload): many configurations at once (the
+    random draws of a pool or of a baseline's plans, the continuous search's constraints and their
+    differences) in one batch, which agrees with Pinocchio's forward kinematics to rounding,
+    1e-15 m; fewer than :data:`~pincal.model.kinematics.BATCH` (the repair's bisection, a report's
+    single pose) with Pinocchio one configuration at a time, cheaper there. The decisions and the
+    margins come from the same heights.
 
     Attributes:
         names: what each checked point is (``joint_a3 origin``, ``tool0``, ``marker 0``).
@@ -145,8 +143,7 @@ class MountBound(Bound):
         self.robot, self.spec = robot, spec
         self.normal, self.offset = np.array(spec.normal), spec.offset
         self.clearance = spec.clearance
-        self.data = robot.model.createData()
-        self.placements = JointPlacements(robot.model)
+        self.forward = ForwardKinematics(robot)
         joints = list(range(1, robot.model.njoints))
         names = [f"{robot.model.names[j]} origin" for j in joints]
         names += [robot.tip] + [f"marker {k}" for k in range(robot.n_markers)]
@@ -163,52 +160,31 @@ class MountBound(Bound):
     def empty(self) -> bool:
         return not len(self.keep)
 
-    def points(self, qs: np.ndarray) -> np.ndarray:
-        """(m, n, 3) every candidate point (joint origins, tip, markers) in the base frame [m],
-        Pinocchio's forward kinematics one configuration at a time."""
-        robot, model, data = self.robot, self.robot.model, self.data
-        tip = model.frames[robot.tip_frame].placement
-        out = np.empty((len(qs), len(self.joints) + 1 + robot.n_markers, 3))
-        for i, q in enumerate(qs + robot.joint_offsets):
-            pin.forwardKinematics(model, data, q)
-            for c, j in enumerate(self.joints):
-                out[i, c] = data.oMi[j].translation
-            frame = data.oMi[robot.tip_joint] * tip
-            out[i, len(self.joints)] = frame.translation
-            out[i, len(self.joints) + 1 :] = robot.markers @ frame.rotation.T + frame.translation
-        return out
+    def points(self, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+        """(m, n, 3) every candidate point (joint origins, tip, markers) in the base frame [m] at
+        the readings ``qs``: :meth:`~pincal.model.kinematics.ForwardKinematics.chain_points`."""
+        return self.forward.chain_points(qs, payload)
 
-    def batch_points(self, qs: np.ndarray) -> np.ndarray:
+    def batch_points(self, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
         """:meth:`points` of all configurations in one batch (agrees to rounding)."""
-        robot = self.robot
-        rotations, translations = self.placements(qs + robot.joint_offsets)
-        tip = robot.model.frames[robot.tip_frame].placement
-        up = rotations[robot.tip_joint].reshape(-1, 3)
-        tip_rotation = (up @ tip.rotation).reshape(-1, 3, 3)
-        tip_position = translations[robot.tip_joint] + (up @ tip.translation).reshape(-1, 3)
-        markers = tip_position[:, None, :] + np.einsum("mij,kj->mki", tip_rotation, robot.markers)
-        origins = translations[self.joints].transpose(1, 0, 2)
-        return np.concatenate([origins, tip_position[:, None, :], markers], axis=1)
+        return self.forward.batch_chain_points(qs, payload)
 
-    def _heights(self, qs: np.ndarray) -> np.ndarray:
-        """(m, kept) the kept points' heights above the plane [m]: from :meth:`batch_points`, or
-        from :meth:`points` for fewer than :data:`BATCH` configurations (the batch's fixed cost, a
-        few dozen NumPy calls per joint, is more than Pinocchio's loop there)."""
-        points = self.points(qs) if len(qs) < BATCH else self.batch_points(qs)
-        return points[:, self.keep] @ self.normal - self.offset
+    def heights(self, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+        """(m, kept) the kept points' heights above the plane [m] at the readings ``qs``."""
+        return self.points(qs, payload)[:, self.keep] @ self.normal - self.offset
 
     def margins(self, kin: Kinematics) -> np.ndarray:
         """(m, kept) the heights above the plane less the clearance [m]."""
         if not len(self.keep):
             return np.zeros((len(kin.qs), 0))
-        return self._heights(kin.qs) - self.clearance
+        return self.heights(kin.qs, kin.payload) - self.clearance
 
     def satisfied(self, kin: Kinematics) -> np.ndarray:
         if not len(self.keep):
             return np.ones(len(kin.qs), dtype=bool)
-        return np.all(self._heights(kin.qs) - self.clearance >= -TOLERANCE, axis=1)
+        return np.all(self.heights(kin.qs, kin.payload) - self.clearance >= -TOLERANCE, axis=1)
 
     def strictly_satisfied(self, kin: Kinematics) -> np.ndarray:
         if not len(self.keep):
             return np.ones(len(kin.qs), dtype=bool)
-        return np.all(self._heights(kin.qs) - self.clearance > 0, axis=1)
+        return np.all(self.heights(kin.qs, kin.payload) - self.clearance > 0, axis=1)

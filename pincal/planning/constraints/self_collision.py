@@ -10,11 +10,13 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import BadConstraint, UrdfError
+from pincal.model.collision import touching_at_reference
 from pincal.model.geometry import convex_hulls, urdf_geometry
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
 from pincal.model.urdf import few
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, NothingChecked, number
-from pincal.planning.constraints.collision_world import touching_at_reference
+from pincal.typing import PayloadLike
 
 
 @dataclass(frozen=True)
@@ -119,8 +121,8 @@ class CollisionBound(Bound):
             geom.addCollisionPair(pin.CollisionPair(a, b))
             hulls.addCollisionPair(pin.CollisionPair(a, b))
         self.names = [(objects[a].name, objects[b].name) for a, b in pairs]
-        self.model, self.data = model, model.createData()
-        self.offsets = robot.joint_offsets
+        self.model, self.forward = model, ForwardKinematics(robot)
+        self.data = self.forward.data
         self.exact, self.exact_data = geom, geom.createData()
         for request in self.exact_data.collisionRequests:
             request.security_margin = spec.min_distance
@@ -129,21 +131,22 @@ class CollisionBound(Bound):
 
     def margins(self, kin: Kinematics) -> np.ndarray:
         out = np.empty((len(kin.qs), len(self.names)))
-        for i, q in enumerate(kin.qs + self.offsets):
-            pin.updateGeometryPlacements(self.model, self.data, self.hulls, self.hull_data, q)
+        for i, theta in enumerate(self.forward.joint_values(kin.qs, kin.payload)):
+            pin.updateGeometryPlacements(self.model, self.data, self.hulls, self.hull_data, theta)
             pin.computeDistances(self.hulls, self.hull_data)
             out[i] = [r.min_distance for r in self.hull_data.distanceResults]
         return out - self.min_distance
 
     def satisfied(self, kin: Kinematics) -> np.ndarray:
         model, data, geom, gdata = self.model, self.data, self.exact, self.exact_data
+        thetas = self.forward.joint_values(kin.qs, kin.payload)
         return np.array(
-            [not pin.computeCollisions(model, data, geom, gdata, q, True) for q in kin.qs + self.offsets],
-            dtype=bool,
+            [not pin.computeCollisions(model, data, geom, gdata, theta, True) for theta in thetas], dtype=bool
         )
 
-    def colliding_pairs(self, q: np.ndarray) -> list[tuple[str, str]]:
-        """Names of the geometry pairs in collision at one configuration."""
-        pin.computeCollisions(self.model, self.data, self.exact, self.exact_data, q + self.offsets, False)
+    def colliding_pairs(self, q: np.ndarray, payload: PayloadLike = None) -> list[tuple[str, str]]:
+        """Names of the geometry pairs in collision at one configuration (reading)."""
+        theta = self.forward.joint_values(np.asarray(q, dtype=float)[None], payload)[0]
+        pin.computeCollisions(self.model, self.data, self.exact, self.exact_data, theta, False)
         results = self.exact_data.collisionResults
         return [n for n, r in zip(self.names, results, strict=True) if r.isCollision()]

@@ -3,7 +3,7 @@ URDF of the cell), in the robot's base frame.
 
 The cell is checked with Pinocchio's collision models (coal) against the robot's collision
 geometry — the URDF's ``<collision>`` shapes, or capsules derived from the kinematics when it has
-none (see :mod:`pincal.planning.constraints.collision_world`; every report says which). Meshes,
+none (see :mod:`pincal.model.collision`; every report says which). Meshes,
 the robot's and the cell's, are checked by their convex hulls: the distances are lower bounds of
 the true ones; a pair whose hulls come within a few centimetres is measured on the meshes.
 
@@ -34,10 +34,10 @@ import pinocchio as pin
 
 from pincal.errors import BadConstraint
 from pincal.files import note_input
+from pincal.model.collision import CollisionWorld
 from pincal.model.robot import Robot
 from pincal.model.urdf import captured_stderr, first_error
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number, vector
-from pincal.planning.constraints.collision_world import CollisionWorld
 from pincal.planning.constraints.mount import MountBound
 
 SHAPES = ("box", "cylinder", "sphere", "capsule", "mesh")
