@@ -442,9 +442,12 @@ class CollisionWorld:
         """(m, size) :meth:`distances` at each of the readings ``qs`` (``payload``: the one carried,
         or one per configuration; default the world's)."""
         payload = self.payload if payload is None else payload
-        loads = payload_rows(payload, len(qs))
+        loads = None if payload is None else payload_rows(payload, len(qs))
         thetas = self.forward.joint_values(qs, loads)
-        out = [self._distances(q, t, refine, w[None]) for q, t, w in zip(qs, thetas, loads, strict=True)]
+        out = [
+            self._distances(q, theta, refine, None if loads is None else loads[i : i + 1])
+            for i, (q, theta) in enumerate(zip(qs, thetas, strict=True))
+        ]
         return np.array(out).reshape(len(qs), self.size)
 
     def placements(self, q: np.ndarray, payload: PayloadLike = None) -> list[pin.SE3]:

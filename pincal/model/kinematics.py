@@ -109,6 +109,8 @@ class ForwardKinematics:
         self._data = data
         self._batch: JointPlacements | None = None
         self._gravity: Gravity | None = None
+        self.rigid = not robot.is_elastic
+        """True when θ = q + Δq (no joint gains nor compliances)."""
 
     @property
     def data(self) -> pin.Data:
@@ -116,11 +118,6 @@ class ForwardKinematics:
         if self._data is None:
             self._data = self.model.createData()
         return self._data
-
-    @property
-    def rigid(self) -> bool:
-        """True when θ = q + Δq (no joint gains nor compliances)."""
-        return not self.robot.is_elastic
 
     @property
     def gravity(self) -> Gravity | None:

@@ -42,7 +42,6 @@ class Kinematics:
     Attributes:
         qs: (m, nq) configurations (the joints' readings).
         payload: (m, 4) the payload rows [kg, x, y, z] of the configurations, or None (none).
-        forward: the robot's forward kinematics.
         rotations: (m, 3, 3) tip orientations.
         positions: (m, 3) tip positions [m].
         points: (m, K, 3) marker positions [m].
@@ -57,9 +56,15 @@ class Kinematics:
         *,
         forward: ForwardKinematics | None = None,
     ) -> None:
-        self.robot, self.qs = robot, qs
+        self.robot, self.qs, self._data = robot, qs, data
         self.payload = None if payload is None else payload_rows(payload, len(qs))
-        self.forward = ForwardKinematics(robot, data) if forward is None else forward
+        if forward is not None:
+            self.__dict__["forward"] = forward
+
+    @cached_property
+    def forward(self) -> ForwardKinematics:
+        """The robot's forward kinematics (made on first use, when none was given)."""
+        return ForwardKinematics(self.robot, self._data)
 
     @cached_property
     def _tip(self) -> tuple[np.ndarray, np.ndarray]:
