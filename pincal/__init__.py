@@ -57,6 +57,7 @@ if TYPE_CHECKING:
     from pincal.model.statics import Payload
     from pincal.planning.baselines import random_plans
     from pincal.planning.driver import design
+    from pincal.planning.options import Loads, Safety, Search
     from pincal.planning.plan import Plan
     from pincal.planning.results import DesignResult
     from pincal.viewing.scene import scene, show
@@ -64,6 +65,7 @@ if TYPE_CHECKING:
 __all__ = [
     "DesignResult",
     "IdentificationResult",
+    "Loads",
     "MeasurementData",
     "ParameterSet",
     "Payload",
@@ -72,6 +74,8 @@ __all__ = [
     "Plan",
     "Prior",
     "Robot",
+    "Safety",
+    "Search",
     "TestPath",
     "__version__",
     "accuracy",
@@ -132,6 +136,11 @@ _HOMES = {
     "pincal.model.statics": ("Payload",),
     "pincal.planning.baselines": ("random_plans",),
     "pincal.planning.driver": ("design",),
+    "pincal.planning.options": (
+        "Loads",
+        "Safety",
+        "Search",
+    ),
     "pincal.planning.plan": ("Plan",),
     "pincal.planning.results": ("DesignResult",),
     "pincal.viewing.scene": (

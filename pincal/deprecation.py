@@ -1,7 +1,9 @@
 """What pincal 0.2 deprecates, and until when: names moved out of the top level (see
-``pincal/__init__.py``), modules moved to another stage (:func:`moved_module`) and arguments
-passed by position after a function's first few (:func:`keywords_after`). All keep working, with
-a DeprecationWarning naming what to write instead, until pincal :data:`REMOVAL`.
+``pincal/__init__.py``), modules moved to another stage (:func:`moved_module`), arguments passed
+by position after a function's first few (:func:`keywords_after`) and flat keywords now grouped
+into values (:func:`moved_keywords`, e.g. :func:`pincal.design`'s ``starts=`` into
+``search=pincal.Search(starts=...)``). All keep working, with a DeprecationWarning naming what to
+write instead, until pincal :data:`REMOVAL`.
 
 Imports nothing but the standard library: ``import pincal`` reads :data:`REMOVAL`.
 """
@@ -13,10 +15,10 @@ import importlib
 import inspect
 import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Collection, Sequence
 from typing import ParamSpec, TypeVar
 
-__all__ = ["REMOVAL", "keywords_after", "moved_module"]
+__all__ = ["REMOVAL", "keywords_after", "moved_keywords", "moved_module"]
 
 REMOVAL = "0.3"
 """The release that removes what 0.2 deprecates."""
@@ -25,7 +27,7 @@ P = ParamSpec("P")
 R = TypeVar("R")
 
 
-def keywords_after(n: int) -> Callable[[Callable[P, R]], Callable[P, R]]:
+def keywords_after(n: int, names: Sequence[str] = ()) -> Callable[[Callable[P, R]], Callable[P, R]]:
     """Make the decorated function's arguments after its first ``n`` keyword-only, as its
     signature (with ``*``) says, while a call passing them by position, as pincal 0.1 allowed,
     still works until pincal :data:`REMOVAL`, with a DeprecationWarning at the caller's line naming
@@ -33,6 +35,8 @@ def keywords_after(n: int) -> Callable[[Callable[P, R]], Callable[P, R]]:
 
     Args:
         n: the arguments that stay positional (the function's first ``n``, before its ``*``).
+        names: the keywords the arguments after the first ``n`` stood for in pincal 0.1, in order,
+            when they are not the signature's (keywords since grouped: :func:`moved_keywords`).
     """
 
     def decorate(function: Callable[P, R]) -> Callable[P, R]:
@@ -40,7 +44,7 @@ def keywords_after(n: int) -> Callable[[Callable[P, R]], Callable[P, R]]:
         positional = [p.name for p in parameters if p.kind is p.POSITIONAL_OR_KEYWORD]
         if len(positional) != n:
             raise TypeError(f"{function.__name__} has {len(positional)} positional arguments, not {n}")
-        keywords = [p.name for p in parameters if p.kind is p.KEYWORD_ONLY]
+        keywords = list(names) or [p.name for p in parameters if p.kind is p.KEYWORD_ONLY]
 
         @functools.wraps(function)
         def call(*args: P.args, **kwargs: P.kwargs) -> R:
@@ -93,3 +97,49 @@ def moved_module(old: str, new: str, names: tuple[str, ...]) -> Callable[[str], 
         return value
 
     return __getattr__
+
+
+Regroup = Callable[[dict, dict], tuple[dict, str]]
+"""(the flat keywords given, the others) -> (the keywords to call with, what to write instead: ""
+when nothing given is deprecated)."""
+
+
+def moved_keywords(names: Collection[str], regroup: Regroup) -> Callable[[Callable[P, R]], Callable[P, R]]:
+    """Let the decorated function take, until pincal :data:`REMOVAL`, the flat keywords ``names`` of
+    pincal 0.1 that its signature now groups into values: ``regroup`` turns them (and any other
+    keyword given in an old form) into today's keywords and says what to write, which a
+    DeprecationWarning at the caller's line repeats. Type checkers and help() read today's
+    signature.
+
+    Args:
+        names: the flat keywords no longer in the signature.
+        regroup: see :data:`Regroup`; it raises TypeError for a flat keyword given with its value.
+    """
+    flat_names = frozenset(names)
+
+    def decorate(function: Callable[P, R]) -> Callable[P, R]:
+        @functools.wraps(function)
+        def call(*args: P.args, **kwargs: P.kwargs) -> R:
+            flat = {name: kwargs.pop(name) for name in list(kwargs) if name in flat_names}
+            new, hint = regroup(flat, kwargs)
+            if hint:
+                warnings.warn(
+                    f"{function.__name__}(): the flat keywords are deprecated: write {hint} (grouped in "
+                    f"pincal 0.2; the flat keywords stop working in pincal {REMOVAL})",
+                    DeprecationWarning,
+                    stacklevel=_caller(),
+                )
+            return function(*args, **new)
+
+        return call
+
+    return decorate
+
+
+def _caller() -> int:
+    """The stack level of the caller of a deprecated call: past this module's own wrappers (a
+    :func:`moved_keywords` call may be wrapped by :func:`keywords_after`)."""
+    frame, level = inspect.currentframe(), 1
+    while frame is not None and frame.f_code.co_filename == __file__:
+        frame, level = frame.f_back, level + 1
+    return level - 1

@@ -45,6 +45,7 @@ from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint, AvoidPoses, JointMargin, MountSpec, with_safety
 from pincal.planning.driver import design
+from pincal.planning.options import Safety, Search
 from pincal.planning.plan import Plan
 from pincal.typing import ConfigurationsLike, PoolLike, TestPoseLike
 
@@ -324,10 +325,18 @@ def next_poses(
     with warnings.catch_warnings():
         # The next k poses alone need not determine every parameter: the data so far do the rest.
         warnings.simplefilter("ignore", DegenerateOptimumWarning)
+        search = Search(
+            starts=starts, seed=seed, workers=workers, pool=pool, polish=polish, progress=progress
+        )
         result = design(
-            a.params, k, test_pose, prior=a.measured, sigma=noise, constraints=cell, starts=starts, seed=seed,
-            workers=workers, pool=pool, polish=polish, progress=progress,
-        )  # fmt: skip
+            a.params,
+            k,
+            test_pose,
+            prior=a.measured,
+            sigma=noise,
+            safety=Safety(constraints=cell),
+            search=search,
+        )
     rho0 = result.rho0
     assert rho0 is not None  # a design for a test pose reports its rho0
     after = a.with_unexplained(float(rho0))

@@ -33,6 +33,7 @@ from pincal.campaign.measured import MeasuredPrior
 from pincal.evaluation.region import resolve_test_poses
 from pincal.model.parameters import ParameterSet
 from pincal.planning.driver import design
+from pincal.planning.options import grouped
 from pincal.planning.plan import Plan
 from pincal.typing import TestPoseLike
 
@@ -127,7 +128,7 @@ def one_shot_plan(
     rows = 3 * params.robot.n_markers
     m = -(-len(params) // rows) + 1
     while True:
-        result = design(params, m, test_pose, sigma=sigma, **options)
+        result = design(params, m, test_pose, **grouped(dict(options, sigma=sigma)))
         rho0 = result.rho0
         assert rho0 is not None  # a design for a test pose reports its rho0
         if rho0 <= target or m >= max_m:
@@ -196,7 +197,9 @@ def rehearse(
     # Adaptive: a first batch that identifies the parameters, then k at a time.
     instrument = _Instrument(params, sigma, faults, seed)
     rows = 3 * robot.n_markers
-    first = design(params, -(-len(params) // rows) + first_extra, test_pose, sigma=sigma, **options).plan
+    first = design(
+        params, -(-len(params) // rows) + first_extra, test_pose, **grouped(dict(options, sigma=sigma))
+    ).plan
     qs, points, s = instrument.measure(first.q)
     attempted, rounds = first.q, 1
     while True:

@@ -23,6 +23,7 @@ from pincal.evaluation.prior import Prior
 from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint, JointMargin, MountSpec, with_safety
 from pincal.planning.driver import design
+from pincal.planning.options import grouped
 from pincal.planning.plan import Plan
 from pincal.typing import JointValues, TestPoseLike
 
@@ -170,7 +171,11 @@ def accuracy_vs_time(
             continue
         try:
             result = design(
-                params, m, test_pose, sigma=sigma, prior=prior, constraints=constraints, **options
+                params,
+                m,
+                test_pose,
+                prior=prior,
+                **grouped(dict(options, sigma=sigma, constraints=constraints)),
             )
         except PincalError as exc:
             skipped.append((m, str(exc).split(";")[0]))

@@ -26,6 +26,7 @@ from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestPath, around, cartesian_box, resolve_test_poses
 from pincal.model.statics import Payload
 from pincal.planning.driver import design
+from pincal.planning.options import Safety, Search, grouped
 from pincal.viewing.plots import error_vs_distance, save_figure
 
 REGION_HELP = """\
@@ -261,13 +262,9 @@ def d_optimal_plan(params, m: int, constraints=(), pool=None, seed: int = 0, **m
                 params,
                 m,
                 criterion="D",
-                constraints=constraints,
-                pool=pool,
-                starts=4,
-                seed=seed,
-                workers=1,
-                polish=False,
-                **_without_orientation(measuring),
+                search=Search(starts=4, seed=seed, pool=pool, workers=1, polish=False),
+                safety=Safety(constraints=constraints),
+                **grouped(_without_orientation(measuring)),
             ).plan
         except PincalError:
             return None

@@ -23,6 +23,7 @@ from pincal.cli._safety import safe_constraints_from_args
 from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, design
+from pincal.planning.options import Safety, Search, grouped
 
 HELP = COMMANDS["baseline"].help
 EXAMPLES = """\
@@ -106,16 +107,17 @@ def run(args: argparse.Namespace) -> int:
                 args.m,
                 q0,
                 criterion="D",
-                method=args.method,
-                pool=pool,
-                constraints=constraints,
-                sigma=sigma,
                 prior=prior,
-                seed=args.seed,
-                starts=args.starts,
-                workers=args.workers,
-                progress=args.progress,
-                **measuring.options,
+                search=Search(
+                    method=args.method,
+                    starts=args.starts,
+                    seed=args.seed,
+                    pool=pool,
+                    workers=args.workers,
+                    progress=args.progress,
+                ),
+                safety=Safety(constraints=constraints),
+                **grouped(dict(sigma=sigma, **measuring.options)),
             )
     print_warnings(records)
     if args.json:

@@ -63,6 +63,7 @@ from pincal.planning import stopping as _stopping
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, MIN_CONDITIONING, design
 from pincal.planning.objectives import CRITERIA
+from pincal.planning.options import grouped
 from pincal.planning.placement import SCREEN, STEPS, Placement, place_instrument
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans, dropped_line
@@ -338,7 +339,6 @@ def run(args: argparse.Namespace) -> int:
         loads["residual_model"] = residual_model_from_args(robot, args.residual_model)
     if loads:
         _check_payload_design(args, loads)
-        options = {k: v for k, v in options.items() if k not in ("method", "polish", "workers")}
         options.update(loads)
     placement = None
     if args.place_instrument is not None:
@@ -351,7 +351,9 @@ def run(args: argparse.Namespace) -> int:
         if placement is None:
             # --baseline's D-optimal plan is searched from the same starts, on the same workers
             with_d = args.baseline is not None and options.get("method") == "exchange"
-            result = design(params, args.m, q0, criterion=criterion, with_d_optimal=with_d, **options)
+            result = design(
+                params, args.m, q0, criterion=criterion, with_d_optimal=with_d, **grouped(options)
+            )
         else:
             result = placement.result
         baseline = None
@@ -478,7 +480,7 @@ def _baseline(
         **{k: options[k] for k in ("measure", "instrument", "orientation_length") if k in options},
     )
     if d_optimal is None:
-        d_optimal = design(params, args.m, q0, criterion="D", **options)
+        d_optimal = design(params, args.m, q0, criterion="D", **grouped(options))
     return randoms, d_optimal
 
 

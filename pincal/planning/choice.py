@@ -18,22 +18,16 @@ from pincal.errors import (
 from pincal.evaluation.classic import criteria_from_jacobian
 from pincal.evaluation.data_check import MIN_DATA_CONDITIONING, DataCheck, check_parameters
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
-from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.evaluation.residual_criterion import ResidualCriterion
+from pincal.evaluation.test_pose import TestPoseCriterion, rho0_each
 from pincal.instruments.instrument import RowsEngine
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning import stopping as _stopping
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, StartRecord, dropped_line
-from pincal.planning.search import (
-    Outcome,
-    Pool,
-    Settings,
-    dropped_count,
-    log_scale,
-    plan_conditioning,
-    values,
-)
+from pincal.planning.search import log_scale, plan_conditioning, values
+from pincal.planning.settings import Outcome, Pool, Settings, dropped_count
 
 SINGULAR_WARNING = 1e-3
 """A plan whose conditioning is below this is effectively singular: some parameter combinations
@@ -75,7 +69,7 @@ def choose(
             f"none of the {len(outcomes)} starts ended in a feasible, regular plan; "
             "relax the constraints or add starts"
         )
-    cond = {s: plan_conditioning(engine, _plan(outcomes[s])) for s in usable}
+    cond = {s: plan_conditioning(engine, _plan(outcomes[s]), outcomes[s].payload) for s in usable}
     regular = [s for s in usable if cond[s] > floor or floor <= 0]
     history = tuple(
         replace(o.record, message=f"below the conditioning floor {floor:g}; " + o.record.message)
@@ -87,7 +81,8 @@ def choose(
         raise DegenerateOptimum(criterion, settings.m, floor)
     winner = min(regular, key=lambda s: (outcomes[s].F, s))
     if settings.prior is None and cond[winner] < MIN_DATA_CONDITIONING:  # only below a floor asked for
-        check = identification_check(params, engine, _plan(outcomes[winner]), settings.sigma)
+        best = outcomes[winner]
+        check = identification_check(params, engine, _plan(best), settings.sigma, best.payload)
         if check.dropped:
             dropped = "; ".join(f"{name}: {why}" for name, why in check.dropped.items())
             warn(
@@ -132,9 +127,13 @@ def design_result(
     elapsed: float,
 ) -> DesignResult:
     """The design result of the winning start, its value and ρ0 computed by the core's functions."""
-    s, q = settings, _plan(outcomes[choice.winner])
-    plan = Plan.for_robot(params.robot, q)
-    value, rho0, rho0_each = _report(params, plan, s, engine.jacobian(q, frame="tip"))
+    s, best = settings, outcomes[choice.winner]
+    q = _plan(best)
+    plan = Plan.for_robot(params.robot, q, best.payload)
+    value, rho0, rho0_each = _report(params, plan, s, engine.jacobian(q, frame="tip", payload=best.payload))
+    criterion = s.criterion
+    if s.residual_model is not None:  # the criterion minimised: the expected error with the model
+        value, criterion = best.record.value, ResidualCriterion.name
     continued = sum(h.continued for h in choice.history)
     n_starts, dropped = len(outcomes), dropped_count(outcomes)
     matched = _stopping.matched(values(outcomes), log_scale(s))
@@ -143,7 +142,8 @@ def design_result(
         f"{s.method}: best of {n_starts} starts (start {choice.winner}"
         + (f"; adaptive: {within}" if s.adaptive else "")
         + f"), {continued} run to convergence, "
-        f"{s.criterion} = {value:.6g} in {elapsed:.3g} s; conditioning floor {s.floor:.3g}"
+        f"{criterion} = {value:.6g} in {elapsed:.3g} s; conditioning floor {s.floor:.3g}"
+        + _loads_text(s, plan)
         + (f"; {dropped_line(dropped, n_starts)}" if dropped else "")
         + (
             f"; {choice.below_floor} start(s) ended below the conditioning floor"
@@ -159,11 +159,11 @@ def design_result(
     return DesignResult(
         plan=plan,
         value=value,
-        criterion=s.criterion,
+        criterion=criterion,
         rho0=rho0,
         rho0_each=rho0_each,
         sigma=s.sigma,
-        method=s.method + ("+polish" if s.polish else ""),
+        method=s.method + ("+polish" if s.polish else "") + (PAIRS if s.loaded else ""),
         starts=n_starts,
         continued=continued,
         seed=s.entropy,
@@ -177,9 +177,23 @@ def design_result(
         matched=matched,
         adaptive=s.adaptive,
         prior=s.prior,
-        instrument=s.instrument,
+        instrument=s.measured,
         orientation_length=s.orientation_length,
     )
+
+
+PAIRS = " over (configuration, payload) pairs"
+"""Said of the method when the candidates carry payloads."""
+
+
+def _loads_text(settings: Settings, plan: Plan) -> str:
+    """The payloads offered and how many configurations chose each: "; payloads 0, 50 kg: 7 at 0 kg,
+    5 at 50 kg" ("" without payloads)."""
+    if settings.loads is None or plan.payload is None:
+        return ""
+    masses = settings.loads[:, 0]
+    chosen = ", ".join(f"{int(np.sum(plan.payload[:, 0] == w))} at {w:g} kg" for w in masses)
+    return f"; payloads {', '.join(f'{w:g}' for w in masses)} kg: {chosen}"
 
 
 def _report(params, plan, settings: Settings, J) -> tuple[float, float | None, np.ndarray | None]:
@@ -187,16 +201,23 @@ def _report(params, plan, settings: Settings, J) -> tuple[float, float | None, n
     s = settings
     criterion, test_poses, sigma, prior = s.criterion, s.test_poses, s.sigma, s.prior
     rho0 = each = None
-    if test_poses is not None:
+    if test_poses is not None and s.loads is not None:  # under the plan's payloads and the task's
+        measured = s.measured
+        each = rho0_each(params, plan, test_poses, sigma=sigma, prior=prior, task_payload=s.task_payload,
+                         measure=None if measured is None else measured.kind,
+                         instrument=None if measured is None else measured.error,
+                         orientation_length=s.orientation_length)  # fmt: skip
+    elif test_poses is not None:
         each = TestPoseCriterion(
             params,
             test_poses,
             sigma,
             "each",
             prior,
-            instrument=s.instrument,
+            instrument=s.measured,
             orientation_length=s.orientation_length,
         )(plan.q)
+    if each is not None:
         rho0 = float(each.max()) if criterion == "test-pose-worst" else float(np.sqrt(np.mean(each**2)))
     if criterion in TEST_POSE_CRITERIA:
         assert rho0 is not None  # the settings checked the test poses are given
@@ -213,12 +234,16 @@ def _report(params, plan, settings: Settings, J) -> tuple[float, float | None, n
 
 
 def identification_check(
-    params: ParameterSet, engine: JacobianEngine | RowsEngine, q: np.ndarray, sigma: float
+    params: ParameterSet,
+    engine: JacobianEngine | RowsEngine,
+    q: np.ndarray,
+    sigma: float,
+    payload: np.ndarray | None = None,
 ) -> DataCheck:
     """The data check :func:`pincal.identify` makes of one session's data measured at the plan q
-    with noise σ: which parameters it would identify
+    (under its payloads) with noise σ: which parameters it would identify
     (:func:`~pincal.evaluation.data_check.check_parameters`)."""
-    J = engine.jacobian(q, frame="tip").reshape(-1, engine.n_params) / sigma
+    J = engine.jacobian(q, frame="tip", payload=payload).reshape(-1, engine.n_params) / sigma
     return check_parameters(params, J.T @ J, len(q), sigma)
 
 

@@ -14,7 +14,20 @@
   search (``polish``, on by default): the default method, fastest to the best plans we know.
 
 Both minimise any criterion of :data:`CRITERIA`: ``test-pose`` (ρ0, the mean over several test
-poses), ``test-pose-worst`` (the worst test pose), ``D``, ``A``, ``E``, ``cond``.
+poses), ``test-pose-worst`` (the worst test pose), ``D``, ``A``, ``E``, ``cond``; with a residual
+model, the expected error with it (tr Σ₀, :mod:`pincal.evaluation.residual_criterion`).
+
+Every design runs one pipeline: validate (once), draw the pool, search the starts (the same
+multistart: executor, progress, degenerate starts dropped, adaptive starts), choose, report. The pool
+is of (configuration, payload) candidates: without :class:`~pincal.planning.options.Loads`, every
+candidate carries none (0 kg); with payloads, every configuration is paired with every payload
+(docs/method.md §11.3) and the exchange chooses them with the configurations (the continuous
+search cannot choose among discrete payloads: no polish, no continuous method).
+
+The options are a few frozen values (:mod:`pincal.planning.options`): :class:`~pincal.Search`,
+:class:`~pincal.Safety`, :class:`~pincal.Loads`, and the :class:`~pincal.instruments.Instrument`
+(``sigma=`` its shorthand for points). The flat keywords of pincal 0.1 still work until 0.3, with
+a DeprecationWarning.
 
 Starts run in parallel through any ``concurrent.futures.Executor``: by default a process pool of
 ``workers`` processes (all CPUs) when there is more than one start; ``workers=1`` runs serially.
@@ -22,8 +35,8 @@ For more than one machine, pass a cluster's executor, e.g. with dask.distributed
 
     from dask.distributed import Client
     with Client("scheduler:8786") as client:
-        result = pincal.design(params, m=12, test_pose=q0, starts=512,
-                               executor=client.get_executor())
+        result = pincal.design(params, m=12, test_pose=q0,
+                               search=pincal.Search(starts=512, executor=client.get_executor()))
 
 or with Ray (``from ray.util.concurrent.futures.ray_executor import RayExecutor``;
 ``executor=RayExecutor()``). The work items are plain picklable data; each worker rebuilds the
@@ -34,53 +47,51 @@ seed gives the same plan whatever the executor and the number of workers.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable, Sequence
-from concurrent.futures import Executor
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, fraction, number, positive_int, positive_sigma, seed_entropy
-from pincal.deprecation import keywords_after
-from pincal.errors import (
-    BadArgument,
-    FloorUnreachable,
-    Infeasible,
-    SingularPlan,
-)
+from pincal.arguments import fraction, number, positive_int, seed_entropy
+from pincal.deprecation import keywords_after, moved_keywords
+from pincal.errors import BadArgument, FloorUnreachable, Infeasible, SingularPlan
 from pincal.evaluation.data_check import MIN_DATA_CONDITIONING
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.residual_criterion import check_points
-from pincal.instruments.error_model import ErrorModel
-from pincal.instruments.instrument import (
-    Instrument,
-    optional_instrument,
-    orientation_length_of,
-    pool_rows,
-    rows_engine,
-)
-from pincal.instruments.kind import Kind
+from pincal.instruments.instrument import Instrument, orientation_length_of, rows_engine
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
+from pincal.model.statics import payload_rows
 from pincal.planning import multistart as _multistart
-from pincal.planning import payloads as _payloads
 from pincal.planning import stopping as _stopping
 from pincal.planning.choice import SINGULAR_WARNING, choose, design_result
-from pincal.planning.constraints import AnyConstraint, JointMargin, MountSpec, with_safety
+from pincal.planning.constraints import with_safety
 from pincal.planning.feasibility import Feasibility
-from pincal.planning.objectives import (
-    checked_test_poses,
-    criterion_name,
+from pincal.planning.objectives import checked_test_poses, criterion_name
+from pincal.planning.options import (
+    FLAT,
+    ORDER_0_1,
+    Loads,
+    Safety,
+    Search,
+    check_value,
+    instrument_of,
+    regroup,
 )
 from pincal.planning.results import DesignResult
-from pincal.planning.search import D_OPTIMAL, Pool, Settings, draw_starts, search
-from pincal.typing import ConfigurationsLike, PayloadLike, PoolLike, SeedLike, TestPoseLike
+from pincal.planning.search import draw_starts, search
+from pincal.planning.settings import D_OPTIMAL, Pool, Settings
+from pincal.typing import ConfigurationsLike, PoolLike, TestPoseLike
 
 METHODS = ("continuous", "exchange")
 """Names of the search methods."""
 
 DEFAULT_POOL = 2000
 """Candidate configurations drawn when no pool is given."""
+
+LOADED_POOL = 1000
+"""Candidate configurations drawn when no pool is given and each is paired with every payload (or
+scored with a residual model, whose exchange values every swap exactly)."""
 
 MAX_WORST_POSES = 2000
 """Test poses a worst-case design may take (each is a weighted trace of its own in the search)."""
@@ -95,42 +106,26 @@ The test-pose criterion only needs the parameter combinations that move the test
 often improves towards singular plans; the floor keeps every parameter identifiable, and keeps
 the search out of near-singular basins, where its local optima are poor."""
 
-__all__ = ["DEFAULT_POOL", "METHODS", "MIN_CONDITIONING", "SINGULAR_WARNING", "design"]
+__all__ = ["DEFAULT_POOL", "LOADED_POOL", "METHODS", "MIN_CONDITIONING", "SINGULAR_WARNING", "design"]
 
 
 # ------------------------------------------------------------------------------ driver
-@keywords_after(3)
+@keywords_after(3, ORDER_0_1)
+@moved_keywords((*FLAT, "measure"), regroup)
 def design(
     params: ParameterSet,
     m: int,
     test_pose: TestPoseLike | None = None,
     *,
     criterion: str = "test-pose",
-    method: str = "exchange",
-    constraints: Iterable[AnyConstraint] = (),
-    pool: PoolLike = None,
-    starts: int | None = None,
-    seed: SeedLike = 0,
-    sigma: float = DEFAULT_SIGMA,
-    executor: Executor | None = None,
-    workers: int | None = None,
-    init: Sequence[ConfigurationsLike] = (),
-    polish: bool | None = None,
-    keep: float = 0.25,
-    screen_iterations: int = 20,
-    maxiter: int = 3000,
-    min_conditioning: float | None = None,
+    instrument: Instrument | None = None,
+    sigma: float | None = None,
     prior: Prior | None = None,
-    progress: bool = False,
-    payloads: Sequence[PayloadLike] | None = None,
-    task_payload: PayloadLike = None,
+    search: Search | None = None,
+    safety: Safety | None = None,
+    loads: Loads | None = None,
     residual_model: ResidualModel | None = None,
-    measure: Kind | None = None,
-    instrument: ErrorModel | None = None,
     orientation_length: float | None = None,
-    joint_margin: JointMargin = None,
-    mount: MountSpec = None,
-    clearance: float | None = None,
     with_d_optimal: bool = False,
 ) -> DesignResult:
     """Find the m measurement configurations that minimise a criterion, within the constraints.
@@ -144,94 +139,47 @@ def design(
             or the worst (``test-pose-worst``) over its sample configurations. Required by the
             test-pose criteria, used to report ρ0 otherwise.
         criterion: one of :data:`CRITERIA` (case-insensitive).
-        method: ``"exchange"`` (default) or ``"continuous"`` (see module doc).
-        constraints: constraint objects of :mod:`pincal.planning.constraints` (joint limits always
-            apply), to which the safe defaults are added (see ``joint_margin`` and ``mount``).
-        pool: candidates for the exchange method: (N, nq) configurations or a Plan (infeasible
-            ones are dropped), or the number of random feasible candidates to draw (default
-            2000; the continuous method draws its starts from it).
-        starts: number of starts, run exactly; default (None) adaptive: batches of
-            :data:`~pincal.planning.stopping.BATCH` starts, each searched and polished as a design
-            of that many, until :data:`~pincal.planning.stopping.AGREE` starts match the best value
-            within :data:`~pincal.planning.stopping.TOLERANCE` or
-            :data:`~pincal.planning.stopping.CAP` starts have run (``result.starts`` says how many
-            ran, ``result.matched`` how many matched); designs with payloads or a residual model
-            run 8. See docs/method.md §7.6.
-        seed: seed of every random choice: an int, or a numpy Generator (one int is drawn from
-            it), or None (fresh entropy); the int used is ``result.seed``: pass it to repeat.
-        sigma: measurement noise per coordinate [m]; ρ0 is proportional to it.
-        executor: a ``concurrent.futures.Executor`` to run the starts on (see module doc).
-        workers: processes of the default process pool (default: all CPUs; 1: serial).
-        init: plans (each (m, nq), feasible) to use as extra first starts of the continuous
-            method, e.g. an exchange design's plan.
-        polish: exchange method: continue the best ``keep`` fraction of exchange results with the
-            continuous search. Default: on for a generated pool, off for a given pool (polishing
-            would leave the taught poses, so it cannot be asked for then).
-        keep: fraction of starts run to convergence after screening (continuous), or polished.
-        screen_iterations: iterations every start runs before the poor ones are dropped.
-        maxiter: iterations allowed per start and stage of the continuous search.
-        min_conditioning: floor of the plan's conditioning, the smallest eigenvalue of its
-            Jacobi-scaled information matrix (in (0, 0.1); 0 is singular). No plan below it is
-            returned; the continuous search keeps above it as a constraint. A plan that ends near
-            a floor below :data:`SINGULAR_WARNING` comes with a :class:`DegenerateOptimumWarning`:
-            the criterion would keep improving towards singular plans (ρ0 at a test pose at a
-            singular limit does); near a higher floor, the result's message says the floor binds.
-            Default :data:`MIN_CONDITIONING` (or half what a D-optimal plan of m configurations
-            reaches, when that is less, but never below the
-            :data:`~pincal.evaluation.data_check.MIN_DATA_CONDITIONING` the identification asks
-            of the data: below it, FloorUnreachable says to add configurations); with a prior, 0
-            (no floor: the prior keeps every plan's posterior regular). A floor given is
-            honoured, or refused (FloorUnreachable). A plan whose conditioning is below
-            :data:`SINGULAR_WARNING` is warned about whatever the floor.
+        instrument: what is measured and how well (:class:`pincal.instruments.Instrument`: a kind,
+            ``Pose``, ``Partial``, ``Distance``, ``Image`` or points, with an error model,
+            ``PerCoordinate`` or ``Tracker``): every criterion is of the information of its rows,
+            weighted by Σᵢ⁻¹, and scaled by its reference σ. ρ0 stays the markers' position error
+            at the test pose. Default: points, ``sigma`` per coordinate.
+        sigma: the shorthand for points measured with this noise per coordinate [m] (default
+            :data:`~pincal.arguments.DEFAULT_SIGMA`); ρ0 is proportional to it. Not with
+            ``instrument``.
         prior: the errors before calibration (:class:`pincal.Prior`, e.g. ``Prior(1e-3, 1e-3)``):
             every criterion is taken of the posterior information M + σ²Σp⁻¹ (the Bayesian
             criterion tr(J₀(M/σ² + Σp⁻¹)⁻¹J₀ᵀ) for the test pose), finite for every plan, so m may
-            be below the number of parameters. ``sigma`` must then be the real noise [m].
-        progress: report progress on stderr, stage by stage (starts searched, then polished; the
-            best value so far in its units): a bar on a terminal, else a line every few seconds;
-            designs with payloads or a residual model report their starts searched.
-        payloads: the payloads the experiment can mount (masses [kg] or :class:`~pincal.Payload`,
-            e.g. ``[0, 50, 100]``): each configuration is chosen with one of them, the plan carries
-            them (:mod:`pincal.planning.payloads`: an exchange over (configuration, payload) pairs
-            of a generated pool, or of ``pool`` if given; no polish or init: the continuous
-            search cannot choose among discrete payloads).
-        task_payload: the payload at the test pose(s), the task's load (with compliance
-            parameters, ρ0 is then at that load); designs through the same exchange.
+            be below the number of parameters; σ must then be the real noise [m]. The
+            conditioning floor is then 0 by default.
+        search: how the plan is searched (:class:`pincal.Search`: method, starts, seed, pool,
+            init, polish, keep, screen_iterations, maxiter, executor, workers, progress; see
+            docs/method.md §7). Default ``Search()``: the exchange over 2000 drawn candidates,
+            polished, adaptive starts, seed 0, all CPUs.
+        safety: how the plan is kept safe and regular (:class:`pincal.Safety`: constraints,
+            joint_margin, mount, clearance, min_conditioning). Default ``Safety()``: joint limits
+            with a 2° margin, the mounting plane and 5 cm of clearance, self-collision when the
+            URDF has geometry, the conditioning floor :data:`MIN_CONDITIONING` (or half what a
+            D-optimal plan of m configurations reaches when that is less, never below
+            :data:`~pincal.evaluation.data_check.MIN_DATA_CONDITIONING`). A floor given is
+            honoured, or refused (FloorUnreachable); a plan below :data:`SINGULAR_WARNING` comes
+            with a :class:`DegenerateOptimumWarning`.
+        loads: what loads the robot (:class:`pincal.Loads`: the payloads the experiment can mount,
+            one chosen with each configuration, and the task's payload at the test pose(s)): the
+            pool is then every configuration paired with every payload (1000 configurations by
+            default), the plan carries its payloads, ρ0 is under the task's payload. An exchange
+            without polish (the continuous search cannot choose among discrete payloads).
         residual_model: a residual model from an earlier campaign (``result.residual_model``): the
             plan minimises the expected error at the test pose(s) with it (tr Σ₀,
-            :mod:`pincal.evaluation.residual_criterion`), through the same exchange; ``value`` is
-            that error [m], ``rho0`` the plain ρ0 of the plan.
-        measure: what the instrument measures (:mod:`pincal.instruments`: ``Pose``, ``Partial``,
-            ``Distance``, ``Image``; default points): every criterion is
-            of the information of its rows. ρ0 stays the markers' position error at the test pose.
-        instrument: the instrument's error model (:mod:`pincal.instruments`: ``PerCoordinate``,
-            ``Tracker``): the rows are weighted by Σᵢ⁻¹; ``sigma`` is then not used
-            (the model's own reference σ scales the reports). Default ``sigma`` per coordinate.
+            :mod:`pincal.evaluation.residual_criterion`; the test-pose criterion, points, no
+            prior); ``value`` is that error [m], ``rho0`` the plain ρ0 of the plan. An exchange as
+            with ``loads``, whose generated pool also draws a quarter more around the test poses.
         orientation_length: L [m]: the test-pose criteria also count L² times the expected
             squared orientation error of the tool (docs/method.md §13.3).
-        joint_margin: kept inside every joint limit: a number [rad, or m on prismatic joints], an
-            (angle [rad], length [m]) pair or a
-            :class:`~pincal.planning.constraints.JointLimits`; default (None) 2°, 1 cm on prismatic
-            joints, at most a tenth of a joint's range (or the JointLimits among ``constraints``);
-            0 keeps none.
-        mount: the plane the robot is mounted on, kept below everything the joints move (markers,
-            tip, link origins): ``floor``, ``wall``, ``ceiling`` (z = 0 of the base frame),
-            ``none``, a plane ``"NX,NY,NZ,OFFSET"`` or a
-            :class:`~pincal.planning.constraints.Mount`; default (None) ``floor`` for a fixed-base
-            robot measured from its URDF root, ``none`` otherwise (or the Mount among
-            ``constraints``).
-        clearance: kept from the mounting plane and from every obstacle of a workcell by the
-            markers, the tip and the link origins (the obstacles: by the robot's collision
-            geometry) [m]; default (None) 5 cm,
-            :data:`~pincal.planning.constraints.DEFAULT_CLEARANCE` (the uncalibrated robot's
-            error and the marker's size); 0: only what the Mount and Workcell ask themselves. The
-            robot is also kept clear of itself when its URDF has collision geometry (a
-            ``SelfCollision`` among ``constraints`` replaces that default).
         with_d_optimal: also design the D-optimal plan from the same starts, as the baseline to
             judge this plan against (the CLI's ``--baseline``): ``result.d_optimal`` is the design
-            ``criterion="D"`` with the same arguments returns (the same starts, pool and floor:
-            none of them depends on the criterion), at the cost of its own exchanges from the
-            starts and its polish, which run on the executor with this design's. Exchange method.
+            ``criterion="D"`` with the same arguments returns, at the cost of its own exchanges
+            and polish, run on the executor with this design's. Exchange method.
 
     Returns:
         the best plan found, with its criterion value, ρ0 and the history of every start.
@@ -248,65 +196,23 @@ def design(
     Example:
         >>> import math, pincal
         >>> params = pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")
-        >>> result = pincal.design(params, m=2, test_pose=[0.0, 1.0], sigma=1.0, starts=4, workers=1)
+        >>> result = pincal.design(params, m=2, test_pose=[0.0, 1.0], sigma=1.0,
+        ...                        search=pincal.Search(starts=4, workers=1))
         >>> round(result.rho0**2 / ((1 + math.sin(1.0)) / 2), 9)  # docs/method.md §9.3, σ = 1
         1.0
     """
-    if with_d_optimal and method != "exchange":
-        raise BadArgument(
-            "with_d_optimal searches the D-optimal plan from the exchange's starts: method='exchange' "
-            "(or design with criterion='D' and the continuous method separately)"
-        )
-    if payloads is not None or task_payload is not None or residual_model is not None:
-        if with_d_optimal:
-            raise BadArgument("a design with payloads or a residual model has no D-optimal baseline")
-        if method != "exchange" or init or polish:
-            raise BadArgument(
-                "a design with payloads or a residual model is an exchange over a pool of candidate "
-                "configurations (generated, or yours: pool=): leave method, init and polish at their "
-                "defaults (the continuous polish cannot choose among discrete payloads)"
-            )
-        measured = optional_instrument(measure, instrument, positive_sigma(sigma))
-        if residual_model is not None:
-            check_points(measured)
-        with _multistart.single_threaded_blas():
-            return _payloads.design_with_payloads(
-                params, m, test_pose, [0.0] if payloads is None else payloads, task_payload=task_payload,
-                criterion=criterion,
-                constraints=with_safety(params.robot, constraints, joint_margin, mount, clearance=clearance),
-                pool=1000 if pool is None else pool,  # type: ignore[arg-type]
-                starts=_stopping.BATCH if starts is None else starts, seed=seed, sigma=sigma, prior=prior,
-                min_conditioning=min_conditioning,
-                residual_model=residual_model, instrument=measured,
-                orientation_length=orientation_length_of(orientation_length), progress=progress,
-            )  # fmt: skip
+    search, safety, loads = _values(search, safety, loads)
+    measured, plain = instrument_of(instrument, sigma)  # σ checked here, once
     with _multistart.single_threaded_blas():  # small matrices: BLAS threads only contend
         t_start = time.perf_counter()
         settings = _validate(
-            params,
-            m,
-            test_pose,
-            criterion,
-            method=method,
-            constraints=constraints,
-            user_pool=pool is not None and not isinstance(pool, (int, np.integer)),
-            starts=starts,
-            seed=seed,
-            sigma=sigma,
-            workers=workers,
-            polish=polish,
-            keep=keep,
-            screen_iterations=screen_iterations,
-            maxiter=maxiter,
-            min_conditioning=min_conditioning,
-            prior=prior,
-            instrument=optional_instrument(measure, instrument, positive_sigma(sigma)),
-            orientation_length=orientation_length,
-            safety=(joint_margin, mount, clearance),
-        )
-        pooled = _pool(params, settings, pool, init)
-        engine = rows_engine(params, settings.instrument)
-        J_pool = pool_rows(engine, pooled.candidates)
+            params, m, test_pose, criterion, search, safety, loads, measured, plain, prior,
+            residual_model, orientation_length, with_d_optimal,
+        )  # fmt: skip
+        pooled = _pool(params, settings, search.pool, search.init)
+        engine = rows_engine(params, settings.measured)
+        world = settings.residual_model is not None  # its covariance is isotropic in the world
+        J_pool = _multistart.candidate_rows(engine, pooled.candidates, pooled.payload, world)
         d_optimal = with_d_optimal and settings.criterion != D_OPTIMAL  # else the design is its own
         outcomes = d_outcomes = None
         exchanged: dict = {}  # start 0's D-optimal exchange, drawn again if the floor adapts
@@ -314,11 +220,11 @@ def design(
             try:
                 # Start 0 is drawn here, to adapt the floor before the workers draw the others.
                 first = draw_starts(settings, J_pool, pooled.candidates, 0, 1, exchanged)
-                outcomes, d_outcomes = search(
-                    settings, params, engine, pooled, first, executor, progress, d_optimal
+                outcomes, d_outcomes = _search_stage(
+                    settings, params, engine, pooled, first, search, d_optimal
                 )
             except FloorUnreachable as error:
-                if min_conditioning is not None:  # a floor asked for is honoured, or refused
+                if safety.min_conditioning is not None:  # a floor asked for is honoured, or refused
                     raise
                 # The default floor adapts: half what the D-optimal plan of m configurations
                 # reaches (each start's D-optimal exchange may end a little lower: adapt again),
@@ -342,41 +248,48 @@ def design(
         )
 
 
+def _values(search: object, safety: object, loads: object) -> tuple[Search, Safety, Loads]:
+    """The option values, their defaults for None, each checked to be of its type."""
+    out = []
+    for value, kind, name in (
+        (search, Search, "search"),
+        (safety, Safety, "safety"),
+        (loads, Loads, "loads"),
+    ):
+        value = kind() if value is None else value
+        check_value(value, kind, name)
+        out.append(value)
+    return out[0], out[1], out[2]  # type: ignore[return-value]
+
+
+def _search_stage(settings, params, engine, pooled, first, options: Search, d_optimal: bool):
+    """:func:`~pincal.planning.search.search` with the run options of ``Search``."""
+    return search(settings, params, engine, pooled, first, options.executor, options.progress, d_optimal)
+
+
 # ------------------------------------------------------------------------- validate
 def _validate(
     params: ParameterSet,
     m: object,
     test_pose: TestPoseLike | None,
     criterion: str,
-    *,
-    method: str,
-    constraints: Iterable[AnyConstraint],
-    user_pool: bool,
-    starts: object,
-    seed: SeedLike,
-    sigma: object,
-    workers: object,
-    polish: bool | None,
-    keep: object,
-    screen_iterations: object,
-    maxiter: object,
-    min_conditioning: object,
-    prior: Prior | None = None,
-    instrument: Instrument | None = None,
-    orientation_length: float | None = None,
-    safety: tuple[JointMargin, MountSpec, float | None] = (None, None, None),
+    search: Search,
+    safety: Safety,
+    loads: Loads,
+    instrument: Instrument,
+    plain: bool,
+    prior: Prior | None,
+    residual_model: ResidualModel | None,
+    orientation_length: float | None,
+    with_d_optimal: bool,
 ) -> Settings:
     """Check every argument (in the order of the signature) and settle the defaults."""
     criterion = criterion_name(criterion)
-    if method not in METHODS:
-        raise BadArgument(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
     if prior is not None and not isinstance(prior, Prior):
         raise BadArgument(f"prior must be a pincal.Prior (e.g. Prior.parse('1mm,1mrad')), got {prior!r}")
-    sigma = positive_sigma(sigma) if instrument is None else instrument.reference
-    if instrument is not None:
-        instrument.kind.check(params.robot)
-    information = None if prior is None else prior.information(params, sigma)
-    m = _check_m(params, m, information, instrument)
+    instrument.kind.check(params.robot)
+    information = None if prior is None else prior.information(params, instrument.reference)
+    m = _check_m(params, m, information, None if plain else instrument)
     test_poses = checked_test_poses(params, test_pose, criterion)
     if criterion == "test-pose-worst" and test_poses is not None and len(test_poses) > MAX_WORST_POSES:
         raise BadArgument(
@@ -384,55 +297,104 @@ def _validate(
             f"{MAX_WORST_POSES}); take every k-th point of the path, or minimise the mean (test-pose), whose "
             "cost does not depend on the number of poses"
         )
-    adaptive = starts is None
-    starts = _stopping.BATCH if adaptive else positive_int(starts, "starts")
-    workers = _multistart.default_workers() if workers is None else positive_int(workers, "workers")
-    keep = fraction(keep, "keep", one=True)
-    screen_iterations = positive_int(screen_iterations, "screen_iterations", 0)
-    maxiter = positive_int(maxiter, "maxiter")
-    floor = (MIN_CONDITIONING if prior is None else 0.0) if min_conditioning is None else min_conditioning
+    rows, task = _loads(loads, residual_model, test_poses)
+    if residual_model is not None:
+        check_points(None if plain else instrument)
+        if criterion != "test-pose" or prior is not None or test_poses is None or with_d_optimal:
+            raise BadArgument(
+                "a residual model designs for the test-pose criterion, with a test pose, no prior and no "
+                "D-optimal baseline"
+            )
+    user_pool = search.pool is not None and not isinstance(search.pool, (int, np.integer))
+    run = _search_settings(search, user_pool, rows is not None, with_d_optimal)
+    floor = (
+        (MIN_CONDITIONING if prior is None else 0.0)
+        if safety.min_conditioning is None
+        else safety.min_conditioning
+    )
     name = "min_conditioning" + (" (0 only with a prior)" if prior is None else "")
     floor = number(floor, name, 0.0, 0.1, low_open=prior is None, high_open=True)
-    margin, mount, clearance = safety
     constraints = with_safety(
-        params.robot, constraints, margin, mount, clearance=clearance
+        params.robot, safety.constraints, safety.joint_margin, safety.mount, clearance=safety.clearance
     )  # safe by default
-    feasibility = Feasibility(params.robot, constraints)
-    entropy = seed_entropy(seed)
+    return Settings(
+        criterion=criterion,
+        m=m,
+        test_poses=test_poses,
+        instrument=instrument,
+        floor=float(floor),
+        constraints=constraints,
+        feasibility=Feasibility(params.robot, constraints),
+        entropy=seed_entropy(search.seed),
+        prior=prior,
+        prior_information=information,
+        plain=plain,
+        orientation_length=orientation_length_of(orientation_length),
+        loads=rows,
+        task_payload=task,
+        residual_model=residual_model,
+        **run,
+    )
+
+
+def _search_settings(search: Search, user_pool: bool, loaded: bool, with_d_optimal: bool) -> dict:
+    """The checked settings of ``search`` (Settings' fields), its defaults settled."""
+    method, polish = search.method, search.polish
+    if method not in METHODS:
+        raise BadArgument(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+    if with_d_optimal and method != "exchange":
+        raise BadArgument(
+            "with_d_optimal searches the D-optimal plan from the exchange's starts: method='exchange' "
+            "(or design with criterion='D' and the continuous method separately)"
+        )
+    if loaded and (method != "exchange" or search.init or polish):
+        raise BadArgument(
+            "a design with payloads or a residual model is an exchange over a pool of (configuration, "
+            "payload) candidates (generated, or yours: pool=): leave method, init and polish at their "
+            "defaults (the continuous search cannot choose among discrete payloads)"
+        )
+    adaptive = search.starts is None
     if method == "continuous":
         if polish:
             raise BadArgument("polish refines exchange results; the continuous method needs none")
         polish = False
     elif polish is None:
-        polish = not user_pool
+        polish = not user_pool and not loaded
     if user_pool:
         if method != "exchange":
             raise BadArgument("a pool of configurations is searched by method='exchange'")
         if polish:
             raise BadArgument("polish would move the plan off the given pool; use a generated pool to polish")
-    return Settings(
-        criterion=criterion,
+    workers = search.workers
+    return dict(
         method=method,
-        m=m,
-        test_poses=test_poses,
-        sigma=sigma,
-        starts=starts,
-        workers=workers,
-        keep=float(keep),
-        screen_iterations=screen_iterations,
-        maxiter=maxiter,
-        floor=float(floor),
-        constraints=constraints,
-        feasibility=feasibility,
+        starts=_stopping.BATCH if adaptive else positive_int(search.starts, "starts"),
+        workers=_multistart.default_workers() if workers is None else positive_int(workers, "workers"),
+        keep=float(fraction(search.keep, "keep", one=True)),
+        screen_iterations=positive_int(search.screen_iterations, "screen_iterations", 0),
+        maxiter=positive_int(search.maxiter, "maxiter"),
         user_pool=user_pool,
         polish=bool(polish),
-        entropy=entropy,
-        prior=prior,
-        prior_information=information,
-        instrument=instrument,
-        orientation_length=orientation_length_of(orientation_length),
         adaptive=adaptive,
     )
+
+
+def _loads(
+    loads: Loads, residual_model: ResidualModel | None, test_poses: np.ndarray | None
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(the (n, 4) payload rows each configuration chooses among, the (k, 4) rows at the test
+    poses): None, None without payloads or a residual model (the candidates carry none)."""
+    if not loads.given and residual_model is None:
+        return None, None
+    payloads = [0.0] if loads.payloads is None else loads.payloads
+    if isinstance(payloads, (str, bytes)) or not isinstance(payloads, Sequence) or not len(payloads):
+        raise BadArgument(
+            f"payloads must be a list of the masses [kg] (or Payloads) you can mount, got {payloads!r}",
+            argument="payloads",
+        )
+    rows = np.vstack([payload_rows(p, 1) for p in payloads])
+    task = None if test_poses is None else payload_rows(loads.task_payload, len(test_poses))
+    return rows, task
 
 
 def _check_m(
@@ -450,22 +412,47 @@ def _check_m(
 def _pool(
     params: ParameterSet, settings: Settings, pool: PoolLike, init: Sequence[ConfigurationsLike]
 ) -> Pool:
-    """The candidate configurations (the user's feasible ones, or drawn) and the checked init plans."""
+    """The candidates (the user's feasible configurations, or drawn; each paired with every payload
+    of a loaded design) and the checked init plans."""
     robot, feasibility, m = params.robot, settings.feasibility, settings.m
     rejected = 0
     if settings.user_pool:
         candidates, rejected = feasibility.feasible_pool(pool, m)  # type: ignore[arg-type]  # user_pool: not a size
     else:
-        size = DEFAULT_POOL if pool is None else positive_int(pool, "pool size", m)
+        default = DEFAULT_POOL if settings.loads is None else LOADED_POOL
+        size = default if pool is None else positive_int(pool, "pool size", m)
         # Drawn strictly inside the constraints for a continuous search, as when its barrier needed
         # it (SLSQP needs feasible starts only): the same draws, so the same plans.
         strict = settings.method == "continuous" or settings.polish
         rng = np.random.default_rng(settings.seed_sequence(0))
         candidates = feasibility.sample(size, rng, minimum=m, strict=strict)
+        if settings.residual_model is not None and settings.test_poses is not None:
+            # also where the residual is correlated with the test pose's
+            near = _near(robot, feasibility, settings.test_poses, size // 4, rng)
+            candidates = np.vstack([candidates, near])
     plans = tuple(robot.configurations(q, what="init plan configuration") for q in init)
     if plans and settings.method != "continuous":
         raise BadArgument("init plans start the continuous method; use method='continuous'")
     for q in plans:
         if q.shape != (m, robot.nq) or not feasibility.plan_feasible(q):
             raise Infeasible(f"an init plan must hold {m} configurations within every constraint")
-    return Pool(candidates, rejected, plans)
+    if settings.loads is None:
+        return Pool(candidates, rejected, plans)
+    n = len(settings.loads)
+    return Pool(
+        np.repeat(candidates, n, axis=0), rejected, plans, np.tile(settings.loads, (len(candidates), 1))
+    )
+
+
+NEAR = 0.3
+"""Half-width [rad or m] of the box around the test poses a residual-model design also draws
+candidates from (a quarter of the pool)."""
+
+
+def _near(
+    robot, feasibility: Feasibility, test_poses: np.ndarray, n: int, rng: np.random.Generator
+) -> np.ndarray:
+    """Up to n feasible configurations drawn around the test poses (within ±NEAR of one)."""
+    centres = test_poses[rng.integers(len(test_poses), size=n)]
+    qs = np.clip(centres + rng.uniform(-NEAR, NEAR, centres.shape), robot.lower, robot.upper)
+    return qs[feasibility.feasible(qs)]

@@ -35,8 +35,11 @@ from pincal.errors import PincalError
 from pincal.evaluation.criterion import Criterion
 from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
-from pincal.instruments.instrument import Instrument, pool_rows, rows_engine, tool_rows
+from pincal.evaluation.residual_criterion import ResidualCriterion
+from pincal.instruments.instrument import Instrument, RowsEngine, pool_rows, rows_engine, tool_rows
+from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
+from pincal.model.residual import ResidualModel
 from pincal.planning import continuous as _continuous
 from pincal.planning import exchange as _exchange
 from pincal.planning import starts as _starts
@@ -63,6 +66,10 @@ class ProblemSpec:
             :func:`pincal.planning.starts.start_seed`).
         instrument: what is measured and how well, or None: points with ``sigma``.
         orientation_length: L [m] of the test-pose criterion's orientation part, or None.
+        payload: (N, 4) the payload rows of the pool's candidates, or None (none).
+        task_payload: (k, 4) the payload rows at the test poses, or None (none).
+        residual_model: the criterion is then tr Σ₀ with this residual model
+            (:class:`~pincal.evaluation.residual_criterion.ResidualCriterion`), or None.
         key: identifies the spec in the workers' caches.
     """
 
@@ -78,6 +85,9 @@ class ProblemSpec:
     entropy: int = 0
     instrument: Instrument | None = None
     orientation_length: float | None = None
+    payload: np.ndarray | None = None
+    task_payload: np.ndarray | None = None
+    residual_model: ResidualModel | None = None
     key: str = field(default_factory=lambda: uuid.uuid4().hex)
 
     def for_criterion(self, criterion: str) -> ProblemSpec:
@@ -91,12 +101,7 @@ class Problem:
     def __init__(self, spec: ProblemSpec) -> None:
         self.spec = spec
         self.engine = rows_engine(spec.params, spec.instrument)
-        J0 = None
-        if spec.test_poses is not None and spec.criterion in TEST_POSE_CRITERIA:
-            J0 = tool_rows(self.engine, spec.test_poses, spec.orientation_length).copy()
-        self.objective: Criterion = make_criterion(
-            spec.criterion, len(spec.params), self.engine.rows, J0, spec.sigma, spec.prior
-        )
+        self.objective: Criterion = objective_for(spec, self.engine)
         self.feasibility = Feasibility(spec.params.robot, spec.constraints)
         self.function = _continuous.PlanFunction(
             self.engine, self.objective, self.feasibility, spec.m, spec.floor
@@ -105,7 +110,39 @@ class Problem:
     @cached_property
     def pool_jacobians(self) -> np.ndarray:
         assert self.spec.pool is not None  # an exchange's spec
-        return pool_rows(self.engine, self.spec.pool).copy()
+        world = self.spec.residual_model is not None
+        return candidate_rows(self.engine, self.spec.pool, self.spec.payload, world).copy()
+
+
+def objective_for(spec: ProblemSpec, engine: JacobianEngine | RowsEngine) -> Criterion:
+    """The criterion of ``spec`` (the same in the parent, for reporting, and in every worker): tr Σ₀
+    with a residual model, else :func:`~pincal.evaluation.registry.make_criterion`'s, the test
+    pose's rows under the task's payload."""
+    if spec.residual_model is not None:
+        assert spec.test_poses is not None  # the driver checked
+        # The residual's covariance is isotropic in the world: world-aligned rows.
+        world = JacobianEngine(spec.params).jacobian(
+            spec.test_poses, frame="world", payload=spec.task_payload
+        )
+        return ResidualCriterion(spec.residual_model, world, spec.test_poses, spec.sigma, pool=spec.pool)
+    J0 = None
+    if spec.test_poses is not None and spec.criterion in TEST_POSE_CRITERIA:
+        J0 = tool_rows(engine, spec.test_poses, spec.orientation_length, payload=spec.task_payload).copy()
+    return make_criterion(spec.criterion, len(spec.params), engine.rows, J0, spec.sigma, spec.prior)
+
+
+def candidate_rows(
+    engine: JacobianEngine | RowsEngine,
+    candidates: np.ndarray,
+    payload: np.ndarray | None = None,
+    world: bool = False,
+) -> np.ndarray:
+    """(N, r, P) the rows of a pool's candidates: :func:`~pincal.instruments.instrument.pool_rows`,
+    or with payloads, the rows under each candidate's payload (``world``: world-aligned, as a
+    residual model's isotropic covariance asks)."""
+    if payload is None:
+        return pool_rows(engine, candidates)
+    return engine.jacobian(candidates, frame="world" if world else "tip", payload=payload)
 
 
 _LOCAL = threading.local()

@@ -53,6 +53,7 @@ from pincal.planning.constraints import (
 )
 from pincal.planning.driver import DEFAULT_POOL, design
 from pincal.planning.feasibility import Feasibility
+from pincal.planning.options import grouped
 from pincal.planning.results import DesignResult
 from pincal.progress import Steps
 from pincal.typing import TestPoseLike
@@ -279,9 +280,9 @@ def place_instrument(
                 how = dict(quick, pool=pool)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                result = design(placed, m, test_pose, criterion=criterion, measure=measure, instrument=error,
-                                constraints=base_constraints + extra, progress=progress and quickly is None,
-                                **how)  # fmt: skip
+                result = design(placed, m, test_pose, criterion=criterion, **grouped(dict(
+                    how, measure=measure, instrument=error, constraints=base_constraints + extra,
+                    progress=progress and quickly is None)))  # fmt: skip
         except (Infeasible, SingularPlan, DegenerateOptimum) as failure:  # nothing it can see there
             reasons.setdefault(type(failure).__name__, str(failure))
             return None

@@ -8,9 +8,8 @@ With the adaptive number of starts (``Settings.adaptive``), the starts run in ba
 and polished as a design of ``Settings.starts`` starts, until they agree or their cap is reached
 (:mod:`pincal.planning.stopping`).
 
-The values passed between the stages of :func:`pincal.planning.driver.design` live here too:
-:class:`Settings` (the checked arguments), :class:`Pool` (where the starts come from) and
-:class:`Outcome`. They are frozen; each stage returns new ones.
+The values passed between the stages (:class:`Settings`, :class:`Pool`, :class:`Outcome`) live in
+:mod:`pincal.planning.settings`.
 """
 
 from __future__ import annotations
@@ -18,131 +17,48 @@ from __future__ import annotations
 import math
 import multiprocessing as mp
 from concurrent.futures import Executor
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from pincal.errors import FloorUnreachable, Infeasible, PincalError, SingularPlan
+from pincal.errors import PincalError
 from pincal.evaluation.criterion import Criterion
 from pincal.evaluation.information import conditioning
-from pincal.evaluation.prior import Prior
-from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
-from pincal.instruments.instrument import Instrument, RowsEngine, pool_rows, tool_rows
+from pincal.evaluation.residual_criterion import ResidualCriterion
+from pincal.instruments.instrument import RowsEngine
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.planning import multistart as _multistart
 from pincal.planning import stopping as _stopping
-from pincal.planning.constraints import AnyConstraint
 from pincal.planning.continuous import load_optimiser
-from pincal.planning.feasibility import Feasibility
 from pincal.planning.progress import Progress
 from pincal.planning.results import StartRecord
+from pincal.planning.settings import (
+    D_OPTIMAL,
+    Drawn,
+    Outcome,
+    Pool,
+    Settings,
+    degenerate,
+    dropped_count,
+    every_start_failed,
+)
 from pincal.planning.starts import draw_start, start_seed
 
-D_OPTIMAL = "D"
-"""The criterion of the D-optimal design searched with another (``with_d_optimal``)."""
-
-
-@dataclass(frozen=True)
-class Settings:
-    """The checked arguments of one design (canonical names, Python numbers)."""
-
-    criterion: str
-    method: str
-    m: int
-    test_poses: np.ndarray | None
-    sigma: float
-    starts: int  # the starts, or with ``adaptive`` those of one batch
-    workers: int
-    keep: float
-    screen_iterations: int
-    maxiter: int
-    floor: float
-    constraints: tuple[AnyConstraint, ...]
-    feasibility: Feasibility
-    user_pool: bool
-    polish: bool
-    entropy: int
-    prior: Prior | None = None
-    prior_information: np.ndarray | None = None  # Λ = σ²Σp⁻¹, added to M by every criterion
-    instrument: Instrument | None = None  # what is measured and how well; None: points with sigma
-    orientation_length: float | None = None  # [m]: ρ0 counts the tool's orientation error too
-    adaptive: bool = False  # batches of ``starts`` until they agree (pincal.planning.stopping)
-
-    def seed_sequence(self, *key: int) -> np.random.SeedSequence:
-        """The child ``key`` of the design's seed sequence: (0,) draws the pool, (1, i) start i
-        (what ``SeedSequence(seed).spawn`` hands out, without mutating a shared sequence)."""
-        return np.random.SeedSequence(self.entropy, spawn_key=key)
-
-
-@dataclass(frozen=True)
-class Pool:
-    """Where the starts come from: the candidate configurations and the user's init plans."""
-
-    candidates: np.ndarray
-    rejected: int
-    init: tuple[np.ndarray, ...]
-
-    def n_starts(self, settings: Settings) -> int:
-        """The init plans first, then the drawn starts (of the first batch, when adaptive)."""
-        return len(self.init) + settings.starts
-
-    def n_keep(self, settings: Settings, n: int | None = None) -> int:
-        """Of ``n`` starts (default :meth:`n_starts`), those run to convergence after screening
-        (continuous), or polished (exchange)."""
-        n = self.n_starts(settings) if n is None else n
-        return n if settings.keep >= 1 else max(1, math.ceil(settings.keep * n))
-
-
-@dataclass(frozen=True)
-class Outcome:
-    """The end of one start.
-
-    Attributes:
-        record: what the start did (reported in the history).
-        q: (m, nq) its final plan; None if it was dropped after screening, or degenerate.
-        F: the objective at q (exact).
-        usable: q satisfies every constraint.
-        dropped: the start failed alone (:func:`degenerate`) and was dropped.
-    """
-
-    record: StartRecord
-    q: np.ndarray | None
-    F: float
-    usable: bool
-    dropped: bool = False
-
-    @classmethod
-    def degenerate(cls, start: int, error: PincalError) -> Outcome:
-        """The outcome of start ``start``, dropped for ``error``."""
-        message = f"degenerate, dropped: {error}"
-        return cls(
-            StartRecord(start, math.inf, None, 0, 0.0, False, False, message), None, math.inf, False, True
-        )
-
-
-Drawn = np.ndarray | PincalError
-"""A start's plan (its pool indices), or the error it failed with alone (:func:`degenerate`)."""
-
-
-def degenerate(error: BaseException) -> bool:
-    """``error`` ends one start and not the design: none of the start's random plans was regular
-    (SingularPlan), or none could be spaced (Infeasible). The other starts draw other plans; the
-    design fails only when every start does. A floor no plan reaches (FloorUnreachable) is the
-    design's: its floor adapts, or it fails."""
-    return isinstance(error, (SingularPlan, Infeasible)) and not isinstance(error, FloorUnreachable)
-
-
-def dropped_count(outcomes: tuple[Outcome, ...]) -> int:
-    """The starts dropped as degenerate."""
-    return sum(o.dropped for o in outcomes)
-
-
-def every_start_failed(errors: list[PincalError], n: int) -> PincalError:
-    """The first start's error, saying that all ``n`` starts failed so."""
-    error = errors[0]
-    error.args = (f"all {n} starts were degenerate (the first: {error})",) + error.args[1:]
-    return error
+__all__ = [
+    "D_OPTIMAL",
+    "Outcome",
+    "Pool",
+    "Settings",
+    "degenerate",
+    "draw_starts",
+    "dropped_count",
+    "every_start_failed",
+    "log_scale",
+    "plan_conditioning",
+    "search",
+    "values",
+]
 
 
 # ---------------------------------------------------------------------------- search
@@ -231,20 +147,20 @@ def search(
         s.floor,
         s.prior_information,
         s.entropy,
-        instrument=s.instrument,
+        instrument=s.measured,
         orientation_length=s.orientation_length,
+        payload=pooled.payload,
+        task_payload=s.task_payload,
+        residual_model=s.residual_model,
     )
-    J0 = None
-    if s.criterion in TEST_POSE_CRITERIA and s.test_poses is not None:  # the settings checked they are given
-        J0 = tool_rows(engine, s.test_poses, s.orientation_length).copy()
-    objective = make_criterion(s.criterion, len(params), engine.rows, J0, s.sigma, s.prior_information)
+    objective = _multistart.objective_for(spec, engine)
     d_spec = d_objective = None
     if with_d_optimal:
         assert s.method == "exchange"  # the driver checked
         d_spec = spec.for_criterion(D_OPTIMAL)
-        d_objective = make_criterion(D_OPTIMAL, len(params), engine.rows, None, s.sigma, s.prior_information)
+        d_objective = _multistart.objective_for(d_spec, engine)
     n_starts, n_keep = pooled.n_starts(s), pooled.n_keep(s)
-    bar = Progress(progress, s.criterion, objective)
+    bar = Progress(progress, ResidualCriterion.name if s.residual_model else s.criterion, objective)
     if executor is None and min(s.workers, n_starts) > 1 and mp.get_start_method() == "fork":
         if s.polish or s.method == "continuous":
             load_optimiser()  # once here, not in each forked worker
@@ -252,7 +168,9 @@ def search(
         with _multistart.executor_for(executor, s.workers, n_starts) as ex:
             own: tuple[Outcome, ...] = ()
             other: tuple[Outcome, ...] | None = None if d_spec is None else ()
-            J_pool = pool_rows(engine, pooled.candidates) if s.method == "continuous" else None
+            J_pool = (
+                _multistart.candidate_rows(engine, pooled.candidates) if s.method == "continuous" else None
+            )
             begin = 0  # the batch's first drawn start
             while True:
                 end = begin + s.starts
@@ -271,7 +189,7 @@ def search(
                 else:
                     bar.stage("searched" + _which(s, begin, end), end - begin)
                     designs = _exchange(
-                        spec, ex, pooled.candidates, first, begin, end, objective, bar, d_spec, d_objective
+                        spec, ex, pooled, first, begin, end, objective, bar, d_spec, d_objective
                     )
                     if s.polish:
                         also = "" if d_spec is None else f", and {n_keep} D-optimal"
@@ -316,7 +234,7 @@ Searched = tuple[_multistart.ProblemSpec, tuple[Outcome, ...], Criterion]
 def _exchange(
     spec,
     ex,
-    candidates,
+    pooled: Pool,
     first,
     begin: int,
     end: int,
@@ -353,11 +271,11 @@ def _exchange(
     if begin == 0 and len(failed) == end:
         raise every_start_failed([failed[i] for i in sorted(failed)], end)
     own = [failed[i] if i in failed else results[i][0] for i in range(begin, end)]
-    designs = [(spec, _exchanged(candidates, own, objective, begin), objective)]
+    designs = [(spec, _exchanged(pooled, own, objective, begin), objective)]
     if d_spec is not None:
         assert d_objective is not None
         other = [failed[i] if i in failed else results[i][1] for i in range(begin, end)]
-        designs.append((d_spec, _exchanged(candidates, other, d_objective, begin), d_objective))
+        designs.append((d_spec, _exchanged(pooled, other, d_objective, begin), d_objective))
     return designs
 
 
@@ -367,9 +285,9 @@ def _first(result):
     return None if isinstance(result, _multistart.CarriedError) else result[0]
 
 
-def _exchanged(candidates, outcomes, objective: Criterion, begin: int = 0) -> tuple[Outcome, ...]:
+def _exchanged(pooled: Pool, outcomes, objective: Criterion, begin: int = 0) -> tuple[Outcome, ...]:
     """Each start's exchange outcome (or the error it was dropped for) as its :class:`Outcome`
-    (the first is start ``begin``)."""
+    (the first is start ``begin``), its plan's configurations and payloads from the pool."""
     return tuple(
         Outcome.degenerate(s, o)
         if isinstance(o, PincalError)
@@ -384,9 +302,10 @@ def _exchanged(candidates, outcomes, objective: Criterion, begin: int = 0) -> tu
                 feasible=True,
                 message=f"{o.swaps} exchanges",
             ),
-            candidates[o.index],
+            pooled.candidates[o.index],
             o.F,
             True,
+            payload=None if pooled.payload is None else pooled.payload[o.index],
         )
         for s, o in enumerate(outcomes, begin)
     )
@@ -489,7 +408,10 @@ def _report_value(objective: Criterion, F: float) -> float:
     return float(objective.report(F)) if np.isfinite(F) else math.inf
 
 
-def plan_conditioning(engine: JacobianEngine | RowsEngine, q: np.ndarray) -> float:
-    """Conditioning of the plan q (see :func:`pincal.evaluation.information.conditioning`)."""
-    J = engine.jacobian(q, frame="tip").reshape(-1, engine.n_params)
+def plan_conditioning(
+    engine: JacobianEngine | RowsEngine, q: np.ndarray, payload: np.ndarray | None = None
+) -> float:
+    """Conditioning of the plan q under its payloads (see
+    :func:`pincal.evaluation.information.conditioning`)."""
+    J = engine.jacobian(q, frame="tip", payload=payload).reshape(-1, engine.n_params)
     return conditioning(J.T @ J)
