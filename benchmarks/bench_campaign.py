@@ -72,7 +72,10 @@ def ordering(robot) -> list[str]:
     saved = []
     for seed in range(5):
         plan = pincal.design(
-            params, 12, pincal.around(Q0, np.radians(10)), seed=seed, starts=8, workers=1
+            params,
+            12,
+            pincal.around(Q0, np.radians(10)),
+            search=pincal.Search(seed=seed, starts=8, workers=1),
         ).plan
         c = plan_campaign(robot, plan, check=False)
         saved.append((c.given_time - c.tour_time, c.given_time, c.move_time))
@@ -90,7 +93,11 @@ def certification(name: str, robot, constraints, m: int) -> list[str]:
     params = robot.parameters("lengths,offsets").identifiable().identifiable
     q0 = Q0 if name == "kr270" else np.array([0.0, -1.2, 1.5, -1.0, -1.5, 0.0])
     plan = pincal.design(
-        params, m, pincal.around(q0, np.radians(10)), constraints=constraints, seed=0, starts=8, workers=1
+        params,
+        m,
+        pincal.around(q0, np.radians(10)),
+        search=pincal.Search(seed=0, starts=8, workers=1),
+        safety=pincal.Safety(constraints=constraints),
     ).plan
     with timed() as clock:
         c = plan_campaign(robot, plan, constraints=constraints)

@@ -32,7 +32,9 @@ def main() -> None:
         for m in (12, 40):
             for seed in range(2):
                 region = pincal.around(Q0[name], np.radians(10))
-                plan = pincal.design(params, m, region, seed=seed, starts=2, workers=1).plan
+                plan = pincal.design(
+                    params, m, region, search=pincal.Search(seed=seed, starts=2, workers=1)
+                ).plan
                 with timed() as clock:
                     c = plan_campaign(robot, plan, check=False)
                 cpu = clock.cpu

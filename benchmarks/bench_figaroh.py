@@ -190,9 +190,13 @@ def main() -> list[str]:
         for criterion in ("D", "test-pose"):
             with timed() as clock:
                 result = pincal.design(
-                    params, m, q0, criterion=criterion, pool=pool, starts=16, seed=args.seed, workers=1,
-                    joint_margin=0, mount="none",
-                )  # fmt: skip
+                    params,
+                    m,
+                    q0,
+                    criterion=criterion,
+                    search=pincal.Search(pool=pool, starts=16, seed=args.seed, workers=1),
+                    safety=pincal.Safety(joint_margin=0, mount="none"),
+                )
             designs[criterion] = (result.plan.q, clock.cpu, clock.wall)
         plans = {
             f"FIGAROH iroc ({m})": figaroh["iroc"],

@@ -39,7 +39,9 @@ ROBOTS = {
 def run_one(params, q0, **kw):
     with timed() as clock, warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = pincal.design(params, M, sigma=SIGMA, starts=16, seed=0, workers=1, **kw)
+        result = pincal.design(
+            params, M, sigma=SIGMA, **kw, search=pincal.Search(starts=16, seed=0, workers=1)
+        )
     elapsed = clock.cpu  # workers=1: all of it in this process
     report = pincal.accuracy(params, result.plan, q0, sigma=SIGMA, prior=kw.get("prior"), samples=512)
     rows = {r.where: r for r in report.plans[0].rows}
@@ -71,14 +73,14 @@ def main() -> list[str]:
         for floor in FLOORS:
             lines.append(
                 f"| test pose, floor {floor:g} | "
-                + run_one(params, q0, test_pose=q0, min_conditioning=floor)
+                + run_one(params, q0, test_pose=q0, safety=pincal.Safety(min_conditioning=floor))
                 + " |"
             )
             print(lines[-1], flush=True)
         region = pincal.around(q0, np.radians(10))
         lines.append(
             "| ±10° neighbourhood, floor 1e-4 | "
-            + run_one(params, q0, test_pose=region, min_conditioning=1e-4)
+            + run_one(params, q0, test_pose=region, safety=pincal.Safety(min_conditioning=1e-4))
             + " |"
         )
         print(lines[-1], flush=True)
@@ -90,7 +92,9 @@ def main() -> list[str]:
         )
         print(lines[-1], flush=True)
         with timed() as clock:
-            d = pincal.design(params, M, criterion="D", sigma=SIGMA, starts=16, seed=0, workers=1)
+            d = pincal.design(
+                params, M, criterion="D", sigma=SIGMA, search=pincal.Search(starts=16, seed=0, workers=1)
+            )
         rep = pincal.accuracy(params, d.plan, q0, sigma=SIGMA, samples=512)
         rows = {r.where: r for r in rep.plans[0].rows}
         lines.append(

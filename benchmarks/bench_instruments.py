@@ -25,7 +25,7 @@ from _common import cpu_seconds, footer, header  # benchmarks/ is on sys.path wh
 
 import pincal
 from pincal.errors import DegenerateOptimum, Infeasible, SingularPlan
-from pincal.instruments import Camera, Image, Instrument, PerCoordinate, Pose, Tracker, grid
+from pincal.instruments import Camera, Image, Instrument, PerCoordinate, Point, Pose, Tracker, grid
 from pincal.instruments.identifiability import identifiable
 from pincal.planning import place_instrument
 
@@ -61,7 +61,13 @@ def recovered(params, truth, plan, measure, error, seed) -> tuple[float, float]:
 def campaign(name, params, m, q0, measure, error, trials, seed, **design):
     """One row: design, recovery, Monte-Carlo."""
     t = cpu_seconds()
-    result = pincal.design(params, m, q0, measure=measure, instrument=error, seed=seed, **design)
+    result = pincal.design(
+        params,
+        m,
+        q0,
+        instrument=Instrument(Point() if measure is None else measure, error),
+        search=pincal.Search(seed=seed, **design),
+    )
     t_design = cpu_seconds() - t
     truth = pincal.random_errors(params, error_std=ERRORS, seed=seed + 1)
     z_rms, z_max = recovered(params, truth, result.plan, measure, error, seed + 2)
@@ -162,8 +168,7 @@ def sweep(robot_name, q0, seed) -> dict:
                 continue
             t = cpu_seconds()
             try:
-                result = pincal.design(params, m, q0, measure=measure, instrument=instrument.error, seed=seed,
-                                       starts=4, workers=1)  # fmt: skip
+                result = pincal.design(params, m, q0, instrument=pincal.instruments.Instrument(measure, instrument.error), search=pincal.Search(seed=seed, starts=4, workers=1))  # fmt: skip
             except (SingularPlan, Infeasible, DegenerateOptimum):
                 continue
             designs[m] = (
@@ -277,8 +282,7 @@ def sight() -> list[str]:
     at = (3.0, 0.0, 0.75)
     constraints = (Visibility(at, 40.0, 1.0, (0, 0, 1), np.radians(30)), LineOfSight(at, 0.01))
     t = cpu_seconds()
-    result = pincal.design(params, 12, UR10_Q0, instrument=Tracker(at), constraints=constraints, starts=2,
-                           pool=500, seed=5, workers=1, polish=True)  # fmt: skip
+    result = pincal.design(params, 12, UR10_Q0, instrument=pincal.instruments.Instrument(pincal.instruments.Point(), Tracker(at)), search=pincal.Search(starts=2, pool=500, seed=5, workers=1, polish=True), safety=pincal.Safety(constraints=constraints))  # fmt: skip
     rows = [f"- design with line of sight and polish: CPU {cpu_seconds() - t:.1f} s, rho0 {result.rho0!r} m "
             f"(pincal from {os.path.dirname(pincal.__file__)})"]  # fmt: skip
     t = cpu_seconds()

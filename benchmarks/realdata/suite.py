@@ -180,14 +180,10 @@ def designs_table(
                     params,
                     m,
                     test.q,
-                    pool=pool,
                     sigma=sigma,
-                    starts=starts,
-                    seed=seed,
-                    workers=1,
-                    joint_margin=0,
-                    mount="none",
                     with_d_optimal=True,
+                    search=pincal.Search(pool=pool, starts=starts, seed=seed, workers=1),
+                    safety=pincal.Safety(joint_margin=0, mount="none"),
                 )
             except PincalError as error:
                 lines.append(f"| {m} | no plan: {str(error).split(';')[0]} | | | |")

@@ -83,7 +83,7 @@ def test_next_never_falls_back_to_a_default_sigma(kr270_marker):
     stops the campaign (it stopped on the instrument's default σ before)."""
     params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
     region = pincal.around(np.radians([0, -60, 60, 0, 45, 0]), math.radians(10), samples=32)
-    plan = pincal.design(params, 4, region, seed=0, **FAST).plan
+    plan = pincal.design(params, 4, region, search=pincal.Search(**FAST, seed=0)).plan
     data = pincal.simulate_measurements(pincal.random_errors(params, seed=1), plan, SIGMA, seed=2)
     a = assess(params, data, region)
     assert a.sigma_source == "unknown" and math.isnan(a.predicted) and math.isnan(a.sigma)

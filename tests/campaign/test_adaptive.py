@@ -32,7 +32,7 @@ def region():
 
 @pytest.fixture(scope="module")
 def first(params, region):
-    return pincal.design(params, 6, region, seed=0, **FAST).plan
+    return pincal.design(params, 6, region, search=pincal.Search(**FAST, seed=0)).plan
 
 
 def test_measured_information_is_the_plans_own(params, first, region, kr270_marker):
@@ -71,7 +71,7 @@ def test_assessment_predicts_from_the_data_so_far(params, first, region):
 
 
 def test_outliers_and_unreachable_poses_are_named_and_left_out(params, region, kr270_marker):
-    plan = pincal.design(params, 10, region, seed=1, **FAST).plan
+    plan = pincal.design(params, 10, region, search=pincal.Search(**FAST, seed=1)).plan
     truth = pincal.random_errors(params, seed=3)
     data = pincal.simulate_measurements(truth, plan.q[1:], sigma=SIGMA, seed=4)  # pose 0 not reached
     points = np.array(data.points)

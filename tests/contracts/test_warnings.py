@@ -83,7 +83,13 @@ def test_design_and_scene_warnings_name_the_callers_line(tmp_path):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         line = _next_line()
-        pincal.design(lengths, 2, test_pose=[0.2, 0.0], min_conditioning=1e-4, starts=2, seed=1)
+        pincal.design(
+            lengths,
+            2,
+            test_pose=[0.2, 0.0],
+            search=pincal.Search(starts=2, seed=1),
+            safety=pincal.Safety(min_conditioning=1e-4),
+        )
     degenerate = [w for w in caught if issubclass(w.category, pincal.errors.DegenerateOptimumWarning)]
     assert degenerate and all((w.filename, w.lineno) == (HERE, line) for w in degenerate)
     few = robot.random_configurations(2, 0)  # too few configurations: no ellipsoid

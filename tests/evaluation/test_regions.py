@@ -242,7 +242,9 @@ def test_objectives_with_a_prior_and_a_path(kr, criterion):
 def test_design_for_a_neighbourhood_reports_its_mean(kr):
     params, q0 = kr
     region = pincal.around(q0, np.radians(10), samples=64)
-    result = pincal.design(params, 8, region, sigma=SIGMA, starts=2, workers=1, polish=False)
+    result = pincal.design(
+        params, 8, region, sigma=SIGMA, search=pincal.Search(starts=2, workers=1, polish=False)
+    )
     assert result.rho0 == pytest.approx(pincal.rho0(params, result.plan, region, sigma=SIGMA), rel=1e-12)
     assert len(result.rho0_each) == 64
 
@@ -251,11 +253,13 @@ def test_design_with_a_prior_below_the_parameter_count(kr):
     params, q0 = kr
     prior = pincal.Prior(1e-3, 1e-3)
     with pytest.warns(pincal.errors.DegenerateOptimumWarning, match="effectively singular.*MAP"):
-        result = pincal.design(params, 3, q0, sigma=SIGMA, prior=prior, starts=2, workers=1, polish=False)
+        result = pincal.design(
+            params, 3, q0, sigma=SIGMA, prior=prior, search=pincal.Search(starts=2, workers=1, polish=False)
+        )
     brute = _brute_rho0_squared(params, result.plan.q, q0[None], SIGMA, prior.covariance(params))[0]
     assert 3 * 3 < len(params) and result.rho0**2 == pytest.approx(brute, rel=1e-9)
     with pytest.raises(pincal.errors.SingularPlan):
-        pincal.design(params, 3, q0, sigma=SIGMA, starts=2, workers=1)
+        pincal.design(params, 3, q0, sigma=SIGMA, search=pincal.Search(starts=2, workers=1))
 
 
 def test_planar_closed_form_with_an_uninformative_prior(planar):
@@ -269,9 +273,8 @@ def test_planar_closed_form_with_an_uninformative_prior(planar):
         [0.0, q20],
         sigma=SIGMA,
         prior=pincal.Prior(np.inf, np.inf),
-        min_conditioning=1e-4,
-        starts=4,
-        workers=1,
+        search=pincal.Search(starts=4, workers=1),
+        safety=pincal.Safety(min_conditioning=1e-4),
     )
     expected = SIGMA**2 / m * np.cos(q20) ** 2 / (1 - abs(np.sin(q20)))
     assert result.rho0**2 == pytest.approx(expected, rel=1e-6)
@@ -281,12 +284,26 @@ def test_a_floor_a_d_optimal_plan_meets_is_not_refused(kr):
     # Issue 9: at floor 1e-2, m = 4 was refused ("no start meets the floor") although a D-optimal
     # plan above it exists. The starts now come from a D-optimal exchange when random plans fail.
     params, q0 = kr
-    result = pincal.design(params, 4, q0, sigma=SIGMA, min_conditioning=1e-2, starts=2, workers=1)
+    result = pincal.design(
+        params,
+        4,
+        q0,
+        sigma=SIGMA,
+        search=pincal.Search(starts=2, workers=1),
+        safety=pincal.Safety(min_conditioning=1e-2),
+    )
     assert result.conditioning > 1e-2
     # A low floor that binds is warned about, and the advice is never to lower it.
     lengths = pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")  # q20 = 0: singular limit
     with pytest.warns(pincal.errors.DegenerateOptimumWarning) as caught:
-        pincal.design(lengths, 2, [0.2, 0.0], sigma=SIGMA, min_conditioning=1e-4, starts=2, workers=1)
+        pincal.design(
+            lengths,
+            2,
+            [0.2, 0.0],
+            sigma=SIGMA,
+            search=pincal.Search(starts=2, workers=1),
+            safety=pincal.Safety(min_conditioning=1e-4),
+        )
     advice = " ".join(str(w.message) for w in caught)
     assert "raise min_conditioning" in advice and "lower" not in advice
 

@@ -61,13 +61,15 @@ def calibrations(request):
     regions = {"q0": q0[None], "±10°": box(10), "±20°": box(20), "path": path}
 
     def plans(seed):
-        options = dict(sigma=SIGMA, starts=2, seed=seed, workers=1)
+        options = dict(sigma=SIGMA, search=pincal.Search(starts=2, seed=seed, workers=1))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", pincal.errors.DegenerateOptimumWarning)
             return {
                 # At the former default floor 1e-4 (issue 9's case): the default 1e-2 already keeps
                 # a single-pose plan far more regular (benchmarks/RESULTS.md, bench_floor).
-                "single pose": pincal.design(params, M, q0, min_conditioning=1e-4, **options).plan,
+                "single pose": pincal.design(
+                    params, M, q0, **options, safety=pincal.Safety(min_conditioning=1e-4)
+                ).plan,
                 "neighbourhood": pincal.design(params, M, pincal.around(q0, np.radians(10)), **options).plan,
                 "path": pincal.design(params, M, pincal.TestPath(path), **options).plan,
             }

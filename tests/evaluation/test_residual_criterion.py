@@ -63,8 +63,12 @@ def test_a_top_up_design_with_a_residual_model_beats_the_plain_design_at_its_own
     robot, params = setup
     q0 = np.array([[0.3, -1.2, 1.4, -1.0, -1.4, 0.2]])
     model = _model(robot, 5e-4, lengthscale=0.4)
-    plain = pincal.design(params, 14, q0, sigma=SIGMA, pool=300, starts=2, seed=1, workers=1)
-    topup = pincal.design(params, 14, q0, sigma=SIGMA, pool=300, starts=2, seed=1, residual_model=model)
+    plain = pincal.design(
+        params, 14, q0, sigma=SIGMA, search=pincal.Search(pool=300, starts=2, seed=1, workers=1)
+    )
+    topup = pincal.design(
+        params, 14, q0, sigma=SIGMA, residual_model=model, search=pincal.Search(pool=300, starts=2, seed=1)
+    )
     assert topup.criterion == ResidualCriterion.name
     assert topup.value == pytest.approx(expected_error(params, topup.plan, q0, model, sigma=SIGMA), rel=1e-9)
     # It is better, by its own criterion, than the plan designed as if the model were exact ...

@@ -94,7 +94,11 @@ def test_design_measures_what_the_instrument_does(ur10, pose_params):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pincal.PincalWarning)
         result = pincal.design(
-            pose_params, 8, Q0, starts=2, workers=1, seed=1, pool=300, measure=Pose(), instrument=mocap
+            pose_params,
+            8,
+            Q0,
+            instrument=pincal.instruments.Instrument(Pose(), mocap),
+            search=pincal.Search(starts=2, workers=1, seed=1, pool=300),
         )
     assert result.sigma == mocap.sigma and result.as_dict()["instrument"]["measure"] == {"kind": "pose"}
     again = pincal.rho0(pose_params, result.plan, Q0, measure=Pose(), instrument=mocap)
@@ -102,7 +106,13 @@ def test_design_measures_what_the_instrument_does(ur10, pose_params):
     randoms = pincal.random_plans(pose_params, 8, 50, Q0, measure=Pose(), instrument=mocap, seed=2)
     assert randoms.n_singular == 0 and result.rho0 < randoms.min
     with pytest.raises(pincal.errors.SingularPlan):  # 4 poses of 6 values cannot identify 30 parameters
-        pincal.design(pose_params, 4, Q0, workers=1, measure=Pose())
+        pincal.design(
+            pose_params,
+            4,
+            Q0,
+            instrument=pincal.instruments.Instrument(Pose(), pincal.instruments.PerCoordinate()),
+            search=pincal.Search(workers=1),
+        )
 
 
 def test_monte_carlo_of_a_pose_plan_matches_its_prediction(ur10, pose_params):

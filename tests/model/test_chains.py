@@ -149,7 +149,9 @@ def test_continuous_joint_through_params_design_identify_export(tree, tmp_path):
     params = robot.parameters("full,offsets").identifiable().identifiable
     assert "a2.offset" in params.names
     m = -(-len(params) // 3) + 2
-    result = pincal.design(params, m, test_pose=robot.random_configurations(1, 3), starts=2, seed=1)
+    result = pincal.design(
+        params, m, test_pose=robot.random_configurations(1, 3), search=pincal.Search(starts=2, seed=1)
+    )
     truth = pincal.random_errors(params, seed=4)
     data = pincal.simulate_measurements(truth, result.plan, sigma=0.0)
     fit = pincal.identify(params, data)

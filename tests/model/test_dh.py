@@ -204,7 +204,9 @@ def test_dh_robot_round_trip_recovers_known_errors(tmp_path):
     assert any(p.name == "joint3.offset" and p.unit == "m" for p in params)  # the prismatic joint's zero
     q0 = np.array([0.3, -0.6, 0.2, 0.4, 0.8, -0.2])
     sigma = 3e-5
-    designed = pincal.design(params, 12, q0, sigma=sigma, starts=2, seed=0, workers=1, polish=False)
+    designed = pincal.design(
+        params, 12, q0, sigma=sigma, search=pincal.Search(starts=2, seed=0, workers=1, polish=False)
+    )
     truth = pincal.random_errors(params, error_std={"length": 1e-3, "angle": 1e-3}, seed=5)
     data = pincal.simulate_measurements(truth, designed.plan.repeat(3), sigma, seed=6)
     result = pincal.identify(params, data, sigma=sigma)

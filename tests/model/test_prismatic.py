@@ -84,7 +84,9 @@ def test_limits_are_reported_in_the_joint_s_unit(rail, tmp_path):
 
 def test_design_simulate_identify_export_recover_the_true_robot(rail, tmp_path):
     params = rail.parameters(PARAMS).identifiable().identifiable
-    result = pincal.design(params, 10, test_pose=Q0, sigma=SIGMA, starts=4, workers=1, pool=400, seed=1)
+    result = pincal.design(
+        params, 10, test_pose=Q0, sigma=SIGMA, search=pincal.Search(starts=4, workers=1, pool=400, seed=1)
+    )
     assert result.plan.revolute == (False, True, True, True)
     assert result.rho0 == pytest.approx(pincal.rho0(params, result.plan, Q0, sigma=SIGMA), rel=1e-12)
     truth = pincal.random_errors(params, error_std={"length": 1e-3, "angle": 1e-3}, seed=3)

@@ -63,7 +63,9 @@ def test_design_and_identify_match_the_exact_robot_to_one_percent(pair):
     m = -(-len(exact_params) // 3) + 2
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pincal.errors.DegenerateOptimumWarning)
-        design = pincal.design(exact_params, m, test_pose=q0, starts=2, seed=1, sigma=SIGMA)
+        design = pincal.design(
+            exact_params, m, test_pose=q0, sigma=SIGMA, search=pincal.Search(starts=2, seed=1)
+        )
         # The exact robot's optimum is (to 1 %) as good a plan of the rounded robot: ρ0 of a given
         # plan moves by micrometres' worth, whatever the search did.
         start = pincal.rho0(rounded_params, design.plan, q0, sigma=SIGMA)
@@ -80,12 +82,9 @@ def test_design_and_identify_match_the_exact_robot_to_one_percent(pair):
                 rounded_params,
                 m,
                 test_pose=q0,
-                method="continuous",
-                init=[design.plan],
-                starts=1,
-                seed=seed,
                 sigma=SIGMA,
-                min_conditioning=floor,
+                search=pincal.Search(method="continuous", init=[design.plan], starts=1, seed=seed),
+                safety=pincal.Safety(min_conditioning=floor),
             )
             assert again.value <= start * (1 + 1e-9), (seed, again.value / start)
             assert again.value == pytest.approx(
@@ -181,7 +180,7 @@ def test_gen3_designs_and_identifies_like_the_exact_arm(gen3):
     q0 = np.array([0.0, 0.5, 0.0, 1.5, 0.0, 1.0, 0.0])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pincal.errors.DegenerateOptimumWarning)
-        design = pincal.design(params, m, test_pose=q0, starts=2, seed=1, sigma=SIGMA)
+        design = pincal.design(params, m, test_pose=q0, sigma=SIGMA, search=pincal.Search(starts=2, seed=1))
     assert design.conditioning >= 1e-3
     assert pincal.rho0(exact_params, design.plan, q0, sigma=SIGMA) == pytest.approx(design.value, rel=0.01)
     truth = pincal.random_errors(params, seed=3)

@@ -31,8 +31,9 @@ def kr_params(kr270_marker):
 def hard(kr_params, **options):
     """KR 270, 4 configurations for one test pose, exchange only over a small pool: its starts end
     in many local optima (they disagree)."""
-    kw = dict(sigma=1.0, joint_margin=0, mount="none", polish=False, pool=300, workers=1, seed=2)
-    return pincal.design(kr_params, 4, KR_Q0, **{**kw, **options})
+    search = pincal.Search(**{**dict(polish=False, pool=300, workers=1, seed=2), **options})
+    safety = pincal.Safety(joint_margin=0, mount="none")
+    return pincal.design(kr_params, 4, KR_Q0, sigma=1.0, search=search, safety=safety)
 
 
 def same(a, b) -> None:
@@ -55,7 +56,9 @@ def test_matched_counts_the_starts_near_the_best():
 
 def test_explicit_starts_run_exactly_that_many(lengths, kr_params):
     for n in (1, 5, 8, 11):
-        result = pincal.design(lengths, 2, test_pose=[0.0, 1.0], sigma=1.0, starts=n, workers=1)
+        result = pincal.design(
+            lengths, 2, test_pose=[0.0, 1.0], sigma=1.0, search=pincal.Search(starts=n, workers=1)
+        )
         assert result.starts == len(result.history) == n and not result.adaptive
         assert "adaptive" not in result.message and result.as_dict()["starts_adaptive"] is False
     # A hard case where the adaptive default would add starts: still exactly 8.
@@ -63,12 +66,15 @@ def test_explicit_starts_run_exactly_that_many(lengths, kr_params):
 
 
 def test_adaptive_default_stops_after_the_first_batch_when_the_starts_agree(lengths):
-    auto = pincal.design(lengths, 2, test_pose=[0.0, 1.0], sigma=1.0, workers=1)
+    auto = pincal.design(lengths, 2, test_pose=[0.0, 1.0], sigma=1.0, search=pincal.Search(workers=1))
     assert auto.adaptive and auto.starts == _stopping.BATCH
     assert auto.matched >= _stopping.AGREE
     assert f"adaptive: {auto.matched} within 1 % of the best" in auto.message
     # The first batch is a design of 8 starts: the same design bit for bit.
-    same(auto, pincal.design(lengths, 2, test_pose=[0.0, 1.0], sigma=1.0, workers=1, starts=8))
+    same(
+        auto,
+        pincal.design(lengths, 2, test_pose=[0.0, 1.0], sigma=1.0, search=pincal.Search(workers=1, starts=8)),
+    )
     data = auto.as_dict()
     assert (data["starts"], data["starts_adaptive"], data["starts_matched"]) == (8, True, auto.matched)
 

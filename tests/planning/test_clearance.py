@@ -107,7 +107,7 @@ def test_a_default_ur10_design_holds_no_self_colliding_pose():
     ur10 = pincal.load_robot("ur10", markers=[(0.1, 0.05, 0.2)])
     params = ur10.parameters("lengths,offsets").identifiable().identifiable
     q0 = np.radians([20.5, -64.5, 106.0, -100.3, -123.1, 48.5])
-    result = pincal.design(params, 10, q0, seed=0, workers=1, starts=2, pool=400)
+    result = pincal.design(params, 10, q0, search=pincal.Search(seed=0, workers=1, starts=2, pool=400))
     assert SelfCollision().satisfied(ur10, result.plan).all()
     assert CollisionWorld(ur10, ()).distances_many(result.plan.q).min() > 0
     report = safety_margins(ur10, result.plan, with_safety(ur10))

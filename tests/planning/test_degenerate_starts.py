@@ -14,7 +14,6 @@ import pincal
 from pincal.errors import SingularPlan
 from pincal.instruments import Instrument, PerCoordinate, load_rig
 from pincal.instruments.identifiability import identifiable
-from pincal.planning import payloads as _payloads
 from pincal.planning import search as _search
 from pincal.planning import starts as _starts
 
@@ -89,7 +88,11 @@ def test_the_camera_design_drops_its_degenerate_starts(camera):
     params, kind, pixels = camera
     q0 = np.array([float(v) for v in PANDA_Q0.split(",")])
     result = pincal.design(
-        params, 20, q0, measure=kind, instrument=pixels, seed=1, starts=4, polish=False, workers=1
+        params,
+        20,
+        q0,
+        instrument=pincal.instruments.Instrument(kind, pixels),
+        search=pincal.Search(seed=1, starts=4, polish=False, workers=1),
     )
     dropped = [h.start for h in result.history if h.message.startswith("degenerate, dropped")]
     assert 0 < result.dropped == len(dropped) < result.starts == 4  # it raised SingularPlan before
@@ -112,9 +115,11 @@ def test_the_readme_camera_command_reports_what_it_dropped(cli, rig_file, tmp_pa
 
 @pytest.mark.parametrize("method", ["exchange", "continuous"])
 def test_the_best_of_the_other_starts_is_returned(kr_params, singular_starts, method):
-    kw = dict(test_pose=KR_Q0, starts=4, seed=5, method=method, workers=1)
-    if method == "exchange":
-        kw["polish"] = False  # each start's value is its plan's
+    # each start's value is its plan's: no polish
+    search = pincal.Search(
+        starts=4, seed=5, method=method, workers=1, polish=False if method == "exchange" else None
+    )
+    kw = dict(test_pose=KR_Q0, search=search)
     whole = pincal.design(kr_params, 6, **kw)
     singular_starts({0, 2})
     some = pincal.design(kr_params, 6, **kw)
@@ -137,9 +142,11 @@ def test_the_best_of_the_other_starts_is_returned(kr_params, singular_starts, me
 
 def test_dropped_starts_on_workers_and_the_d_optimal_baseline(kr_params, singular_starts):
     singular_starts({1})
-    kw = dict(test_pose=KR_Q0, starts=3, seed=3, with_d_optimal=True)
-    serial = pincal.design(kr_params, 5, workers=1, **kw)
-    processes = pincal.design(kr_params, 5, workers=2, **kw)  # start 1 fails in a worker
+    kw = dict(test_pose=KR_Q0, with_d_optimal=True)
+    serial = pincal.design(kr_params, 5, **kw, search=pincal.Search(starts=3, seed=3, workers=1))
+    processes = pincal.design(
+        kr_params, 5, **kw, search=pincal.Search(starts=3, seed=3, workers=2)
+    )  # start 1 fails in a worker
     for result in (serial, processes, serial.d_optimal, processes.d_optimal):
         assert result.dropped == 1
     np.testing.assert_array_equal(serial.plan.q, processes.plan.q)
@@ -150,24 +157,15 @@ def test_dropped_starts_on_workers_and_the_d_optimal_baseline(kr_params, singula
 def test_when_every_start_fails_the_error_says_so(kr_params, singular_starts, method):
     singular_starts({0, 1, 2})
     with pytest.raises(SingularPlan, match=r"all 3 starts were degenerate \(the first: singular plan"):
-        pincal.design(kr_params, 6, KR_Q0, starts=3, method=method, workers=1)
+        pincal.design(kr_params, 6, KR_Q0, search=pincal.Search(starts=3, method=method, workers=1))
 
 
-def test_a_design_with_payloads_drops_them_too(kr_params):
-    kw = dict(starts=3, seed=2, payloads=[0, 100], pool=200)
+def test_a_design_with_payloads_drops_them_too(kr_params, singular_starts):
+    # The same pipeline: its starts are drawn by the same draw_start, dropped the same way.
+    kw = dict(search=pincal.Search(starts=3, seed=2, pool=200, workers=1), loads=pincal.Loads([0, 100]))
     whole = pincal.design(kr_params, 6, KR_Q0, **kw)
-    pick = _payloads.pick  # its starts are drawn by pick itself: fail the second start's
-    calls = []
-
-    def picked(*args, **kwargs):
-        calls.append(None)
-        if len(calls) == 2:
-            raise SingularPlan(len(kr_params), 3, 6, len(kr_params) - 1)
-        return pick(*args, **kwargs)
-
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(_payloads, "pick", picked)
-        some = pincal.design(kr_params, 6, KR_Q0, **kw)
+    singular_starts({1})
+    some = pincal.design(kr_params, 6, KR_Q0, **kw)
     assert some.dropped == 1 and "1 of 3 starts were degenerate and dropped" in some.message
     assert some.history[1].message.startswith("degenerate, dropped")
     assert [_ended(some.history[s]) for s in (0, 2)] == [_ended(whole.history[s]) for s in (0, 2)]

@@ -31,6 +31,7 @@ from pincal.planning.constraints import (
     with_safety,
 )
 from pincal.planning.driver import _validate, design
+from pincal.planning.options import instrument_of
 from pincal.planning.results import StartRecord
 from pincal.planning.search import Outcome
 from pincal.planning.starts import draw_start, exchange_of, start_seed
@@ -38,8 +39,6 @@ from pincal.planning.starts import draw_start, exchange_of, start_seed
 KR_Q0 = np.radians([0, -90, 90, 0, 45, 0])
 # Plans at the conditioning floor warn (asserted where it matters, with pytest.warns).
 pytestmark = pytest.mark.filterwarnings("ignore::pincal.errors.DegenerateOptimumWarning")
-FAST = dict(workers=1, starts=4)
-UNIT_SIGMA = dict(FAST, sigma=1.0)  # closed forms in units of σ: ρ0/σ
 
 
 @pytest.fixture(scope="module")
@@ -74,7 +73,13 @@ def rho0_squared_of_plan(plan, q20: float, sigma: float = 1.0) -> float:
 def test_both_methods_reach_the_closed_form_minimum(lengths, deg, method):
     q20 = math.radians(deg)
     sigma = 3e-5
-    result = design(lengths, 2, test_pose=[0.7, q20], sigma=sigma, seed=abs(deg), method=method, **FAST)
+    result = design(
+        lengths,
+        2,
+        test_pose=[0.7, q20],
+        sigma=sigma,
+        search=pincal.Search(seed=abs(deg), method=method, workers=1, starts=4),
+    )
     assert result.rho0**2 == pytest.approx(rho0_min_squared(q20, 2, sigma), rel=1e-6)
     # The optimum's structure: S = Σ cos q2i = m(1 − |sin q20|)/cos q20.
     if abs(deg) != 90:
@@ -93,10 +98,9 @@ def test_singular_limit_is_reported_not_returned_silently(lengths, q20, method):
             lengths,
             2,
             test_pose=[0.2, q20],
-            method=method,
-            min_conditioning=1e-4,
-            joint_margin=0,
-            **UNIT_SIGMA,
+            sigma=1.0,
+            search=pincal.Search(method=method, workers=1, starts=4),
+            safety=pincal.Safety(min_conditioning=1e-4, joint_margin=0),
         )
     # The plan returned is regular (above the floor) but at it, and close to the infimum σ²/m.
     assert 1e-4 < result.conditioning < 2e-4
@@ -109,7 +113,9 @@ def test_mean_over_test_poses_reaches_its_closed_form(lengths):
     poses = np.array([[0.1, 0.4], [1.0, 1.3], [-0.5, 2.2]])
     cbar = np.cos(poses[:, 1]).mean()
     for method in ("continuous", "exchange"):
-        result = design(lengths, 3, test_pose=poses, method=method, **UNIT_SIGMA)
+        result = design(
+            lengths, 3, test_pose=poses, sigma=1.0, search=pincal.Search(method=method, workers=1, starts=4)
+        )
         assert result.rho0**2 == pytest.approx((1 + math.sqrt(1 - cbar**2)) / 3, rel=1e-6)
 
 
@@ -123,8 +129,22 @@ def test_worst_test_pose_reaches_the_numerical_minimax(lengths):
     best = minimize_scalar(
         worst, bounds=(-m + 1e-9, m - 1e-9), method="bounded", options={"xatol": 1e-12}
     ).fun
-    continuous = design(lengths, m, test_pose=poses, criterion="worst", method="continuous", **UNIT_SIGMA)
-    exchange = design(lengths, m, test_pose=poses, criterion="test-pose-worst", **UNIT_SIGMA)
+    continuous = design(
+        lengths,
+        m,
+        test_pose=poses,
+        criterion="worst",
+        sigma=1.0,
+        search=pincal.Search(method="continuous", workers=1, starts=4),
+    )
+    exchange = design(
+        lengths,
+        m,
+        test_pose=poses,
+        criterion="test-pose-worst",
+        sigma=1.0,
+        search=pincal.Search(workers=1, starts=4),
+    )
     for result in (continuous, exchange):
         assert result.criterion == "test-pose-worst"
         # The gradient search minimises a power mean (p up to 32768) standing for the maximum.
@@ -145,8 +165,15 @@ CLASSIC_OPTIMA = {
 def test_classic_criteria_reach_sum_cos_zero(lengths, criterion, method):
     # M = [[m, S], [S, m]]: every classic criterion is best at S = Σ cos q2i = 0.
     m = 3
-    kw = dict(polish=True) if method == "exchange" else {}
-    result = design(lengths, m, test_pose=[0.3, 1.0], criterion=criterion, method=method, **UNIT_SIGMA, **kw)
+    polish = True if method == "exchange" else None
+    result = design(
+        lengths,
+        m,
+        test_pose=[0.3, 1.0],
+        criterion=criterion,
+        sigma=1.0,
+        search=pincal.Search(method=method, workers=1, starts=4, polish=polish),
+    )
     assert result.value == pytest.approx(CLASSIC_OPTIMA[criterion](m), rel=1e-6, abs=1e-7)
     assert abs(cos_sum(result.plan)) < (1e-5 if criterion not in ("E", "cond") else 1e-3)
     # The value is the core's own criterion of the plan; ρ0 is reported too (2σ²/m at S = 0).
@@ -160,9 +187,19 @@ def test_classic_criteria_reach_sum_cos_zero(lengths, criterion, method):
 def test_exchange_and_continuous_agree(lengths, kr_params):
     q0 = [0.3, 1.1]
     exact = rho0_min_squared(1.1, 2)
-    continuous = design(lengths, 2, test_pose=q0, method="continuous", **UNIT_SIGMA)
-    exchange = design(lengths, 2, test_pose=q0, method="exchange", polish=False, **UNIT_SIGMA)
-    polished = design(lengths, 2, test_pose=q0, method="exchange", **UNIT_SIGMA)
+    continuous = design(
+        lengths, 2, test_pose=q0, sigma=1.0, search=pincal.Search(method="continuous", workers=1, starts=4)
+    )
+    exchange = design(
+        lengths,
+        2,
+        test_pose=q0,
+        sigma=1.0,
+        search=pincal.Search(method="exchange", polish=False, workers=1, starts=4),
+    )
+    polished = design(
+        lengths, 2, test_pose=q0, sigma=1.0, search=pincal.Search(method="exchange", workers=1, starts=4)
+    )
     assert continuous.rho0**2 == pytest.approx(exact, rel=1e-6)
     assert exact <= exchange.rho0**2 <= exact * 1.01  # a 2000-candidate pool: close, not exact
     assert polished.rho0**2 == pytest.approx(exact, rel=1e-6)
@@ -173,9 +210,17 @@ def test_exchange_and_continuous_agree(lengths, kr_params):
     for seed in (1, 2):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DegenerateOptimumWarning)
-            a = design(kr_params, 12, test_pose=KR_Q0, starts=6, workers=1, seed=seed, method="continuous")
+            a = design(
+                kr_params,
+                12,
+                test_pose=KR_Q0,
+                search=pincal.Search(starts=6, workers=1, seed=seed, method="continuous"),
+            )
             b = design(
-                kr_params, 12, test_pose=KR_Q0, starts=6, workers=1, seed=seed, method="exchange", polish=True
+                kr_params,
+                12,
+                test_pose=KR_Q0,
+                search=pincal.Search(starts=6, workers=1, seed=seed, method="exchange", polish=True),
             )
         assert abs(a.value - b.value) < 0.1 * min(a.value, b.value), (seed, a.value, b.value)
         assert max(a.value, b.value) < 0.6 * median, (seed, a.value, b.value, median)
@@ -264,7 +309,10 @@ def test_exchange_updates_are_exact_and_locally_optimal(kr_params, kr270_marker,
 
 def test_history_and_screening(kr_params):
     result = design(
-        kr_params, 5, test_pose=KR_Q0, starts=8, keep=0.25, workers=1, seed=2, method="continuous"
+        kr_params,
+        5,
+        test_pose=KR_Q0,
+        search=pincal.Search(starts=8, keep=0.25, workers=1, seed=2, method="continuous"),
     )
     assert result.starts == len(result.history) == 8
     assert result.continued == 2 == sum(h.continued for h in result.history)
@@ -277,7 +325,7 @@ def test_history_and_screening(kr_params):
 
 
 def test_repeating_a_plan_divides_rho0_squared(kr_params):
-    result = design(kr_params, 5, test_pose=KR_Q0, **FAST)
+    result = design(kr_params, 5, test_pose=KR_Q0, search=pincal.Search(workers=1, starts=4))
     repeated = pincal.rho0(kr_params, result.plan.repeat(3), KR_Q0)
     assert repeated**2 == pytest.approx(result.rho0**2 / 3, rel=1e-10)
 
@@ -300,7 +348,13 @@ def test_every_returned_configuration_satisfies_every_constraint(kr_params, kr27
     for method in ("continuous", "exchange"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DegenerateOptimumWarning)  # the floor may bind here
-            result = design(kr_params, 6, test_pose=KR_Q0, method=method, constraints=constraints, **FAST)
+            result = design(
+                kr_params,
+                6,
+                test_pose=KR_Q0,
+                search=pincal.Search(method=method, workers=1, starts=4),
+                safety=pincal.Safety(constraints=constraints),
+            )
         assert satisfied(kr270_marker, result.plan, constraints).all()
         for c in constraints:
             assert c.satisfied(kr270_marker, result.plan).all(), (method, c)
@@ -311,7 +365,13 @@ def test_user_pool_exchange_picks_from_the_pool(kr_params, kr270_marker):
     box = WorkspaceBox((-3, -3, 0.9), (3, 3, 4))
     ok = satisfied(kr270_marker, pool, with_safety(kr270_marker, [box]))  # the safe defaults too
     assert ok.sum() < satisfied(kr270_marker, pool, [box]).sum()  # (which reject some of the pool)
-    result = design(kr_params, 5, test_pose=KR_Q0, method="exchange", pool=pool, constraints=[box], **FAST)
+    result = design(
+        kr_params,
+        5,
+        test_pose=KR_Q0,
+        search=pincal.Search(method="exchange", pool=pool, workers=1, starts=4),
+        safety=pincal.Safety(constraints=[box]),
+    )
     assert result.pool_rejected == int((~ok).sum()) > 0
     rows = {tuple(q) for q in pool[ok]}
     assert all(tuple(q) in rows for q in result.plan.q)
@@ -320,22 +380,24 @@ def test_user_pool_exchange_picks_from_the_pool(kr_params, kr270_marker):
 # ------------------------------------------------------------------- parallel & determinism
 def test_same_seed_same_plan_whatever_the_executor(kr_params):
     for method in ("continuous", "exchange"):
-        kw = dict(test_pose=KR_Q0, starts=4, seed=11, method=method)
-        serial = design(kr_params, 4, workers=1, **kw)
-        threads = design(kr_params, 4, executor=ThreadPoolExecutor(2), **kw)
-        processes = design(kr_params, 4, workers=2, **kw)
+        run = dict(starts=4, seed=11, method=method)
+        serial = design(kr_params, 4, KR_Q0, search=pincal.Search(**run, workers=1))
+        threads = design(kr_params, 4, KR_Q0, search=pincal.Search(**run, executor=ThreadPoolExecutor(2)))
+        processes = design(kr_params, 4, KR_Q0, search=pincal.Search(**run, workers=2))
         np.testing.assert_array_equal(serial.plan.q, threads.plan.q)
         np.testing.assert_array_equal(serial.plan.q, processes.plan.q)
         assert serial.value == processes.value
-        other = design(kr_params, 4, workers=1, **{**kw, "seed": 12})
+        other = design(kr_params, 4, KR_Q0, search=pincal.Search(**{**run, "seed": 12}, workers=1))
         assert not np.array_equal(serial.plan.q, other.plan.q)
 
 
 def test_the_d_optimal_baseline_is_the_same_whatever_the_executor(kr_params):
-    kw = dict(test_pose=KR_Q0, starts=4, seed=3, with_d_optimal=True)
-    serial = design(kr_params, 5, workers=1, **kw)
-    threads = design(kr_params, 5, executor=ThreadPoolExecutor(2), **kw)
-    processes = design(kr_params, 5, workers=2, **kw)
+    kw = dict(test_pose=KR_Q0, with_d_optimal=True)
+    serial = design(kr_params, 5, **kw, search=pincal.Search(starts=4, seed=3, workers=1))
+    threads = design(
+        kr_params, 5, **kw, search=pincal.Search(starts=4, seed=3, executor=ThreadPoolExecutor(2))
+    )
+    processes = design(kr_params, 5, **kw, search=pincal.Search(starts=4, seed=3, workers=2))
     for other in (threads, processes):
         np.testing.assert_array_equal(serial.plan.q, other.plan.q)
         np.testing.assert_array_equal(serial.d_optimal.plan.q, other.d_optimal.plan.q)
@@ -344,7 +406,7 @@ def test_the_d_optimal_baseline_is_the_same_whatever_the_executor(kr_params):
 
 # ------------------------------------------------------------------- baselines
 def test_the_d_optimal_baseline_from_the_same_starts_is_the_d_optimal_design(kr_params):
-    kw = dict(test_pose=KR_Q0, starts=4, seed=5, workers=1)
+    kw = dict(test_pose=KR_Q0, search=pincal.Search(starts=4, seed=5, workers=1))
     both = design(kr_params, 5, with_d_optimal=True, **kw)
     alone = design(kr_params, 5, **kw)
     d = design(kr_params, 5, criterion="D", **kw)
@@ -386,7 +448,13 @@ def test_a_start_drawn_by_a_d_optimal_exchange_is_where_that_exchange_stays(kr_p
 
 def test_the_d_optimal_baseline_needs_the_exchange(kr_params):
     with pytest.raises(pincal.errors.BadArgument, match="method='exchange'"):
-        design(kr_params, 5, test_pose=KR_Q0, method="continuous", with_d_optimal=True, **FAST)
+        design(
+            kr_params,
+            5,
+            test_pose=KR_Q0,
+            with_d_optimal=True,
+            search=pincal.Search(method="continuous", workers=1, starts=4),
+        )
 
 
 def test_random_plans_statistics(lengths):
@@ -410,21 +478,37 @@ def test_random_plans_respect_constraints_and_count_singular(planar):
 # ------------------------------------------------------------------- bad input
 def test_bad_input_is_named(lengths, kr_params):
     with pytest.raises(pincal.errors.SingularPlan, match="at least 4 configurations"):
-        design(kr_params, 3, test_pose=KR_Q0, **FAST)
+        design(kr_params, 3, test_pose=KR_Q0, search=pincal.Search(workers=1, starts=4))
     with pytest.raises(pincal.errors.UnknownName, match="valid: test-pose, test-pose-worst, D, A, E, cond"):
-        design(lengths, 2, test_pose=[0, 1], criterion="best", **FAST)
+        design(lengths, 2, test_pose=[0, 1], criterion="best", search=pincal.Search(workers=1, starts=4))
     with pytest.raises(pincal.PincalError, match="method"):
-        design(lengths, 2, test_pose=[0, 1], method="genetic", **FAST)
+        design(lengths, 2, test_pose=[0, 1], search=pincal.Search(method="genetic", workers=1, starts=4))
     with pytest.raises(pincal.PincalError, match="needs a test pose"):
-        design(lengths, 2, **FAST)
+        design(lengths, 2, search=pincal.Search(workers=1, starts=4))
     with pytest.raises(pincal.PincalError, match="exchange"):
-        design(lengths, 2, test_pose=[0, 1], pool=np.zeros((5, 2)), method="continuous", **FAST)
+        design(
+            lengths,
+            2,
+            test_pose=[0, 1],
+            search=pincal.Search(pool=np.zeros((5, 2)), method="continuous", workers=1, starts=4),
+        )
     with pytest.raises(pincal.PincalError, match="taught poses|off the given pool"):
-        design(lengths, 2, test_pose=[0, 1], pool=np.zeros((5, 2)), polish=True, **FAST)
+        design(
+            lengths,
+            2,
+            test_pose=[0, 1],
+            search=pincal.Search(pool=np.zeros((5, 2)), polish=True, workers=1, starts=4),
+        )
     with pytest.raises(pincal.errors.Infeasible, match="workspace_box"):
-        design(lengths, 2, test_pose=[0, 1], constraints=[WorkspaceBox((5, 5, 5), (6, 6, 6))], **FAST)
+        design(
+            lengths,
+            2,
+            test_pose=[0, 1],
+            search=pincal.Search(workers=1, starts=4),
+            safety=pincal.Safety(constraints=[WorkspaceBox((5, 5, 5), (6, 6, 6))]),
+        )
     with pytest.raises(pincal.errors.BadConfiguration):
-        design(lengths, 2, test_pose=[0, 7], **FAST)
+        design(lengths, 2, test_pose=[0, 7], search=pincal.Search(workers=1, starts=4))
 
 
 def test_every_start_below_the_floor_is_a_degenerate_optimum(lengths):
@@ -437,16 +521,22 @@ def test_every_start_below_the_floor_is_a_degenerate_optimum(lengths):
     near_singular = np.array([[0.0, 0.01], [0.5, -0.01]])
     assert conditioning(pincal.evaluation.information_matrix(lengths.jacobian(near_singular))) < 1e-4
     lifted = design(
-        lengths, 2, test_pose=[0.0, 0.0], method="continuous", init=[near_singular], starts=1, keep=0.5,
-        sigma=1.0, seed=0, workers=1,
-    )  # fmt: skip
+        lengths,
+        2,
+        test_pose=[0.0, 0.0],
+        sigma=1.0,
+        search=pincal.Search(
+            method="continuous", init=[near_singular], starts=1, keep=0.5, seed=0, workers=1
+        ),
+    )
     assert conditioning(pincal.evaluation.information_matrix(lengths.jacobian(lifted.plan.q))) > 0.01
     assert lifted.rho0**2 >= 2 / 3.98 * (1 - 1e-9)
     # The choice refuses a start that ended below the floor: the error says why and what to do.
+    search = pincal.Search(method="continuous", starts=1, seed=0, workers=1, keep=0.5, maxiter=100)
+    points, plain = instrument_of(None, 1.0)
     settings = _validate(
-        lengths, 2, [0.0, 0.0], "test-pose", method="continuous", constraints=(), user_pool=False, starts=1,
-        seed=0, sigma=1.0, workers=1, polish=None, keep=0.5, screen_iterations=20, maxiter=100,
-        min_conditioning=None,
+        lengths, 2, [0.0, 0.0], "test-pose", search, pincal.Safety(), pincal.Loads(), points, plain, None,
+        None, None, False,
     )  # fmt: skip
     engine = JacobianEngine(lengths)
     F = settings_objective_value(settings, lengths, near_singular)
@@ -503,9 +593,15 @@ def test_design_and_identification_agree_on_what_a_plan_separates():
     with pytest.raises(
         pincal.errors.FloorUnreachable, match="identification needs to separate every parameter"
     ):
-        design(params, 13, test_pose=q0, seed=0, **FAST)
+        design(params, 13, test_pose=q0, search=pincal.Search(seed=0, workers=1, starts=4))
     with pytest.warns(pincal.errors.DataCheckWarning) as record:
-        plan = design(params, 13, test_pose=q0, seed=0, min_conditioning=1e-8, **FAST).plan
+        plan = design(
+            params,
+            13,
+            test_pose=q0,
+            search=pincal.Search(seed=0, workers=1, starts=4),
+            safety=pincal.Safety(min_conditioning=1e-8),
+        ).plan
     (warning,) = [w for w in record if w.category is pincal.errors.DataCheckWarning]
     truth = pincal.random_errors(params, seed=1)
     fit = pincal.identify(params, pincal.simulate_measurements(truth, plan, sigma=3e-5, seed=2), sigma=3e-5)
@@ -521,7 +617,13 @@ def test_progress_off_a_terminal_is_a_line_per_interval_counting_the_starts(leng
     from pincal import progress  # the reporter every long command shares
 
     monkeypatch.setattr(progress, "EVERY", 0.0)
-    result = design(lengths, 3, test_pose=[0.3, 1.0], starts=4, seed=0, workers=1, sigma=1e-4, progress=True)
+    result = design(
+        lengths,
+        3,
+        test_pose=[0.3, 1.0],
+        sigma=1e-4,
+        search=pincal.Search(starts=4, seed=0, workers=1, progress=True),
+    )
     lines = capsys.readouterr().err.strip().splitlines()
     searched = [line for line in lines if "starts searched" in line]
     assert len(searched) == result.starts == 4

@@ -33,9 +33,19 @@ def designs(params):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DegenerateOptimumWarning)
         loaded = pincal.design(
-            params, 15, Q0, payloads=PAYLOADS, task_payload=TASK, pool=300, starts=2, seed=0
+            params,
+            15,
+            Q0,
+            search=pincal.Search(pool=300, starts=2, seed=0),
+            loads=pincal.Loads(payloads=PAYLOADS, task_payload=TASK),
         )
-        bare = pincal.design(params, 15, Q0, payloads=[0.0], task_payload=TASK, pool=300, starts=2, seed=0)
+        bare = pincal.design(
+            params,
+            15,
+            Q0,
+            search=pincal.Search(pool=300, starts=2, seed=0),
+            loads=pincal.Loads(payloads=[0.0], task_payload=TASK),
+        )
     return loaded, bare
 
 
@@ -86,7 +96,11 @@ def test_the_accuracy_report_is_under_the_plans_payloads_and_the_tasks(params, d
 def test_a_taught_pool_with_payloads(params):
     taught = params.robot.random_configurations(60, 4, margin=0.1)
     result = pincal.design(
-        params, 15, Q0, payloads=PAYLOADS, task_payload=TASK, pool=taught, starts=1, seed=0
+        params,
+        15,
+        Q0,
+        search=pincal.Search(pool=taught, starts=1, seed=0),
+        loads=pincal.Loads(payloads=PAYLOADS, task_payload=TASK),
     )
     rows = {tuple(q) for q in np.round(taught, 12)}
     assert all(tuple(q) in rows for q in np.round(result.plan.q, 12))  # the plan is made of the pool's
@@ -163,11 +177,13 @@ def test_a_compliance_the_data_cannot_separate_says_what_would(params):
 
 def test_bad_payload_designs_are_refused(params):
     with pytest.raises(BadArgument, match="payloads must be"):
-        pincal.design(params, 15, Q0, payloads=[])
+        pincal.design(params, 15, Q0, loads=pincal.Loads(payloads=[]))
     with pytest.raises(BadArgument, match="exchange over a pool"):
-        pincal.design(params, 15, Q0, payloads=PAYLOADS, method="continuous")
+        pincal.design(
+            params, 15, Q0, search=pincal.Search(method="continuous"), loads=pincal.Loads(payloads=PAYLOADS)
+        )
     with pytest.raises(BadArgument, match="mass"):
-        pincal.design(params, 15, Q0, payloads=[-5.0])
+        pincal.design(params, 15, Q0, loads=pincal.Loads(payloads=[-5.0]))
 
 
 # --------------------------------------------------------------------- other measurement kinds
@@ -203,8 +219,15 @@ def test_a_pose_design_with_payloads_recovers_the_parameters(pose_params):
     params = pose_params
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DegenerateOptimumWarning)
-        result = pincal.design(params, 12, Q0, payloads=PAYLOADS, task_payload=TASK, pool=300, starts=2,
-                               seed=1, measure=Pose(), instrument=MOCAP, orientation_length=0.2)  # fmt: skip
+        result = pincal.design(
+            params,
+            12,
+            Q0,
+            orientation_length=0.2,
+            instrument=pincal.instruments.Instrument(Pose(), MOCAP),
+            search=pincal.Search(pool=300, starts=2, seed=1),
+            loads=pincal.Loads(payloads=PAYLOADS, task_payload=TASK),
+        )
     plan = result.plan
     assert plan.payload is not None and len(set(plan.payload[:, 0])) > 1  # it mounts several payloads
     assert isinstance(result.instrument, Instrument) and isinstance(result.instrument.kind, Pose)
@@ -225,7 +248,13 @@ def test_a_pose_design_with_payloads_recovers_the_parameters(pose_params):
 
 def test_a_residual_model_design_measures_points(params):
     with pytest.raises(BadArgument, match="orientations, pixels or distances"):
-        pincal.design(params, 15, Q0, residual_model=object(), measure=Pose())  # type: ignore[arg-type]
+        pincal.design(
+            params,
+            15,
+            Q0,
+            residual_model=object(),
+            instrument=pincal.instruments.Instrument(Pose(), pincal.instruments.PerCoordinate()),
+        )  # type: ignore[arg-type]
     plan = params.robot.random_configurations(15, 3)
     with pytest.raises(BadArgument, match="orientations, pixels or distances"):
         pincal.accuracy(params, plan, Q0, sigma=SIGMA, residual_model=object(), measure=Pose())  # type: ignore[arg-type]

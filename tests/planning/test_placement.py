@@ -204,7 +204,7 @@ def test_the_screened_search_finds_the_exhaustive_searchs_position(params, place
     calls: list[str] = []
 
     def counted(*args, **kwargs):
-        calls.append("quick" if isinstance(kwargs.get("pool"), np.ndarray) else "full")
+        calls.append("quick" if isinstance(kwargs["search"].pool, np.ndarray) else "full")
         return design(*args, **kwargs)
 
     design = placement_module.design

@@ -26,7 +26,7 @@ from pincal.planning.constraints import (
 from pincal.planning.safety import safety_margins
 
 KR_Q0 = np.radians([0, -60, 60, 0, 45, 0])
-FAST = dict(workers=1, starts=4, pool=400)
+FAST = dict(workers=1, starts=4, pool=400)  # a pincal.Search's
 pytestmark = pytest.mark.ur10(markers=[(0.1, 0.05, 0.2)])  # the ur10 fixture (tests/conftest.py)
 
 
@@ -156,13 +156,19 @@ def test_safety_report_names_the_smallest_margins(kr270_marker):
 
 
 def test_default_design_is_safe_and_opting_out_is_possible(kr_params, kr270_marker):
-    result = pincal.design(kr_params, 6, test_pose=pincal.around(KR_Q0, math.radians(10)), seed=3, **FAST)
+    result = pincal.design(
+        kr_params, 6, test_pose=pincal.around(KR_Q0, math.radians(10)), search=pincal.Search(**FAST, seed=3)
+    )
     report = safety_margins(kr270_marker, result.plan, with_safety(kr270_marker))
     assert report.ok, report.lines()
     assert report.angle.value >= math.radians(2) - 1e-9 and report.floor.value >= 0
     assert satisfied(kr270_marker, result.plan, with_safety(kr270_marker)).all()
     free = pincal.design(
-        kr_params, 6, test_pose=KR_Q0, seed=3, joint_margin=0, mount="none", **FAST
+        kr_params,
+        6,
+        test_pose=KR_Q0,
+        search=pincal.Search(**FAST, seed=3),
+        safety=pincal.Safety(joint_margin=0, mount="none"),
     )  # no margin asked: still within the URDF limits
     assert safety_margins(kr270_marker, free.plan).angle.value >= -1e-9
 

@@ -137,7 +137,13 @@ def test_design_keeps_clear_of_the_cell(kr270_marker):
     table = Obstacle("table", "box", (1.2, 1.6, 0.1), (1.7, 0.0, 0.6))
     cell = Workcell((table,), min_distance=0.05)
     q0 = np.radians([0, -60, 60, 0, 45, 0])
-    result = pincal.design(params, 8, test_pose=q0, constraints=[cell], starts=2, workers=1, pool=300, seed=2)
+    result = pincal.design(
+        params,
+        8,
+        test_pose=q0,
+        search=pincal.Search(starts=2, workers=1, pool=300, seed=2),
+        safety=pincal.Safety(constraints=[cell]),
+    )
     world = cell.world(kr270_marker)
     assert world.distances_many(result.plan.q).min() >= 0.05 - 1e-9
     report = safety_margins(kr270_marker, result.plan, with_safety(kr270_marker, [cell]))

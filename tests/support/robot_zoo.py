@@ -79,7 +79,9 @@ def rehearse(robot: pincal.Robot, seed: int = 0, starts: int = 2, extra: int = 2
     start = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pincal.errors.DegenerateOptimumWarning)
-        design = pincal.design(params, m, test_pose=q0, starts=starts, seed=seed, sigma=SIGMA)
+        design = pincal.design(
+            params, m, test_pose=q0, sigma=SIGMA, search=pincal.Search(starts=starts, seed=seed)
+        )
     seconds = time.perf_counter() - start
     truth = pincal.random_errors(params, seed=seed + 1)
     data = pincal.simulate_measurements(truth, design.plan, sigma=SIGMA, seed=seed + 2)

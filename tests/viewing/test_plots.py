@@ -87,7 +87,12 @@ def test_search_progress_of_a_design(tmp_path, planar):
     from pincal.planning.driver import design
 
     params = planar.parameters("joint2.tx,tip.tx")
-    result = design(params, m=2, test_pose=[0.0, 1.0], starts=8, workers=1, keep=0.5, method="continuous")
+    result = design(
+        params,
+        m=2,
+        test_pose=[0.0, 1.0],
+        search=pincal.Search(starts=8, workers=1, keep=0.5, method="continuous"),
+    )
     fig = plots.search_progress(result, ylabel="ρ0/σ", scale=1.0)
     (ax,) = fig.axes
     offsets = np.vstack([c.get_offsets() for c in ax.collections])
