@@ -51,7 +51,11 @@ def time_to_one_percent(params, m, best, method, seeds, max_starts, **kw):
         while True:
             with timed() as clock:
                 result, _ = quiet_design(
-                    params, m, Q0, sigma=SIGMA, method=method, starts=starts, seed=seed, **kw
+                    params,
+                    m,
+                    Q0,
+                    sigma=SIGMA,
+                    search=pincal.Search(method=method, starts=starts, seed=seed, **kw),
                 )
             elapsed = clock.wall  # workers=2: the pool's CPU is not this process's
             if result.value <= 1.01 * best or starts >= max_starts:
@@ -88,10 +92,18 @@ def main() -> list[str]:
     for m in (4, 12):
         with timed() as clock:
             long_c, _ = quiet_design(
-                params, m, Q0, sigma=SIGMA, method="continuous", starts=256, keep=0.25, seed=1000
+                params,
+                m,
+                Q0,
+                sigma=SIGMA,
+                search=pincal.Search(method="continuous", starts=256, keep=0.25, seed=1000),
             )
             long_e, _ = quiet_design(
-                params, m, Q0, sigma=SIGMA, method="exchange", polish=True, starts=128, keep=0.25, seed=1000
+                params,
+                m,
+                Q0,
+                sigma=SIGMA,
+                search=pincal.Search(method="exchange", polish=True, starts=128, keep=0.25, seed=1000),
             )
         long_time = clock.wall
         best = min(long_c.value, long_e.value)
@@ -119,7 +131,9 @@ def main() -> list[str]:
     say("| ---: | ---: | ---: | --- | ---: | ---: |")
     for m in (4, 12):
         stats = random_plans(params, m, 10000, Q0, sigma=SIGMA, seed=0)
-        d_opt, _ = quiet_design(params, m, Q0, criterion="D", sigma=SIGMA, starts=32, seed=0)
+        d_opt, _ = quiet_design(
+            params, m, Q0, criterion="D", sigma=SIGMA, search=pincal.Search(starts=32, seed=0)
+        )
         r = plans[m]
         say(
             f"| {m} | {mm(r.rho0)} | {r.conditioning:.2g} | {mm(stats.min)} / {mm(stats.median)} / {mm(stats.max)} "
@@ -151,7 +165,12 @@ def main() -> list[str]:
     for name, crit in (("exchange on ρ0 (test-pose)", "test-pose"), ("D-optimal exchange", "D")):
         with timed() as clock:
             r, floor_hit = quiet_design(
-                full, 12, q0, criterion=crit, method="exchange", pool=pool, starts=16, sigma=SIGMA, seed=0
+                full,
+                12,
+                q0,
+                criterion=crit,
+                sigma=SIGMA,
+                search=pincal.Search(method="exchange", pool=pool, starts=16, seed=0),
             )
         say(
             f"| {name} | 16 | {clock.wall:.1f} s | {mm(r.rho0)} | {r.conditioning:.2g}{' (at floor)' if floor_hit else ''} |"

@@ -34,7 +34,7 @@ def cases():
     yield (
         "KR 270, m = 4, one test pose, sigma = 1, no safety margins",
         (small, 4, np.radians([0, -90, 90, 0, 45, 0])),
-        dict(sigma=1.0, joint_margin=0, mount="none"),
+        dict(sigma=1.0, safety=pincal.Safety(joint_margin=0, mount="none")),
     )
     yield (
         "README design: KR 270, m = 12, around((0, -60, 60, 0, 45, 0) deg, 10 deg)",
@@ -64,9 +64,9 @@ def main() -> None:
         )
         print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
         for seed in opts.seeds:
-            best, _ = timed_design(args, starts=opts.best, seed=seed, **kw)
-            auto, t_auto = timed_design(args, seed=seed, **kw)
-            eight, t_eight = timed_design(args, starts=8, seed=seed, **kw)
+            best, _ = timed_design(args, **kw, search=pincal.Search(starts=opts.best, seed=seed))
+            auto, t_auto = timed_design(args, **kw, search=pincal.Search(seed=seed))
+            eight, t_eight = timed_design(args, **kw, search=pincal.Search(starts=8, seed=seed))
             value = min(best.value, auto.value, eight.value)
             print(
                 f"| {seed} | {value:.6g} | {auto.starts} ({auto.matched}) | {auto.value / value:.4f} | "

@@ -50,7 +50,8 @@ def _cases(robot):
         "exchange": ("params", 8, dict(sigma=SIGMA, **fast), dict(sigma=SIGMA, search=pincal.Search(**fast))),
         "continuous": (
             "params", 8,
-            dict(method="continuous", starts=2, seed=1, workers=1, keep=0.5, screen_iterations=3, maxiter=400),
+            dict(method="continuous", starts=2, seed=1, workers=1, keep=0.5, screen_iterations=3,
+                 maxiter=400),
             dict(search=pincal.Search(method="continuous", starts=2, seed=1, workers=1, keep=0.5,
                                       screen_iterations=3, maxiter=400)),
         ),

@@ -72,7 +72,9 @@ def test_constraints_yaml_limits(cell, cli, text, fragment):
 # ------------------------------------------------ determinism, concurrency, interrupted writes
 def _design(seed: int) -> np.ndarray:
     params = pincal.load_robot("planar_2r").parameters("joint2.tx,tip.tx")
-    return pincal.design(params, 3, [0.3, 1.2], starts=3, seed=seed, workers=1, pool=200).plan.q
+    return pincal.design(
+        params, 3, [0.3, 1.2], search=pincal.Search(starts=3, seed=seed, workers=1, pool=200)
+    ).plan.q
 
 
 def test_same_seed_same_plan_and_concurrent_designs_agree():
