@@ -179,7 +179,8 @@ def design(
         with_d_optimal: also design the D-optimal plan from the same starts, as the baseline to
             judge this plan against (the CLI's ``--baseline``): ``result.d_optimal`` is the design
             ``criterion="D"`` with the same arguments returns, at the cost of its own exchanges
-            and polish, run on the executor with this design's. Exchange method.
+            and polish, run on the executor with this design's. Exchange method; with payloads
+            too (over the same pairs), not with a residual model.
 
     Returns:
         the best plan found, with its criterion value, ρ0 and the history of every start.
