@@ -53,7 +53,8 @@ def quiet(function, *args, **kwargs):
 
 def timed_design(params, test_pose, **kwargs):
     with timed() as clock:
-        result = quiet(pincal.design, params, M, test_pose, sigma=SIGMA, starts=STARTS, seed=0, **kwargs)
+        search = pincal.Search(starts=STARTS, seed=0)
+        result = quiet(pincal.design, params, M, test_pose, sigma=SIGMA, search=search, **kwargs)
     return result, clock.wall  # workers=2: the pool's CPU is not this process's
 
 
@@ -82,8 +83,8 @@ def main() -> list[str]:
         params = robot.parameters("lengths,offsets").identifiable().identifiable
         long_path = path(q0, 1000)
         designs = {
-            "test pose (floor 1e-4)": timed_design(params, q0, min_conditioning=1e-4),
-            "test pose, floor 1e-2": timed_design(params, q0, min_conditioning=1e-2),
+            "test pose (floor 1e-4)": timed_design(params, q0, safety=pincal.Safety(min_conditioning=1e-4)),
+            "test pose, floor 1e-2": timed_design(params, q0, safety=pincal.Safety(min_conditioning=1e-2)),
             "neighbourhood ±10°": timed_design(params, pincal.around(q0, math.radians(10))),
             "path (1 000 points)": timed_design(params, pincal.TestPath(long_path)),
             "D-optimal": timed_design(params, q0, criterion="D"),

@@ -182,7 +182,7 @@ def cpu():
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 def timed(params, m=12, pool=2000, test=q0):
     t = cpu()
-    pincal.design(params, m, test, starts=4, seed=0, workers=1, pool=pool, polish=False)
+    pincal.design(params, m, test, search=pincal.Search(starts=4, seed=0, workers=1, pool=pool, polish=False))
     return cpu() - t
 full = robot.parameters("full,offsets").identifiable().identifiable
 sets = [robot.parameters(g).identifiable().identifiable for g in ("offsets", "lengths,offsets", "full,offsets", "full,offsets,gains")]
