@@ -72,6 +72,11 @@ the evaluations of (40, 1e-5), the same worst ρ0 (1.0032 times that of 64 start
 before SLSQP); (20, 1e-3) takes 49 % and reaches 1.0084; the 2-link closed forms converge before
 it applies."""
 
+KEPT_SLACK = 1e-3
+"""A search that ends across a constraint (SLSQP's iterates hover about a binding floor or margin,
+within its tolerance) returns instead its best iterate that kept this fraction of the slacks
+(:data:`FLOOR_SLACK`, :data:`MARGIN_SLACK`): inside every constraint, above the floor."""
+
 SCREEN_POWER = 16.0
 POWERS = (64.0, 512.0, 4096.0, 32768.0)
 """Power-mean exponents standing for the maximum (test-pose-worst): screening, then polishing."""
@@ -170,6 +175,7 @@ class PlanFunction:
         it converges or stalls (:data:`STALL`); returns (q, iterations, message)."""
         window, drop = STALL
         values: list[float] = []
+        kept: list[tuple[float, np.ndarray]] = []  # the best iterate within every constraint
         if self.constrained:
             method, options = "SLSQP", {"maxiter": int(maxiter), "ftol": FTOL}
             constraints = [self._constraints()]
@@ -177,11 +183,23 @@ class PlanFunction:
             method, options = "L-BFGS-B", {"maxiter": int(maxiter), "ftol": FTOL, "gtol": 1e-10, "maxls": 50}
             constraints = []
 
+        def within(x: np.ndarray, slack: float = 1.0) -> bool:
+            """Every constraint holds at x, keeping ``slack`` times the search's slacks."""
+            if not constraints:
+                return True
+            v = constraints[0]["fun"](x) + (1 - slack) * MARGIN_SLACK
+            if self.floor > 0:
+                v[0] += (1 - slack) * (FLOOR_SLACK - MARGIN_SLACK)
+            return bool(np.all(v >= 0))
+
         def stalled(intermediate_result) -> None:
             # SLSQP's iterates may cross a constraint on the way: it stops at a feasible one only.
             values.append(float(intermediate_result.fun))
+            x = intermediate_result.x
+            if constraints and (not kept or values[-1] < kept[0][0]) and within(x, KEPT_SLACK):
+                kept[:] = [(values[-1], np.array(x))]
             if len(values) > window and values[-window - 1] - values[-1] < drop:
-                if not constraints or np.all(constraints[0]["fun"](intermediate_result.x) >= 0):
+                if within(x):
                     raise StopIteration
 
         res = _minimize(
@@ -194,10 +212,12 @@ class PlanFunction:
             callback=stalled,
             options=options,
         )
-        message = str(res.message)
+        message, x = str(res.message), res.x
         if len(values) > window and values[-window - 1] - values[-1] < drop:
             message = f"F fell by less than {drop:g} over the last {window} iterations"
-        return res.x.reshape(self.m, self.nq), int(res.nit), message
+        if kept and not within(x, KEPT_SLACK):  # ended across a constraint: its best iterate inside
+            x, message = kept[0][1], message + "; the best iterate within the constraints"
+        return x.reshape(self.m, self.nq), int(res.nit), message
 
     def _constraints(self) -> dict:
         """The constraints for SLSQP: the floor's log(λ/floor) (computed with the objective at the

@@ -15,15 +15,18 @@ that position brings —
   and a configuration counts only the target points it sees in its image (its field of view);
 
 — and keeps the position whose plan is best. A whole design at every position is slow (the
-continuous polish with the line of sight takes seconds to tens of seconds a position), so the
-positions are screened first: one pool of candidate configurations is drawn for the whole box, and
-at each position a quick design (:data:`SCREEN_STARTS` exchange starts, no polish) picks the plan
-among the candidates that position sees; only the best ``screen`` positions of the screen
-(:data:`SCREEN`) are designed in full. ``screen=None`` designs every position in full (the
-exhaustive search, ``--place-screen all``). The criterion of every position tried is kept: the map
-of the predicted error at the test region against the instrument's position
-(:func:`pincal.viewing.plots.placement_map`). A default placement (the box's centre unless given)
-is designed in full too, so the gain of placing the instrument is a measured factor.
+continuous polish with the line of sight takes seconds to a minute of CPU, and a design alone runs
+batches of starts until they agree: up to 128 starts, two polishes every 8), so the positions are
+screened first: one pool of candidate configurations is drawn for the whole box, and at each
+position a quick design (:data:`SCREEN_STARTS` exchange starts, no polish) picks the plan among the
+candidates that position sees; only the best ``screen`` positions of the screen (:data:`SCREEN`)
+are designed in full, each as one batch of :data:`FINAL_STARTS` exchange starts with its best
+quarter polished for at most :data:`FINAL_MAXITER` iterations. ``screen=None`` designs every
+position in full with the design's own defaults (the exhaustive search, ``--place-screen all``).
+The criterion of every position tried is kept: the map of the predicted error at the test region
+against the instrument's position (:func:`pincal.viewing.plots.placement_map`). A default
+placement (the box's centre unless given) is designed as the finalists are, so the gain of placing
+the instrument is a measured factor.
 """
 
 from __future__ import annotations
@@ -76,6 +79,16 @@ of its CPU without the polish and a fraction with it (a polished design a positi
 
 SCREEN_STARTS = 2
 """Exchange starts of a position's quick design in the screen."""
+
+FINAL_STARTS = 8
+"""Exchange starts of a finalist's design (the best of the screen, and the default placement): one
+batch of the adaptive rule (:data:`pincal.planning.stopping.BATCH`), its best quarter polished, not
+run on until the starts agree (a full design with the line of sight ran 16 to 64 starts at a
+position, two polishes every 8). ``starts=`` given is used as it is."""
+
+FINAL_MAXITER = 150
+"""Iterations of a finalist's polish (``maxiter`` of :func:`pincal.design`; its default 3000).
+``maxiter=`` given is used as it is."""
 
 ACCEPTANCE = math.radians(30.0)
 """Default acceptance half-angle of a tracker's reflector [rad]: a 1.5" red-ring reflector's ±30°."""
@@ -225,9 +238,11 @@ def place_instrument(
         default_at: the placement compared with (default: the box's centre).
         screen: how many positions are designed in full: the best of the screen, where every
             position gets a quick design (:data:`SCREEN_STARTS` exchange starts over one pool drawn
-            for the whole box, no polish; see the module doc). None: every position designed in
-            full (the exhaustive search, a full design per position). The default placement is
-            designed in full as well.
+            for the whole box, no polish; see the module doc), each finalist with
+            :data:`FINAL_STARTS` starts and :data:`FINAL_MAXITER` polish iterations unless
+            ``starts`` or ``maxiter`` are given. None: every position designed in full with the
+            design's defaults (the exhaustive search). The default placement is designed as the
+            finalists are.
         progress: report the positions screened and designed in full on stderr, with the full
             designs' own progress: a bar on a terminal, else a line every few seconds.
         options: more arguments of :func:`pincal.design` (``starts``, ``seed``, ``pool``,
@@ -261,6 +276,7 @@ def place_instrument(
     options = dict(options, seed=seed_entropy(options.get("seed", 0)))  # one seed for every design
     quick = {k: v for k, v in options.items() if k not in FULL_ONLY}
     quick.update(starts=SCREEN_STARTS, workers=1, polish=False)
+    final = options if screen is None else _finalist(options)  # the exhaustive search: full designs
     shared = None if screen is None else _Screen(params, base_constraints, options, m)
     steps_done = Steps(progress, "placement", "position")
 
@@ -268,7 +284,7 @@ def place_instrument(
         """The plan designed with the instrument at ``at``: in full, or quickly (the screen)."""
         placed, extra = _placed(params, kind, tracker, at, test_pose, sight, notes)
         error = instrument if tracker is None else replace(tracker, at=tuple(at))
-        how = options
+        how = final
         try:
             if quickly is not None:
                 pool = quickly.seen(placed, extra)
@@ -363,6 +379,13 @@ FULL_ONLY = frozenset(
 )  # fmt: skip
 """The options of :func:`pincal.design` that the full designs take and the screen's quick designs
 do not (they run :data:`SCREEN_STARTS` exchange starts over the shared pool, in this process)."""
+
+
+def _finalist(options: dict) -> dict:
+    """The options of a finalist's design: those given, and :data:`FINAL_STARTS` starts and
+    :data:`FINAL_MAXITER` polish iterations where none (or None: adaptive) is given."""
+    given = {k: v for k, v in options.items() if not (k in ("starts", "maxiter") and v is None)}
+    return {"starts": FINAL_STARTS, "maxiter": FINAL_MAXITER, **given}
 
 
 class _Screen:
