@@ -117,9 +117,10 @@ limits and --constraints) and of the D-optimal plan, next to the designed plan's
 metres) together with the plan: a grid of --place-steps per axis (default 3), then the best
 position's neighbours at half the step, each position screened by a quick design (2 exchange starts
 over 500 of one pool's configurations it sees, no polish: a fraction of a second), then the best
---place-screen N (default 3) and the default position designed in full (a design's cost each:
-seconds to tens of seconds with the line of sight); --place-screen all designs every position in
-full (27 + 6 on a 3-step box: minutes to an hour). At each position the plan is designed with the
+--place-screen N (default 3) and the default position designed in full (8 exchange starts, the
+best 2 polished for at most 150 iterations unless --starts is given: about 10 s of CPU each with
+the line of sight); --place-screen all designs every position in full with the design's defaults
+(27 + 6 on a 3-step box: an hour or more with the polish). At each position the plan is designed with the
 tracker there (--instrument tracker, --tracker-sigma: its error; default the AT500's), under its
 range (1 to
 40 m), a 30-degree acceptance angle about the reflector's normal (the tip frame's z) and the line of

@@ -73,7 +73,7 @@ before SLSQP); (20, 1e-3) takes 49 % and reaches 1.0084; the 2-link closed forms
 it applies."""
 
 KEPT_SLACK = 1e-3
-"""A search that ends across a constraint (SLSQP's iterates hover about a binding floor or margin,
+"""A polish that ends across a constraint (SLSQP's iterates hover about a binding floor or margin,
 within its tolerance) returns instead its best iterate that kept this fraction of the slacks
 (:data:`FLOOR_SLACK`, :data:`MARGIN_SLACK`): inside every constraint, above the floor."""
 
@@ -170,9 +170,11 @@ class PlanFunction:
             grad += slope.dq
         return slope.F, grad.ravel()
 
-    def minimise(self, q0: np.ndarray, maxiter: int) -> tuple[np.ndarray, int, str]:
+    def minimise(self, q0: np.ndarray, maxiter: int, inside: bool = False) -> tuple[np.ndarray, int, str]:
         """From q0 within the joint limits and the constraints (SLSQP; with none, L-BFGS-B), until
-        it converges or stalls (:data:`STALL`); returns (q, iterations, message)."""
+        it converges or stalls (:data:`STALL`); returns (q, iterations, message). ``inside``: a
+        search that ends across a constraint returns its best iterate inside them all
+        (:data:`KEPT_SLACK`)."""
         window, drop = STALL
         values: list[float] = []
         kept: list[tuple[float, np.ndarray]] = []  # the best iterate within every constraint
@@ -196,7 +198,7 @@ class PlanFunction:
             # SLSQP's iterates may cross a constraint on the way: it stops at a feasible one only.
             values.append(float(intermediate_result.fun))
             x = intermediate_result.x
-            if constraints and (not kept or values[-1] < kept[0][0]) and within(x, KEPT_SLACK):
+            if inside and constraints and (not kept or values[-1] < kept[0][0]) and within(x, KEPT_SLACK):
                 kept[:] = [(values[-1], np.array(x))]
             if len(values) > window and values[-window - 1] - values[-1] < drop:
                 if within(x):
@@ -293,7 +295,7 @@ def polish(fn: PlanFunction, q0: np.ndarray, anchor: np.ndarray, maxiter: int) -
     q, total, message = np.array(q0), 0, ""
     for power in POWERS if fn.objective.smoothed else (None,):
         fn.set_power(power)
-        q, nit, message = fn.minimise(q, maxiter)
+        q, nit, message = fn.minimise(q, maxiter, inside=True)
         total += nit
     fn.set_power(None)
     feasible = fn.feasibility.plan_feasible(q)
