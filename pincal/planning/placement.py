@@ -48,15 +48,12 @@ from pincal.instruments.kind import Kind
 from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import (
     AnyConstraint,
-    Constraint,
-    Kinematics,
     LineOfSight,
     Visibility,
-    with_safety,
 )
-from pincal.planning.driver import DEFAULT_POOL, design
-from pincal.planning.feasibility import Feasibility
+from pincal.planning.driver import design
 from pincal.planning.options import grouped
+from pincal.planning.placement_screen import Screen
 from pincal.planning.results import DesignResult
 from pincal.progress import Steps
 from pincal.typing import TestPoseLike
@@ -81,14 +78,11 @@ SCREEN_STARTS = 2
 """Exchange starts of a position's quick design in the screen."""
 
 FINAL_STARTS = 8
-"""Exchange starts of a finalist's design (the best of the screen, and the default placement): one
-batch of the adaptive rule (:data:`pincal.planning.stopping.BATCH`), its best quarter polished, not
-run on until the starts agree (a full design with the line of sight ran 16 to 64 starts at a
-position, two polishes every 8). ``starts=`` given is used as it is."""
+"""Exchange starts of a finalist's design (the screen's best, the default placement): one batch,
+its best quarter polished, not batches until the starts agree (``starts=`` given is used)."""
 
 FINAL_MAXITER = 150
-"""Iterations of a finalist's polish (``maxiter`` of :func:`pincal.design`; its default 3000).
-``maxiter=`` given is used as it is."""
+"""Iterations of a finalist's polish (:func:`pincal.design`'s ``maxiter``, default 3000; given: used)."""
 
 ACCEPTANCE = math.radians(30.0)
 """Default acceptance half-angle of a tracker's reflector [rad]: a 1.5" red-ring reflector's ±30°."""
@@ -277,10 +271,10 @@ def place_instrument(
     quick = {k: v for k, v in options.items() if k not in FULL_ONLY}
     quick.update(starts=SCREEN_STARTS, workers=1, polish=False)
     final = options if screen is None else _finalist(options)  # the exhaustive search: full designs
-    shared = None if screen is None else _Screen(params, base_constraints, options, m)
+    shared = None if screen is None else Screen(params, base_constraints, options, m)
     steps_done = Steps(progress, "placement", "position")
 
-    def designed(at: np.ndarray, quickly: _Screen | None = None) -> DesignResult | None:
+    def designed(at: np.ndarray, quickly: Screen | None = None) -> DesignResult | None:
         """The plan designed with the instrument at ``at``: in full, or quickly (the screen)."""
         placed, extra = _placed(params, kind, tracker, at, test_pose, sight, notes)
         error = instrument if tracker is None else replace(tracker, at=tuple(at))
@@ -386,58 +380,6 @@ def _finalist(options: dict) -> dict:
     :data:`FINAL_MAXITER` polish iterations where none (or None: adaptive) is given."""
     given = {k: v for k, v in options.items() if not (k in ("starts", "maxiter") and v is None)}
     return {"starts": FINAL_STARTS, "maxiter": FINAL_MAXITER, **given}
-
-
-class _Screen:
-    """The screen's candidates: configurations drawn once for the whole box within the constraints
-    every position shares (the workcell's and the safe defaults), their kinematics computed once; a
-    position's quick design chooses among the first :attr:`size` of them it sees, so that every
-    position chooses among as many as a design there would (one that sees fewer, fewer).
-
-    Args:
-        params: the parameters (on the robot).
-        constraints: the workcell's constraints.
-        options: :func:`pincal.design`'s options: ``pool`` (a size, or configurations: the
-            feasible ones are the candidates), ``joint_margin``, ``mount``, ``seed`` (an int).
-        m: configurations a plan needs.
-    """
-
-    def __init__(
-        self, params: ParameterSet, constraints: tuple[AnyConstraint, ...], options: dict, m: int
-    ) -> None:
-        robot, pool = params.robot, options.get("pool")
-        safe = with_safety(robot, constraints, options.get("joint_margin"), options.get("mount"))
-        feasibility = Feasibility(robot, safe)
-        if pool is None or isinstance(pool, (int, np.integer)):
-            self.size = min(SCREEN_POOL, DEFAULT_POOL if pool is None else positive_int(pool, "pool size", m))
-            rng = np.random.default_rng(np.random.SeedSequence(options["seed"]))
-            self.qs = feasibility.sample(SCREEN_DRAWS * self.size, rng, minimum=m)
-        else:
-            self.qs = feasibility.feasible_pool(pool, m)[0]
-            self.size = len(self.qs)
-        self.kinematics = Kinematics(robot, self.qs)
-
-    def seen(self, params: ParameterSet, extra: tuple[AnyConstraint, ...]) -> np.ndarray:
-        """The candidates within the constraints a position brings (each checked on those the ones
-        before kept: the visibility first, then the line of sight), the first :attr:`size`."""
-        kept = np.arange(len(self.qs))
-        for constraint in extra:
-            if not len(kept):
-                break
-            assert isinstance(constraint, Constraint)  # a position brings visibility, line of sight
-            bound = constraint.bind(params.robot)
-            kept = kept[bound.satisfied(self.kinematics.subset(kept))]
-        return self.qs[kept[: self.size]]
-
-
-SCREEN_POOL = 500
-"""Candidate configurations a position's quick design in the screen chooses from (at most the
-pool's size)."""
-
-SCREEN_DRAWS = 40
-"""The screen draws this many times :data:`SCREEN_POOL` feasible configurations for the box: a
-position that sees one in 40 of them (a tracker's reflector, 30° about its normal, sees one
-direction in 15) still has its :data:`SCREEN_POOL`."""
 
 
 def _best_note(tried: dict[tuple[float, ...], DesignResult | None], criterion: str) -> str:

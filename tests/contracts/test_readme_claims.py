@@ -29,11 +29,11 @@ from pincal.planning.placement import (
     FINAL_MAXITER,
     FINAL_STARTS,
     SCREEN,
-    SCREEN_POOL,
     SCREEN_STARTS,
     STEPS,
     Sight,
 )
+from pincal.planning.placement_screen import SCREEN_POOL
 from tests.conftest import ROOT
 
 NUMBER = re.compile(r"(?<![\w.])(?:\d{1,3}(?: \d{3})+(?!\d)|\d+(?:\.\d+)?(?:e-?\d+)?)")

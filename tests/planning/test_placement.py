@@ -236,24 +236,24 @@ def test_finalists_are_designed_short_and_the_screen_finds_the_exhaustive_positi
     monkeypatch.setattr(placement_module, "FINAL_STARTS", 2)  # small, for a test's time
     monkeypatch.setattr(placement_module, "FINAL_MAXITER", 20)
     options = dict(steps=3, refine=1, pool=300, polish=True, seed=3, workers=1)
-    calls: list[dict] = []
+    calls: list = []  # the Search of each design
 
     def counted(*args, **kwargs):
-        calls.append(kwargs)
+        calls.append(kwargs["search"])
         return design(*args, **kwargs)
 
     design = placement_module.design
     monkeypatch.setattr(placement_module, "design", counted)
     found = place_instrument(params, 12, Q0, BOX, **options)
-    full = [c for c in calls if not isinstance(c["pool"], np.ndarray)]
+    full = [c for c in calls if not isinstance(c.pool, np.ndarray)]
     assert len(full) >= found.designed_in_full > 0
-    assert all(c["starts"] == 2 and c["maxiter"] == 20 and c["polish"] for c in full)
+    assert all(c.starts == 2 and c.maxiter == 20 and c.polish for c in full)
     calls.clear()
     exhaustive = place_instrument(params, 12, Q0, BOX, screen=None, starts=2, maxiter=20, **options)
-    assert all(c["starts"] == 2 and c["maxiter"] == 20 for c in calls) and exhaustive.full.all()
+    assert all(c.starts == 2 and c.maxiter == 20 for c in calls) and exhaustive.full.all()
     np.testing.assert_array_equal(found.at, exhaustive.at)
     assert found.result.value == pytest.approx(exhaustive.result.value, rel=1e-12)
     np.testing.assert_array_equal(found.result.plan.q, exhaustive.result.plan.q)
     calls.clear()
     place_instrument(params, 12, Q0, BOX, screen=None, steps=1, refine=0, pool=300, polish=False, workers=1)
-    assert "starts" not in calls[0] and "maxiter" not in calls[0]  # the design's own defaults
+    assert calls[0].starts is None and calls[0].maxiter == 3000  # the design's own defaults
