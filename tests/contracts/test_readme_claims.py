@@ -397,8 +397,8 @@ CLAIMS: tuple[Claim, ...] = (
         equals(FINAL_STARTS, FINAL_STARTS // 4, FINAL_MAXITER),
     ),
     Claim("about 10 s of CPU each with the line of sight", GIVEN),  # bench_placement: 9.9 s at (1.5, 0, 0)
-    Claim("with every default takes 56 s of CPU, within 1.4 % of the ρ0", GIVEN),  # bench_placement
-    Claim("that full designs found at the same position for 1 036 s", GIVEN),  # bench_placement
+    Claim("with every default takes about a minute of CPU, within 1.4 %", GIVEN),  # bench_placement: 56, 60 s
+    Claim("of the ρ0 that full designs found at the same position for 1 036 s", GIVEN),  # bench_placement
     Claim("accuracy report (test pose, ±10°, ±20°, workspace) of the calibrated robot", equals(*AROUND)),
     Claim(
         "on a UR10 with a 0.3 mm unmodelled field the held-out error is 0.33 mm with the residual model, "
