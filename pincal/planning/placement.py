@@ -46,11 +46,7 @@ from pincal.instruments.error_model import ErrorModel, Tracker
 from pincal.instruments.image import Image
 from pincal.instruments.kind import Kind
 from pincal.model.parameters import ParameterSet
-from pincal.planning.constraints import (
-    AnyConstraint,
-    LineOfSight,
-    Visibility,
-)
+from pincal.planning.constraints import AnyConstraint, LineOfSight, Visibility
 from pincal.planning.driver import design
 from pincal.planning.options import grouped
 from pincal.planning.placement_screen import Screen
