@@ -140,3 +140,11 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if item.get_closest_marker("fuzz"):
             item.add_marker(skip)
+
+
+def pytest_addoption(parser):
+    """The long fuzz profile's size and draw: pytest -m fuzz --fuzz-cases 2000 --fuzz-seed 7."""
+    parser.addoption(
+        "--fuzz-cases", type=int, default=2000, help="cases of the every-command fuzzer (-m fuzz)"
+    )
+    parser.addoption("--fuzz-seed", type=int, default=0, help="seed of the every-command fuzzer's cases")

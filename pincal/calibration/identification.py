@@ -182,6 +182,11 @@ def identify(
     m, per_row = sum(d.m for d in sessions), sessions[0].row_size
     if m * per_row < len(params):
         raise SingularPlan(len(params), per_row, m)
+    if all(np.isnan(d.points).all() for d in sessions):  # images that see no target point at all
+        raise BadMeasurementData(
+            f"the measurements hold no measured value: none of the {m} images sees a target point (every "
+            "pixel cell is empty); check where the camera and the target are (--camera) against the plan"
+        )
     setup = _setup(_problem(params, sessions, settings), settings)
     why = _rank_deficiency(setup)
     if why is not None:

@@ -259,7 +259,7 @@ def main(argv: list[str] | None = None) -> int:
     from pincal.files import all_or_nothing, guard_inputs
 
     # --help and usage errors exit here through SystemExit (0, or 2 after one line).
-    args = parser.parse_args(join_negative_values(argv))
+    args = parser.parse_args(join_negative_values(argv, parser.commands[name]))
     try:
         # BLAS on one thread: pincal's matrices are small, and a threaded BLAS's spinning threads
         # make the command's serial work (identifiability, sampling, baselines) several times

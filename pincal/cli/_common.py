@@ -57,7 +57,8 @@ def recorded_warnings():
 
 
 # Options whose value may start with "-" (negative numbers): "--test-pose -45,20" is rewritten
-# "--test-pose=-45,20" before argparse sees it.
+# "--test-pose=-45,20" before argparse sees it; every other long option that takes one value is
+# too (join_negative_values is given them from the parser), "--gravity -9.81,0,0" among them.
 VALUE_OPTIONS = (
     "--test-pose",
     "--marker",
@@ -224,13 +225,20 @@ def argument_names(parser: argparse.ArgumentParser) -> dict[str, str]:
     }
 
 
-def join_negative_values(argv: list[str]) -> list[str]:
-    """Glue options in VALUE_OPTIONS to a following value that starts with '-' and a digit."""
+def join_negative_values(argv: list[str], parser: argparse.ArgumentParser | None = None) -> list[str]:
+    """Glue a long option that takes a value (those in VALUE_OPTIONS, and with ``parser`` every long
+    option of it that takes one value) to a following value that starts with '-' and a digit or a
+    point: argparse reads '-9.81,0,0' as an option, not as the value of '--gravity'."""
+    takes_value = set(VALUE_OPTIONS)
+    if parser is not None:
+        takes_value |= {
+            o for a in parser._actions if a.nargs is None for o in a.option_strings if o.startswith("--")
+        }
     out: list[str] = []
     i = 0
     while i < len(argv):
         arg = argv[i]
-        if arg in VALUE_OPTIONS and i + 1 < len(argv):
+        if arg in takes_value and i + 1 < len(argv):
             nxt = argv[i + 1]
             if len(nxt) > 1 and nxt[0] == "-" and (nxt[1].isdigit() or nxt[1] == "."):
                 out.append(f"{arg}={nxt}")

@@ -16,9 +16,9 @@ from pincal.calibration.urdf_export import export_urdf, sidecar_path
 from pincal.calibration.xacro_export import corrections_path, export_xacro
 from pincal.cli import COMMANDS
 from pincal.cli._common import add_command, add_output_arguments, emit_json
-from pincal.compensation.calibration_file import DeployedCalibration, load_calibration
+from pincal.compensation.calibration_file import DeployedCalibration, load_calibration, sidecar_tip
 from pincal.errors import BadArgument, OverwriteRefused
-from pincal.files import atomic_write_text, read_text
+from pincal.files import atomic_write_text
 from pincal.model.loading import load_robot
 
 HELP = COMMANDS["export"].help
@@ -158,11 +158,7 @@ def read_calibration(path: str | os.PathLike) -> DeployedCalibration:
             "the calibrated file",
             argument="CAL.urdf",
         )
-    try:
-        tip = json.loads(read_text(side, "sidecar", BadArgument)).get("tip")
-    except (json.JSONDecodeError, AttributeError):
-        raise BadArgument(f"{side}: not a pincal sidecar (a JSON object with a 'tip')") from None
-    return load_calibration(path, load_robot(path, tip=tip if isinstance(tip, str) else None))
+    return load_calibration(path, load_robot(path, tip=sidecar_tip(side)))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -53,6 +53,9 @@ from pincal.planning.safety import safety_margins
 from pincal.viewing import plots
 
 HELP = COMMANDS["show"].help
+MAX_SHOWN_POSES = 500
+"""Most poses a scene draws (a robot each, some 75 kB of the page and 10 ms): a plan of 250 000
+poses ran for minutes towards a page of gigabytes."""
 EXAMPLES = """\
 examples:
   pincal show kr270 --plan plan.csv --deg --test-pose=0,-60,60,0,45,0 --marker 0.1,0.05,0.2 \\
@@ -150,6 +153,12 @@ def run(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     params, _ = params_from_args(robot, args)
     plan = read_plan(robot, args.plan, args.deg)
+    if plan.m > MAX_SHOWN_POSES:
+        raise BadArgument(
+            f"--plan {args.plan}: {plan.m} poses; a scene draws the robot at each, at most "
+            f"{MAX_SHOWN_POSES}: show a part of the plan",
+            argument="--plan",
+        )
     q0 = test_region_from_args(robot, args, required=False)
     prior = prior_from_args(args)
     task = task_payload_from_args(args)

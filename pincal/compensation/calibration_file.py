@@ -155,6 +155,12 @@ def _read_sidecar(side: Path) -> dict:
     return content
 
 
+def sidecar_tip(side: Path) -> str:
+    """The tip frame a calibration's sidecar names (BadArgument, naming what is wrong, for a sidecar
+    that is no JSON object with a 'tip' string: nested too deeply, NaN, a null tip)."""
+    return str(_read_sidecar(side)["tip"])
+
+
 def load_calibration(urdf: str | os.PathLike, nominal: Robot) -> DeployedCalibration:
     """Read a calibrated URDF and its sidecar (``cal.urdf`` → ``cal.calibration.json``) for the chain
     of ``nominal`` (its root and joint ranges).

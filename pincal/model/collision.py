@@ -315,7 +315,7 @@ class CollisionWorld:
             exact.addGeometryObject(obj.copy())
             mesh.append(isinstance(obj.geometry, coal.BVHModelBase))
             if mesh[-1]:  # a mesh: its convex hull, a lower bound of its distances
-                obj.geometry = convex_hull(obj.geometry)
+                obj.geometry = convex_hull(obj.geometry, obj.name)
             geom.addGeometryObject(obj)
         objects = geom.geometryObjects
         self.model, self.forward = robot.model, ForwardKinematics(robot)

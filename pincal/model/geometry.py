@@ -129,7 +129,7 @@ def convex_hulls(geometry: pin.GeometryModel) -> pin.GeometryModel:
     for obj in geometry.geometryObjects:
         obj = obj.copy()
         if isinstance(obj.geometry, coal.BVHModelBase):
-            obj.geometry = convex_hull(obj.geometry)
+            obj.geometry = convex_hull(obj.geometry, obj.name)
         hulls.addGeometryObject(obj)
     return hulls
 
@@ -143,7 +143,13 @@ FLAT = 1e-6
 (their smallest singular value against their largest) is flat: its hull is built thickened."""
 
 
-def convex_hull(mesh):
+MAX_MESH_EXTENT = 1e6
+"""Largest distance of a mesh vertex from its frame [m] (1000 km: a mesh in millimetres without its
+scale is well within): qhull crashes the process on coordinates near the float range (a scale of
+1e100), so a mesh beyond this is refused, naming its scale."""
+
+
+def convex_hull(mesh, name: str = "a mesh"):
     """The convex hull of a coal mesh (qhull), or the mesh itself when qhull cannot build one (some
     published meshes: "Too many neighbors"): its distances are then its own, exact where apart and
     0 where it meets another shape, never more than the true ones either.
@@ -154,6 +160,12 @@ def convex_hull(mesh):
     import coal
 
     points = np.asarray(mesh.vertices(), dtype=float).reshape(-1, 3)
+    extent = float(np.max(np.abs(points), initial=0.0)) if np.all(np.isfinite(points)) else np.inf
+    if not extent <= MAX_MESH_EXTENT:
+        raise UrdfError(
+            f"the collision mesh {name!r} reaches {extent:.3g} m from its frame, beyond the "
+            f"{MAX_MESH_EXTENT:g} m a cell holds: check its scale"
+        )
     thick = thickened(points)
     if thick is not points:
         mesh = coal.BVHModelOBBRSS()

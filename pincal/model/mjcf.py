@@ -99,13 +99,18 @@ class Compiler:
         return self.radians_per_unit != 1.0
 
 
+MAX_MJCF_NUMBER = 1e9
+"""Largest magnitude of a number in a position, orientation or range (a robot is metres across):
+beyond, a norm or a rotation overflows."""
+
+
 def _floats(text: str | None, n: int, what: str) -> np.ndarray:
     try:
         values = np.array([float(v) for v in (text or "").split()], dtype=float)
     except ValueError:
         raise UrdfError(f"MJCF: {what} must be {n} numbers, got {text!r}") from None
-    if len(values) != n or not np.all(np.isfinite(values)):
-        raise UrdfError(f"MJCF: {what} must be {n} finite numbers, got {text!r}")
+    if len(values) != n or not np.all(np.abs(values) <= MAX_MJCF_NUMBER):
+        raise UrdfError(f"MJCF: {what} must be {n} finite numbers within ±{MAX_MJCF_NUMBER:g}, got {text!r}")
     return values
 
 

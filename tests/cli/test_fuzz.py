@@ -9,6 +9,7 @@ in all) and prints the cases per input kind; its figures are in benchmarks/RESUL
 from __future__ import annotations
 
 import collections
+import random
 import time
 
 import pytest
@@ -85,3 +86,85 @@ def test_cli_fuzz_long(command, monkeypatch):
 def test_nan_oracle_reads_numbers_not_names(text, printed):
     # The long run flagged urdf-from-dh's stdout and identify's outputs for names such as 'tool-inf'.
     assert bool(NAN.search(text)) is printed
+
+
+# ------------------------------------------------ every command and option (tests/fuzz_every.py)
+EVERY_FAST_CASES = 48  # three per command, about 20 s; the long profile: pytest -m fuzz --fuzz-cases N
+
+
+@pytest.fixture(scope="module")
+def seeds(tmp_path_factory):
+    from tests.fuzz_runner import seeds_in
+
+    return seeds_in(tmp_path_factory.mktemp("seeds"))
+
+
+def test_every_command_and_option_is_drawn_from_the_parsers():
+    from tests.fuzz_every import BASES, option_table, option_tokens, value_kind
+
+    table = option_table()
+    assert set(table) == set(BASES)  # a new command needs its base case
+    for command, options in table.items():
+        assert options, command
+        for opt in options:
+            kinds = {value_kind(opt)}
+            for seed in range(20):
+                tokens = option_tokens(random.Random(seed), opt)
+                assert all(isinstance(t, str) for t in tokens), (command, opt.flag)
+            assert kinds <= {"flag", "output", "choice", "int", "float", "list", "number", "text"} or next(
+                iter(kinds)
+            ).startswith("file:"), (command, opt.flag, kinds)
+    # the options the issue names are reached, with the values they need
+    flags = {(c, o.flag): value_kind(o) for c, opts in table.items() for o in opts}
+    assert flags["compensate", "--calibration"] == "file:calibration"
+    assert flags["export", "--format"] == "choice"
+    assert flags["campaign", "--joint-speeds"] == "list"
+    assert flags["design", "--place-steps"] == "int"
+    assert flags["evaluate", "--constraints"] == "file:constraints"
+
+
+def test_every_commands_base_case_runs(seeds):
+    """The fuzzer starts from runs that work: every command's base case exits 0 and reads back."""
+    from tests.fuzz_every import BASES, valid_case
+    from tests.fuzz_runner import run_case
+
+    for command in sorted(BASES):
+        case, files = valid_case(random.Random(0), command, seeds)
+        result = run_case(case, files)
+        assert result.code == 0 and not result.problems, (case.describe(), result.stderr, result.problems)
+
+
+def _report(tally) -> str:
+    lines = [f"{sum(tally.cases.values())} cases"]
+    for command in sorted(tally.cases):
+        codes = {code: n for (c, code), n in tally.codes.items() if c == command}
+        lines.append(f"  {command}: {tally.cases[command]} cases, exit codes {codes}")
+    for result in tally.findings:
+        lines.append(f"FINDING {result.case.describe()}\n    " + "\n    ".join(result.problems))
+    return "\n".join(lines)
+
+
+def test_every_command_fuzz_fast(seeds):
+    from tests.fuzz_runner import run_many
+
+    tally = run_many(seeds, seed=0, cases=EVERY_FAST_CASES)
+    assert not tally.findings, _report(tally)
+
+
+@pytest.mark.fuzz
+def test_every_command_fuzz_long(seeds, request):
+    """pytest -m fuzz tests/test_fuzz.py -k every --fuzz-cases N --fuzz-seed S -s"""
+    from tests.fuzz_every import option_table
+    from tests.fuzz_runner import run_many
+
+    cases, seed = request.config.getoption("--fuzz-cases"), request.config.getoption("--fuzz-seed")
+    start = time.process_time()
+    tally = run_many(seeds, seed=seed, cases=cases)
+    report = _report(tally)
+    reached = {key for key in tally.options}
+    every = {(c, o.flag) for c, opts in option_table().items() for o in opts}
+    print(
+        f"\n{report}\noptions reached: {len(reached & every)} of {len(every)}; parent CPU "
+        f"{time.process_time() - start:.0f} s"
+    )
+    assert not tally.findings, report

@@ -678,3 +678,58 @@ def test_an_empty_calibration_name_is_refused(cli, tmp_path):
         "evaluate", "planar_2r", "--plan", plan, "--test-pose=0.3,1.2", "--params", "joint2.tx,tip.tx",
         "--residual-model", "", match="is no file",
     )  # fmt: skip
+
+
+# ------------------------------------------- the every-command fuzzer's findings (tests/fuzz_every.py)
+def test_export_refuses_a_sidecar_nested_too_deeply(calibrated):
+    """export read the sidecar's tip with a bare json.loads: RecursionError, an internal error."""
+    (calibrated / "cal.calibration.json").write_text("[" * 100_000 + "]" * 100_000)
+    argv = ["export", "cal.urdf", "--format", "urdf", "--out", "out.urdf"]
+    outcome = run_checked(calibrated, argv, {"cal.urdf", "cal.calibration.json"})
+    assert outcome.code == 2 and "nested too deeply" in outcome.err, outcome.err
+
+
+@pytest.mark.parametrize("scale", ["1e100", "1e308"])
+def test_a_robot_mesh_scaled_beyond_any_cell_is_refused_naming_its_scale(meshes, scale):
+    """A robot's mesh scaled by 1e100 crashed qhull (SIGSEGV) in design, evaluate and campaign (a
+    workcell's scale was already held within 1e6)."""
+    (meshes / "robot_huge.urdf").write_text(_robot_with_mesh("cube.stl", f"{scale} {scale} {scale}"))
+    argv = ["campaign", "robot_huge.urdf", "--tip", "tip", "--plan", "plan.csv", "--constraints", "cell.yaml"]
+    inputs = {"plan.csv", "cell.yaml", "robot_huge.urdf", "cube.stl", "flat.stl"}
+    outcome = run_checked(meshes, argv, inputs, child=True)
+    assert outcome.code == 2 and "check its scale" in outcome.err, outcome.err
+
+
+MJCF = """<mujoco model="arm"><compiler angle="radian"/><worldbody>
+<body name="link1" quat="{quat}"><joint name="j1" type="hinge" axis="0 0 1" range="-1 1"/>
+<body name="tip" pos="1 0 0"/></body></worldbody></mujoco>
+"""
+
+
+@pytest.mark.parametrize("quat, code", [("1 0 0 0", 0), ("1e308 0 0 1e308", 2), ("1e300 0 0 0", 2)])
+def test_an_mjcf_number_beyond_any_robot_is_one_line(tmp_path, quat, code):
+    """A quat of 1e308 overflowed its norm: an internal error (robots, and every command's robot)."""
+    (tmp_path / "arm.xml").write_text(MJCF.format(quat=quat))
+    outcome = run_checked(tmp_path, ["robots", "arm.xml"], {"arm.xml"})
+    assert outcome.code == code, outcome.err
+    if code:
+        assert "finite numbers within" in outcome.err, outcome.err
+
+
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["params", "planar_2r", "--tip", "tip", "--gravity", "-9.81,0,0"], None),  # a wall mount
+        (["campaign", "planar_2r", "--tip", "tip", "--plan", "plan.csv", "--joint-speeds", "-1,2"], "speed"),
+        (["campaign", "planar_2r", "--tip", "tip", "--plan", "plan.csv", "--home", "-0.5,0.2"], None),
+    ],
+)
+def test_a_value_starting_with_a_minus_sign_is_a_value_of_every_option(tmp_path, argv, expected):
+    """'--gravity -9.81,0,0' was 'expected one argument': only a hand list of options took a value
+    starting with '-'; now every long option with one value does."""
+    (tmp_path / "plan.csv").write_text(PLAN)
+    outcome = run_checked(tmp_path, argv, {"plan.csv"})
+    if expected is None:
+        assert outcome.code == 0, outcome.err
+    else:
+        assert outcome.code == 2 and expected in outcome.err and "expected one argument" not in outcome.err
