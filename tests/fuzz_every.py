@@ -316,7 +316,9 @@ def draw_inputs(rng: random.Random, case: Case, seeds: Seeds) -> dict[str, bytes
             continue
         group = dict(seeds.files[seed_kind])
         main_name = next(iter(group))
-        how = rng.choice(("valid",) * 48 + ("mutated",) * 10 + ("missing", "empty", "folder", "wrong") * 2 + ("huge",))
+        how = rng.choice(
+            ("valid",) * 48 + ("mutated",) * 10 + ("missing", "empty", "folder", "wrong") * 2 + ("huge",)
+        )
         if how == "mutated":
             for _ in range(rng.choice((1, 1, 2))):
                 name = rng.choice(sorted(group))

@@ -528,6 +528,12 @@ def _measured_columns(measured: list[str], where: str) -> list[str]:
         raise BadMeasurementData(
             f"{where}: no measured columns; expected x,y,z (one marker) or x0,y0,z0,x1,... (several)"
         )
+    odd = [c for c in measured if not _MEASURED.match(c)]
+    if odd:  # a distance, pose or image file read as points (identify --validate of another kind)
+        raise BadMeasurementData(
+            f"{where}: measured column(s) {','.join(odd)} are not points' (x,y,z, or x0,y0,z0,... for "
+            "several markers): a file of another kind of measurement"
+        )
     plain = [c for c in measured if c in ("x", "y", "z")]
     if plain:
         if sorted(measured) != ["x", "y", "z"]:

@@ -168,3 +168,29 @@ def test_every_command_fuzz_long(seeds, request):
         f"{time.process_time() - start:.0f} s"
     )
     assert not tally.findings, report
+
+
+@pytest.mark.parametrize(
+    "code, stderr, changed, written, broken",
+    [
+        (0, "", False, b"x,y\n1,2\n", False),
+        (2, "pincal: error: bad\n", False, None, False),
+        (1, "pincal: internal error: ValueError: x\n", False, None, True),
+        ("signal SIGSEGV", "", False, None, True),
+        ("cpu limit", "", False, None, True),
+        (0, "", True, None, True),  # an input rewritten
+        (0, "", False, b"x,y\n1,nan\n", True),  # NaN written
+        (2, "pincal: error: bad\n", False, b"x\n1\n", True),  # output left on an error
+    ],
+)
+def test_the_every_command_contract_catches_what_it_names(tmp_path, code, stderr, changed, written, broken):
+    from tests.fuzz_every import Case
+    from tests.fuzz_runner import Result, contract
+
+    before = {"in.csv": "hash"}
+    after = {"in.csv": "other" if changed else "hash"}
+    if written is not None:
+        (tmp_path / "out.csv").write_bytes(written)
+        after["out.csv"] = "new"
+    result = Result(Case("params", []), code, "", stderr)
+    assert bool(contract(result, before, after, tmp_path)) is broken

@@ -733,3 +733,51 @@ def test_a_value_starting_with_a_minus_sign_is_a_value_of_every_option(tmp_path,
         assert outcome.code == 0, outcome.err
     else:
         assert outcome.code == 2 and expected in outcome.err and "expected one argument" not in outcome.err
+
+
+def test_images_that_see_no_target_point_at_all_are_one_line(tmp_path):
+    """rail_arm's plans never show the example rig's target to its camera: measure-sim writes 8
+    empty images, and identify stopped on 'Mean of empty slice' (an internal error)."""
+    (tmp_path / "rig.yaml").write_text((ROOT / "pincal" / "examples" / "rig.yaml").read_text())
+    rows = "".join(
+        f"{0.2 * k},{0.1 * k},0,0\n" for k in range(8)
+    )  # the camera looks up, away from the target
+    (tmp_path / "plan.csv").write_text("rail,waist,shoulder,elbow\n" + rows)
+    simulate = ["measure-sim", "rail_arm", "--plan", "plan.csv", "--camera", "rig.yaml", "--error-std",
+                "1e-3,1e-3", "--out", "images.csv"]  # fmt: skip
+    assert run_checked(tmp_path, simulate, {"plan.csv", "rig.yaml"}).code == 0
+    rows = (tmp_path / "images.csv").read_text().splitlines()[1:]
+    assert all(set(row.split(",")[4:]) == {""} for row in rows if not row.startswith("#"))
+    identify = ["identify", "rail_arm", "--data", "images.csv", "--camera", "rig.yaml", "--out", "cal.urdf"]
+    outcome = run_checked(tmp_path, identify, {"plan.csv", "rig.yaml", "images.csv"})
+    assert outcome.code == 2 and "none of the 8 images sees a target point" in outcome.err, outcome.err
+
+
+@pytest.mark.parametrize("m, code", [(500, 0), (501, 2)])
+def test_show_draws_at_most_five_hundred_poses(tmp_path, m, code):
+    """show of a 266 928-pose plan (a 20 MB file) drew a robot per pose for minutes (CPU limit)."""
+    q = np.random.default_rng(0).uniform(-3, 3, size=(m, 2))
+    (tmp_path / "plan.csv").write_text("joint1,joint2\n" + "".join(f"{a},{b}\n" for a, b in q))
+    argv = ["show", "planar_2r", "--tip", "tip", "--plan", "plan.csv", "--params", "joint2.tx,tip.tx",
+            "--test-pose=0.3,1.2", "--no-accuracy", "--baseline", "2", "--html", "scene.html"]  # fmt: skip
+    outcome = run_checked(tmp_path, argv, {"plan.csv"})
+    assert outcome.code == code, outcome.err
+    if code:
+        assert "at most 500" in outcome.err
+
+
+@pytest.mark.parametrize("other", ["d", "x,y,z,rx,ry,rz"])
+def test_validation_data_of_another_kind_is_one_line(tmp_path, other):
+    """identify --data points --validate distances: an AttributeError on the column 'd'."""
+    q = "0.1,1.0\n0.5,-1.0\n1.0,2.0\n1.5,0.3\n"
+    (tmp_path / "points.csv").write_text(
+        "joint1,joint2,x,y,z\n" + "".join(f"{row},{x},0.5,0\n" for row, x in zip(q.split(), (1, 2, 3, 4)))
+    )
+    values = ",".join(["0.5"] * len(other.split(",")))
+    (tmp_path / "other.csv").write_text(
+        f"joint1,joint2,{other}\n" + "".join(f"{row},{values}\n" for row in q.split())
+    )
+    argv = ["identify", "planar_2r", "--tip", "tip", "--params", "joint2.tx,tip.tx", "--data", "points.csv",
+            "--validate", "other.csv"]  # fmt: skip
+    outcome = run_checked(tmp_path, argv, {"points.csv", "other.csv"})
+    assert outcome.code == 2 and "a file of another kind of measurement" in outcome.err, outcome.err
