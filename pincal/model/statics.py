@@ -173,7 +173,8 @@ def mounted(model: pin.Model, gravity: ArrayLike) -> pin.Model:
         g = np.array(gravity, dtype=float).reshape(-1)
     except (TypeError, ValueError):
         g = np.full(1, np.nan)
-    if g.shape != (3,) or not np.all(np.isfinite(g)) or np.linalg.norm(g) > MAX_GRAVITY:
+    # each component first: the norm of 1e308 overflows
+    if g.shape != (3,) or not np.all(np.abs(g) <= MAX_GRAVITY) or np.linalg.norm(g) > MAX_GRAVITY:
         raise BadArgument(
             f"gravity must be three finite numbers [m/s²] of at most {MAX_GRAVITY:g} m/s², got {gravity!r}",
             argument="gravity",

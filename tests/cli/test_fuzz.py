@@ -4,6 +4,12 @@ the property. Every command is run in-process through ``pincal.cli.main(argv)``.
 Fast profile (default run, derandomized, about 40 s on 2 cores): FAST_EXAMPLES cases per command.
 Long profile: ``pytest -m fuzz tests/cli/test_fuzz.py -s`` runs LONG_EXAMPLES per command (over 10 000
 in all) and prints the cases per input kind; its figures are in benchmarks/RESULTS.md.
+
+The every-command fuzzer (tests/support/fuzz_every.py; issue 32, item 7) reaches every command and
+option (found from the parsers), the calibration sidecar, meshes, MJCF robots, the measurement kinds
+and the export formats, each case in a forked child with CPU, time and memory limits: a short run in
+the default profile (EVERY_FAST_CASES), and ``pytest -m fuzz tests/cli/test_fuzz.py -k every -s
+--fuzz-cases N --fuzz-seed S`` (the cases by command and every finding printed).
 """
 
 from __future__ import annotations
@@ -88,19 +94,19 @@ def test_nan_oracle_reads_numbers_not_names(text, printed):
     assert bool(NAN.search(text)) is printed
 
 
-# ------------------------------------------------ every command and option (tests/fuzz_every.py)
+# ------------------------------------------------ every command and option (tests/support/fuzz_every.py)
 EVERY_FAST_CASES = 48  # three per command, about 20 s; the long profile: pytest -m fuzz --fuzz-cases N
 
 
 @pytest.fixture(scope="module")
 def seeds(tmp_path_factory):
-    from tests.fuzz_runner import seeds_in
+    from tests.support.fuzz_runner import seeds_in
 
     return seeds_in(tmp_path_factory.mktemp("seeds"))
 
 
 def test_every_command_and_option_is_drawn_from_the_parsers():
-    from tests.fuzz_every import BASES, option_table, option_tokens, value_kind
+    from tests.support.fuzz_every import BASES, option_table, option_tokens, value_kind
 
     table = option_table()
     assert set(table) == set(BASES)  # a new command needs its base case
@@ -125,8 +131,8 @@ def test_every_command_and_option_is_drawn_from_the_parsers():
 
 def test_every_commands_base_case_runs(seeds):
     """The fuzzer starts from runs that work: every command's base case exits 0 and reads back."""
-    from tests.fuzz_every import BASES, valid_case
-    from tests.fuzz_runner import run_case
+    from tests.support.fuzz_every import BASES, valid_case
+    from tests.support.fuzz_runner import run_case
 
     for command in sorted(BASES):
         case, files = valid_case(random.Random(0), command, seeds)
@@ -145,7 +151,7 @@ def _report(tally) -> str:
 
 
 def test_every_command_fuzz_fast(seeds):
-    from tests.fuzz_runner import run_many
+    from tests.support.fuzz_runner import run_many
 
     tally = run_many(seeds, seed=0, cases=EVERY_FAST_CASES)
     assert not tally.findings, _report(tally)
@@ -154,8 +160,8 @@ def test_every_command_fuzz_fast(seeds):
 @pytest.mark.fuzz
 def test_every_command_fuzz_long(seeds, request):
     """pytest -m fuzz tests/test_fuzz.py -k every --fuzz-cases N --fuzz-seed S -s"""
-    from tests.fuzz_every import option_table
-    from tests.fuzz_runner import run_many
+    from tests.support.fuzz_every import option_table
+    from tests.support.fuzz_runner import run_many
 
     cases, seed = request.config.getoption("--fuzz-cases"), request.config.getoption("--fuzz-seed")
     start = time.process_time()
@@ -184,8 +190,8 @@ def test_every_command_fuzz_long(seeds, request):
     ],
 )
 def test_the_every_command_contract_catches_what_it_names(tmp_path, code, stderr, changed, written, broken):
-    from tests.fuzz_every import Case
-    from tests.fuzz_runner import Result, contract
+    from tests.support.fuzz_every import Case
+    from tests.support.fuzz_runner import Result, contract
 
     before = {"in.csv": "hash"}
     after = {"in.csv": "other" if changed else "hash"}

@@ -680,7 +680,7 @@ def test_an_empty_calibration_name_is_refused(cli, tmp_path):
     )  # fmt: skip
 
 
-# ------------------------------------------- the every-command fuzzer's findings (tests/fuzz_every.py)
+# ------------------------------ the every-command fuzzer's findings (tests/support/fuzz_every.py)
 def test_export_refuses_a_sidecar_nested_too_deeply(calibrated):
     """export read the sidecar's tip with a bare json.loads: RecursionError, an internal error."""
     (calibrated / "cal.calibration.json").write_text("[" * 100_000 + "]" * 100_000)
@@ -781,3 +781,13 @@ def test_validation_data_of_another_kind_is_one_line(tmp_path, other):
             "--validate", "other.csv"]  # fmt: skip
     outcome = run_checked(tmp_path, argv, {"points.csv", "other.csv"})
     assert outcome.code == 2 and "a file of another kind of measurement" in outcome.err, outcome.err
+
+
+@pytest.mark.parametrize("gravity", ["1e308,0,0", "1e200,1e200,0", "-1e308,1e-320,1e7"])
+def test_a_gravity_beyond_float_range_is_one_line(tmp_path, gravity):
+    """--gravity 1e308,...: the norm checked against 100 m/s² overflowed first (an internal error)."""
+    (tmp_path / "plan.csv").write_text(PLAN)
+    argv = ["measure-sim", "planar_2r", "--tip", "tip", "--plan", "plan.csv", "--error-std", "1e-3,1e-3",
+            "--gravity", gravity, "--out", "m.csv"]  # fmt: skip
+    outcome = run_checked(tmp_path, argv, {"plan.csv"})
+    assert outcome.code == 2 and "of at most 100 m/s²" in outcome.err, outcome.err

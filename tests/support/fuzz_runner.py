@@ -1,4 +1,4 @@
-"""Running the every-command fuzzer's cases (tests/fuzz_every.py) in forked children with bounded
+"""Running the every-command fuzzer's cases (tests/support/fuzz_every.py) in forked children with bounded
 CPU time, wall time and address space, checking the contract, and reading back what pincal wrote.
 """
 
@@ -21,9 +21,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pincal.cli import main
-from tests.fuzz_cli import NAN, NOT_TEXT_OUTPUT
-from tests.fuzz_every import BASES, EXPORT_SUFFIX, OUT_SUFFIX, Case, draw_inputs, make_case, option_table
-from tests.fuzz_inputs import Seeds
+from tests.support.fuzz_cli import NAN, NOT_TEXT_OUTPUT
+from tests.support.fuzz_every import (
+    BASES,
+    EXPORT_SUFFIX,
+    OUT_SUFFIX,
+    Case,
+    draw_inputs,
+    make_case,
+    option_table,
+)
+from tests.support.fuzz_inputs import Seeds
 
 CPU_SECONDS = 30  # a case on rail_arm takes about a second; more is a run without end
 WALL_SECONDS = 240  # the machine may be busy: wall time is only the last resort
@@ -272,7 +280,7 @@ def run_many(seeds: Seeds, seed: int, cases: int, commands: list[str] | None = N
 
 
 def seeds_in(folder: Path) -> Seeds:
-    from tests.fuzz_inputs import build_seeds
+    from tests.support.fuzz_inputs import build_seeds
 
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):

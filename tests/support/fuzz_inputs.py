@@ -1,4 +1,4 @@
-"""The inputs of the every-command fuzzer (tests/fuzz_every.py): valid seed files written by pincal
+"""The inputs of the every-command fuzzer (tests/support/fuzz_every.py): valid seed files written by pincal
 itself on a small 3-D robot (rail_arm: a plan, measurements of every kind, a calibration and its
 sidecar, a camera rig, a workcell and its mesh, a program, ISO 9283 cycles, a DH table, the robot
 as MJCF and with a collision mesh), and the ways each is broken: a number replaced by an edge value,
@@ -21,7 +21,7 @@ from pathlib import Path
 
 from pincal.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ROBOT = "rail_arm"
 TEST_POSE = "--test-pose=0.5,0.3,0.2,-0.4"
 JOINTS = ("rail", "waist", "shoulder", "elbow")

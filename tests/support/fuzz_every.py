@@ -6,7 +6,7 @@ a new option is fuzzed without editing this file, its values drawn from its type
 metavar (:func:`option_tokens`: numbers with 0, negative, 1e-320, 1e308, nan and inf; strings with
 commas and unicode; an input file missing, empty, a folder, of another kind, huge or broken; an
 output over an input, a file an input names, a folder). A case (:func:`make_case`) is a valid run of
-a command on rail_arm (``BASES``) with its inputs drawn valid or broken (tests/fuzz_inputs.py) and
+a command on rail_arm (``BASES``) with its inputs drawn valid or broken (tests/support/fuzz_inputs.py) and
 one to three options added, replaced or removed; the n-th case of a command adds its n-th option,
 so every option is reached in as many cases as the command has options.
 
@@ -29,7 +29,7 @@ from pathlib import Path
 
 from pincal.cli import build_parser
 from pincal.cli._common import OUTPUT_OPTIONS
-from tests.fuzz_inputs import (
+from tests.support.fuzz_inputs import (
     EDGE_NUMBERS,
     JOINTS,
     MEASUREMENT_KINDS,
