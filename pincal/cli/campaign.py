@@ -29,6 +29,9 @@ from pincal.planning.safety import safety_margins
 from pincal.viewing import plots
 
 HELP = COMMANDS["campaign"].help
+MAX_CAMPAIGN_POSES = 500
+"""Most poses a campaign orders: the order weighs every pair of poses, in a time that grows as their
+square (planar_2r: 300 poses 5 s of CPU, 600 poses 20 s); a 266 928-pose plan asked for 2 TiB."""
 EXAMPLES = f"""\
 examples:
   pincal campaign kr270 --plan plan.csv --deg --marker 0.1,0.05,0.2 --out campaign.csv
@@ -149,6 +152,12 @@ def timing_from_args(robot, args: argparse.Namespace) -> Timing:
 def run(args: argparse.Namespace) -> int:
     robot = robot_from_args(args)
     plan = read_plan(robot, args.plan, args.deg)
+    if plan.m > MAX_CAMPAIGN_POSES:
+        raise BadArgument(
+            f"--plan {args.plan}: {plan.m} poses; a campaign orders at most {MAX_CAMPAIGN_POSES} (it "
+            "weighs every pair): split the plan",
+            argument="--plan",
+        )
     home = parse_configuration(robot, args.home, args.deg, "--home") if args.home else None
     timing = timing_from_args(robot, args)
     constraints = safe_constraints_from_args(robot, args)

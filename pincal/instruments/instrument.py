@@ -37,6 +37,10 @@ from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.typing import PayloadLike, SeedLike
 
+MAX_JACOBIAN_VALUES = 20_000_000
+"""Most values of a Jacobian built at once (160 MB; an image kind's intermediate arrays take some
+three times more): a 266 928-pose plan measured by a camera asked for 3.6 GiB and more."""
+
 POOL_ROWS = 6
 """Configurations with more rows than this are compressed to their rank for the exchange search
 (:meth:`RowsEngine.pool`)."""
@@ -151,6 +155,14 @@ class RowsEngine:
         the instrument could not read there (identifiability: what the kind can reveal at all).
         """
         kind, error = self.instrument.kind, self.instrument.error
+        values = len(qs) * kind.size(self.robot) * self.points.n_params
+        if values > MAX_JACOBIAN_VALUES:
+            raise BadArgument(
+                f"{len(qs)} configurations x {kind.size(self.robot)} measured values x "
+                f"{self.points.n_params} parameters: a Jacobian of {values * 8 / 2**30:.3g} GiB, more than "
+                f"the {MAX_JACOBIAN_VALUES * 8 / 2**30:.3g} GiB pincal builds; give fewer configurations",
+                argument="plan",
+            )
         tip = frame == "tip" and kind.rotation_invariant and error.direction_free
         if self.plain and isinstance(kind, Point):  # today's rows, bit for bit
             return self.points.jacobian(qs, frame="tip" if tip else "world", payload=payload)
