@@ -188,11 +188,21 @@ def error_from_args(args: argparse.Namespace, sigma: float | None) -> ErrorModel
     return Tracker(at, radial, transverse, sigma_rot)
 
 
+NOISE_RANGE = (1e-12, 1e6)
+"""What an orientation noise [rad] or a pixel noise [px] may be: beyond, whitening by it overflows
+(--sigma-rot 1e-320 gave an internal error), and no instrument is that exact or that poor."""
+
+
 def _positive(value: float | None, name: str, default: float) -> float:
     if value is None:
         return default
-    if not (np.isfinite(value) and value > 0):
-        raise BadArgument(f"{name} must be a positive number, got {value}", argument=name, value=value)
+    low, high = NOISE_RANGE
+    if not (np.isfinite(value) and low <= value <= high):
+        raise BadArgument(
+            f"{name} must be a positive number from {low:g} to {high:g}, got {value}",
+            argument=name,
+            value=value,
+        )
     return float(value)
 
 

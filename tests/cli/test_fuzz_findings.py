@@ -815,3 +815,14 @@ def test_a_jacobian_beyond_what_memory_holds_is_one_line(tmp_path):
             "--test-pose=0.5,0.3,0.2,-0.4", "--trials", "5", "--no-progress"]  # fmt: skip
     outcome = run_checked(tmp_path, argv, {"plan.csv", "rig.yaml"})
     assert outcome.code == 2 and "a Jacobian of" in outcome.err and "give fewer configurations" in outcome.err
+
+
+@pytest.mark.parametrize("option", ["--sigma-rot", "--sigma-px"])
+@pytest.mark.parametrize("value", ["1e-320", "1e308"])
+def test_an_orientation_or_pixel_noise_beyond_any_instrument_is_one_line(tmp_path, option, value):
+    """evaluate --measure x,y,rz --sigma-rot 1e-320: whitening by it overflowed (an internal error)."""
+    (tmp_path / "plan.csv").write_text(PLAN)
+    argv = ["evaluate", "planar_2r", "--tip", "tip", "--plan", "plan.csv", "--measure", "x,y,rz",
+            "--test-pose=0.3,1.2", option, value]  # fmt: skip
+    outcome = run_checked(tmp_path, argv, {"plan.csv"})
+    assert outcome.code == 2 and f"{option} must be a positive number from 1e-12" in outcome.err, outcome.err
