@@ -155,6 +155,21 @@ def source_of(sidecar: dict, calibrated: str | os.PathLike, given: str | os.Path
     return path
 
 
+def _joint_offsets(sidecar: dict) -> dict:
+    """The sidecar's ``joint_offsets``: {joint name: a finite number [rad or m]} (BadArgument else)."""
+    offsets = sidecar.get("joint_offsets") or {}
+    numbers = isinstance(offsets, dict) and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in offsets.values()
+    )
+    if not numbers:
+        raise BadArgument(
+            f"the calibration's sidecar: 'joint_offsets' must map joint names to finite numbers [rad or m], "
+            f"got {str(offsets)[:80]}",
+            argument="CAL.urdf",
+        )
+    return offsets
+
+
 def corrections_of(robot: Robot, sidecar: dict, source: str | os.PathLike) -> Corrections:
     """The corrections of the calibrated ``robot`` (its ``sidecar`` holds the joint offsets folded
     into its origins) relative to ``source`` (see the module doc).
@@ -179,7 +194,7 @@ def corrections_of(robot: Robot, sidecar: dict, source: str | os.PathLike) -> Co
             f"calibration's has {', '.join(robot.joint_names)}: give --source, the file it was made from",
             argument="--source",
         )
-    offsets = sidecar.get("joint_offsets") or {}
+    offsets = _joint_offsets(sidecar)
     joints = []
     for o, name in enumerate(robot.joint_names):
         folded = pin.SE3(robot.origins[o].origin)

@@ -826,3 +826,16 @@ def test_an_orientation_or_pixel_noise_beyond_any_instrument_is_one_line(tmp_pat
             "--test-pose=0.3,1.2", option, value]  # fmt: skip
     outcome = run_checked(tmp_path, argv, {"plan.csv"})
     assert outcome.code == 2 and f"{option} must be a positive number from 1e-12" in outcome.err, outcome.err
+
+
+@pytest.mark.parametrize("offsets", [{"joint1": ""}, {"joint1": True}, [0.1, 0.2], {"joint1": [1]}])
+def test_export_of_corrections_checks_the_sidecars_joint_offsets(calibrated, offsets):
+    """export --format robot_calibration of a sidecar whose joint offset was '': float('') raised."""
+    side = calibrated / "cal.calibration.json"
+    content = json.loads(side.read_text())
+    content["joint_offsets"] = offsets
+    side.write_text(json.dumps(content))
+    source = str(ROOT / "robots" / "planar_2r.urdf")
+    argv = ["export", "cal.urdf", "--format", "robot_calibration", "--source", source, "--out", "cal.yaml"]
+    outcome = run_checked(calibrated, argv, {"cal.urdf", "cal.calibration.json"})
+    assert outcome.code == 2, outcome.err
