@@ -38,6 +38,7 @@ import pinocchio as pin
 from lxml import etree
 
 from pincal import files
+from pincal.arguments import MAX_LENGTH
 from pincal.errors import UnknownName, UrdfError, warn
 from pincal.model.urdf import ONE_TURN, few
 
@@ -405,6 +406,19 @@ def _text_file(text: str):
         yield str(path)
 
 
+def _check_lengths(model: pin.Model, where: str) -> None:
+    """Refuse a body or site placed beyond :data:`pincal.arguments.MAX_LENGTH` from its parent (a
+    ``pos`` of 1e308 that Pinocchio read as it is, later an overflow), as URDF origins are."""
+    placements = [(model.names[j], model.jointPlacements[j]) for j in range(1, model.njoints)]
+    placements += [(f.name, f.placement) for f in model.frames]
+    for name, placed in placements:
+        far = float(np.max(np.abs(placed.translation)))
+        if not far <= MAX_LENGTH:
+            raise UrdfError(
+                f"MJCF {where}: {name!r} is placed {far:.3g} m from its parent, beyond {MAX_LENGTH:g} m"
+            )
+
+
 def build(text: str, where: str) -> pin.Model:
     """Pinocchio's model of a prepared MJCF text, or one UrdfError line."""
     with _text_file(text) as name:
@@ -462,6 +476,7 @@ def read_mjcf(path: Path, ranges: Mapping[str, tuple[float, float]] | None = Non
     tree = read_document(path)
     text, limits = prepared(tree, path.resolve().parent)
     model = build(text, where)
+    _check_lengths(model, where)
     ranges = dict(ranges or {})
     unknown = [name for name in ranges if name not in limits]
     if unknown:

@@ -702,14 +702,14 @@ def test_a_robot_mesh_scaled_beyond_any_cell_is_refused_naming_its_scale(meshes,
 
 MJCF = """<mujoco model="arm"><compiler angle="radian"/><worldbody>
 <body name="link1" quat="{quat}"><joint name="j1" type="hinge" axis="0 0 1" range="-1 1"/>
-<body name="tip" pos="1 0 0"/></body></worldbody></mujoco>
+<body name="tip" pos="{pos}"/></body></worldbody></mujoco>
 """
 
 
 @pytest.mark.parametrize("quat, code", [("1 0 0 0", 0), ("1e308 0 0 1e308", 2), ("1e300 0 0 0", 2)])
 def test_an_mjcf_number_beyond_any_robot_is_one_line(tmp_path, quat, code):
     """A quat of 1e308 overflowed its norm: an internal error (robots, and every command's robot)."""
-    (tmp_path / "arm.xml").write_text(MJCF.format(quat=quat))
+    (tmp_path / "arm.xml").write_text(MJCF.format(quat=quat, pos="1 0 0"))
     outcome = run_checked(tmp_path, ["robots", "arm.xml"], {"arm.xml"})
     assert outcome.code == code, outcome.err
     if code:
@@ -839,3 +839,14 @@ def test_export_of_corrections_checks_the_sidecars_joint_offsets(calibrated, off
     argv = ["export", "cal.urdf", "--format", "robot_calibration", "--source", source, "--out", "cal.yaml"]
     outcome = run_checked(calibrated, argv, {"cal.urdf", "cal.calibration.json"})
     assert outcome.code == 2, outcome.err
+
+
+@pytest.mark.parametrize("pos, code", [("1 0 0", 0), ("1 0 1e308", 2), ("1e7 0 0", 2)])
+def test_an_mjcf_body_placed_beyond_any_robot_is_one_line(tmp_path, pos, code):
+    """A body's pos of 1e308 (one Pinocchio reads as it is, no orientation to rewrite) reached the
+    Jacobian's column norms: an overflow, an internal error in evaluate."""
+    (tmp_path / "arm.xml").write_text(MJCF.format(quat="1 0 0 0", pos=pos))
+    outcome = run_checked(tmp_path, ["robots", "arm.xml"], {"arm.xml"})
+    assert outcome.code == code, outcome.err
+    if code:
+        assert "from its parent, beyond 1e+06 m" in outcome.err, outcome.err
