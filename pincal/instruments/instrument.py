@@ -37,8 +37,9 @@ from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.typing import PayloadLike, SeedLike
 
-MAX_JACOBIAN_VALUES = 20_000_000
-"""Most values of a Jacobian built at once (160 MB; an image kind's intermediate arrays take some
+MAX_JACOBIAN_VALUES = 50_000_000
+"""Most values of a Jacobian built at once (400 MB: a pool of 3000 camera views of a 100-corner grid
+and 40 parameters is 24 million; an image kind's intermediate arrays take some
 three times more): a 266 928-pose plan measured by a camera asked for 3.6 GiB and more."""
 
 POOL_ROWS = 6
