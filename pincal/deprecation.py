@@ -1,5 +1,6 @@
 """What pincal 0.2 deprecates, and until when: names moved out of the top level (see
-``pincal/__init__.py``), modules moved to another stage (:func:`moved_module`), arguments passed
+``pincal/__init__.py``), names moved from one module to another (:func:`moved_from`; a whole
+module moved to another stage: :func:`moved_module`), arguments passed
 by position after a function's first few (:func:`keywords_after`) and flat keywords now grouped
 into values (:func:`moved_keywords`, e.g. :func:`pincal.design`'s ``starts=`` into
 ``search=pincal.Search(starts=...)``). All keep working, with a DeprecationWarning naming what to
@@ -16,9 +17,9 @@ import inspect
 import sys
 import warnings
 from collections.abc import Callable, Collection, Sequence
-from typing import ParamSpec, TypeVar
+from typing import Any, ParamSpec, TypeVar
 
-__all__ = ["REMOVAL", "keywords_after", "moved_keywords", "moved_module"]
+__all__ = ["REMOVAL", "keywords_after", "moved_from", "moved_keywords", "moved_module"]
 
 REMOVAL = "0.3"
 """The release that removes what 0.2 deprecates."""
@@ -74,22 +75,26 @@ def keywords_after(n: int, names: Sequence[str] = ()) -> Callable[[Callable[P, R
     return decorate
 
 
-def moved_module(old: str, new: str, names: tuple[str, ...]) -> Callable[[str], object]:
-    """The module ``__getattr__`` of a module moved from ``old`` to ``new``: each of ``names`` read
-    from the old path is the new module's, with a DeprecationWarning at the caller's line naming
-    the new path, until pincal :data:`REMOVAL`; any other name is an AttributeError.
+def moved_from(module: str, homes: dict[str, tuple[str, ...]]) -> Callable[[str], Any]:
+    """A module ``__getattr__`` (PEP 562) for names that moved out of ``module`` into other modules:
+    ``module.name`` is still the new home's until pincal :data:`REMOVAL`, with a DeprecationWarning
+    at the caller's line naming the new home (none for the import machinery's own look-ups); any
+    other name is an AttributeError.
 
-    Usage, as the whole of the old module: ``__getattr__ = moved_module(__name__, "pincal.x.y",
-    ("A", "b"))``.
+    Args:
+        module: the module the names moved from (its ``__name__``).
+        homes: each module now defining moved names, and those names.
     """
+    home_of = {name: home for home, names in homes.items() for name in names}
 
-    def __getattr__(name: str) -> object:
-        if name not in names:
-            raise AttributeError(f"module {old!r} has no attribute {name!r}")
-        value = getattr(importlib.import_module(new), name)
+    def __getattr__(name: str) -> Any:
+        home = home_of.get(name)
+        if home is None:
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(home), name)
         if not sys._getframe(1).f_code.co_filename.startswith("<frozen importlib"):
             warnings.warn(
-                f"{old}.{name} is deprecated: use {new}.{name} ({old} moved to {new}; the old path "
+                f"{module}.{name} moved: import it from {home} (use {home}.{name}; {module}.{name} "
                 f"stops working in pincal {REMOVAL})",
                 DeprecationWarning,
                 stacklevel=2,
@@ -97,6 +102,13 @@ def moved_module(old: str, new: str, names: tuple[str, ...]) -> Callable[[str], 
         return value
 
     return __getattr__
+
+
+def moved_module(old: str, new: str, names: tuple[str, ...]) -> Callable[[str], Any]:
+    """The module ``__getattr__`` of a module moved from ``old`` to ``new`` (:func:`moved_from` with
+    one home): usage, as the whole of the old module: ``__getattr__ = moved_module(__name__,
+    "pincal.x.y", ("A", "b"))``."""
+    return moved_from(old, {new: names})
 
 
 Regroup = Callable[[dict, dict], tuple[dict, str]]

@@ -15,17 +15,15 @@ from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.problem import Linearisation, Problem
 from pincal.calibration.sanity import OUTLIER_SCORE, Outlier
 from pincal.calibration.state import Rows, Setup, Solution, Verdict
-from pincal.evaluation.accuracy import (
+from pincal.evaluation.accuracy_report import AccuracyReport, ErrorSummary, PlanAccuracy
+from pincal.evaluation.accuracy_samples import (
     NEIGHBOURHOOD_SAMPLES,
     NEIGHBOURHOODS,
     WORKSPACE_SAMPLES,
-    AccuracyReport,
-    ErrorSummary,
-    PlanAccuracy,
     sample_sets,
-    worst_found,
 )
 from pincal.evaluation.data_check import DataCheck
+from pincal.evaluation.predicted_error import worst_found
 from pincal.evaluation.prior import Prior
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
@@ -475,7 +473,7 @@ _UNEXPLAINED = "what the fitted model does not explain (the residual level beyon
 
 
 class _SquaredError:
-    """A calibration's squared expected error as :func:`~pincal.evaluation.accuracy.worst_found`
+    """A calibration's squared expected error as :func:`~pincal.evaluation.predicted_error.worst_found`
     searches it."""
 
     def __init__(self, result: IdentificationResult, payload: PayloadLike) -> None:

@@ -21,7 +21,9 @@ from pincal.cli._common import (
 )
 from pincal.compensation.calibration_file import load_calibration
 from pincal.errors import BadArgument, PincalError, SingularPlan
-from pincal.evaluation.accuracy import AccuracyReport, accuracy, error_profile
+from pincal.evaluation.accuracy import accuracy
+from pincal.evaluation.accuracy_report import AccuracyReport
+from pincal.evaluation.error_profile import error_profile
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestPath, around, cartesian_box, resolve_test_poses
 from pincal.model.statics import Payload

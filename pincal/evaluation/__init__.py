@@ -3,26 +3,22 @@ criterion interface (:mod:`.criterion`) and one module per criterion — the tes
 (:mod:`.test_pose`, :mod:`.test_pose_worst`), D, A, E, cond (:mod:`.d_optimal`, :mod:`.a_optimal`,
 :mod:`.e_optimal`, :mod:`.condition`) — by name in :mod:`.registry`, the classic criteria of a
 plan together (:mod:`.classic`), where the robot works (:mod:`.region`), prior knowledge
-(:mod:`.prior`), the predicted accuracy of a plan (:mod:`.accuracy`), what a plan's data can
+(:mod:`.prior`), the predicted accuracy of a plan (:mod:`.accuracy`, :mod:`.predicted_error`,
+:mod:`.accuracy_report`, :mod:`.accuracy_samples`, :mod:`.error_profile`), what a plan's data can
 identify (:mod:`.data_check`), and the ISO 9283 pose characteristics of poses measured in cycles
 (:mod:`.iso9283`, the poses in :mod:`.pose_cycles`, the IPA ISO-cube reader in :mod:`.ipa_iso_cubes`,
 the instrument's frame by :mod:`.rigid_fit`)."""
 
-from pincal.evaluation.accuracy import (
-    AccuracyReport,
-    ErrorProfile,
-    PredictedError,
-    WorstFound,
-    accuracy,
-    error_profile,
-    worst_found,
-)
+from pincal.evaluation.accuracy import accuracy
+from pincal.evaluation.accuracy_report import AccuracyReport
 from pincal.evaluation.classic import Criteria, criteria
 from pincal.evaluation.criterion import Criterion
 from pincal.evaluation.data_check import DataCheck, check_plan
+from pincal.evaluation.error_profile import ErrorProfile, error_profile
 from pincal.evaluation.information import information_matrix
 from pincal.evaluation.iso9283 import Iso9283Report, iso9283
 from pincal.evaluation.pose_cycles import PoseCycles, read_pose_cycles
+from pincal.evaluation.predicted_error import PredictedError, WorstFound, worst_found
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import CartesianBox, Neighbourhood, TestPath, TestRegion, around, cartesian_box
 from pincal.evaluation.registry import CRITERIA, make_criterion

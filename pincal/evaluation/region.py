@@ -16,7 +16,7 @@ worst of:
 
 ``region.resolve(robot)`` gives a :class:`ResolvedRegion`: the sample configurations and, for a
 continuous region, the map from the unit cube onto the region that the local search for the worst
-pose walks on (see :func:`pincal.evaluation.accuracy.worst_found`).
+pose walks on (see :func:`pincal.evaluation.predicted_error.worst_found`).
 
     >>> import numpy as np, pincal
     >>> robot = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])

@@ -38,7 +38,7 @@ import numpy as np
 from pincal.arguments import DEFAULT_SIGMA, positive_sigma, ratio
 from pincal.deprecation import keywords_after
 from pincal.errors import BadConfiguration, SingularPlan, warn
-from pincal.evaluation.accuracy import PredictedError
+from pincal.evaluation.predicted_error import PredictedError
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import position_covariance
 from pincal.files import atomic_write_text

@@ -189,7 +189,7 @@ from pincal.campaign.ordering import EXACT_LIMIT  # noqa: E402
 from pincal.campaign.rehearsal import Faults  # noqa: E402
 from pincal.campaign.timing import DEFAULT_SETTLE, DWELLS  # noqa: E402
 from pincal.campaign.tradeoff import DEFAULT_SIZES  # noqa: E402
-from pincal.evaluation.accuracy import NEIGHBOURHOODS, PRISMATIC_PER_RADIAN, WORKSPACE_SAMPLES  # noqa: E402
+from pincal.evaluation.accuracy_samples import NEIGHBOURHOODS, PRISMATIC_PER_RADIAN, WORKSPACE_SAMPLES  # noqa: E402
 from pincal.evaluation.data_check import IDENTIFIABLE_STD, MIN_DATA_CONDITIONING  # noqa: E402
 from pincal.evaluation.plans import BLOCK  # noqa: E402
 from pincal.evaluation.prior import PRIOR_RANGE  # noqa: E402

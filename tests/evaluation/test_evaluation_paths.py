@@ -11,8 +11,9 @@ import pytest
 
 import pincal
 from pincal.errors import BadConfiguration, SingularPlan
+from pincal.evaluation import accuracy_samples
 from pincal.evaluation.a_optimal import AOptimal
-from pincal.evaluation.accuracy import ErrorSummary
+from pincal.evaluation.accuracy_report import ErrorSummary
 from pincal.evaluation.classic import (
     EIGEN_CONDITION,
     criteria_of_jacobians,
@@ -24,6 +25,8 @@ from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.e_optimal import EOptimal
 from pincal.evaluation.information import informations
 from pincal.evaluation.plans import engine_for, jacobians
+from pincal.evaluation.predicted_error import PredictedError
+from pincal.evaluation.region import width_text
 from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.instruments import Tracker
 from pincal.instruments.instrument import optional_instrument
@@ -350,7 +353,6 @@ def test_an_accuracy_reports_draws_are_numpys_uniform_boxes(kr270_marker, name, 
     """One test pose: the neighbourhoods' draws come from one call, the numbers NumPy's uniform
     draws box by box make of the same stream, bit for bit (a prismatic joint included, one of
     10 m too: the workspace is drawn over its whole length, as random configurations are)."""
-    module = importlib.import_module("pincal.evaluation.accuracy")
     robot = kr270_marker if name == "kr270" else pincal.load_robot(ROOT / "robots" / "rail_arm.urdf")
     if name == "long track":
         text = (ROOT / "robots" / "rail_arm.urdf").read_text(encoding="utf-8")
@@ -359,16 +361,16 @@ def test_an_accuracy_reports_draws_are_numpys_uniform_boxes(kr270_marker, name, 
         )
         robot = pincal.load_robot(tmp_path / "long.urdf")
         assert robot.upper[0] == 6.0
-    per_radian = np.where(robot.revolute, 1.0, module.PRISMATIC_PER_RADIAN)
+    per_radian = np.where(robot.revolute, 1.0, accuracy_samples.PRISMATIC_PER_RADIAN)
     for seed in range(20):
         q0 = robot.random_configurations(1, seed + 100)[0]
         widths = (np.radians(10), np.radians(20), np.radians(45))[: 1 + seed % 3]
-        sets, poses, region = module.sample_sets(robot, q0, widths, 5 + seed, 7, seed)
+        sets, poses, region = accuracy_samples.sample_sets(robot, q0, widths, 5 + seed, 7, seed)
         expected = _boxes_drawn_one_by_one(robot, q0, [w * per_radian for w in widths], 5 + seed, 7, seed)
         assert region is None and np.array_equal(poses, q0[None])
         prismatic = not robot.revolute.all()
         labels = [
-            module.width_text(w, w * module.PRISMATIC_PER_RADIAN if prismatic else None) for w in widths
+            width_text(w, w * accuracy_samples.PRISMATIC_PER_RADIAN if prismatic else None) for w in widths
         ]
         assert [where for where, _ in sets[1:-1]] == labels
         for (_, drawn), reference in zip(sets[1:], expected, strict=True):
@@ -385,13 +387,13 @@ def test_an_accuracy_reports_jacobians_are_each_sets_own(kr270_marker):
     assert engine.plain  # the one-pass path
     rng = np.random.default_rng(10)
     q0 = kr270_marker.random_configurations(2, rng)
-    sets, _, _ = module.sample_sets(kr270_marker, q0, samples=40, workspace=90, seed=4)
+    sets, _, _ = accuracy_samples.sample_sets(kr270_marker, q0, samples=40, workspace=90, seed=4)
     jacobians = module._set_jacobians(engine, sets, None)
     for (where, J), (name, qs) in zip(jacobians, sets, strict=True):
         assert where == name and not J.flags.writeable
         assert np.array_equal(J, engine.jacobian(qs, frame="tip"))
     plan = kr270_marker.random_configurations(14, rng)
-    predicted = module.PredictedError(params, plan, SIGMA)
+    predicted = PredictedError(params, plan, SIGMA)
     views = [J for _, J in jacobians]
     for rho, J in zip(predicted.at_sets(views), views, strict=True):
         assert np.array_equal(rho, np.sqrt(predicted.squared_at(J)))
@@ -405,7 +407,7 @@ def test_an_accuracy_reports_jacobians_are_each_sets_own(kr270_marker):
         )
         instrument = optional_instrument(None, error_model, SIGMA)
         sigma = SIGMA if instrument is None else instrument.reference
-        predicted = module.PredictedError(params, plan, sigma, prior, instrument=instrument)
+        predicted = PredictedError(params, plan, sigma, prior, instrument=instrument)
         criterion = TestPoseCriterion(params, q0, sigma, "each", prior, instrument=instrument)
         noise, bias = criterion.split(predicted.information, len(plan))
         assert report.plans[0].from_measurements == float(np.sqrt(noise.mean()))
