@@ -45,10 +45,11 @@ from dataclasses import replace
 import numpy as np
 
 from pincal.arguments import positive_int, positive_sigma, ratio
+from pincal.calibration.assembly import distance_unit, identification_result, residual_rms
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.noise import Noise
 from pincal.calibration.problem import Problem, initial_values
-from pincal.calibration.result import IdentificationResult, distance_unit, identification_result, residual_rms
+from pincal.calibration.result import IdentificationResult
 from pincal.calibration.sanity import (
     Outlier,
     find_outliers,

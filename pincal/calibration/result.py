@@ -11,25 +11,24 @@ import pinocchio as pin
 from scipy.special import chdtri
 
 from pincal.arguments import DEFAULT_SIGMA
+from pincal.calibration._result_accuracy import calibration_accuracy
 from pincal.calibration.measurements import MeasurementData
-from pincal.calibration.problem import Linearisation, Problem
-from pincal.calibration.sanity import OUTLIER_SCORE, Outlier
-from pincal.calibration.state import Rows, Setup, Solution, Verdict
-from pincal.evaluation.accuracy_report import AccuracyReport, ErrorSummary, PlanAccuracy
+from pincal.calibration.problem import Linearisation
+from pincal.calibration.result_report import report_text, unexplained_text
+from pincal.calibration.sanity import Outlier
+from pincal.deprecation import moved_from
+from pincal.evaluation.accuracy_report import AccuracyReport
 from pincal.evaluation.accuracy_samples import (
     NEIGHBOURHOOD_SAMPLES,
     NEIGHBOURHOODS,
     WORKSPACE_SAMPLES,
-    sample_sets,
 )
 from pincal.evaluation.data_check import DataCheck
-from pincal.evaluation.predicted_error import worst_found
 from pincal.evaluation.prior import Prior
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
-from pincal.model.statics import Payload, payload_rows
 from pincal.typing import ConfigurationsLike, PayloadLike, TestPoseLike
 
 UNEXPLAINED_TEST = 0.01
@@ -240,30 +239,14 @@ class IdentificationResult:
             payload: the task's payload (a mass [kg] or a :class:`~pincal.Payload`), or None.
             neighbourhoods, samples, workspace, seed: as for :func:`pincal.accuracy`.
         """
-        robot = self.params.robot
-        load = None if payload is None else payload_rows(payload, 1)
-        if load is not None and not isinstance(payload, Payload):
-            payload = Payload(float(load[0, 0]), (float(load[0, 1]), float(load[0, 2]), float(load[0, 3])))
-        sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
-        rows = tuple(ErrorSummary.of(where, self.expected_error(qs, payload=payload)) for where, qs in sets)
-        worst = None if region is None else worst_found(_SquaredError(self, payload), region)
-        parameters, gp = (v.sum(axis=1) for v in self.point_variances(poses, payload=payload))
-        calibrated = PlanAccuracy(
-            "calibrated",
-            rows,
-            worst,
-            float(np.sqrt(np.mean(parameters))),
-            0.0,
-            float(np.sqrt(np.mean(gp))),
-            **({} if self.residual_model is not None else {"unexplained": _UNEXPLAINED}),
-        )
-        return AccuracyReport(
-            (calibrated,),
-            float(self.sigma),
-            None,
-            None,
-            "test pose" if region is None else region.description,
-            tuple(bool(r) for r in robot.revolute),
+        return calibration_accuracy(
+            self,
+            test_pose,
+            payload=payload,
+            neighbourhoods=neighbourhoods,
+            samples=samples,
+            workspace=workspace,
+            seed=seed,
         )
 
     @property
@@ -297,7 +280,7 @@ class IdentificationResult:
         """RMS distance between measured and nominal points [m] (over configurations and markers);
         for another kind, of its values of the first unit (:meth:`residual_rms_by_unit`)."""
         if self.data.is_points:
-            return _rms(self.residuals_before[self._used])
+            return rms(self.residuals_before[self._used])
         return next(iter(self.residual_rms_by_unit(before=True).values()))
 
     @property
@@ -305,7 +288,7 @@ class IdentificationResult:
         """RMS distance between measured and calibrated points [m] (rejected rows excluded); for
         another kind, of its values of the first unit (:meth:`residual_rms_by_unit`)."""
         if self.data.is_points:
-            return _rms(self.residuals[self._used])
+            return rms(self.residuals[self._used])
         return next(iter(self.residual_rms_by_unit().values()))
 
     def residual_rms_by_unit(self, before: bool = False) -> dict[str, float]:
@@ -314,7 +297,7 @@ class IdentificationResult:
         pose's orientation, a target point's pixels, a distance) [m, rad or px]."""
         residuals = (self.residuals_before if before else self.residuals).reshape(len(self._used), -1)
         if self.data.is_points:
-            return {"m": _rms(residuals[self._used].reshape(int(self._used.sum()), -1, 3))}
+            return {"m": rms(residuals[self._used].reshape(int(self._used.sum()), -1, 3))}
         kind, robot = self.data.measure, self.robot
         units = np.array(kind.units(robot))
         seen = np.isfinite(self.data.values)[self._used]
@@ -381,143 +364,22 @@ class IdentificationResult:
             out["fixtures"] = {f.name: _pose(f.placement) | {"on": f.on} for f in self.robot.fixtures}
         return out
 
-    def _sigma_line(self) -> str:
-        if not np.isfinite(self.sigma):  # estimated from no residual degrees of freedom
-            return "sigma: undetermined (no residual degrees of freedom to estimate it from)"
-        how = " (estimated from the residuals)" if self.sigma_estimated else " (given)"
-        return f"sigma: {self.sigma * 1e3:.4g} mm per coordinate{how}"
-
-    def _expected_line(self) -> str:
-        """The expected error of the calibration's predictions, saying what it is made of."""
-        e = self._expected_at_data
-        if not np.isfinite(e["rms"]):
-            return "expected error of a prediction: undetermined (no standard errors)"
-        head = f"expected error of a prediction at the measured configurations: {e['rms'] * 1e3:.4g} mm RMS"
-        if self.residual_model is None:
-            return f"{head} ({self.unexplained_words(e)})"
-        return (
-            f"{head} (the parameters' standard errors {e['parameters'] * 1e3:.4g} mm and the residual "
-            f"model's variance {e['residual_model'] * 1e3:.4g} mm; far from the measured configurations "
-            f"the residual model's part grows to {e['residual_model_far'] * 1e3:.4g} mm)"
-        )
-
     def unexplained_words(self, e: dict[str, float] | None = None) -> str:
         """What a prediction without a residual model is made of, in words (with the figures of
         ``e``, :attr:`_expected_at_data`, when given)."""
-        e = self._expected_at_data if e is None else e
-        parts = (
-            f"the parameters' standard errors {e['parameters'] * 1e3:.4g} mm"
-            if e
-            else "the parameters' standard errors"
-        )
-        u = self.unexplained
-        if u > 0:
-            whose = (
-                "the default instrument's (a laser tracker's): give sigma (--sigma) for yours"
-                if self.sigma_estimated
-                else "the sigma given"
-            )
-            return (
-                f"{parts} and what the model does not explain, {np.sqrt(u) * 1e3:.4g} mm per "
-                f"coordinate: the residuals ({self.residual_level * 1e3:.4g} mm) exceed the instrument's "
-                f"sigma {self.instrument_sigma * 1e3:.4g} mm ({whose}) beyond their scatter; a residual "
-                "model (--residual-model gp) can say where"
-            )
-        return f"{parts}; the residuals are within the noise: the model explains the data"
+        return unexplained_text(self, e)
 
     def report(self) -> str:
         """A human-readable report: status, residuals, data identifiability, estimates ± standard
         errors (mm, mrad), outliers."""
-        lines = [f"{self.status}: {self.message}"]  # an implausible one names its likely causes
-        if self.data.is_points:
-            what = f"{self.data.m} configurations, {self.data.n_markers} marker(s)"
-            rms = (
-                f"{self.residual_rms_before * 1e3:.4g} mm before, "
-                f"{self.residual_rms_after * 1e3:.4g} mm after"
-            )
-        else:
-            what = f"{self.data.m} configurations, {self.data.measure.describe()}"
-            before, after = self.residual_rms_by_unit(before=True), self.residual_rms_by_unit()
-            rms = "; ".join(f"{_sized(before[u], u)} before, {_sized(after[u], u)} after" for u in after)
-        lines += [
-            f"residual RMS: {rms} ({what}, {len(self.params)} parameters, {self.iterations} "
-            f"iterations, {self.method}, loss {self.loss})",
-            self._sigma_line(),
-        ]
-        if self.prior is not None:
-            lines.append(f"prior: {self.prior} (MAP estimate)")
-        if self.check is not None:
-            lines.append(self.check.report())
-        width = max(len(n) for n in self.names)
-        for name, v, s, unit in zip(self.names, self.values, self.std, self.params.units, strict=True):
-            scale, shown = SHOWN[unit]
-            if name in self.dropped:
-                lines.append(f"  {name:{width}s} not identified (nominal)")
-            elif np.isfinite(s):
-                lines.append(f"  {name:{width}s} {v * scale:+11.5f} ± {s * scale:.5f} {shown}")
-            else:  # no degrees of freedom left to estimate σ from (e.g. after --reject)
-                lines.append(f"  {name:{width}s} {v * scale:+11.5f} (standard error undetermined) {shown}")
-        if self.residual_model is not None:
-            lines.append(self.residual_model.describe())
-        lines.append(self._expected_line())
-        if self.rejected:
-            lines.append(f"rejected {len(self.rejected)} row(s) and refitted:")
-            lines += [f"  {o}" for o in self.rejected]
-        if self.outliers:
-            lines.append(f"suspicious rows (over {OUTLIER_SCORE:g} robust sigma):")
-            lines += [f"  {o}" for o in self.outliers]
-        return "\n".join(lines)
-
-
-_UNEXPLAINED = "what the fitted model does not explain (the residual level beyond the noise)"
-
-
-class _SquaredError:
-    """A calibration's squared expected error as :func:`~pincal.evaluation.predicted_error.worst_found`
-    searches it."""
-
-    def __init__(self, result: IdentificationResult, payload: PayloadLike) -> None:
-        self.result, self.payload = result, payload
-
-    def squared(self, qs: np.ndarray) -> np.ndarray:
-        return self.result.expected_error(np.atleast_2d(qs), payload=self.payload) ** 2
-
-
-SHOWN = {
-    "m": (1e3, "mm"),
-    "rad": (1e3, "mrad"),
-    "1": (1e6, "ppm"),
-    "rad/(N·m)": (1e6, "µrad/(N·m)"),
-    "m/N": (1e6, "µm/N"),
-}
-"""How the report shows a value of each unit: (factor, unit shown)."""
-
-
-def _sized(value: float, unit: str) -> str:
-    """A residual for people: mm, mrad or px."""
-    return {"m": f"{value * 1e3:.4g} mm", "rad": f"{value * 1e3:.4g} mrad"}.get(unit, f"{value:.4g} {unit}")
-
-
-def residual_rms(problem: Problem, residual: np.ndarray, used: np.ndarray) -> float:
-    """The RMS of a stacked (N,) residual over the rows ``used``: of the points' distances [m]; for
-    another kind, of its whitened values times the reference σ (a length on the noise's scale)."""
-    if problem.points:
-        return _rms(residual.reshape(problem.m, -1, 3)[used])
-    noise = problem.noise
-    e = noise.whiten(residual[noise.coordinates(used)], used)
-    return float(noise.reference * np.sqrt(np.sum(e**2) / max(noise.count(used), 1)))
-
-
-def distance_unit(problem: Problem) -> str:
-    """The unit of the outliers' distances: ``m``, or the first value's unit of a kind without lengths."""
-    return "m" if problem.points or "m" in problem.value_units else problem.value_units[0]
+        return report_text(self)
 
 
 def _pose(placement: pin.SE3) -> dict:
     return {"xyz": placement.translation.tolist(), "rpy": pin.rpy.matrixToRpy(placement.rotation).tolist()}
 
 
-def _rms(residuals: np.ndarray) -> float:
+def rms(residuals: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum(residuals**2, axis=-1))))
 
 
@@ -526,161 +388,12 @@ def _num(v: float) -> float | None:
     return float(v) if np.isfinite(v) else None
 
 
-def identification_result(
-    setup: Setup, solution: Solution | None, rows: Rows, verdict: Verdict
-) -> IdentificationResult:
-    """The result of an identification from its state: the setup, the solver's solution (None
-    when no fit ran: rank-deficient data), the rows and the verdict. Without an estimate (no fit,
-    or a failed one) the values and standard errors are NaN and the residuals those at the start."""
-    problem, settings, noise = setup.problem, setup.settings, setup.problem.noise
-    params, sessions = problem.params, list(problem.sessions)
-    n, m = len(params), problem.m
-    estimated = not noise.known
-    shape = (m, params.robot.n_markers, 3) if problem.points else (m, noise.row_size)
-    z = None if solution is None else solution.z
-    if z is None:
-        values, std, correlation = np.full(n, np.nan), np.full(n, np.nan), np.full((n, n), np.nan)
-        robot, residuals = problem.robot(setup.z0), setup.before.reshape(shape)
-        sigma_out = np.nan if estimated else noise.reference
-        z_final = setup.z0
-        level, dof = np.nan, 0
-    else:
-        values, robot = z[:n].copy(), problem.robot(z)
-        residuals = problem.residual(z).reshape(shape)
-        dof = noise.count(rows.used) - len(setup.free)
-        per_coordinate = _per_coordinate(problem, residuals.reshape(-1), rows.used, dof)
-        level = per_coordinate
-        sigma_out = per_coordinate if estimated else noise.reference
-        std, correlation = _covariance(
-            setup, z, rows.used, per_coordinate if estimated and settings.prior is None else None
-        )
-        z_final = z
-    bases = tuple(problem.robot(z_final, s).base for s in range(len(sessions))) if problem.base else ()
-    initial_bases = (
-        tuple(problem.robot(setup.z0, s).base for s in range(len(sessions))) if problem.base else ()
-    )
-    for array in (values, std, correlation, residuals):
-        array.flags.writeable = False
-    before = setup.before.reshape(shape)
-    before.flags.writeable = False
-    return IdentificationResult(
-        params=params,
-        values=values,
-        std=std,
-        correlation=correlation,
-        sigma=float(sigma_out),
-        sigma_estimated=estimated,
-        residuals=residuals,
-        residuals_before=before,
-        iterations=0 if solution is None else solution.iterations,
-        status=verdict.status,
-        message=verdict.message,
-        method=settings.method,
-        robot=robot,
-        data=_stacked(sessions),
-        check=setup.check,
-        dropped={} if solution is None else dict(setup.dropped),
-        outliers=rows.outliers,
-        rejected=rows.rejected,
-        loss=settings.loss,
-        prior=settings.prior,
-        causes=verdict.causes,
-        sessions=tuple(sessions),
-        bases=bases,
-        initial_robot=problem.robot(setup.z0),
-        initial_bases=initial_bases,
-        residual_level=float(level),
-        residual_dof=int(max(dof, 0)),
-    )
-
-
-def _per_coordinate(problem: Problem, residual: np.ndarray, used: np.ndarray, dof: int) -> float:
-    """σ estimated from the residuals of the rows ``used`` [m] (NaN without degrees of freedom): of the
-    points' coordinates; for another kind, the reference σ times the whitened residuals' RMS."""
-    if dof <= 0:
-        return np.nan
-    keep = problem.noise.coordinates(used)
-    if problem.points:
-        return float(np.sqrt(np.sum(residual[keep] ** 2) / dof))
-    e = problem.noise.whiten(residual[keep], used)
-    return float(problem.noise.reference * np.sqrt(np.sum(e**2) / dof))
-
-
-def _covariance(
-    setup: Setup, z: np.ndarray, used: np.ndarray, scale_to: float | None
-) -> tuple[np.ndarray, np.ndarray]:
-    """(std, correlation) of the parameters: (JᵀWJ + Σp⁻¹)⁻¹ over the free unknowns and the rows
-    used, scaled to σ̂² = ``scale_to``² when σ is estimated; NaN for the parameters left out."""
-    problem, free, prior_std = setup.problem, setup.free, setup.prior_std
-    n = len(problem.params)
-    J = problem.noise.whiten(problem.jacobian(z)[np.ix_(problem.noise.coordinates(used), free)], used)
-    M = J.T @ J + np.diag(np.where(np.isfinite(prior_std[free]), 1.0 / prior_std[free] ** 2, 0.0))
-    d = np.sqrt(np.diag(M))
-    d[d == 0] = 1.0
-    std, correlation = np.full(n, np.nan), np.full((n, n), np.nan)
-    try:
-        cov = np.linalg.inv(M / np.outer(d, d)) / np.outer(d, d)
-    except np.linalg.LinAlgError:
-        return std, correlation
-    if scale_to is not None:
-        cov = cov * (scale_to / problem.noise.reference) ** 2
-    inside = free < n
-    idx = free[inside]
-    sub = cov[np.ix_(inside, inside)]
-    # a variance that is not positive (or not finite) is rounding in the inverse of a numerically
-    # singular M (data that barely see these parameters, e.g. one image of the target among many
-    # empty ones): unknown, NaN, never a standard error of 0 or a correlation of inf
-    variance = np.diag(sub)
-    known = np.isfinite(variance) & (variance > 0)
-    std[idx] = np.where(known, np.sqrt(np.where(known, variance, 1.0)), np.nan)
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        block = sub / np.outer(std[idx], std[idx])
-    correlation[np.ix_(idx, idx)] = np.where(np.isfinite(block), block, np.nan)
-    return std, correlation
-
-
-def _stacked(sessions: list[MeasurementData]) -> MeasurementData:
-    if len(sessions) == 1:
-        return sessions[0]
-    if not sessions[0].is_points:
-        return _stacked_values(sessions)
-    sigma = None
-    if any(d.sigma is not None for d in sessions):
-        sigma = np.concatenate(
-            [d.sigma if d.sigma is not None else np.full(d.points.shape, np.nan) for d in sessions]
-        )
-    return MeasurementData(
-        np.concatenate([d.q for d in sessions]),
-        np.concatenate([d.points for d in sessions]),
-        sessions[0].joint_names,
-        sigma=None if sigma is None or np.isnan(sigma).any() else sigma,
-        source=" + ".join(str(d.source) for d in sessions),
-        payload=_stacked_payload(sessions),
-    )
-
-
-def _stacked_payload(sessions: list[MeasurementData]) -> np.ndarray | None:
-    """The sessions' payload rows stacked (no payload columns: none), or None if no session has any."""
-    if all(d.payload is None for d in sessions):
-        return None
-    return np.concatenate([d.payload if d.payload is not None else np.zeros((d.m, 4)) for d in sessions])
-
-
-def _stacked_values(sessions: list[MeasurementData]) -> MeasurementData:
-    """The sessions of a kind other than points as one MeasurementData (their σ or covariances when
-    every one has them)."""
-
-    def joined(name: str) -> np.ndarray | None:
-        parts = [getattr(d, name) for d in sessions]
-        return None if any(p is None for p in parts) else np.concatenate(parts)
-
-    return MeasurementData(
-        np.concatenate([d.q for d in sessions]),
-        np.concatenate([d.values for d in sessions]),
-        sessions[0].joint_names,
-        source=" + ".join(str(d.source) for d in sessions),
-        sigma=joined("sigma"),
-        payload=_stacked_payload(sessions),
-        kind=sessions[0].kind,
-        covariance=joined("covariance"),
-    )
+__getattr__ = moved_from(
+    __name__,
+    {
+        "pincal.calibration.assembly": ("identification_result", "residual_rms", "distance_unit"),
+        "pincal.calibration.result_report": ("SHOWN",),
+    },
+)
+"""Names that moved out of this module in 0.2 (the result's assembly and its words have their own
+modules)."""
