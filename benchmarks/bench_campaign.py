@@ -24,7 +24,8 @@ import numpy as np
 
 import pincal
 from pincal.campaign.ordering import held_karp, improve, tour_cost
-from pincal.campaign.schedule import HOME, plan_campaign
+from pincal.campaign.result import HOME
+from pincal.campaign.schedule import plan_campaign
 from pincal.campaign.timing import Timing
 from pincal.planning.constraints import Mount, Obstacle, Workcell, with_safety
 from pincal.planning.feasibility import Feasibility

@@ -11,7 +11,8 @@ tradeoff.py (:func:`accuracy_vs_time`), measured.py (:class:`MeasuredPrior`), ad
 
 from pincal.campaign.adaptive import NextPoses, next_poses
 from pincal.campaign.measured import MeasuredPrior
-from pincal.campaign.schedule import Campaign, Move, plan_campaign
+from pincal.campaign.result import Campaign, Move
+from pincal.campaign.schedule import plan_campaign
 from pincal.campaign.timing import DWELLS, Timing
 from pincal.campaign.tradeoff import Tradeoff, accuracy_vs_time
 

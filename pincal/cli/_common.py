@@ -14,23 +14,27 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, joint_range, positive_int, positive_sigma, sigma_note
+from pincal.arguments import DEFAULT_SIGMA, joint_range, positive_sigma, sigma_note
 from pincal.calibration.formats.robot_calibration import BAG_SUFFIXES, ROS_EXTRA
+
+# re-exported: the commands import these from here
+from pincal.cli._parameters import (  # noqa: F401
+    BASE_HELP,
+    DEFAULT_PARAMS,
+    add_base_argument,
+    mentions_base,
+    parameters_with_base,
+    params_from_args,
+)
+from pincal.cli._types import checked, count, seed_type, sigma_type  # noqa: F401
 from pincal.errors import BadArgument, BadConfiguration, MissingDependency, warn
 from pincal.files import check_output
-from pincal.instruments.identifiability import identifiable
-from pincal.instruments.instrument import Instrument
-from pincal.model.base_parameters import Identifiability
-from pincal.model.catalogue import GROUPS
 from pincal.model.loading import load_robot
-from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.optional import require
 from pincal.planning.constraints import load_constraints
 from pincal.planning.plan import Plan
 from pincal.viewing.plots import PLOT_EXTRA, figure_format
-
-DEFAULT_PARAMS = "full,offsets"
 
 # NumPy's floating-point warnings, and the NaN of its reductions over nothing. In the CLI they
 # raise: a computation that overflows stops with one line instead of printing a warning and going
@@ -178,43 +182,6 @@ def _require_xacro(feature: str) -> None:
             f"{feature} is a xacro file: pincal expands it (without ROS) once the xacro package is "
             f'installed: pip install "{XACRO_EXTRA}"'
         )
-
-
-def checked(option: str, check: Callable[..., object], parse: type = float, **bounds: object):
-    """An argparse ``type=``: the option's text read as ``parse`` (int or float), then checked by
-    ``check`` (a :mod:`pincal.arguments` checker, with ``bounds``) under the option's name, so that
-    the CLI refuses a value where it is read with the same bounds and words as the API:
-    ``pincal: error: argument --trials: must be an integer from 2 to 10,000,000, got 1``."""
-
-    def convert(text: str) -> object:
-        try:
-            value = parse(text)
-        except (ValueError, OverflowError):
-            kind = "an integer" if parse is int else "a number"
-            raise argparse.ArgumentTypeError(f"expected {kind}, got {text!r}") from None
-        try:
-            return check(value, option, **bounds)
-        except BadArgument as exc:
-            raise argparse.ArgumentTypeError(str(exc).removeprefix(f"{option} ")) from None
-
-    convert.__name__ = check.__name__
-    convert.parses = parse  # type: ignore[attr-defined]  # what it reads (the fuzzer draws from it)
-    return convert
-
-
-def count(option: str, low: int = 1) -> Callable[[str], object]:
-    """The argparse type of a count option (configurations, starts, trials, ...)."""
-    return checked(option, positive_int, int, low=low)
-
-
-def seed_type(option: str = "--seed") -> Callable[[str], object]:
-    """The argparse type of --seed: an integer ≥ 0."""
-    return checked(option, positive_int, int, low=0, high=None)
-
-
-def sigma_type(option: str = "--sigma", zero: bool = False) -> Callable[[str], object]:
-    """The argparse type of --sigma [m] (``zero``: 0 allowed, exact points)."""
-    return checked(option, lambda v, name: positive_sigma(v, name, zero=zero))
 
 
 def argument_names(parser: argparse.ArgumentParser) -> dict[str, str]:
@@ -430,126 +397,6 @@ def joint_ranges_from_args(args: argparse.Namespace) -> dict[str, tuple[float, f
         lo, hi = np.radians(bounds) if getattr(args, "deg", False) else bounds
         out[name] = (float(lo), float(hi))
     return out
-
-
-BASE_HELP = (
-    "the points are measured in the instrument's frame: the robot base (base.*) is identified too, "
-    "and the chain parameters it makes redundant are dropped (the set 'pincal identify --base' uses)"
-)
-
-
-def add_base_argument(parser: argparse.ArgumentParser) -> None:
-    """--base: add base.* to the parameters (read by :func:`params_from_args`)."""
-    parser.add_argument("--base", action="store_true", help=BASE_HELP)
-
-
-def _is_base(token: str) -> bool:
-    return token == "base" or token.startswith("base.")
-
-
-def mentions_base(spec: str | None) -> bool:
-    """True when a --params SPEC names the base group or a base.* parameter."""
-    return any(_is_base(t.strip()) for t in (spec or "").split(","))
-
-
-def params_from_args(
-    robot: Robot, args: argparse.Namespace, instrument: Instrument | None = None
-) -> tuple[ParameterSet, str]:
-    """The parameter set asked for, and a description of where it came from (see
-    :func:`parameters_with_base`)."""
-    params, source, _ = parameters_with_base(robot, args, instrument)
-    return params, source
-
-
-def _identifiable(params: ParameterSet, instrument: Instrument | None, prefer: str = "") -> Identifiability:
-    """What the instrument (points when None) can identify of ``params``."""
-    if instrument is None or instrument.is_default:
-        return params.identifiable(prefer=prefer)
-    return identifiable(params, instrument, prefer=prefer)
-
-
-def _with_fixtures(robot: Robot, spec: str) -> str:
-    """``spec`` and the instrument's fixtures (identified with the robot) when it names none."""
-    names = ["instrument"] + [f.name for f in robot.fixtures]
-    tokens = [t.strip().split(".")[0] for t in spec.split(",")]
-    if not robot.fixtures or any(t in names for t in tokens):
-        return spec
-    return spec + ",instrument"
-
-
-def parameters_with_base(
-    robot: Robot, args: argparse.Namespace, instrument: Instrument | None = None
-) -> tuple[ParameterSet, str, list[str]]:
-    """The set asked for, plus base.* when the data are in the instrument's frame (docs/method.md
-    §4.2).
-
-    Without --params: the identifiable base set of ``full,offsets``. With --params: a group means
-    its identifiable part (the description names how many were left out and why), a parameter
-    named one by one must be identifiable (the error names it and the fix). ``--params base`` is
-    the base placement alone (and ``markers`` the markers alone: every group means itself only).
-    With --base, or base names beside chain ones in --params: the chain set plus the whole base,
-    the base kept first and the chain parameters it makes redundant dropped — the set identify
-    uses on instrument-frame data. The instrument's fixtures (--anchor, --camera) are added unless
-    --params names them, and what is identifiable is what ``instrument`` measures (points when
-    None).
-
-    Returns:
-        (parameters, description, chain parameters dropped as redundant with the base).
-    """
-    spec = getattr(args, "params", None)
-    tokens = [t.strip() for t in (spec or "").split(",") if t.strip()]
-    if not (getattr(args, "base", False) or mentions_base(spec)):
-        return _chain_params(robot, spec, args.robot, instrument) + ([],)
-    rest = ",".join(t for t in tokens if not _is_base(t)) or None
-    if spec is not None and rest is None:  # the base placement alone
-        params, source = _reduced(robot, spec, args.robot, instrument, prefer="base")
-        return params, f"{source}: the base placement only", []
-    chain, source = _chain_params(robot, rest, args.robot, instrument)
-    params = _identifiable(robot.parameters(list(chain.names) + ["base"]), instrument, "base").identifiable
-    dropped = [n for n in chain.names if n not in params.names]
-    note = f"; {len(dropped)} chain parameter(s) redundant with it dropped" if dropped else ""
-    return params, f"{source}, with the base frame{note}", dropped
-
-
-def _chain_params(
-    robot: Robot, spec: str | None, robot_arg: str, instrument: Instrument | None = None
-) -> tuple[ParameterSet, str]:
-    if spec is None:
-        default = _with_fixtures(robot, DEFAULT_PARAMS)
-        ident = _identifiable(robot.parameters(default), instrument)
-        return ident.identifiable, f"identifiable base set of {default}"
-    return _reduced(robot, spec, robot_arg, instrument)
-
-
-def _reduced(
-    robot: Robot, spec: str, robot_arg: str, instrument: Instrument | None, prefer: str = ""
-) -> tuple[ParameterSet, str]:
-    """The identifiable part of --params ``spec`` (its groups reduced, the instrument's fixtures
-    added unless named) and its description; a parameter named one by one and not identifiable is
-    refused, naming why."""
-    params = robot.parameters(_with_fixtures(robot, spec))
-    ident = _identifiable(params, instrument, prefer)
-    groups = set(GROUPS) | {f.name for f in robot.fixtures}
-    named = [n for n in ident.dropped if n in {t.strip() for t in spec.split(",")} - groups]
-    if named:
-        reason = ident.dropped[named[0]].split(":")[0]
-        raise BadArgument(
-            f"--params {spec}: {', '.join(named)} cannot be identified from {ident.measured} measurements "
-            f"({named[0]} is {reason}); leave {'them' if len(named) > 1 else 'it'} out, or name "
-            f"{'their' if len(named) > 1 else 'its'} group to take the identifiable part of it "
-            f"(see 'pincal params {robot_arg}')"
-        )
-    if not ident.dropped:
-        return params, spec
-    why: dict[str, int] = {}
-    for reason in ident.dropped.values():
-        word = reason.split(":")[0]
-        why[word] = why.get(word, 0) + 1
-    said = ", ".join(f"{k} {word}" for word, k in why.items())
-    return ident.identifiable, (
-        f"the identifiable part of {spec}: {len(ident.dropped)} of {len(params)} left out ({said}; "
-        f"'pincal params {robot_arg} --params {spec}' names them)"
-    )
 
 
 def parse_configuration(robot: Robot, text: str, degrees: bool, what: str) -> np.ndarray:

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from pincal.campaign.schedule import HOME, Campaign
+from pincal.campaign.result import HOME, Campaign
 from pincal.errors import BadArgument
 from pincal.files import atomic_write_text
 from pincal.model.collision import reach as robot_reach

@@ -16,7 +16,8 @@ from pincal.arguments import DEFAULT_SIGMA
 from pincal.campaign.line_of_sight import occlusions
 from pincal.campaign.motion import certify_move, find_detour
 from pincal.campaign.ordering import EXACT_LIMIT, best_tour, held_karp, improve, tour_cost
-from pincal.campaign.schedule import HOME, plan_campaign
+from pincal.campaign.result import HOME
+from pincal.campaign.schedule import plan_campaign
 from pincal.campaign.timing import DWELLS, Timing
 from pincal.errors import BadArgument
 from pincal.model.collision import TOUCHING, with_exact
