@@ -30,6 +30,7 @@ import pinocchio as pin
 from pincal.arguments import check_lengths, generator, number
 from pincal.errors import BadDHTable, OverwriteRefused
 from pincal.files import atomic_write_text, read_yaml
+from pincal.model._dh_urdf import fixed_frame, origin_text, quoteattr, rx, rz, tx, tz
 from pincal.model.loading import ROBOTS_DIR
 from pincal.typing import ConfigurationsLike
 
@@ -175,9 +176,9 @@ class DHTable:
             theta = joint.theta + (value if joint.type == "revolute" else 0.0)
             d = joint.d + (value if joint.type == "prismatic" else 0.0)
             if self.convention == "standard":
-                out.append(_rz(theta) @ _tz(d) @ _tx(joint.a) @ _rx(joint.alpha))
+                out.append(rz(theta) @ tz(d) @ tx(joint.a) @ rx(joint.alpha))
             else:
-                out.append(_rx(joint.alpha) @ _tx(joint.a) @ _rz(theta) @ _tz(d))
+                out.append(rx(joint.alpha) @ tx(joint.a) @ rz(theta) @ tz(d))
         return out
 
     def forward_kinematics(self, q: ConfigurationsLike) -> np.ndarray:
@@ -205,10 +206,10 @@ class DHTable:
             theta = joint.theta
             d = joint.d
             if self.convention == "standard":
-                origin = before @ _rz(theta) @ _tz(d)
-                before = _tx(joint.a) @ _rx(joint.alpha)
+                origin = before @ rz(theta) @ tz(d)
+                before = tx(joint.a) @ rx(joint.alpha)
             else:
-                origin = before @ _rx(joint.alpha) @ _tx(joint.a) @ _rz(theta) @ _tz(d)
+                origin = before @ rx(joint.alpha) @ tx(joint.a) @ rz(theta) @ tz(d)
                 before = np.eye(4)
             child = f"link{i}"
             limit = (
@@ -220,18 +221,18 @@ class DHTable:
                 f'  <joint name={quoteattr(joint.name)} type="{joint.type}">',
                 f'    <parent link="{parent}"/>',
                 f'    <child link="{child}"/>',
-                f"    {_origin(origin)}",
+                f"    {origin_text(origin)}",
                 '    <axis xyz="0 0 1"/>',
                 f"    {limit}",
                 "  </joint>",
             ]
             parent = child
-        lines += _fixed(parent, "flange", before)
-        lines += _fixed("flange", self.tool_name, self.tool)
+        lines += fixed_frame(parent, "flange", before)
+        lines += fixed_frame("flange", self.tool_name, self.tool)
         for k, point in enumerate(self.markers):
             placement = np.eye(4)
             placement[:3, 3] = point
-            lines += _fixed(self.tool_name, f"marker{k}", placement)
+            lines += fixed_frame(self.tool_name, f"marker{k}", placement)
         lines.append("</robot>")
         return "\n".join(lines) + "\n"
 
@@ -441,60 +442,3 @@ def _check_names(table: DHTable, where: str) -> None:
 
 
 # ------------------------------------------------------------------------ writing URDF
-def _rx(angle: float) -> np.ndarray:
-    c, s = _cos_sin(angle)
-    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1.0]])
-
-
-def _rz(angle: float) -> np.ndarray:
-    c, s = _cos_sin(angle)
-    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
-
-
-def _tx(a: float) -> np.ndarray:
-    T = np.eye(4)
-    T[0, 3] = a
-    return T
-
-
-def _tz(d: float) -> np.ndarray:
-    T = np.eye(4)
-    T[2, 3] = d
-    return T
-
-
-def _cos_sin(angle: float) -> tuple[float, float]:
-    """cos and sin, exact at multiples of 90° (so a right-angle twist leaves no 6e-17 in the URDF)."""
-    quarter = angle / (math.pi / 2)
-    if abs(quarter - round(quarter)) < 1e-12:
-        return [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)][round(quarter) % 4]
-    return math.cos(angle), math.sin(angle)
-
-
-def quoteattr(value: str) -> str:
-    """``value`` quoted as an XML attribute value (``xml.sax.saxutils.quoteattr``, imported here on
-    first use: it imports urllib.request, http.client and ssl, a noticeable part of every command's
-    start-up otherwise)."""
-    from xml.sax.saxutils import quoteattr as quoted
-
-    return quoted(value)
-
-
-def _text(values: np.ndarray) -> str:
-    return " ".join(repr(float(v)) if abs(v) > 1e-15 else "0" for v in values)
-
-
-def _origin(T: np.ndarray) -> str:
-    rpy = pin.rpy.matrixToRpy(T[:3, :3])
-    return f'<origin xyz="{_text(T[:3, 3])}" rpy="{_text(rpy)}"/>'
-
-
-def _fixed(parent: str, child: str, T: np.ndarray) -> list[str]:
-    return [
-        f"  <link name={quoteattr(child)}/>",
-        f'  <joint name={quoteattr(child + "_joint")} type="fixed">',
-        f'    <parent link="{parent}"/>',
-        f"    <child link={quoteattr(child)}/>",
-        f"    {_origin(T)}",
-        "  </joint>",
-    ]
