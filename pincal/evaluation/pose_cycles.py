@@ -299,6 +299,40 @@ def read_pose_cycles(
         if row and any(c.strip() for c in row) and not row[0].lstrip().startswith("#")
     ]
     name = str(path)
+    header, given, joint_names = _pose_cycles_header(rows, name)
+    numeric = [*POSITION_COLUMNS, *given, *joint_names]
+    values, tests, poses, cycles, lines = _pose_cycles_rows(rows, header, numeric, name)
+    if not values:
+        raise BadMeasurementData(f"pose cycles file {name!r}: no rows after the header", file=name)
+    data = np.array(values)
+    scale = 1e-3 if millimetres else 1.0
+    angle = np.pi / 180 if degrees else 1.0
+    positions = data[:, :6] * scale
+    rotations: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
+    if given:
+        angles = data[:, 6:12] * angle
+        rotations = (rpy_rotations(angles[:, :3]), rpy_rotations(angles[:, 3:]))
+    joints = data[:, 6 + len(given) :] * angle if joint_names else None
+    try:
+        return PoseCycles(
+            tuple(tests),
+            tuple(poses),
+            np.array(cycles),
+            positions[:, :3],
+            positions[:, 3:],
+            *rotations,
+            joints=joints,
+            joint_names=joint_names,
+            lines=np.array(lines),
+        )
+    except BadMeasurementData as exc:
+        raise BadMeasurementData(f"{name}: {exc}", file=name, line=exc.line) from None
+
+
+def _pose_cycles_header(
+    rows: list[tuple[int, list[str]]], name: str
+) -> tuple[list[str], list[str], tuple[str, ...]]:
+    """(header, orientation columns given, joint names) of a pose cycles file's rows, checked."""
     if not rows:
         raise BadMeasurementData(f"pose cycles file {name!r} is empty: expected a header row", file=name)
     header = [h.strip() for h in rows[0][1]]
@@ -323,7 +357,14 @@ def read_pose_cycles(
         )
     known = {"pose", "cycle", "test", *POSITION_COLUMNS, *ORIENTATION_COLUMNS}
     joint_names = tuple(h for h in header if h not in known)
-    numeric = [*POSITION_COLUMNS, *given, *joint_names]
+    return header, given, joint_names
+
+
+def _pose_cycles_rows(
+    rows: list[tuple[int, list[str]]], header: list[str], numeric: list[str], name: str
+) -> tuple[list[list[float]], list[str], list[str], list[int], list[int]]:
+    """(numbers of the ``numeric`` columns, tests, poses, cycles, line numbers) of the data rows
+    (``rows`` after the header row), checked."""
     index = {h: i for i, h in enumerate(header)}
     values, tests, poses, cycles, lines = [], [], [], [], []
     for n, row in rows[1:]:
@@ -350,28 +391,4 @@ def read_pose_cycles(
         cycles.append(int(cycle))
         tests.append(row[index["test"]].strip() if "test" in index else "")
         lines.append(n)
-    if not values:
-        raise BadMeasurementData(f"pose cycles file {name!r}: no rows after the header", file=name)
-    data = np.array(values)
-    scale = 1e-3 if millimetres else 1.0
-    angle = np.pi / 180 if degrees else 1.0
-    positions = data[:, :6] * scale
-    rotations: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
-    if given:
-        angles = data[:, 6:12] * angle
-        rotations = (rpy_rotations(angles[:, :3]), rpy_rotations(angles[:, 3:]))
-    joints = data[:, 6 + len(given) :] * angle if joint_names else None
-    try:
-        return PoseCycles(
-            tuple(tests),
-            tuple(poses),
-            np.array(cycles),
-            positions[:, :3],
-            positions[:, 3:],
-            *rotations,
-            joints=joints,
-            joint_names=joint_names,
-            lines=np.array(lines),
-        )
-    except BadMeasurementData as exc:
-        raise BadMeasurementData(f"{name}: {exc}", file=name, line=exc.line) from None
+    return values, tests, poses, cycles, lines

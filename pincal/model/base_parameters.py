@@ -243,12 +243,45 @@ def identifiability(
     preferred = frozenset(robot.parameters(prefer).names) if split_spec(prefer) else frozenset()
     order = [i for i in preference_order(params, preferred) if visible[i]]
     kept, distance = independent_columns(A, order, tol)
+    compliant = [i for i, p in enumerate(params.parameters) if p.kind == "compliance"]
+    torques = robot.joint_torques(qs, payload=loads, check=False) if compliant else np.zeros((0, robot.nq))
+    dropped, combinations, nearly = _why_dropped(params, J, kept, visible, distance, compliant, torques)
+    separation, with_payloads = {}, None
+    if compliant:
+        kept_order = [i for i in order if i in kept or i in compliant]
+        separation = _separation(params, rows(qs, None), kept_order, compliant, visible, tol)
+        if payloads is not None:
+            with_payloads = _separation(params, rows(qs, loads), kept_order, compliant, visible, tol)
+    return Identifiability(
+        params=params,
+        identifiable=replace(params, parameters=tuple(params.parameters[i] for i in kept)),
+        dropped=dropped,
+        combinations=combinations,
+        nearly_redundant=nearly,
+        rank=len(kept),
+        singular_values=singular_values,
+        n_configurations=n_configurations,
+        separation=separation,
+        separation_with_payloads=with_payloads,
+        measured=measured,
+    )
+
+
+def _why_dropped(
+    params: ParameterSet,
+    J: np.ndarray,
+    kept: list[int],
+    visible: np.ndarray,
+    distance: np.ndarray,
+    compliant: list[int],
+    torques: np.ndarray,
+) -> tuple[dict[str, str], dict[str, dict[str, float]], dict[str, float]]:
+    """(why each column not kept is dropped, the combination of kept columns each redundant one
+    equals, each nearly redundant one's distance) of :func:`identifiability`."""
     names = params.names
     dropped: dict[str, str] = {}
     combinations: dict[str, dict[str, float]] = {}
     nearly: dict[str, float] = {}
-    compliant = [i for i, p in enumerate(params.parameters) if p.kind == "compliance"]
-    torques = robot.joint_torques(qs, payload=loads, check=False) if compliant else np.zeros((0, robot.nq))
     # every dropped visible column against the kept ones: one least-squares solve for them all
     # (one a column cost minutes on a chain of hundreds of joints)
     kept_set = set(kept)
@@ -284,25 +317,7 @@ def identifiability(
                 f"between its column and theirs; rounded angles in the URDF, e.g. 1.5708 for pi/2, "
                 f"or nearly parallel axes): left to them"
             )
-    separation, with_payloads = {}, None
-    if compliant:
-        kept_order = [i for i in order if i in kept or i in compliant]
-        separation = _separation(params, rows(qs, None), kept_order, compliant, visible, tol)
-        if payloads is not None:
-            with_payloads = _separation(params, rows(qs, loads), kept_order, compliant, visible, tol)
-    return Identifiability(
-        params=params,
-        identifiable=replace(params, parameters=tuple(params.parameters[i] for i in kept)),
-        dropped=dropped,
-        combinations=combinations,
-        nearly_redundant=nearly,
-        rank=len(kept),
-        singular_values=singular_values,
-        n_configurations=n_configurations,
-        separation=separation,
-        separation_with_payloads=with_payloads,
-        measured=measured,
-    )
+    return dropped, combinations, nearly
 
 
 def _positions(params: ParameterSet) -> Callable[[np.ndarray, np.ndarray | None], np.ndarray]:
