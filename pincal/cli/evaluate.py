@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -37,11 +38,12 @@ from pincal.cli._common import (
 from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
 from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
 from pincal.errors import BadArgument, SingularPlan
-from pincal.evaluation.classic import criteria
-from pincal.evaluation.data_check import check_plan
+from pincal.evaluation.accuracy_report import AccuracyReport
+from pincal.evaluation.classic import Criteria, criteria
+from pincal.evaluation.data_check import DataCheck, check_plan
 from pincal.evaluation.residual_criterion import expected_error
 from pincal.evaluation.test_pose import rho0_each, rho0_split
-from pincal.planning.safety import safety_margins
+from pincal.planning.safety import SafetyReport, safety_margins
 
 HELP = COMMANDS["evaluate"].help
 EXAMPLES = """\
@@ -119,14 +121,7 @@ def run(args: argparse.Namespace) -> int:
     task = task_payload_from_args(args)
     each = rho0_each(params, plan, q0, sigma=sigma, prior=prior, task_payload=task, **options)
     value = float(each.max()) if args.worst else float(np.sqrt(np.mean(each**2)))
-    classic = {k: v for k, v in options.items() if k != "orientation_length"}
-    try:
-        crit = criteria(params, plan, **classic)
-        assert not isinstance(crit, tuple)  # one plan, one set of criteria
-    except SingularPlan:
-        if prior is None:
-            raise
-        crit = None  # the prior makes ρ0 finite; the classic criteria of M alone are not
+    crit = _classic_criteria(params, plan, prior, options)
     model = None if args.residual_model is None else residual_model_from_args(robot, args.residual_model)
     with_model = None
     if model is not None:
@@ -141,6 +136,7 @@ def run(args: argparse.Namespace) -> int:
         split = rho0_split(params, plan, q0, sigma=sigma, task_payload=task)
     check = check_plan(params, plan, sigma=sigma, instrument=measuring.instrument if options else None)
     safety = safety_margins(robot, plan, safe_constraints_from_args(robot, args))
+    e = _Evaluation(each, value, crit, split, with_model, check, safety, report)
     if args.json:
         emit_json(
             {
@@ -166,34 +162,66 @@ def run(args: argparse.Namespace) -> int:
             }
         )
         return 0
-    agg = "worst" if args.worst else "root mean square"
     print(f"{robot.name}: {len(plan)} configurations, {len(params)} parameters ({source}), {sigma_text}")
-    if len(each) == 1:
-        print(f"rho0 at the test pose: {fmt_length(value)}  ({value:.6g} m)")
+    _print_text(args, e)
+    return 0
+
+
+@dataclass(frozen=True)
+class _Evaluation:
+    """What ``pincal evaluate`` found about a plan (see :func:`run`)."""
+
+    each: np.ndarray
+    value: float
+    crit: Criteria | None
+    split: dict[str, float] | None
+    with_model: float | None
+    check: DataCheck
+    safety: SafetyReport
+    report: AccuracyReport | None
+
+
+def _classic_criteria(params, plan, prior, options: dict):
+    """The classic criteria of the plan, or None when only the prior makes it identify the parameters."""
+    classic = {k: v for k, v in options.items() if k != "orientation_length"}
+    try:
+        crit = criteria(params, plan, **classic)
+        assert not isinstance(crit, tuple)  # one plan, one set of criteria
+    except SingularPlan:
+        if prior is None:
+            raise
+        crit = None  # the prior makes ρ0 finite; the classic criteria of M alone are not
+    return crit
+
+
+def _print_text(args: argparse.Namespace, e: _Evaluation) -> None:
+    """The text report of ``pincal evaluate`` after its first line."""
+    agg = "worst" if args.worst else "root mean square"
+    if len(e.each) == 1:
+        print(f"rho0 at the test pose: {fmt_length(e.value)}  ({e.value:.6g} m)")
     else:
-        print(f"rho0 over {len(each)} test poses ({agg}): {fmt_length(value)}  ({value:.6g} m)")
-        for i, r in enumerate(each[:10]):
+        print(f"rho0 over {len(e.each)} test poses ({agg}): {fmt_length(e.value)}  ({e.value:.6g} m)")
+        for i, r in enumerate(e.each[:10]):
             print(f"  test pose {i}: {fmt_length(r)}")
-        if len(each) > 10:
-            print(f"  ... ({len(each)} test poses in all; --json lists each)")
-    if crit is None:
+        if len(e.each) > 10:
+            print(f"  ... ({len(e.each)} test poses in all; --json lists each)")
+    if e.crit is None:
         print("criteria: none (the plan alone cannot identify the parameters; rho0 holds with the prior)")
     else:
         print(
             "design criteria (lower is better: log_det (D), trace (A), max_eig (E), cond (σ_max/σ_min of "
             "the unscaled Jacobian); higher: O1-O4):"
         )
-        for name, v in crit.as_dict().items():
+        for name, v in e.crit.as_dict().items():
             print(f"  {name:8s} {v:.6g}")
-    if split is not None:
-        print(split_line(split))
-    if with_model is not None:
+    if e.split is not None:
+        print(split_line(e.split))
+    if e.with_model is not None:
         print(
             f"expected error at the test pose(s) with the residual model of {args.residual_model}: "
-            f"{fmt_length(with_model)} (rho0 assumes the model exact; this counts what it leaves)"
+            f"{fmt_length(e.with_model)} (rho0 assumes the model exact; this counts what it leaves)"
         )
-    print(check.report())
-    print("\n".join(safety.lines(degrees=True)))
-    if report is not None:
-        print("\n".join(report.lines(degrees=args.deg)))
-    return 0
+    print(e.check.report())
+    print("\n".join(e.safety.lines(degrees=True)))
+    if e.report is not None:
+        print("\n".join(e.report.lines(degrees=args.deg)))

@@ -156,6 +156,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="FILE.yaml",
         help="MoveIt Calibration samples: the joint states saved with them (one per --data, in order)",
     )
+    _add_fit_arguments(p)
+    _add_validation_arguments(p)
+    _add_output_arguments(p)
+    add_instrument_arguments(p)
+    add_output_arguments(p)
+    add_progress_argument(p)  # the residual model's fit, on many configurations
+    p.set_defaults(run=run)
+
+
+def _add_fit_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of the fit: the parameters (--base), noise, prior, loss, solver, rejection."""
     add_base_argument(p)
     p.add_argument(
         "--sigma",
@@ -187,6 +198,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=100,
         help="solver evaluations (default 100)",
     )
+
+
+def _add_validation_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of the validation: --validate, --holdout, --kfold, their seed and figure."""
     p.add_argument("--validate", metavar="OTHER.csv", help="held-out measurements (same placement as --data)")
     p.add_argument(
         "--holdout",
@@ -201,6 +216,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--plot", metavar="FILE.png", help="save the validation errors before/after (a figure)" + FIGURE_NOTE
     )
+
+
+def _add_output_arguments(p: argparse.ArgumentParser) -> None:
+    """The calibrated URDF written (--out, --force) and the accuracy reported (--test-pose, ...)."""
     p.add_argument(
         "--out",
         metavar="CALIBRATED.urdf",
@@ -218,10 +237,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--task-payload", type=float, metavar="KG", help="the task's payload at the test pose(s) (compliance)"
     )
     p.set_defaults(test_box=None)
-    add_instrument_arguments(p)
-    add_output_arguments(p)
-    add_progress_argument(p)  # the residual model's fit, on many configurations
-    p.set_defaults(run=run)
 
 
 def _check_outputs(args: argparse.Namespace, robot) -> None:
@@ -268,19 +283,7 @@ def run(args: argparse.Namespace) -> int:
     if args.task_payload is not None and not args.test_pose and not args.test_path:
         raise BadArgument("--task-payload is the load at the test pose(s): give --test-pose or --test-path")
     test_region = test_region_from_args(robot, args, required=False)
-    # --measure says what a file's columns leave open (x,y alone is a partial measurement, not a
-    # point file missing its z); without it, the columns (and --camera) say what was measured.
-    kind = kind_from_args(args, robot) if args.measure else rig.kind if rig is not None else None
-    if args.joint_states and len(args.joint_states) != len(args.data):
-        raise BadArgument(
-            f"{len(args.joint_states)} --joint-states for {len(args.data)} --data: give one per --data file"
-        )
-    sessions = [_read_data(args, robot, d, kind, i) for i, d in enumerate(args.data)]
-    kinds = {type(d.measure).__name__ for d in sessions}
-    if len(kinds) > 1:
-        raise BadArgument(
-            f"the --data files measure different things ({', '.join(sorted(kinds))}); give one kind"
-        )
+    sessions = _sessions(args, robot, rig)
     instrument = instrument_from_args(args, sessions[0].measure, sigma)
     params, source, dropped = parameters_with_base(robot, args, instrument)
     options = dict(
@@ -289,16 +292,7 @@ def run(args: argparse.Namespace) -> int:
     )  # fmt: skip
     if error is not None:
         options["instrument"] = error
-    validation = None
-    if args.holdout is not None:
-        result, validation = holdout(params, sessions, args.holdout, seed=args.seed, **options)
-    else:
-        result = identify(params, sessions, **options)
-        if args.validate:
-            other = _read_data(args, robot, args.validate, sessions[0].measure, 0)
-            validation = validate(result, other)
-        elif args.kfold is not None:
-            validation = kfold(params, sessions, args.kfold, seed=args.seed, **options)
+    result, validation = _fit(args, robot, params, sessions, options)
     writable = result.success or (args.force and result.status == "implausible")
     writer = export_mjcf if args.out and writes_mjcf(robot, args.out) else export_urdf
     out = writer(result, args.out, force=args.force) if args.out and writable else None
@@ -319,6 +313,52 @@ def run(args: argparse.Namespace) -> int:
         raise IdentificationFailed(result)
     if args.json:
         return 0
+    _print_report(args, robot, params, source, dropped, result, validation, accuracy)
+    if out:
+        format_name = "MJCF" if writer is export_mjcf else "URDF"
+        print(f"calibrated {format_name} written to {out} (sidecar {sidecar_path(out)})")
+    if not result.success:
+        print(f"pincal: warning: the result is {result.status}; written because of --force", file=sys.stderr)
+    return 0
+
+
+def _sessions(args: argparse.Namespace, robot, rig) -> list[MeasurementData]:
+    """The --data files read, each in its format, checked to measure one kind."""
+    # --measure says what a file's columns leave open (x,y alone is a partial measurement, not a
+    # point file missing its z); without it, the columns (and --camera) say what was measured.
+    kind = kind_from_args(args, robot) if args.measure else rig.kind if rig is not None else None
+    if args.joint_states and len(args.joint_states) != len(args.data):
+        raise BadArgument(
+            f"{len(args.joint_states)} --joint-states for {len(args.data)} --data: give one per --data file"
+        )
+    sessions = [_read_data(args, robot, d, kind, i) for i, d in enumerate(args.data)]
+    kinds = {type(d.measure).__name__ for d in sessions}
+    if len(kinds) > 1:
+        raise BadArgument(
+            f"the --data files measure different things ({', '.join(sorted(kinds))}); give one kind"
+        )
+    return sessions
+
+
+def _fit(args: argparse.Namespace, robot, params, sessions: list[MeasurementData], options: dict):
+    """(the identification's result, its validation or None): by --holdout, --validate or --kfold."""
+    validation = None
+    if args.holdout is not None:
+        result, validation = holdout(params, sessions, args.holdout, seed=args.seed, **options)
+    else:
+        result = identify(params, sessions, **options)
+        if args.validate:
+            other = _read_data(args, robot, args.validate, sessions[0].measure, 0)
+            validation = validate(result, other)
+        elif args.kfold is not None:
+            validation = kfold(params, sessions, args.kfold, seed=args.seed, **options)
+    return result, validation
+
+
+def _print_report(
+    args: argparse.Namespace, robot, params, source, dropped, result, validation, accuracy
+) -> None:
+    """The text report: what was fitted, the result, the calibrated frames, validation, accuracy."""
     files = ", ".join(args.data)
     print(f"{robot.name}: {len(params)} parameters ({source}), {result.data.m} configurations from {files}")
     if dropped:
@@ -332,7 +372,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{name} in {frame}: xyz {pose['xyz']} m, rpy {pose['rpy']} rad")
     if "base" in kinds:
         for i, base in enumerate(result.as_dict()["bases"]):
-            which = "" if len(sessions) == 1 else f" ({args.data[i]})"
+            which = "" if len(args.data) == 1 else f" ({args.data[i]})"
             print(f"robot base in the instrument frame{which}: xyz {base['xyz']} m, rpy {base['rpy']} rad")
     if validation is not None:
         print(validation.report())
@@ -340,9 +380,3 @@ def run(args: argparse.Namespace) -> int:
         print("\n".join(accuracy.lines(degrees=args.deg)))
     if args.plot:
         print(f"validation figure written to {args.plot}")
-    if out:
-        format_name = "MJCF" if writer is export_mjcf else "URDF"
-        print(f"calibrated {format_name} written to {out} (sidecar {sidecar_path(out)})")
-    if not result.success:
-        print(f"pincal: warning: the result is {result.status}; written because of --force", file=sys.stderr)
-    return 0
