@@ -32,6 +32,9 @@ import warnings
 from typing import TYPE_CHECKING, Any
 
 from pincal.deprecation import REMOVAL as _REMOVAL
+from pincal.stages import FOUNDATIONS as _FOUNDATIONS
+from pincal.stages import PUBLIC_LISTS as _PUBLIC_LISTS
+from pincal.stages import STAGES as _STAGE_NAMES
 from pincal.version import __version__
 
 if TYPE_CHECKING:
@@ -100,57 +103,6 @@ __all__ = [
     "validate",
 ]
 
-_HOMES = {
-    "pincal.calibration.identification": ("identify",),
-    "pincal.calibration.measurements": ("MeasurementData",),
-    "pincal.calibration.monte_carlo": ("monte_carlo",),
-    "pincal.calibration.result": ("IdentificationResult",),
-    "pincal.calibration.synthetic": (
-        "random_errors",
-        "simulate_measurements",
-    ),
-    "pincal.calibration.urdf_export": ("export_urdf",),
-    "pincal.calibration.validation": ("validate",),
-    "pincal.campaign.adaptive": ("next_poses",),
-    "pincal.campaign.schedule": ("plan_campaign",),
-    "pincal.compensation.compensate": ("compensate",),
-    "pincal.errors": (
-        "PincalError",
-        "PincalWarning",
-    ),
-    "pincal.evaluation.accuracy": ("accuracy",),
-    "pincal.evaluation.classic": ("criteria",),
-    "pincal.evaluation.prior": ("Prior",),
-    "pincal.evaluation.region": (
-        "TestPath",
-        "around",
-        "cartesian_box",
-    ),
-    "pincal.evaluation.test_pose": ("rho0",),
-    "pincal.model.loading": (
-        "load_robot",
-        "shipped_robots",
-    ),
-    "pincal.model.parameters": ("ParameterSet",),
-    "pincal.model.robot": ("Robot",),
-    "pincal.model.statics": ("Payload",),
-    "pincal.planning.baselines": ("random_plans",),
-    "pincal.planning.driver": ("design",),
-    "pincal.planning.options": (
-        "Loads",
-        "Safety",
-        "Search",
-    ),
-    "pincal.planning.plan": ("Plan",),
-    "pincal.planning.results": ("DesignResult",),
-    "pincal.viewing.scene": (
-        "scene",
-        "show",
-    ),
-}
-"""The module defining each public name, imported on first use (the imports above). Each name is
-also public in its stage (``pincal.model``, ...)."""
-
 _TOP_LEVEL_0_1 = frozenset(
     """
     DEFAULT_SIGMA AccuracyReport AmbiguousTip BadArgument BadConfiguration BadConstraint BadDHTable
@@ -173,46 +125,25 @@ NoInertias, top-level in 0.2's development until the move. History, never edited
 that are not in ``__all__`` still work, with a DeprecationWarning naming their home, until pincal
 0.3; each one's home is the stage whose ``__all__`` holds it (written there once)."""
 
-_STAGE_LISTS = (
-    "pincal.errors",
-    "pincal.model",
-    "pincal.instruments",
-    "pincal.evaluation",
-    "pincal.planning",
-    "pincal.planning.constraints",
-    "pincal.calibration",
-    "pincal.compensation",
-    "pincal.campaign",
-    "pincal.viewing",
-)
-"""The stages a moved name is looked up in, in the data flow's order, so that finding a name
-imports little its value does not need (a test checks that exactly one of them holds each name)."""
+_STAGE_LISTS = tuple(f"pincal.{module}" for module in _PUBLIC_LISTS)
+"""The modules a public or moved name is looked up in (:data:`pincal.stages.PUBLIC_LISTS`): each
+public name's home is the one whose ``__all__`` holds it (a test checks that exactly one does)."""
 
 _NO_LIST = {"DEFAULT_SIGMA": "pincal.arguments"}
 """Moved names whose home has no ``__all__`` (pincal.arguments holds the argument checks)."""
 
-_STAGES = (
-    "model",
-    "instruments",
-    "evaluation",
-    "planning",
-    "calibration",
-    "compensation",
-    "campaign",
-    "viewing",
-    "errors",
-    "typing",
-    "arguments",
-    "cli",
-)
+_STAGES = (*_STAGE_NAMES, *_FOUNDATIONS)
 """The public subpackages and modules, imported on first use as attributes (``pincal.model``)."""
 
-_HOME = {name: home for home, names in _HOMES.items() for name in names}
+_WORKFLOW = frozenset(__all__).difference({"__version__"})
+"""The workflow's names, each imported on first use from the stage whose ``__all__`` holds it (type
+checkers read the imports above; a test checks they are the same objects)."""
 _MOVED_NAMES = _TOP_LEVEL_0_1.difference(__all__)
 
 
-def _moved_home(name: str) -> str:
-    """The stage holding a name moved out of the top level (imports stages up to that one)."""
+def _home(name: str) -> str:
+    """The stage whose ``__all__`` holds a public or moved name (imports the stages up to that one;
+    a moved name without a list, from :data:`_NO_LIST`)."""
     if name in _NO_LIST:
         return _NO_LIST[name]
     for stage in _STAGE_LISTS:
@@ -223,7 +154,7 @@ def _moved_home(name: str) -> str:
 
 def _moved() -> dict[str, tuple[str, ...]]:
     """Each stage and the moved names it holds (imports every stage; for tests and tools)."""
-    homes = {name: _moved_home(name) for name in sorted(_MOVED_NAMES)}
+    homes = {name: _home(name) for name in sorted(_MOVED_NAMES)}
     return {home: tuple(n for n in sorted(homes) if homes[n] == home) for home in sorted(set(homes.values()))}
 
 
@@ -232,12 +163,12 @@ if not TYPE_CHECKING:  # type checkers see the imports above; an unknown name st
     def __getattr__(name: str) -> Any:
         """A public name, imported from its stage on first use (then a plain attribute); a name
         moved to a stage in 0.2, with a DeprecationWarning; a stage subpackage."""
-        if name in _HOME:
-            value = getattr(importlib.import_module(_HOME[name]), name)
+        if name in _WORKFLOW:
+            value = getattr(importlib.import_module(_home(name)), name)
             globals()[name] = value
             return value
         if name in _MOVED_NAMES:
-            home = _moved_home(name)
+            home = _home(name)
             if sys._getframe(1).f_code.co_filename.startswith("<frozen importlib"):
                 # 'from pincal import X' looks X up twice: warn once, at the user's line
                 return getattr(importlib.import_module(home), name)

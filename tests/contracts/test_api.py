@@ -16,26 +16,15 @@ from pathlib import Path
 import pytest
 
 import pincal
+from pincal.stages import PUBLIC_LISTS, STAGES
 from tests.conftest import ROOT
 
 PACKAGE = Path(pincal.__file__).resolve().parent
 """The package under test (the checkout's pincal/, or the installed wheel's under .ci/run)."""
 
-PUBLIC_MODULES = (
-    "pincal.model",
-    "pincal.instruments",
-    "pincal.evaluation",
-    "pincal.planning",
-    "pincal.planning.constraints",
-    "pincal.calibration",
-    "pincal.compensation",
-    "pincal.campaign",
-    "pincal.viewing",
-    "pincal.errors",
-    "pincal.typing",
-)
-"""The stages' public faces: each has its own ``__all__``, sorted (constants first, as ruff and
-isort sort them)."""
+PUBLIC_MODULES = tuple(f"pincal.{module}" for module in PUBLIC_LISTS)
+"""The stages' public faces (:data:`pincal.stages.PUBLIC_LISTS`): each has its own ``__all__``,
+sorted (constants first, as ruff and isort sort them)."""
 
 
 def test_all_names_import():
@@ -51,22 +40,21 @@ def test_the_top_level_is_the_workflow():
     """About 30 names (pink has 11, mink 15): each also public in its stage, and the imports type
     checkers read (under TYPE_CHECKING) are the names imported at run time."""
     assert 20 <= len(pincal.__all__) <= 35, len(pincal.__all__)
-    homes = {name: home for home, names in pincal._HOMES.items() for name in names}
-    assert sorted(homes) == sorted(set(pincal.__all__) - {"__version__"})
-    for name, home in homes.items():
-        stage = importlib.import_module(".".join(home.split(".")[:2]))  # pincal.model, pincal.errors
-        assert name in stage.__all__, f"{name} is not in {stage.__name__}.__all__"
-        assert getattr(pincal, name) is getattr(stage, name) is getattr(importlib.import_module(home), name)
     tree = ast.parse((PACKAGE / "__init__.py").read_text())
-    checked = {
-        (node.module, alias.name)
+    homes = {
+        alias.name: node.module
         for block in tree.body
         if isinstance(block, ast.If) and ast.unparse(block.test) == "TYPE_CHECKING"
         for node in ast.walk(block)
         if isinstance(node, ast.ImportFrom)
         for alias in node.names
     }
-    assert checked == {(home, name) for name, home in homes.items()}
+    assert sorted(homes) == sorted(set(pincal.__all__) - {"__version__"})
+    for name, home in homes.items():
+        stage = importlib.import_module(".".join(home.split(".")[:2]))  # pincal.model, pincal.errors
+        holders = [s for s in pincal._STAGE_LISTS if name in importlib.import_module(s).__all__]
+        assert holders == [stage.__name__], f"{name} is in the __all__ of {holders}, not {stage.__name__}"
+        assert getattr(pincal, name) is getattr(stage, name) is getattr(importlib.import_module(home), name)
 
 
 @pytest.mark.parametrize("module", PUBLIC_MODULES)
@@ -160,19 +148,6 @@ def test_no_import_inside_a_function_but_optional_ones():
                 for module in modules:
                     if module.split(".")[0] == "pincal":
                         assert (name, module) in allowed, f"{name}: {function.name} imports {module}"
-
-
-STAGES = (
-    "model",
-    "instruments",
-    "evaluation",
-    "planning",
-    "calibration",
-    "compensation",
-    "campaign",
-    "viewing",
-    "cli",
-)
 
 
 def test_data_flows_one_way():
