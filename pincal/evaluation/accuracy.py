@@ -15,8 +15,6 @@ Here :func:`accuracy`; the rest in one module each: :class:`PredictedError` and 
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 
 from pincal.arguments import positive_sigma
@@ -37,6 +35,7 @@ from pincal.evaluation.test_pose_worst import TestPoseWorst
 from pincal.instruments.error_model import ErrorModel
 from pincal.instruments.instrument import optional_instrument
 from pincal.instruments.kind import Kind
+from pincal.kept import REPORTS
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.typing import PayloadLike, PlansLike, TestPoseLike
@@ -132,16 +131,11 @@ def accuracy(
     return reports if batched else reports[0]
 
 
-_LOCAL = threading.local()
-_KEPT = 4
-"""Accuracy reports' configurations kept per thread (the most recently used)."""
-
-
 def _report(params, test_pose, neighbourhoods, samples, workspace, seed, sigma, prior, task_payload, inst):
     """(sets, test poses, region, the sets' tip-frame Jacobians, the test poses' criterion) of an
-    accuracy report: computed once and kept (per thread, the :data:`_KEPT` most recently used) for
-    the same parameter set, test pose array (its values), draws and σ, without a prior, a task
-    payload or an instrument, and with an integer seed: a script that reports on many plans one
+    accuracy report: computed once and kept (:data:`pincal.kept.REPORTS`, per thread) for the same
+    parameter set, test pose array (its values), draws and σ, without a prior, a task payload or an
+    instrument, and with an integer seed: a script that reports on many plans one
     call at a time pays for the report's configurations once. The kept Jacobians are read-only."""
     robot = params.robot
     key: tuple | None = None
@@ -156,15 +150,12 @@ def _report(params, test_pose, neighbourhoods, samples, workspace, seed, sigma, 
         try:
             limits = robot.model.lowerPositionLimit.tobytes() + robot.model.upperPositionLimit.tobytes()
             values = (test_pose.shape, test_pose.tobytes(), tuple(neighbourhoods), samples, workspace, seed)
-            key = (id(params), *values, sigma, limits)
+            key = (*values, sigma, limits)
             hash(key)
         except TypeError:  # an argument that is not a plain value: computed for the call
             key = None
-    kept = getattr(_LOCAL, "reports", None)
-    if kept is None:
-        kept = _LOCAL.reports = {}
-    found = None if key is None else kept.pop(key, None)
-    if found is None or found[0] is not params:
+
+    def build() -> tuple:
         sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
         jacobians = _set_jacobians(engine_for(params), sets, task_payload)
         # ρ0² at each test pose, split (TestPoseCriterion's per-pose criterion, on the test poses'
@@ -173,12 +164,9 @@ def _report(params, test_pose, neighbourhoods, samples, workspace, seed, sigma, 
         at_test_poses = TestPoseWorst(
             jacobians[0][1], float(sigma), engine_for(params, inst).rows, information
         )
-        found = (params, (sets, poses, region, jacobians, at_test_poses))
-        if key is not None and len(kept) >= _KEPT:
-            kept.pop(next(iter(kept)))
-    if key is not None:
-        kept[key] = found  # last: the most recently used
-    return found[1]
+        return sets, poses, region, jacobians, at_test_poses
+
+    return build() if key is None else REPORTS.get((params,), key, build)
 
 
 def _set_jacobians(engine, sets: list[tuple[str, np.ndarray]], task_payload) -> list[tuple[str, np.ndarray]]:

@@ -14,8 +14,6 @@ caller's process has set: with a threaded BLAS on a busy machine even one ρ0 to
 
 from __future__ import annotations
 
-import threading
-import weakref
 from collections.abc import Callable
 from contextlib import AbstractContextManager
 from typing import TypeVar
@@ -25,34 +23,21 @@ import numpy as np
 from pincal.blas import single_threaded
 from pincal.errors import BadConfiguration, SingularPlan
 from pincal.instruments.instrument import Instrument, RowsEngine
+from pincal.kept import ENGINES
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.typing import PlansLike
 
-_LOCAL = threading.local()
 T = TypeVar("T")
 
 
 def engine_for(params: ParameterSet, instrument: Instrument | None = None) -> JacobianEngine | RowsEngine:
-    """The Jacobian engine of ``params`` for this thread, built on first use and kept while
-    ``params`` lives: the markers' positions, or with ``instrument`` the rows it measures,
-    whitened (:class:`~pincal.instruments.instrument.RowsEngine`)."""
-    cache = getattr(_LOCAL, "engines", None)
-    if cache is None:
-        cache = _LOCAL.engines = weakref.WeakKeyDictionary()
+    """The Jacobian engine of ``params`` for this thread, built on first use and kept
+    (:data:`pincal.kept.ENGINES`): the markers' positions, or with ``instrument`` the rows it
+    measures, whitened (:class:`~pincal.instruments.instrument.RowsEngine`)."""
     if instrument is None:
-        engine = cache.get(params)
-        if engine is None:
-            engine = cache[params] = JacobianEngine(params)
-        return engine
-    rows = getattr(_LOCAL, "rows", None)
-    if rows is None:
-        rows = _LOCAL.rows = weakref.WeakKeyDictionary()
-    by_instrument = rows.setdefault(params, weakref.WeakKeyDictionary())
-    engine = by_instrument.get(instrument)
-    if engine is None:
-        engine = by_instrument[instrument] = instrument.engine(params)
-    return engine
+        return ENGINES.get((params,), "positions", lambda: JacobianEngine(params))
+    return ENGINES.get((params, instrument), "rows", lambda: instrument.engine(params))
 
 
 SMALL = 64

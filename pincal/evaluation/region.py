@@ -28,7 +28,6 @@ pose walks on (see :func:`pincal.evaluation.predicted_error.worst_found`).
 from __future__ import annotations
 
 import math
-import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -41,6 +40,7 @@ from pincal.arguments import length as _length
 from pincal.arguments import point as _point
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, Infeasible
+from pincal.kept import REGIONS
 from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
 from pincal.typing import ArrayLike, ConfigurationsLike, JointValues, PointsLike, TestPoseLike
@@ -79,13 +79,10 @@ class ResolvedRegion:
         return self.to_configuration is not None
 
 
-SHARED = 8
+SHARED = REGIONS.size
 """Regions resolved most recently, kept for an equal region made anew (``rho0(params, plan,
-around(q0, r))`` in a loop draws the samples once); their samples are read-only and their draws
-seeded, so equal regions on one robot resolve to equal samples."""
-
-_SHARED: dict[tuple, tuple[Robot, ResolvedRegion]] = {}
-_SHARED_LOCK = threading.Lock()
+around(q0, r))`` in a loop draws the samples once; :data:`pincal.kept.REGIONS`); their samples are
+read-only and their draws seeded, so equal regions on one robot resolve to equal samples."""
 
 
 class TestRegion:
@@ -115,17 +112,16 @@ class TestRegion:
         found = kept.get(id(robot))
         if found is not None and found[0] is robot and found[1] == key:
             return key, found[2]
-        with _SHARED_LOCK:
-            shared = _SHARED.pop((id(robot), key), None)  # an equal region's (one made anew per call)
-        resolved = shared[1] if shared is not None and shared[0] is robot else self._resolve(robot)
-        if resolved.unit_samples is not None:  # read-only, as its poses: kept and shared
-            resolved.unit_samples.flags.writeable = False
+        resolved = REGIONS.get((robot,), key, lambda: self._read_only(robot))  # or an equal region's
         kept[id(robot)] = (robot, key, resolved)
-        with _SHARED_LOCK:
-            if len(_SHARED) >= SHARED:
-                _SHARED.pop(next(iter(_SHARED)))
-            _SHARED[(id(robot), key)] = (robot, resolved)  # last: the most recently used
         return key, resolved
+
+    def _read_only(self, robot: Robot) -> ResolvedRegion:
+        """:meth:`_resolve`, its unit samples made read-only, as its poses: kept and shared."""
+        resolved = self._resolve(robot)
+        if resolved.unit_samples is not None:
+            resolved.unit_samples.flags.writeable = False
+        return resolved
 
     def _resolve(self, robot: Robot) -> ResolvedRegion:
         raise NotImplementedError

@@ -32,7 +32,6 @@ A plan whose M is singular (too few configurations, or degenerate ones) has no f
 from __future__ import annotations
 
 import math
-import threading
 
 import numpy as np
 
@@ -54,6 +53,7 @@ from pincal.evaluation.weighted_trace import WeightedTrace
 from pincal.instruments.error_model import ErrorModel
 from pincal.instruments.instrument import Instrument, optional_instrument, orientation_length_of, tool_rows
 from pincal.instruments.kind import Kind
+from pincal.kept import CRITERIA
 from pincal.lapack import trsm, trsm_batch
 from pincal.model.parameters import ParameterSet
 from pincal.model.statics import payload_rows
@@ -389,34 +389,25 @@ def position_covariance(
     return sigma**2 * np.einsum("kpi,kpj->kij", X, X)
 
 
-_LOCAL = threading.local()
-_KEPT = 8
-"""Criteria kept per thread (the most recently used)."""
-
-
 def _criterion(params, test_pose, sigma: float, aggregate, prior, task_payload) -> TestPoseCriterion:
     """The :class:`TestPoseCriterion` of these arguments (σ checked already), built once and kept
-    (per thread, the :data:`_KEPT` most recently used) for the same parameter set, test poses, σ,
+    (:data:`pincal.kept.CRITERIA`, per thread) for the same parameter set, test poses, σ,
     aggregate and task payload without a prior: a script that evaluates many plans one call at a
     time pays for J₀ and its factor once."""
     if prior is not None:
         return TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
-    kept = getattr(_LOCAL, "criteria", None)
-    if kept is None:
-        kept = _LOCAL.criteria = {}
     if type(test_pose) is np.ndarray and test_pose.dtype == np.float64 and task_payload is None:
         # The values as given: equal bytes are equal test poses, checked when first seen (a
         # changed array is a new key, so nothing kept goes stale).
-        key: tuple = (id(params), test_pose.shape, test_pose.tobytes(), sigma, aggregate)
+        key: tuple = (test_pose.shape, test_pose.tobytes(), sigma, aggregate)
     elif isinstance(test_pose, TestRegion) and task_payload is None:
         # What the region is resolved from (its kind, values and the joint limits): a region
         # changed in place is a new key, an equal region made anew the same one.
-        key = (id(params), "region", test_pose.keyed_resolve(params.robot)[0], sigma, aggregate)
+        key = ("region", test_pose.keyed_resolve(params.robot)[0], sigma, aggregate)
     else:
         poses, _ = resolve_test_poses(params.robot, test_pose)  # checked, as the criterion would
         rows = payload_rows(task_payload, len(poses))
         key = (
-            id(params),
             poses.shape,
             poses.tobytes(),
             sigma,
@@ -424,11 +415,9 @@ def _criterion(params, test_pose, sigma: float, aggregate, prior, task_payload) 
             None if rows is None else rows.tobytes(),
             type(test_pose).__name__,
         )
-    criterion = kept.pop(key, None)
-    if criterion is None or criterion.params is not params:
+
+    def build() -> TestPoseCriterion:
         with blas_for(0):  # J₀ of a region's samples is a large product
-            criterion = TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
-        if len(kept) >= _KEPT:
-            kept.pop(next(iter(kept)))
-    kept[key] = criterion  # last: the most recently used
-    return criterion
+            return TestPoseCriterion(params, test_pose, sigma, aggregate, prior, task_payload)
+
+    return CRITERIA.get((params,), key, build)

@@ -30,6 +30,7 @@ from pincal.evaluation.region import width_text
 from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.instruments import Tracker
 from pincal.instruments.instrument import optional_instrument
+from pincal.kept import REPORTS
 from pincal.model.jacobian import JacobianEngine
 from tests.conftest import ROOT
 
@@ -240,8 +241,6 @@ def test_accuracy_reports_kept_follow_their_arguments(kr270_marker):
     """accuracy keeps a report's configurations and Jacobians for the same test pose values,
     draws and σ: every call gives what a report computed afresh gives, in any order, for another
     seed, sample count, σ, parameter set, or the same test pose array changed in place."""
-    module = importlib.import_module("pincal.evaluation.accuracy")  # the module, not the function
-
     params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
     other = kr270_marker.parameters("full").identifiable().identifiable
     rng = np.random.default_rng(9)
@@ -258,14 +257,14 @@ def test_accuracy_reports_kept_follow_their_arguments(kr270_marker):
     ]
 
     def fresh(p, kw):
-        module._LOCAL.reports = {}
+        REPORTS.forget()
         if isinstance(kw.get("seed"), np.random.Generator):
             kw = dict(kw, seed=np.random.default_rng(3))
         return _rows(pincal.accuracy(p, plan, q0, **kw))
 
     expected = [fresh(p, kw) for p, kw in cases]
     assert len({tuple(rows) for rows in expected[:5]}) == 5  # every case is another report
-    module._LOCAL.reports = {}
+    REPORTS.forget()
     for _ in range(2):
         for (p, kw), rows in zip(cases, expected, strict=True):
             if isinstance(kw.get("seed"), np.random.Generator):
@@ -276,7 +275,7 @@ def test_accuracy_reports_kept_follow_their_arguments(kr270_marker):
     moved[1] = 0.5 * (moved[1] + kr270_marker.upper[1])
     after = _rows(pincal.accuracy(params, plan, moved, sigma=SIGMA, **small))
     assert after != before
-    module._LOCAL.reports = {}
+    REPORTS.forget()
     assert after == _rows(pincal.accuracy(params, plan, moved, sigma=SIGMA, **small))
     assert q0.flags.writeable and plan.flags.writeable  # the caller's arrays untouched
 
