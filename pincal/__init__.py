@@ -2,7 +2,7 @@
 then calibrate.
 
 Data flows one way: robot → parameters → Jacobians → criteria → design → (simulate | identify) →
-campaign → compensate / export / show.
+export → compensate → campaign → show (the stages in :data:`pincal.stages.STAGES`).
 
     >>> import pincal
     >>> robot = pincal.load_robot("kr270", tip="tool0", markers=[(0.1, 0.05, 0.2)])
@@ -14,7 +14,8 @@ The names here are the workflow; each stage is a public subpackage holding the r
 ``__all__``: :mod:`pincal.model` (robots, parameters, identifiability, DH tables, payloads),
 :mod:`pincal.evaluation` (criteria, regions, accuracy, the data check), :mod:`pincal.planning`
 (design, plans, constraints in :mod:`pincal.planning.constraints`), :mod:`pincal.calibration`
-(measurements, identification, validation, simulation, export), :mod:`pincal.compensation`,
+(measurements, identification, validation, simulation), :mod:`pincal.export` (the calibrated URDF,
+MJCF, SDF, xacro and ROS files), :mod:`pincal.compensation`,
 :mod:`pincal.campaign` (ordered, checked, timed campaigns; the next poses from the data so far),
 :mod:`pincal.viewing`, :mod:`pincal.errors` (every exception and warning) and
 :mod:`pincal.typing` (the types of pincal's arguments).
@@ -43,7 +44,6 @@ if TYPE_CHECKING:
     from pincal.calibration.monte_carlo import monte_carlo
     from pincal.calibration.result import IdentificationResult
     from pincal.calibration.synthetic import random_errors, simulate_measurements
-    from pincal.calibration.urdf_export import export_urdf
     from pincal.calibration.validation import validate
     from pincal.campaign.adaptive import next_poses
     from pincal.campaign.schedule import plan_campaign
@@ -54,6 +54,7 @@ if TYPE_CHECKING:
     from pincal.evaluation.prior import Prior
     from pincal.evaluation.region import TestPath, around, cartesian_box
     from pincal.evaluation.test_pose import rho0
+    from pincal.export.urdf import export_urdf
     from pincal.model.loading import load_robot, shipped_robots
     from pincal.model.parameters import ParameterSet
     from pincal.model.robot import Robot

@@ -15,14 +15,15 @@ STAGES = (
     "evaluation",
     "planning",
     "calibration",
+    "export",
     "compensation",
     "campaign",
     "viewing",
     "cli",
 )
 """The stages (subpackages of pincal), in the data flow's order: each imports only those before it
-(robot → what is measured → criteria → design → identification → compensation → campaign → view →
-command line)."""
+(robot → what is measured → criteria → design → identification → export → compensation → campaign →
+view → command line)."""
 
 FOUNDATIONS = ("errors", "typing", "arguments")
 """The public modules under every stage: any stage may import them, they import no stage."""

@@ -1,21 +1,20 @@
 """Calibrating: measurement files (:mod:`.measurements`), identification (:mod:`.identification`
 in stages over :mod:`.state`, :mod:`.noise`, :mod:`.problem`, :mod:`.solver`, :mod:`.sanity`,
 :mod:`.result`), held-out errors (:mod:`.validation`), synthetic data (:mod:`.synthetic`), the
-Monte-Carlo check of a plan (:mod:`.monte_carlo`), the calibrated URDF (:mod:`.urdf_export`), MJCF
-(:mod:`.mjcf_export`) and SDF (:mod:`.sdf_export`) and other tools' measurement files
-(:mod:`.formats`: FIGAROH, robot_calibration, industrial_calibration, MoveIt Calibration)."""
+Monte-Carlo check of a plan (:mod:`.monte_carlo`), the joint corrections a controller applies
+(:mod:`.corrections`) and other tools' measurement files (:mod:`.formats`: FIGAROH,
+robot_calibration, industrial_calibration, MoveIt Calibration). The calibrated URDF, MJCF and SDF are
+written by the next stage, :mod:`pincal.export`."""
 
 from pincal.calibration.formats import read_measurements
 from pincal.calibration.identification import identify
 from pincal.calibration.measurements import MeasurementData
-from pincal.calibration.mjcf_export import export_mjcf
 from pincal.calibration.monte_carlo import MonteCarloResult, monte_carlo
 from pincal.calibration.result import IdentificationResult
 from pincal.calibration.sanity import Outlier
-from pincal.calibration.sdf_export import export_sdf
 from pincal.calibration.synthetic import RandomErrors, SmoothField, random_errors, simulate_measurements
-from pincal.calibration.urdf_export import export_urdf
 from pincal.calibration.validation import Validation, holdout, kfold, validate
+from pincal.deprecation import moved_from
 
 __all__ = [
     "IdentificationResult",
@@ -25,9 +24,6 @@ __all__ = [
     "RandomErrors",
     "SmoothField",
     "Validation",
-    "export_mjcf",
-    "export_sdf",
-    "export_urdf",
     "holdout",
     "identify",
     "kfold",
@@ -37,3 +33,6 @@ __all__ = [
     "simulate_measurements",
     "validate",
 ]
+
+__getattr__ = moved_from(__name__, {"pincal.export": ("export_mjcf", "export_sdf", "export_urdf")})
+"""Names that moved to :mod:`pincal.export` in 0.2."""

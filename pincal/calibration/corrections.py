@@ -6,7 +6,7 @@ measured chain its calibrated ``<origin>`` (offset folded in, and without it), i
 gain; the tool's fixed joint; the markers and the base. :func:`corrections_of` reads them from a
 calibrated robot (the calibrated file reloaded with its sidecar's terms), its sidecar and the source
 it was made from; :func:`corrections_yaml` writes them in the layout below, which a xacro
-description can read (:mod:`pincal.calibration.xacro_export`)::
+description can read (:mod:`pincal.export.xacro`)::
 
     format: pincal-corrections-1
     robot: NAME

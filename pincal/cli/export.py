@@ -9,15 +9,15 @@ from collections.abc import Callable
 from pathlib import Path
 
 from pincal.calibration.corrections import corrections_of, corrections_yaml, source_of
-from pincal.calibration.mjcf_export import export_mjcf
-from pincal.calibration.ros_exports import robot_calibration_text, ros2_control_text
-from pincal.calibration.sdf_export import export_sdf
-from pincal.calibration.urdf_export import export_urdf, sidecar_path
-from pincal.calibration.xacro_export import corrections_path, export_xacro
 from pincal.cli import COMMANDS
 from pincal.cli._common import add_command, add_output_arguments, emit_json
 from pincal.compensation.calibration_file import DeployedCalibration, load_calibration, sidecar_tip
 from pincal.errors import BadArgument, OverwriteRefused
+from pincal.export.mjcf import export_mjcf
+from pincal.export.ros import robot_calibration_text, ros2_control_text
+from pincal.export.sdf import export_sdf
+from pincal.export.urdf import export_urdf, sidecar_path
+from pincal.export.xacro import corrections_path, export_xacro
 from pincal.files import atomic_write_text
 from pincal.model.loading import load_robot
 

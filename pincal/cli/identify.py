@@ -12,8 +12,6 @@ from pincal.arguments import DEFAULT_SIGMA, fraction, positive_int, positive_sig
 from pincal.calibration.formats import FORMATS, format_of, read_measurements
 from pincal.calibration.identification import LOSSES, METHODS, RESIDUAL_MODELS, identify
 from pincal.calibration.measurements import MeasurementData
-from pincal.calibration.mjcf_export import export_mjcf, writes_mjcf
-from pincal.calibration.urdf_export import export_urdf, sidecar_path
 from pincal.calibration.validation import holdout, kfold, validate
 from pincal.cli import COMMANDS
 from pincal.cli._accuracy import test_region_from_args
@@ -45,6 +43,8 @@ from pincal.cli._instrument import (
 )
 from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused
 from pincal.evaluation.prior import Prior
+from pincal.export.mjcf import export_mjcf, writes_mjcf
+from pincal.export.urdf import export_urdf, sidecar_path
 from pincal.viewing.plots import save_figure, validation_errors
 
 HELP = COMMANDS["identify"].help

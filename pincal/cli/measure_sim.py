@@ -8,9 +8,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.arguments import DEFAULT_SIGMA, MAX_ANGLE, check_lengths, generator, number
-from pincal.calibration.mjcf_export import export_mjcf, writes_mjcf
 from pincal.calibration.synthetic import random_errors, simulate_measurements
-from pincal.calibration.urdf_export import export_urdf
 from pincal.cli import COMMANDS
 from pincal.cli._common import (
     SIGMA_HELP,
@@ -35,6 +33,8 @@ from pincal.cli._instrument import (
 )
 from pincal.cli.simulate import parse_error_std
 from pincal.errors import BadArgument, BadConfiguration, UrdfError
+from pincal.export.mjcf import export_mjcf, writes_mjcf
+from pincal.export.urdf import export_urdf
 from pincal.model.loading import load_robot
 
 HELP = COMMANDS["measure-sim"].help

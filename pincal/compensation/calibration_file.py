@@ -1,7 +1,7 @@
 """A calibration as deployed: the calibrated URDF (plain geometry, joint offsets folded in) and its
 JSON sidecar, which holds everything else compensation needs: the tip and markers, the joint gains
 and compliances, gravity in the robot's base frame, the base in the instrument's frame and the
-residual model (see :mod:`pincal.calibration.urdf_export`)."""
+residual model (see :mod:`pincal.export.urdf`)."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from pincal.calibration.urdf_export import sidecar_path
 from pincal.errors import BadArgument, UrdfError
+from pincal.export.urdf import sidecar_path
 from pincal.files import read_text
 from pincal.model.loading import load_robot
 from pincal.model.residual import ResidualModel

@@ -16,11 +16,11 @@ from lxml import etree
 
 import pincal
 from pincal import random_errors
-from pincal.calibration.urdf_export import export_urdf, sidecar_path
-from pincal.calibration.xacro_export import corrections_path
 from pincal.cli import main
 from pincal.compensation.calibration_file import load_calibration
 from pincal.errors import PincalWarning
+from pincal.export.urdf import export_urdf, sidecar_path
+from pincal.export.xacro import corrections_path
 from pincal.model.urdf import expanded_text
 from tests.conftest import ROOT
 

@@ -6,7 +6,7 @@ libsdformat is C++: tests/data/sdf/sdf_poses.cpp is built against it (Debian's l
 libsdformat 12, SDFormat 1.9; .ci/run installs it) and prints what it resolved. The Python
 bindings on PyPI (sdformat14-py-bindings) need libsdformat 14's shared libraries, which this
 machine's Debian does not have; without a compiler and libsdformat the libsdformat tests skip,
-saying why, and the exporter's own read-back check (pincal.calibration.sdf_export.sdf_points) is
+saying why, and the exporter's own read-back check (pincal.export.sdf.sdf_points) is
 still tested."""
 
 from __future__ import annotations
@@ -22,9 +22,9 @@ import pytest
 from lxml import etree
 
 import pincal
-from pincal.calibration.sdf_export import MARKER_FRAME, export_sdf, sdf_points
-from pincal.calibration.urdf_export import export_urdf, sidecar_path
 from pincal.errors import PincalWarning, UrdfError
+from pincal.export.sdf import MARKER_FRAME, export_sdf, sdf_points
+from pincal.export.urdf import export_urdf, sidecar_path
 from tests.conftest import ROOT
 
 MARKERS = [(0.1, 0.05, 0.2), (-0.03, 0.08, 0.02)]

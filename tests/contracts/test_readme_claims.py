@@ -181,9 +181,7 @@ from pincal.calibration.sanity import (  # noqa: E402
     TOOL_LIMIT,
     ZERO_SCALE,
 )
-from pincal.calibration.sdf_export import SDF_VERSION  # noqa: E402
 from pincal.calibration.synthetic import DEFAULT_ERROR_STD  # noqa: E402
-from pincal.calibration.urdf_export import ROUND_TRIP_TOLERANCE  # noqa: E402
 from pincal.campaign.adaptive import AVOID_DISTANCE  # noqa: E402
 from pincal.campaign.ordering import EXACT_LIMIT  # noqa: E402
 from pincal.campaign.rehearsal import Faults  # noqa: E402
@@ -194,6 +192,8 @@ from pincal.evaluation.data_check import IDENTIFIABLE_STD, MIN_DATA_CONDITIONING
 from pincal.evaluation.plans import BLOCK  # noqa: E402
 from pincal.evaluation.prior import PRIOR_RANGE  # noqa: E402
 from pincal.evaluation.region import DEFAULT_SAMPLES  # noqa: E402
+from pincal.export.sdf import SDF_VERSION  # noqa: E402
+from pincal.export.urdf import ROUND_TRIP_TOLERANCE  # noqa: E402
 from pincal.files import MAX_CELL_CHARS, MAX_FILE_BYTES, MAX_LINE_CHARS, MAX_YAML_DEPTH, MAX_YAML_NODES  # noqa: E402
 from pincal.model.base_parameters import NEARLY_REDUNDANT  # noqa: E402
 from pincal.model.collision import LINK_RADIUS, REFINE_BELOW  # noqa: E402

@@ -14,9 +14,9 @@ import pytest
 from lxml import etree
 
 import pincal
-from pincal.calibration.mjcf_export import export_mjcf
 from pincal.cli import main
 from pincal.errors import BadArgument, OverwriteRefused, PincalWarning, UrdfError
+from pincal.export.mjcf import export_mjcf
 from tests.conftest import ROOT
 
 DATA = ROOT / "tests" / "data" / "mjcf"
@@ -340,7 +340,7 @@ def test_cli_identify_and_export(tmp_path, capsys):
 
 
 def test_writes_mjcf_choice():
-    from pincal.calibration.mjcf_export import writes_mjcf
+    from pincal.export.mjcf import writes_mjcf
 
     robot = quiet_load(TWO_LINK)
     assert writes_mjcf(robot, "cal.xml") and writes_mjcf(robot, "cal")

@@ -38,8 +38,8 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.calibration.corrections import Corrections, corrections_yaml
-from pincal.calibration.urdf_export import sidecar_path
 from pincal.errors import PincalWarning, UrdfError
+from pincal.export.urdf import sidecar_path
 from pincal.files import all_or_nothing, atomic_write_text
 from pincal.model import xacro_expansion
 from pincal.model.loading import load_robot

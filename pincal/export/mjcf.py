@@ -20,7 +20,7 @@ conventions):
   comments are kept. ``<include>`` files are inlined (the written file stands alone); unnamed
   bodies and joints are named ``body<i>``/``joint<i>``; relative asset folders are rewritten for
   the new file's folder.
-* Next to it, the JSON sidecar of :mod:`pincal.calibration.urdf_export` (``cal.xml`` →
+* Next to it, the JSON sidecar of :mod:`pincal.export.urdf` (``cal.xml`` →
   ``cal.calibration.json``): ``pincal compensate`` reads the pair as it reads a URDF's.
 
 A robot loaded from a URDF is written as a new MJCF file (:mod:`._urdf_to_mjcf`): each link a body
@@ -42,10 +42,10 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from pincal.calibration._urdf_to_mjcf import urdf_to_mjcf
 from pincal.calibration.identification import IdentificationResult
-from pincal.calibration.urdf_export import check_reproduces, placement_text, sidecar, sidecar_path
 from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused, PincalWarning, UrdfError
+from pincal.export._urdf_to_mjcf import urdf_to_mjcf
+from pincal.export.urdf import check_reproduces, placement_text, sidecar, sidecar_path
 from pincal.files import all_or_nothing, atomic_write_text
 from pincal.model.chain import default_root, frame_id
 from pincal.model.loading import load_robot

@@ -38,10 +38,10 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from pincal.calibration._urdf_to_mjcf import NO_INERTIA, NO_MASS
 from pincal.calibration.identification import IdentificationResult
-from pincal.calibration.urdf_export import placement_text
 from pincal.errors import BadArgument, IdentificationFailed, PincalWarning, UrdfError
+from pincal.export._urdf_to_mjcf import NO_INERTIA, NO_MASS
+from pincal.export.urdf import placement_text
 from pincal.files import atomic_write_text
 from pincal.model.robot import Robot
 from pincal.model.urdf import read_tree, resolve_mesh
