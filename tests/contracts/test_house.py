@@ -151,6 +151,19 @@ MOVED = {
         "PRISMATIC_PER_RADIAN": "pincal.evaluation.accuracy_samples",
         "sample_sets": "pincal.evaluation.accuracy_samples",
     },
+    "pincal.calibration": {
+        "export_urdf": "pincal.export",
+        "export_mjcf": "pincal.export",
+        "export_sdf": "pincal.export",
+    },
+    "pincal.calibration.urdf_export": {
+        "export_urdf": "pincal.export.urdf",
+        "sidecar_path": "pincal.export.urdf",
+    },
+    "pincal.calibration.xacro_export": {
+        "export_xacro": "pincal.export.xacro",
+        "corrections_path": "pincal.export.xacro",
+    },
     "pincal.calibration.result": {
         "identification_result": "pincal.calibration.assembly",
         "residual_rms": "pincal.calibration.assembly",
