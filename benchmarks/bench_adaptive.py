@@ -6,7 +6,7 @@
 KR 270 (tip tool0, marker (0.1, 0.05, 0.2) m, identifiable `lengths,offsets`: 12 parameters), the
 ±10° region around (0, -60, 60, 0, 45, 0)° (64 samples), nominal σ = 0.03 mm, target 0.02 mm rms
 over the region. Each seed is one simulated robot (random errors, 1 mm / 1 mrad) and one campaign
-each way (pincal.campaign.rehearsal): the instrument's noise is on average 1.5× the nominal σ and
+each way (pincal.adaptive.rehearsal): the instrument's noise is on average 1.5× the nominal σ and
 grows with the distance to a tracker at (3, 0, 1) m, the first batch loses one planned pose
 (unreachable) and has one 2 mm outlier. Both ways stop by the same rule: the predicted error over
 the region from the data so far (σ re-estimated, outliers dropped) below the target. One-shot: the
@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 import pincal
-from pincal.campaign.rehearsal import Faults, one_shot_plan, rehearse, summary
+from pincal.adaptive.rehearsal import Faults, one_shot_plan, rehearse, summary
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import footer, header, publish, timed  # noqa: E402

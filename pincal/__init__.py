@@ -1,8 +1,9 @@
 """pincal: choose the measurement configurations of a robot calibration for where the robot works,
 then calibrate.
 
-Data flows one way: robot → parameters → Jacobians → criteria → design → (simulate | identify) →
-export → compensate → campaign → show (the stages in :data:`pincal.stages.STAGES`).
+Data flows one way: robot → parameters → Jacobians → criteria → design → campaign →
+(simulate | identify) → next poses → export → compensate → show (the stages in
+:data:`pincal.stages.STAGES`).
 
     >>> import pincal
     >>> robot = pincal.load_robot("kr270", tip="tool0", markers=[(0.1, 0.05, 0.2)])
@@ -16,7 +17,8 @@ The names here are the workflow; each stage is a public subpackage holding the r
 (design, plans, constraints in :mod:`pincal.planning.constraints`), :mod:`pincal.calibration`
 (measurements, identification, validation, simulation), :mod:`pincal.export` (the calibrated URDF,
 MJCF, SDF, xacro and ROS files), :mod:`pincal.compensation`,
-:mod:`pincal.campaign` (ordered, checked, timed campaigns; the next poses from the data so far),
+:mod:`pincal.campaign` (ordered, checked, timed campaigns), :mod:`pincal.adaptive` (the next poses
+from the data so far),
 :mod:`pincal.viewing`, :mod:`pincal.errors` (every exception and warning) and
 :mod:`pincal.typing` (the types of pincal's arguments).
 
@@ -39,13 +41,13 @@ from pincal.stages import STAGES as _STAGE_NAMES
 from pincal.version import __version__
 
 if TYPE_CHECKING:
+    from pincal.adaptive.loop import next_poses
     from pincal.calibration.identification import identify
     from pincal.calibration.measurements import MeasurementData
     from pincal.calibration.monte_carlo import monte_carlo
     from pincal.calibration.result import IdentificationResult
     from pincal.calibration.synthetic import random_errors, simulate_measurements
     from pincal.calibration.validation import validate
-    from pincal.campaign.adaptive import next_poses
     from pincal.campaign.schedule import plan_campaign
     from pincal.compensation.compensate import compensate
     from pincal.errors import PincalError, PincalWarning

@@ -14,16 +14,17 @@ STAGES = (
     "instruments",
     "evaluation",
     "planning",
+    "campaign",
     "calibration",
+    "adaptive",
     "export",
     "compensation",
-    "campaign",
     "viewing",
     "cli",
 )
 """The stages (subpackages of pincal), in the data flow's order: each imports only those before it
-(robot → what is measured → criteria → design → identification → export → compensation → campaign →
-view → command line)."""
+(robot → what is measured → criteria → design → campaign → identification → the next poses from the
+data so far → export → compensation → view → command line)."""
 
 FOUNDATIONS = ("errors", "typing", "arguments")
 """The public modules under every stage: any stage may import them, they import no stage."""

@@ -7,10 +7,10 @@ import math
 import re
 import sys
 
+from pincal.adaptive.loop import AVOID_DISTANCE, next_poses
 from pincal.arguments import ratio
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.sanity import OUTLIER_SCORE
-from pincal.campaign.adaptive import AVOID_DISTANCE, next_poses
 from pincal.cli import COMMANDS
 from pincal.cli._accuracy import REGION_HELP, add_region_arguments, prior_from_args, test_region_from_args
 from pincal.cli._common import (

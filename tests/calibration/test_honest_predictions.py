@@ -12,9 +12,9 @@ import pinocchio as pin
 import pytest
 
 import pincal
+from pincal.adaptive.loop import assess, next_poses
 from pincal.calibration.synthetic import SmoothField
 from pincal.calibration.validation import validate
-from pincal.campaign.adaptive import assess, next_poses
 from pincal.errors import BadArgument
 
 SIGMA = 3e-5

@@ -171,6 +171,8 @@ def computed(test_name: str) -> Callable[[list[float], str], None]:
     return check
 
 
+from pincal.adaptive.loop import AVOID_DISTANCE  # noqa: E402
+from pincal.adaptive.rehearsal import Faults  # noqa: E402
 from pincal.arguments import DEFAULT_SIGMA, MAX_ANGLE, MAX_COUNT, MAX_LENGTH, MAX_NAME, SIGMA_RANGE  # noqa: E402
 from pincal.calibration.sanity import (  # noqa: E402
     ANGLE_LIMIT,
@@ -182,9 +184,7 @@ from pincal.calibration.sanity import (  # noqa: E402
     ZERO_SCALE,
 )
 from pincal.calibration.synthetic import DEFAULT_ERROR_STD  # noqa: E402
-from pincal.campaign.adaptive import AVOID_DISTANCE  # noqa: E402
 from pincal.campaign.ordering import EXACT_LIMIT  # noqa: E402
-from pincal.campaign.rehearsal import Faults  # noqa: E402
 from pincal.campaign.timing import DEFAULT_SETTLE, DWELLS  # noqa: E402
 from pincal.campaign.tradeoff import DEFAULT_SIZES  # noqa: E402
 from pincal.evaluation.accuracy_samples import NEIGHBOURHOODS, PRISMATIC_PER_RADIAN, WORKSPACE_SAMPLES  # noqa: E402

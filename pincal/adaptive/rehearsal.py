@@ -12,7 +12,7 @@ is below the target — and counts the poses each measured:
   target, designed in advance and measured; when the data then miss the target, the plan is
   measured again (the whole plan: a plan repeated k times divides ρ0² by k), until they do;
 * **adaptive**: a first plan of the fewest poses that identify the parameters (plus
-  ``first_extra``), then :func:`~pincal.campaign.adaptive.next_poses`, ``k`` at a time, until the
+  ``first_extra``), then :func:`~pincal.adaptive.loop.next_poses`, ``k`` at a time, until the
   data say the target is reached.
 
 Each result also gives the error the data truly leave (the prediction with the simulated noise of
@@ -25,11 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pincal.adaptive.loop import _predicted, assess, next_poses
+from pincal.adaptive.measured import MeasuredPrior
 from pincal.arguments import DEFAULT_SIGMA, generator
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.synthetic import random_errors
-from pincal.campaign.adaptive import _predicted, assess, next_poses
-from pincal.campaign.measured import MeasuredPrior
 from pincal.evaluation.region import resolve_test_poses
 from pincal.model.parameters import ParameterSet
 from pincal.planning.driver import design

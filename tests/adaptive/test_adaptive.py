@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import pincal
-from pincal.campaign.adaptive import AVOID_DISTANCE, assess, next_poses
-from pincal.campaign.measured import MeasuredPrior
-from pincal.campaign.rehearsal import Faults, one_shot_plan, rehearse, summary
+from pincal.adaptive.loop import AVOID_DISTANCE, assess, next_poses
+from pincal.adaptive.measured import MeasuredPrior
+from pincal.adaptive.rehearsal import Faults, one_shot_plan, rehearse, summary
 from pincal.errors import BadArgument, SingularPlan
 
 SIGMA = 3e-5

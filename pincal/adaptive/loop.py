@@ -34,11 +34,11 @@ from typing import Any
 
 import numpy as np
 
+from pincal.adaptive.measured import MeasuredPrior
 from pincal.arguments import DEFAULT_SIGMA, Seed, positive_int, positive_sigma
 from pincal.calibration.identification import IdentificationResult, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.sanity import OUTLIER_SCORE, Outlier
-from pincal.campaign.measured import MeasuredPrior
 from pincal.errors import BadArgument, DegenerateOptimumWarning, PincalError, SingularPlan
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import TestPoseCriterion
