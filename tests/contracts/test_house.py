@@ -164,6 +164,15 @@ MOVED = {
         "export_xacro": "pincal.export.xacro",
         "corrections_path": "pincal.export.xacro",
     },
+    "pincal.campaign": {
+        "next_poses": "pincal.adaptive",
+        "NextPoses": "pincal.adaptive",
+        "MeasuredPrior": "pincal.adaptive",
+    },
+    "pincal.campaign.adaptive": {
+        "next_poses": "pincal.adaptive.loop",
+        "AVOID_DISTANCE": "pincal.adaptive.loop",
+    },
     "pincal.calibration.result": {
         "identification_result": "pincal.calibration.assembly",
         "residual_rms": "pincal.calibration.assembly",
