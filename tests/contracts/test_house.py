@@ -27,6 +27,7 @@ TOO_LONG = {
     "pincal/planning/placement.py": "helper 'placement' rewrites it this round",
     "pincal/cli/design.py:add_parser": "its options change with design()'s (helper 'driver')",
     "pincal/campaign/motion.py:certify_move": "collision code: helper 'kinematics' this round",
+    "pincal/model/collision.py:CollisionWorld.__init__": "moved here by helper 'kinematics' this round",
     "pincal/planning/constraints/loading.py:constraints_from_dict": "planning/: helper 'driver'",
     "pincal/planning/driver.py:design": "the second driver is being merged into it (helper 'driver')",
     "pincal/planning/driver.py:_validate": "the second driver is being merged into it (helper 'driver')",
