@@ -29,9 +29,6 @@ TOO_LONG = {
     "pincal/campaign/motion.py:certify_move": "collision code: helper 'kinematics' this round",
     "pincal/model/collision.py:CollisionWorld.__init__": "moved here by helper 'kinematics' this round",
     "pincal/planning/constraints/loading.py:constraints_from_dict": "planning/: helper 'driver'",
-    "pincal/planning/driver.py:design": "the second driver is being merged into it (helper 'driver')",
-    "pincal/planning/driver.py:_validate": "the second driver is being merged into it (helper 'driver')",
-    "pincal/planning/payloads.py:design_with_payloads": "being merged into design() (helper 'driver')",
     "pincal/planning/placement.py:place_instrument": "helper 'placement' rewrites it this round",
     "pincal/planning/search.py:search": "planning/: helper 'driver'",
 }
