@@ -1,8 +1,19 @@
 """No two links of the chain closer than a distance (the URDF's collision geometry, through
-Pinocchio and coal)."""
+Pinocchio and coal).
+
+The check runs on the search's hot path (every margin evaluation of the continuous search, every
+sampled configuration), so a pair is measured by coal only where it can matter: each shape's
+bounding sphere (coal's ``aabb_center`` and ``aabb_radius`` about its placement on its joint) gives
+a lower bound of the pair's distance for all configurations at once (the joints' placements in one
+batch, :class:`~pincal.model.placements.JointPlacements`); a pair whose bound is beyond the
+search's reach (or beyond the clearance, for the exact check) cannot change the result and is not
+measured. What is measured is measured as before (one coal call per pair, the same requests), so
+feasibility and the search's steps are unchanged.
+"""
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -13,6 +24,7 @@ from pincal.errors import BadConstraint, UrdfError
 from pincal.model.collision import touching_at_reference
 from pincal.model.geometry import convex_hulls, urdf_geometry
 from pincal.model.kinematics import ForwardKinematics
+from pincal.model.placements import JointPlacements
 from pincal.model.robot import Robot
 from pincal.model.urdf import few
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, NothingChecked, number
@@ -30,6 +42,10 @@ class SelfCollision(Constraint):
     decides feasibility; the continuous search steers by the distances between the geometries'
     convex hulls, which never exceed the true distances.
 
+    ``SelfCollision(enabled=False)`` among a design's constraints turns the check off (for a robot
+    whose collisions are checked elsewhere): the safe defaults then add none
+    (:func:`~pincal.planning.constraints.with_safety`; ``--self-collision off`` on the command line).
+
     Attributes:
         min_distance: clearance kept between links [m] (0: only no contact).
         package_dirs: more folders holding package folders, searched for ``package://NAME/``
@@ -38,11 +54,13 @@ class SelfCollision(Constraint):
         optional: check only when the robot has usable collision geometry, else nothing (the safe
             default a design adds, :func:`~pincal.planning.constraints.with_safety`); False: a
             robot without it is refused.
+        enabled: False: nothing is checked (the opt-out of the default check).
     """
 
     min_distance: float = 0.0
     package_dirs: tuple[str, ...] = ()
     optional: bool = False
+    enabled: bool = True
     key = "self_collision"
 
     def __post_init__(self) -> None:
@@ -50,8 +68,13 @@ class SelfCollision(Constraint):
             self, "min_distance", number(self.min_distance, "self_collision min_distance", 0.0)
         )
         object.__setattr__(self, "package_dirs", tuple(str(p) for p in self.package_dirs))
+        if not isinstance(self.enabled, (bool, np.bool_)):
+            raise BadConstraint(f"self_collision enabled must be True or False, got {self.enabled!r}")
+        object.__setattr__(self, "enabled", bool(self.enabled))
 
     def bind(self, robot: Robot) -> Bound:
+        if not self.enabled:
+            return SelfCollisionOff()
         if not self.optional:
             return CollisionBound(robot, self)
         try:
@@ -62,6 +85,50 @@ class SelfCollision(Constraint):
 
 class NoCollisionGeometry(NothingChecked):
     """The optional self-collision check of a robot without usable collision geometry: nothing."""
+
+
+class SelfCollisionOff(NothingChecked):
+    """The self-collision check turned off (``SelfCollision(enabled=False)``): nothing."""
+
+
+CULL_SLACK = 1e-3
+"""Room [m] left beyond a pair's threshold before its bounding spheres rule it out: far more than
+coal's own tolerance and the rounding of the batched placements, so a pair left out could never
+have changed a result."""
+
+
+def memoryless(request: object) -> None:
+    """A coal request that starts every GJK from its default guess, not from the pair's previous
+    call: a pair's distance is then a function of the configuration alone, whichever pairs and
+    configurations were measured before (and in whatever order a worker met them)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # coal's older name of the switch
+        request.enable_cached_gjk_guess = False  # type: ignore[attr-defined]
+
+
+class Spheres:
+    """Each shape of a geometry model within a sphere fixed on its joint (coal's bounding sphere of
+    the shape: ``aabb_center``, ``aabb_radius``), and the lower bound that two spheres give of the
+    distance of the pairs ``pairs`` at many configurations at once."""
+
+    def __init__(self, geom: pin.GeometryModel, pairs: list[tuple[int, int]]) -> None:
+        centres, radii, joints = [], [], []
+        for obj in geom.geometryObjects:
+            obj.geometry.computeLocalAABB()
+            centres.append(obj.placement.act(np.asarray(obj.geometry.aabb_center, dtype=float)))
+            radii.append(float(obj.geometry.aabb_radius))
+            joints.append(obj.parentJoint)
+        self.centres, self.joints = np.array(centres).reshape(-1, 3), np.array(joints, dtype=int)
+        a, b = (np.array(side, dtype=int) for side in zip(*pairs, strict=True))
+        self.a, self.b = a, b
+        self.radii = np.array(radii)[a] + np.array(radii)[b]
+
+    def lower_bounds(self, rotations: np.ndarray, translations: np.ndarray) -> np.ndarray:
+        """(m, pairs) a lower bound of each pair's distance [m], from the joints' placements
+        (:class:`~pincal.model.placements.JointPlacements`: (njoints, m, 3, 3), (njoints, m, 3))."""
+        placed = np.einsum("smij,sj->msi", rotations[self.joints], self.centres)
+        placed += translations[self.joints].transpose(1, 0, 2)
+        return np.linalg.norm(placed[:, self.a] - placed[:, self.b], axis=2) - self.radii
 
 
 def collision_geometry(robot: Robot, package_dirs: tuple[str, ...], what: str) -> pin.GeometryModel:
@@ -128,21 +195,36 @@ class CollisionBound(Bound):
             request.security_margin = spec.min_distance
         self.hulls, self.hull_data = hulls, hulls.createData()
         self.min_distance = spec.min_distance
+        for request in [*self.hull_data.distanceRequests, *self.exact_data.collisionRequests]:
+            memoryless(request)
+        self.placements = JointPlacements(model)
+        self.hull_spheres, self.exact_spheres = Spheres(hulls, pairs), Spheres(geom, pairs)
 
     def margins(self, kin: Kinematics) -> np.ndarray:
-        out = np.empty((len(kin.qs), len(self.names)))
-        for i, theta in enumerate(self.forward.joint_values(kin.qs, kin.payload)):
-            pin.updateGeometryPlacements(self.model, self.data, self.hulls, self.hull_data, theta)
-            pin.computeDistances(self.hulls, self.hull_data)
-            out[i] = [r.min_distance for r in self.hull_data.distanceResults]
+        """(m, pairs) the convex hulls' distances less ``min_distance`` [m]; a pair whose bounding
+        spheres are farther apart than the reach (and the slack) gets the spheres' bound, a lower
+        bound of its distance beyond the reach, where the search reads 1 either way."""
+        thetas = self.forward.joint_values(kin.qs, kin.payload)
+        out = self.hull_spheres.lower_bounds(*self.placements(thetas))
+        near = out < self.min_distance + self.reach + CULL_SLACK
+        model, data, hulls, hull_data = self.model, self.data, self.hulls, self.hull_data
+        for i in np.flatnonzero(near.any(axis=1)):
+            pin.updateGeometryPlacements(model, data, hulls, hull_data, thetas[i])
+            for k in np.flatnonzero(near[i]).tolist():
+                out[i, k] = pin.computeDistance(hulls, hull_data, k).min_distance
         return out - self.min_distance
 
     def satisfied(self, kin: Kinematics) -> np.ndarray:
+        """(m,) True where no pair's meshes are closer than ``min_distance`` (coal's collision
+        test with that security margin, on the pairs whose bounding spheres come that close)."""
         model, data, geom, gdata = self.model, self.data, self.exact, self.exact_data
         thetas = self.forward.joint_values(kin.qs, kin.payload)
-        return np.array(
-            [not pin.computeCollisions(model, data, geom, gdata, theta, True) for theta in thetas], dtype=bool
-        )
+        near = self.exact_spheres.lower_bounds(*self.placements(thetas)) <= self.min_distance + CULL_SLACK
+        ok = np.ones(len(thetas), dtype=bool)
+        for i in np.flatnonzero(near.any(axis=1)):
+            pin.updateGeometryPlacements(model, data, geom, gdata, thetas[i])
+            ok[i] = not any(pin.computeCollision(geom, gdata, k) for k in np.flatnonzero(near[i]).tolist())
+        return ok
 
     def colliding_pairs(self, q: np.ndarray, payload: PayloadLike = None) -> list[tuple[str, str]]:
         """Names of the geometry pairs in collision at one configuration (reading)."""
