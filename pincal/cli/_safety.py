@@ -1,5 +1,5 @@
-"""Safe by default on the command line: --joint-margin, --mount and --clearance, the constraints with
-the safe defaults added, and the safety lines of a report."""
+"""Safe by default on the command line: --joint-margin, --mount, --clearance and --self-collision, the
+constraints with the safe defaults added, and the safety lines of a report."""
 
 from __future__ import annotations
 
@@ -18,9 +18,12 @@ tenth of a joint's range; --joint-margin 0 keeps none), for a fixed-base robot t
 and every link origin the joints move 5 cm above the plane it is mounted on (--mount floor; none for
 a floating base), the robot 5 cm from every obstacle of a workcell (--clearance 5cm: the
 uncalibrated robot's error and the marker's size; 0 keeps only what --constraints asks), and the
-robot clear of itself when its URDF has collision geometry. The report names the smallest margin to
-a limit, to the floor, to an obstacle and between two links, with the pose.
+robot clear of itself when its URDF has collision geometry (design, next and baseline:
+--self-collision off when collisions are checked elsewhere). The report names the smallest margin
+to a limit, to the floor, to an obstacle and between two links, with the pose.
 """
+
+SELF_COLLISION = ("on", "off")
 
 _VALUE = re.compile(r"^\s*([0-9.eE+-]+)\s*([a-zµ]*)\s*$")
 _ANGLES = {"deg": math.pi / 180, "rad": 1.0, "mrad": 1e-3}
@@ -48,6 +51,17 @@ def add_safety_arguments(parser: argparse.ArgumentParser) -> None:
         help="kept from the mounting plane (markers, tip, link origins) and from every obstacle, "
         "e.g. 5cm, 20mm, 0.05 (metres), 0 for only what --constraints asks (default 5cm: the "
         "uncalibrated robot's error and the marker's size)",
+    )
+
+
+def add_self_collision_argument(parser: argparse.ArgumentParser) -> None:
+    """--self-collision on|off (the commands that design: design, next, baseline)."""
+    parser.add_argument(
+        "--self-collision",
+        choices=SELF_COLLISION,
+        help="keep the robot's links apart (its URDF's collision geometry; on: the default when it "
+        "has some), or off for a robot whose collisions are checked elsewhere (the report still "
+        "names the two closest links, and says the design did not keep them apart)",
     )
 
 
@@ -93,7 +107,7 @@ def parse_joint_margin(text: str, degrees: bool) -> JointLimits:
 
 def safe_constraints_from_args(robot: Robot, args: argparse.Namespace) -> tuple:
     """The constraints of --constraints with the safe defaults (or --joint-margin, --mount,
-    --clearance) added."""
+    --clearance, --self-collision) added."""
     constraints = constraints_from_args(args)
     margin = getattr(args, "joint_margin", None)
     mount = getattr(args, "mount", None)
@@ -101,12 +115,16 @@ def safe_constraints_from_args(robot: Robot, args: argparse.Namespace) -> tuple:
     limits = None if margin is None else parse_joint_margin(margin, getattr(args, "deg", False))
     plane = None if mount is None else Mount.parse(mount)
     clearance = None if given is None else parse_clearance(given)
+    switch = getattr(args, "self_collision", None)
+    itself = None if switch is None else switch == "on"
     try:
-        return with_safety(robot, constraints, limits, plane, clearance=clearance)
+        return with_safety(robot, constraints, limits, plane, clearance=clearance, self_collision=itself)
     except BadArgument as exc:
-        option = {"joint_margin": "--joint-margin", "clearance": "--clearance"}.get(
-            str(exc.argument), "--mount"
-        )
+        option = {
+            "joint_margin": "--joint-margin",
+            "clearance": "--clearance",
+            "self_collision": "--self-collision",
+        }.get(str(exc.argument), "--mount")
         raise BadArgument(
             f"{option} and the --constraints file both give it: keep one", argument=option
         ) from None

@@ -35,7 +35,9 @@ examples:
   pincal baseline ur10 -m 12 --test-pose=0,-1.2,1.5,-1,-1.5,0 --pool taught.csv --random 5000 --d-optimal
 
 Random plans: configurations drawn uniformly within the joint limits, kept if they satisfy
---constraints and the design's safe defaults (--joint-margin, --mount); with --pool, m distinct
+--constraints and the design's safe defaults (the joint margin, the floor, the robot clear of itself
+when its URDF has collision geometry: --self-collision off when collisions are checked elsewhere);
+with --pool, m distinct
 configurations of the pool (plan CSV format, e.g. taught poses) per plan, and the D-optimal plan
 is made of pool configurations too. Singular plans (no finite rho0) are counted, not averaged.
 rho0 in metres for --sigma.

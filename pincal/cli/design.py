@@ -47,7 +47,12 @@ from pincal.cli._common import (
 )
 from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
 from pincal.cli._plot import add_plot_argument, save_design_plot
-from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
+from pincal.cli._safety import (
+    SAFETY_HELP,
+    add_safety_arguments,
+    add_self_collision_argument,
+    safe_constraints_from_args,
+)
 from pincal.cli.campaign import (
     TRADEOFF_HELP,
     add_tradeoff_arguments,
@@ -170,6 +175,7 @@ def add_design_arguments(p: argparse.ArgumentParser) -> None:
     add_region_arguments(p)
     p.add_argument("--constraints", metavar="FILE.yaml", help="workcell constraints (YAML)")
     add_safety_arguments(p)
+    add_self_collision_argument(p)
     p.add_argument("--sigma", type=sigma_type(), default=None, help=SIGMA_HELP)
     p.add_argument(
         "--deg", action="store_true", help="joint values in degrees (test poses, pool, plan output)"

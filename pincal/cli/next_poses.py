@@ -30,7 +30,12 @@ from pincal.cli._common import (
     robot_from_args,
     seed_type,
 )
-from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
+from pincal.cli._safety import (
+    SAFETY_HELP,
+    add_safety_arguments,
+    add_self_collision_argument,
+    safe_constraints_from_args,
+)
 from pincal.cli.design import print_warnings
 from pincal.errors import BadArgument
 
@@ -105,6 +110,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--constraints", metavar="FILE.yaml", help="workcell constraints (YAML)")
     add_safety_arguments(p)
+    add_self_collision_argument(p)
     p.add_argument(
         "--starts", type=count("--starts"), default=8, help="starts of the next design (default 8)"
     )

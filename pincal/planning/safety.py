@@ -79,6 +79,9 @@ class SafetyReport:
         self_collision: the two links of the robot closest to each other (distance [m], negative
             when they overlap), None when not checked or when no pair of links can meet.
         self_note: how the links' distances were computed (which geometry), or "".
+        self_off: the plan was designed with the self-collision check off
+            (``SelfCollision(enabled=False)``, ``--self-collision off``): its links are reported,
+            not kept apart.
     """
 
     angle: Closest | None
@@ -89,6 +92,7 @@ class SafetyReport:
     note: str = ""
     self_collision: Closest | None = None
     self_note: str = ""
+    self_off: bool = False
 
     @property
     def ok(self) -> bool:
@@ -154,7 +158,8 @@ class SafetyReport:
         if self.self_collision is not None:
             s = self.self_collision
             collides = "  ** the robot collides with itself **" if s.value <= 0 else flag(s)
-            out.append(f"  self-collision: {_self_line(s)} at pose {s.pose + 1}{collides}")
+            off = " (off: not kept by the design)" if self.self_off else ""
+            out.append(f"  self-collision{off}: {_self_line(s)} at pose {s.pose + 1}{collides}")
         if self.self_note:
             out.append(f"  ({self.self_note})")
         return out
@@ -224,6 +229,11 @@ def safety_margins(
             if pose >= 0 and (obstacle is None or value < obstacle.value):
                 obstacle = Closest(value, pose, pair, c.min_distance)
     itself, self_note = _closest_links(robot, qs, constraints) if self_collision else (None, "")
+    off = any(isinstance(c, SelfCollision) and not c.enabled for c in constraints)
+    if off:
+        self_note = "self-collision off (--self-collision off, SelfCollision(enabled=False))" + (
+            f"; {self_note}" if self_note else ""
+        )
     if itself is not None and not itself.ok:
         warn(
             f"pose {itself.pose + 1} of the plan: "
@@ -232,11 +242,17 @@ def safety_margins(
                 if itself.value <= 0
                 else "two links of the robot come closer"
             )
-            + f" ({_self_line(itself)}); a design keeps its links apart when the robot's URDF has "
-            "collision geometry (its 'self_collision:' constraint, --constraints, by default)",
+            + f" ({_self_line(itself)}); "
+            + (
+                "the plan was designed with the self-collision check off (--self-collision off, "
+                "SelfCollision(enabled=False)): check it where the robot's collisions are checked"
+                if off
+                else "a design keeps its links apart when the robot's URDF has collision geometry (its "
+                "'self_collision:' constraint, --constraints, by default)"
+            ),
             PincalWarning,
         )
-    return SafetyReport(kinds[0], kinds[1], floor, obstacle, mount, note, itself, self_note)
+    return SafetyReport(kinds[0], kinds[1], floor, obstacle, mount, note, itself, self_note, off)
 
 
 def _closest_links(

@@ -16,7 +16,10 @@
   least that far from every obstacle (a larger ``min_distance`` of its own is kept); the Clearance
   stays among the constraints, so that adding the defaults again keeps it;
 * the robot against itself, a :class:`SelfCollision` checked when the robot's URDF has collision
-  geometry (``optional``: nothing is checked without it), unless the constraints hold one.
+  geometry (``optional``: nothing is checked without it), unless the constraints hold one or
+  ``self_collision=False`` is given: ``SelfCollision(enabled=False)`` among the constraints (what
+  ``self_collision=False`` adds, ``--self-collision off``) turns it off, for a robot whose
+  collisions are checked elsewhere.
 """
 
 from __future__ import annotations
@@ -113,6 +116,7 @@ def with_safety(
     mount: MountSpec = None,
     *,
     clearance: float | None = None,
+    self_collision: bool | None = None,
 ) -> tuple[Constraint | MinSpacing, ...]:
     """``constraints`` with the safe defaults added (see the module doc); idempotent.
 
@@ -126,6 +130,9 @@ def with_safety(
         clearance: kept from the mounting plane and from every obstacle [m] (None: the
             Clearance among ``constraints``, else :data:`DEFAULT_CLEARANCE`; 0: only what the
             Mount and the Workcell ask themselves).
+        self_collision: False: the robot is not checked against itself (a
+            ``SelfCollision(enabled=False)`` is added); None or True: the SelfCollision among
+            ``constraints``, else the optional default check.
 
     Raises:
         BadArgument: a ``joint_margin`` (or ``mount``, ``clearance``) given both as an argument
@@ -153,15 +160,28 @@ def with_safety(
         )
     if len(clearances) > 1:
         raise BadArgument("give one Clearance constraint", argument="clearance")
+    selfs = [c for c in constraints if isinstance(c, SelfCollision)]
+    if self_collision is not None and not isinstance(self_collision, (bool, np.bool_)):
+        raise BadArgument(
+            f"self_collision must be True, False or None, got {self_collision!r}",
+            argument="self_collision",
+            value=self_collision,
+        )
+    if self_collision is False and selfs and any(c.enabled for c in selfs):
+        raise BadArgument(
+            "self-collision is both turned off (self_collision=False) and asked for (a SelfCollision "
+            "constraint): give one",
+            argument="self_collision",
+        )
     keep = clearances[0].distance if clearances else clearance_of(clearance)
     added: list[Constraint | MinSpacing] = []
     if not limits:
         added.append(joint_limits_of(joint_margin))
     if not mounts:
         added.append(mount_of(robot, mount))
-    if not any(isinstance(c, SelfCollision) for c in constraints):
+    if not selfs:
         dirs = tuple(d for c in constraints if isinstance(c, Workcell) for d in c.package_dirs)
-        added.append(SelfCollision(package_dirs=dirs, optional=True))
+        added.append(SelfCollision(package_dirs=dirs, optional=True, enabled=self_collision is not False))
     if not clearances:
         added.append(Clearance(keep))
     return tuple(_with_clearance(c, keep) for c in constraints + tuple(added))

@@ -132,7 +132,9 @@ def constraints_from_dict(data: object, folder: str | os.PathLike | None = None)
         if not all(isinstance(d, str) for d in dirs):
             raise BadConstraint(f"line_of_sight package_dirs must be folder names, got {dirs!r}")
         out.append(LineOfSight(e["instrument"], e.get("clearance", 0.01), e.get("skip", 0.05), tuple(dirs)))
-    if "self_collision" in data and data["self_collision"] is not False:
+    if data.get("self_collision", None) is False:  # turned off: the design adds no check either
+        out.append(SelfCollision(enabled=False))
+    elif "self_collision" in data:
         e = _check_keys(data["self_collision"], "self_collision", ("min_distance", "package_dirs"))
         dirs = _entries(e.get("package_dirs", []))
         if not all(isinstance(d, str) for d in dirs):
@@ -170,7 +172,7 @@ def load_constraints(path: str | os.PathLike) -> tuple[AnyConstraint, ...]:
         line_of_sight:                   # one mapping or a list: needs collision geometry
           instrument: [4.0, 0.0, 1.2]
           clearance: 0.01                # the beam's radius with a margin
-        self_collision: {min_distance: 0.01}   # or: self_collision: true
+        self_collision: {min_distance: 0.01}   # or: true; false turns the default check off
         workcell:                        # obstacles, base frame (pincal.planning.constraints.workcell)
           min_distance: 0.02
           obstacles: [{name: table, box: [1.2, 0.8, 0.05], xyz: [1.6, 0, 0.5]}]
