@@ -106,28 +106,11 @@ def certify_move(
     need = np.broadcast_to(np.asarray(required, dtype=float), (world.size,))
     span = world.weights @ np.abs(b - a)  # λ over the whole move, per pair
     refinable = np.concatenate([world.refinable, np.zeros(world.n_points, dtype=bool)])
-    samples: dict[float, tuple[np.ndarray, np.ndarray]] = {}  # s -> (distances, measured on the meshes)
-    evaluations = 0
-
-    def at(s: float) -> np.ndarray:
-        nonlocal evaluations
-        if s not in samples:
-            samples[s] = (world.distances(a + s * (b - a), refine=False), ~refinable)
-            evaluations += 1
-        return samples[s][0]
-
-    def refine(s: float, pairs: np.ndarray) -> None:
-        nonlocal evaluations
-        e, exact = samples[s]
-        todo = pairs[~exact[pairs]]
-        if len(todo):
-            e[todo] = with_exact(e[todo], world.exact_distances(a + s * (b - a), todo))
-            exact[todo] = True
-            evaluations += 1  # the meshes' distances, counted as one more evaluation
-
+    move = _Samples(world, a, b, refinable)
+    at, refine = move.at, move.refine
     if ends is not None:
-        samples[0.0] = (np.array(ends[0], dtype=float), np.ones(world.size, dtype=bool))
-        samples[1.0] = (np.array(ends[1], dtype=float), np.ones(world.size, dtype=bool))
+        move.samples[0.0] = (np.array(ends[0], dtype=float), np.ones(world.size, dtype=bool))
+        move.samples[1.0] = (np.array(ends[1], dtype=float), np.ones(world.size, dtype=bool))
     certified = np.inf
     stack = [(0.0, 1.0)]
     blocked, where = "", None
@@ -156,7 +139,7 @@ def certify_move(
         if not len(failing):
             certified = min(certified, float(lower.min()))
             continue
-        if evaluations >= max_evaluations:
+        if move.evaluations >= max_evaluations:
             k = int(failing[np.argmin((lower - need)[failing])])
             blocked = (
                 f"{world.names[k]}: not certified within {max_evaluations} distance evaluations "
@@ -167,17 +150,46 @@ def certify_move(
         mid = 0.5 * (s0 + s1)
         stack.append((mid, s1))  # the first half is checked first (popped next)
         stack.append((s0, mid))
-    sampled = np.min([e for e, _ in samples.values()], axis=0)
+    sampled = np.min([e for e, _ in move.samples.values()], axis=0)
     k = int(np.argmin(sampled))
     return MoveCheck(
         not blocked,
         certified if not blocked else float(sampled.min()),
         float(sampled[k]),
         world.names[k],
-        evaluations,
+        move.evaluations,
         blocked,
         where,
     )
+
+
+class _Samples:
+    """The distances of a straight move's configurations visited, by s in [0, 1], and the
+    distance evaluations spent on them (a convex hulls' evaluation, or a meshes' one, counts one)."""
+
+    def __init__(self, world: CollisionWorld, a: np.ndarray, b: np.ndarray, refinable: np.ndarray):
+        self.world, self.a, self.b, self.refinable = world, a, b, refinable
+        self.samples: dict[
+            float, tuple[np.ndarray, np.ndarray]
+        ] = {}  # s -> (distances, measured on the meshes)
+        self.evaluations = 0
+
+    def at(self, s: float) -> np.ndarray:
+        """The distances at s (the hulls' unless refined)."""
+        if s not in self.samples:
+            q = self.a + s * (self.b - self.a)
+            self.samples[s] = (self.world.distances(q, refine=False), ~self.refinable)
+            self.evaluations += 1
+        return self.samples[s][0]
+
+    def refine(self, s: float, pairs: np.ndarray) -> None:
+        """The distances of ``pairs`` at s measured on the meshes (in place)."""
+        e, exact = self.samples[s]
+        todo = pairs[~exact[pairs]]
+        if len(todo):
+            e[todo] = with_exact(e[todo], self.world.exact_distances(self.a + s * (self.b - self.a), todo))
+            exact[todo] = True
+            self.evaluations += 1  # the meshes' distances, counted as one more evaluation
 
 
 @dataclass(frozen=True)

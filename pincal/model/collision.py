@@ -270,6 +270,22 @@ class Pair:
     name: str
 
 
+def _pair_weights(robot: Robot, objects, n_robot: int, pairs: list[Pair]) -> list[np.ndarray]:
+    """The motion weights of each pair (:func:`motion_weights`): those of the robot's shape against
+    an obstacle; for two shapes of the robot, only those of the joints between their links."""
+    extents = [_extent(o) for o in objects[:n_robot]]
+    weights = []
+    for p in pairs:
+        ja, jb = objects[p.a].parentJoint, objects[p.b].parentJoint
+        if p.kind == "obstacle":
+            weights.append(motion_weights(robot, ja, extents[p.a]))
+        else:  # relative motion: only the joints between the two links move one against the other
+            low, high = (p.a, p.b) if ja <= jb else (p.b, p.a)
+            jl, jh = objects[low].parentJoint, objects[high].parentJoint
+            weights.append(motion_weights(robot, jh, extents[high], after=jl))
+    return weights
+
+
 class CollisionWorld:
     """The robot's collision geometry with the cell's obstacles, and the floor (see the module doc).
 
@@ -349,16 +365,7 @@ class CollisionWorld:
         self.meshes = np.array(mesh, dtype=bool)  # which shapes are meshes (checked by their hulls first)
         self.refinable = np.array([mesh[p.a] or mesh[p.b] for p in pairs], dtype=bool)
         self.pairs = pairs
-        extents = [_extent(o) for o in objects[: self.n_robot]]
-        weights = []
-        for p in pairs:
-            ja, jb = objects[p.a].parentJoint, objects[p.b].parentJoint
-            if p.kind == "obstacle":
-                weights.append(motion_weights(robot, ja, extents[p.a]))
-            else:  # relative motion: only the joints between the two links move one against the other
-                low, high = (p.a, p.b) if ja <= jb else (p.b, p.a)
-                jl, jh = objects[low].parentJoint, objects[high].parentJoint
-                weights.append(motion_weights(robot, jh, extents[high], after=jl))
+        weights = _pair_weights(robot, objects, self.n_robot, pairs)
         self.mount = mount_points
         points = []
         if mount_points is not None and len(mount_points.keep):

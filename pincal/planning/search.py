@@ -96,6 +96,27 @@ def draw_starts(
     return tuple(drawn)
 
 
+def _problem_spec(s: Settings, params: ParameterSet, pooled: Pool) -> _multistart.ProblemSpec:
+    """The problem every start of the design solves (the candidates only for the exchange)."""
+    return _multistart.ProblemSpec(
+        params,
+        s.m,
+        s.criterion,
+        s.test_poses,
+        s.sigma,
+        s.constraints,
+        pooled.candidates if s.method == "exchange" else None,
+        s.floor,
+        s.prior_information,
+        s.entropy,
+        instrument=s.measured,
+        orientation_length=s.orientation_length,
+        payload=pooled.payload,
+        task_payload=s.task_payload,
+        residual_model=s.residual_model,
+    )
+
+
 def search(
     settings: Settings,
     params: ParameterSet,
@@ -136,23 +157,7 @@ def search(
             adaptive: every start of the first batch).
     """
     s = settings
-    spec = _multistart.ProblemSpec(
-        params,
-        s.m,
-        s.criterion,
-        s.test_poses,
-        s.sigma,
-        s.constraints,
-        pooled.candidates if s.method == "exchange" else None,
-        s.floor,
-        s.prior_information,
-        s.entropy,
-        instrument=s.measured,
-        orientation_length=s.orientation_length,
-        payload=pooled.payload,
-        task_payload=s.task_payload,
-        residual_model=s.residual_model,
-    )
+    spec = _problem_spec(s, params, pooled)
     objective = _multistart.objective_for(spec, engine)
     d_spec = d_objective = None
     if with_d_optimal:

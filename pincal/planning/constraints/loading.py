@@ -64,6 +64,22 @@ def _entries(value: object) -> list:
     return list(value) if isinstance(value, list) else [value]
 
 
+def _mount(e: object) -> Mount:
+    """The mount of the ``mount`` key: a plane's name, or a mapping with plane, or normal and offset."""
+    if isinstance(e, str):
+        return Mount.parse(e)
+    e = _check_keys(e, "mount", ("plane", "normal", "offset"))
+    if "plane" in e and e["plane"] not in MOUNTS:
+        raise BadConstraint(f"mount plane must be one of {', '.join(MOUNTS)}, got {e['plane']!r}")
+    if "plane" in e and ("normal" in e or "offset" in e):
+        raise BadConstraint("mount: give plane (floor, wall, ceiling, none) or normal and offset, not both")
+    if "plane" in e:
+        return Mount(e["plane"])
+    if "normal" in e:
+        return Mount("plane", e["normal"], e.get("offset", 0.0))
+    raise BadConstraint("mount needs plane: floor|wall|ceiling|none, or normal: [x, y, z] and offset")
+
+
 def constraints_from_dict(data: object, folder: str | os.PathLike | None = None) -> tuple[AnyConstraint, ...]:
     """Constraints from a mapping with the layout of the YAML file (see :func:`load_constraints`);
     the workcell's relative paths are taken from ``folder`` (default: the working folder)."""
@@ -79,25 +95,7 @@ def constraints_from_dict(data: object, folder: str | os.PathLike | None = None)
         e = _check_keys(data["joint_limits"], "joint_limits", ("margin", "margin_deg", "prismatic"))
         out.append(JointLimits(_angle(e, "margin", "joint_limits", 0.0), e.get("prismatic")))  # type: ignore[arg-type]  # checked there
     if "mount" in data:
-        e = data["mount"]
-        if isinstance(e, str):
-            out.append(Mount.parse(e))
-        else:
-            e = _check_keys(e, "mount", ("plane", "normal", "offset"))
-            if "plane" in e and e["plane"] not in MOUNTS:
-                raise BadConstraint(f"mount plane must be one of {', '.join(MOUNTS)}, got {e['plane']!r}")
-            if "plane" in e and ("normal" in e or "offset" in e):
-                raise BadConstraint(
-                    "mount: give plane (floor, wall, ceiling, none) or normal and offset, not both"
-                )
-            if "plane" in e:
-                out.append(Mount(e["plane"]))
-            elif "normal" in e:
-                out.append(Mount("plane", e["normal"], e.get("offset", 0.0)))
-            else:
-                raise BadConstraint(
-                    "mount needs plane: floor|wall|ceiling|none, or normal: [x, y, z] and offset"
-                )
+        out.append(_mount(data["mount"]))
     if "clearance" in data:
         out.append(Clearance(data["clearance"]))
     if "workspace_box" in data:
