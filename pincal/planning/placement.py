@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -49,6 +50,7 @@ from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint, LineOfSight, Visibility
 from pincal.planning.driver import design
 from pincal.planning.options import grouped
+from pincal.planning.placement_grid import MAX_POSITIONS, _box, _grid, _grid_size, _point  # noqa: F401  (MAX_POSITIONS: its name here too)
 from pincal.planning.placement_screen import Screen
 from pincal.planning.results import DesignResult
 from pincal.progress import Steps
@@ -60,10 +62,6 @@ metre; 40 m is far beyond any robot cell (give yours with ``Sight``)."""
 
 STEPS = 3
 """Default grid positions per axis of the box searched."""
-
-MAX_POSITIONS = 10_000
-"""The most grid positions a placement searches: each is a design (a quick one when screened), and
-a grid of ``steps`` ** 3 positions grows beyond any run's time and memory (1 000 steps: 10⁹)."""
 
 SCREEN = 3
 """Default number of positions designed in full: the best of the screen. On the UR10's boxes of
@@ -254,14 +252,7 @@ def place_instrument(
         raise BadArgument(
             "a camera on the tool moves with it: place_instrument places a camera fixed in the cell"
         )
-    tracker: Tracker | None = None  # none when a camera is placed
-    if not camera:
-        if not (instrument is None or isinstance(instrument, Tracker)):
-            raise BadArgument(
-                "place_instrument places a laser tracker (instrument=pincal.instruments.Tracker(...)) "
-                "or a camera"
-            )
-        tracker = instrument or Tracker()
+    tracker = None if camera else _tracker(instrument)  # none when a camera is placed
     base_constraints, notes = tuple(constraints), _sight_notes(params, sight, camera)
     options = dict(options, seed=seed_entropy(options.get("seed", 0)))  # one seed for every design
     quick = {k: v for k, v in options.items() if k not in FULL_ONLY}
@@ -269,74 +260,21 @@ def place_instrument(
     final = options if screen is None else _finalist(options)  # the exhaustive search: full designs
     shared = None if screen is None else Screen(params, base_constraints, options, m)
     steps_done = Steps(progress, "placement", "position")
-
-    def designed(at: np.ndarray, quickly: Screen | None = None) -> DesignResult | None:
-        """The plan designed with the instrument at ``at``: in full, or quickly (the screen)."""
-        placed, extra = _placed(params, kind, tracker, at, test_pose, sight, notes)
-        error = instrument if tracker is None else replace(tracker, at=tuple(at))
-        how = final
-        try:
-            if quickly is not None:
-                pool = quickly.seen(placed, extra)
-                if len(pool) < m:
-                    raise Infeasible(
-                        f"only {len(pool)} of the screen's candidate configurations are seen from "
-                        f"({', '.join(f'{v:.3g}' for v in at)}) m, {m} needed"
-                    )
-                how = dict(quick, pool=pool)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                result = design(placed, m, test_pose, criterion=criterion, **grouped(dict(
-                    how, measure=measure, instrument=error, constraints=base_constraints + extra,
-                    progress=progress and quickly is None)))  # fmt: skip
-        except (Infeasible, SingularPlan, DegenerateOptimum) as failure:  # nothing it can see there
-            reasons.setdefault(type(failure).__name__, str(failure))
-            return None
-        return replace(result, instrument_at=(float(at[0]), float(at[1]), float(at[2])))
-
-    def look(at: np.ndarray) -> None:
-        """The position tried: screened, or designed in full when nothing is screened."""
-        if tuple(at) not in tried:
-            tried[tuple(at)] = designed(at, shared)
-            if shared is None:
-                full.add(tuple(at))
-        steps_done.advance(_best_note(tried, criterion))
-
-    def in_full(at: tuple[float, ...]) -> None:
-        """The position designed in full: its best plan, the screen's or the full design's."""
-        result = designed(np.array(at))
-        full.add(at)
-        screened = tried.get(at)
-        if screened is None or (result is not None and result.value <= screened.value):
-            tried[at] = result
-        steps_done.advance(_best_note(tried, criterion))
-
-    reasons: dict[str, str] = {}
-    tried: dict[tuple[float, ...], DesignResult | None] = {}
-    full: set[tuple[float, ...]] = set()
+    trials = _Trials(
+        lambda at: _placed(params, kind, tracker, at, test_pose, sight, notes),
+        lambda at: instrument if tracker is None else replace(tracker, at=tuple(at)),
+        dict(m=m, test_pose=test_pose, criterion=criterion, measure=measure, constraints=base_constraints),
+        quick, final, shared, steps_done, progress,
+    )  # fmt: skip
+    look, in_full, designed = trials.look, trials.in_full, trials.designed
+    reasons, tried, full = trials.reasons, trials.tried, trials.full
     grid = _grid(lower, upper, steps)
     steps_done.stage("designed in full" if shared is None else "screened", len(grid))
     for at in grid:
         look(at)
-    step = (upper - lower) / max(steps - 1, 1)
-    for _ in range(refine):
-        best = _best(tried)
-        if best is None:
-            break
-        step = step / 2
-        steps_done.stage("refined", 6)
-        for axis in range(3):
-            for sign in (-1, 1):
-                look(np.clip(np.array(best) + sign * step * np.eye(3)[axis], lower, upper))
+    trials.refine(lower, upper, (upper - lower) / max(steps - 1, 1), refine)
     if _best(tried) is None:
-        screened = (
-            "" if shared is None else " (screened: a larger pool, or screen=None, designs each in full)"
-        )
-        raise Infeasible(
-            f"no position of the box {lower.tolist()} - {upper.tolist()} lets the instrument see a feasible "
-            f"plan of {m} configurations: move or grow the box, or relax the sight limits "
-            f"({'; '.join(reasons.values())}){screened}"
-        )
+        raise _nothing_seen(lower, upper, m, reasons, shared is not None)
     default = (lower + upper) / 2 if default_at is None else _point(default_at, "default_at")
     ranked = [] if shared is None else [at for _, at in sorted((r.value, at) for at, r in tried.items() if r)]
     key, chosen = tuple(default), ranked[:screen]
@@ -361,6 +299,97 @@ def place_instrument(
     return Placement(np.array(best), result, positions, values, default, default_result,
                      (tuple(lower.tolist()), tuple(upper.tolist())), tuple(notes),
                      np.array([at in full for at in tried]), screen)  # fmt: skip
+
+
+def _tracker(instrument: ErrorModel | None) -> Tracker:
+    """The tracker placed (pincal's default one when none is given)."""
+    if not (instrument is None or isinstance(instrument, Tracker)):
+        raise BadArgument(
+            "place_instrument places a laser tracker (instrument=pincal.instruments.Tracker(...)) or a camera"
+        )
+    return instrument or Tracker()
+
+
+def _nothing_seen(lower: np.ndarray, upper: np.ndarray, m: int, reasons: dict, screened: bool) -> Infeasible:
+    """The error when no position of the box gives a feasible plan."""
+    how = " (screened: a larger pool, or screen=None, designs each in full)" if screened else ""
+    return Infeasible(
+        f"no position of the box {lower.tolist()} - {upper.tolist()} lets the instrument see a feasible "
+        f"plan of {m} configurations: move or grow the box, or relax the sight limits "
+        f"({'; '.join(reasons.values())}){how}"
+    )
+
+
+@dataclass
+class _Trials:
+    """The positions tried by :func:`place_instrument`, with their best plans (None: no feasible
+    plan), those designed in full, and why positions failed (one reason per error type)."""
+
+    place: Callable[[np.ndarray], tuple[ParameterSet, tuple[AnyConstraint, ...]]]
+    error_model: Callable[[np.ndarray], ErrorModel | None]
+    problem: dict  # m, test_pose, criterion, measure, constraints
+    quick: dict
+    final: dict
+    shared: Screen | None
+    steps_done: Steps
+    progress: bool
+    reasons: dict[str, str] = field(default_factory=dict)
+    tried: dict[tuple[float, ...], DesignResult | None] = field(default_factory=dict)
+    full: set[tuple[float, ...]] = field(default_factory=set)
+
+    def designed(self, at: np.ndarray, quickly: Screen | None = None) -> DesignResult | None:
+        """The plan designed with the instrument at ``at``: in full, or quickly (the screen)."""
+        placed, extra = self.place(at)
+        error = self.error_model(at)
+        how, m = self.final, self.problem["m"]
+        try:
+            if quickly is not None:
+                pool = quickly.seen(placed, extra)
+                if len(pool) < m:
+                    raise Infeasible(
+                        f"only {len(pool)} of the screen's candidate configurations are seen from "
+                        f"({', '.join(f'{v:.3g}' for v in at)}) m, {m} needed"
+                    )
+                how = dict(self.quick, pool=pool)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                result = design(placed, m, self.problem["test_pose"], criterion=self.problem["criterion"],
+                    **grouped(dict(how, measure=self.problem["measure"], instrument=error,
+                    constraints=self.problem["constraints"] + extra,
+                    progress=self.progress and quickly is None)))  # fmt: skip
+        except (Infeasible, SingularPlan, DegenerateOptimum) as failure:  # nothing it can see there
+            self.reasons.setdefault(type(failure).__name__, str(failure))
+            return None
+        return replace(result, instrument_at=(float(at[0]), float(at[1]), float(at[2])))
+
+    def look(self, at: np.ndarray) -> None:
+        """The position tried: screened, or designed in full when nothing is screened."""
+        if tuple(at) not in self.tried:
+            self.tried[tuple(at)] = self.designed(at, self.shared)
+            if self.shared is None:
+                self.full.add(tuple(at))
+        self.steps_done.advance(_best_note(self.tried, self.problem["criterion"]))
+
+    def refine(self, lower: np.ndarray, upper: np.ndarray, step: np.ndarray, rounds: int) -> None:
+        """``rounds`` rounds of the best position's six neighbours, at half the previous step."""
+        for _ in range(rounds):
+            best = _best(self.tried)
+            if best is None:
+                break
+            step = step / 2
+            self.steps_done.stage("refined", 6)
+            for axis in range(3):
+                for sign in (-1, 1):
+                    self.look(np.clip(np.array(best) + sign * step * np.eye(3)[axis], lower, upper))
+
+    def in_full(self, at: tuple[float, ...]) -> None:
+        """The position designed in full: its best plan, the screen's or the full design's."""
+        result = self.designed(np.array(at))
+        self.full.add(at)
+        screened = self.tried.get(at)
+        if screened is None or (result is not None and result.value <= screened.value):
+            self.tried[at] = result
+        self.steps_done.advance(_best_note(self.tried, self.problem["criterion"]))
 
 
 FULL_ONLY = frozenset(
@@ -388,54 +417,6 @@ def _value_text(criterion: str, v: float) -> str:
     return (
         f"rho0 {v * 1e3:.4g} mm" if criterion in ("test-pose", "test-pose-worst") else f"{criterion} {v:.4g}"
     )
-
-
-def _box(box: object) -> tuple[np.ndarray, np.ndarray]:
-    try:
-        arr = np.array(box, dtype=float).reshape(2, 3)
-    except (TypeError, ValueError):
-        raise BadArgument(f"the instrument's box must be X0,Y0,Z0,X1,Y1,Z1 [m], got {box!r}") from None
-    lower, upper = arr.min(axis=0), arr.max(axis=0)
-    if not np.all(np.isfinite(arr)):
-        raise BadArgument(f"the instrument's box must be finite, got {box!r}")
-    return lower, upper
-
-
-def _point(value: object, what: str) -> np.ndarray:
-    try:
-        arr = np.array(value, dtype=float).reshape(3)
-    except (TypeError, ValueError):
-        raise BadArgument(f"{what} must be X,Y,Z [m], got {value!r}") from None
-    return arr
-
-
-def _grid_size(lower: np.ndarray, upper: np.ndarray, steps: int) -> int:
-    """The number of grid positions: ``steps`` per axis of the box (one on an axis of zero width).
-
-    Raises:
-        BadArgument: ``steps`` is no positive integer, or the grid has more than
-            :data:`MAX_POSITIONS` positions.
-    """
-    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
-        raise BadArgument(f"steps must be a positive integer, got {steps!r}")
-    wide = sum(1 for lo, hi in zip(lower, upper) if hi > lo)
-    size = steps**wide
-    if size > MAX_POSITIONS:
-        raise BadArgument(
-            f"{steps} steps per axis make a grid of {size:,} positions over the box's {wide} axes of "
-            f"non-zero width: at most {MAX_POSITIONS:,} (steps from 1 to "
-            f"{math.floor(MAX_POSITIONS ** (1 / wide) + 1e-9)} on {wide} axes)",
-            argument="steps",
-            value=steps,
-        )
-    return size
-
-
-def _grid(lower: np.ndarray, upper: np.ndarray, steps: int) -> list[np.ndarray]:
-    """The grid's positions: ``steps`` per axis of the box (one on an axis of zero width)."""
-    _grid_size(lower, upper, steps)
-    axes = [np.linspace(lo, hi, steps) if hi > lo else np.array([lo]) for lo, hi in zip(lower, upper)]
-    return [np.array(p) for p in np.array(np.meshgrid(*axes, indexing="ij")).reshape(3, -1).T]
 
 
 def _best(tried: dict[tuple[float, ...], DesignResult | None]) -> tuple[float, ...] | None:
