@@ -24,7 +24,7 @@ from collections import OrderedDict
 from collections.abc import Callable, Hashable
 from typing import Any, Generic, TypeVar
 
-__all__ = ["CRITERIA", "ENGINES", "REGIONS", "REPORTS", "STORES", "Kept", "forget_all"]
+__all__ = ["CRITERIA", "ENGINES", "PROBLEMS", "REGIONS", "REPORTS", "STORES", "Kept", "forget_all"]
 
 V = TypeVar("V")
 
@@ -82,6 +82,15 @@ class Kept(Generic[V]):
             self._shared[full] = (owners, value)
         return value
 
+    def drop(self, owners: tuple[object, ...], key: Hashable) -> None:
+        """Drop the value kept for ``owners`` and ``key``, if any (this thread's, or the shared one)."""
+        full = (id(owners[0]), key) if len(owners) == 1 else (*map(id, owners), key)
+        if self._lock is None:
+            getattr(self._local, "store", {}).pop(full, None)
+        else:
+            with self._lock:
+                self._shared.pop(full, None)
+
     def forget(self) -> None:
         """Drop the values kept (this thread's, or the shared ones)."""
         if self._lock is None:
@@ -110,6 +119,12 @@ REGIONS: Kept[Any] = Kept("a test region's samples on a robot", 8, shared=True)
 """Owners: the robot; key: the region's kind and values and the joint limits: an equal region made
 anew (``rho0(params, plan, around(q0, r))`` in a loop) draws its samples once. Shared by the threads:
 the samples are read-only and their draws seeded."""
+
+PROBLEMS: Kept[Any] = Kept("a design's problem, built once per worker thread", 4)
+"""No owners; key: the problem spec's key, a random hex string made with the spec (the spec itself
+comes to a process worker as a copy, so its key stands for it; one spec's key is never another's).
+Read at every start of a design; a design drops its problems when its search ends
+(:func:`pincal.planning.multistart.problem`, :func:`pincal.planning.multistart.forget`)."""
 
 
 def forget_all() -> None:

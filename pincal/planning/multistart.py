@@ -1,12 +1,12 @@
-"""Running the starts of a design: picklable work items, a per-process problem cache, executors.
+"""Running the starts of a design: picklable work items, a per-process store of problems, executors.
 
 A work item is a module-level function and a :class:`ProblemSpec` (plain data: the parameter set
 with its robot and pinocchio.Model, the test poses, the constraints, the pool), so that any
 ``concurrent.futures.Executor`` can run it: a process pool on one machine, or for a cluster
 ``dask.distributed.Client(...).get_executor()`` or Ray's ``RayExecutor``. Each process builds the
 problem (Jacobian engine, objective, constraint data) once per spec and keeps it in a small
-thread-local cache. Results come back in submission order, whatever finishes first: the same seed
-gives the same design whatever the executor and the number of workers.
+thread-local store (:data:`pincal.kept.PROBLEMS`). Results come back in submission order, whatever
+finishes first: the same seed gives the same design whatever the executor and the number of workers.
 
 The process pools pincal makes itself end with it: an interrupted design (Ctrl-C, the CLI's SIGTERM,
 an error) kills its workers rather than wait for their starts, and a worker whose parent dies,
@@ -37,6 +37,7 @@ from pincal.evaluation.d_optimal import DOptimal
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
 from pincal.evaluation.residual_criterion import ResidualCriterion
 from pincal.instruments.instrument import Instrument, RowsEngine, pool_rows, rows_engine, tool_rows
+from pincal.kept import PROBLEMS
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
@@ -145,26 +146,14 @@ def candidate_rows(
     return engine.jacobian(candidates, frame="world" if world else "tip", payload=payload)
 
 
-_LOCAL = threading.local()
-_CACHE_SIZE = 4
-
-
 def problem(spec: ProblemSpec) -> Problem:
-    """The problem of ``spec``, built once per thread and cached."""
-    cache = getattr(_LOCAL, "cache", None)
-    if cache is None:
-        cache = _LOCAL.cache = {}
-    built = cache.get(spec.key)
-    if built is None:
-        if len(cache) >= _CACHE_SIZE:
-            cache.pop(next(iter(cache)))
-        built = cache[spec.key] = Problem(spec)
-    return built
+    """The problem of ``spec``, built once per thread and kept (:data:`pincal.kept.PROBLEMS`)."""
+    return PROBLEMS.get((), spec.key, lambda: Problem(spec))
 
 
 def forget(spec: ProblemSpec) -> None:
-    """Drop ``spec`` from this thread's cache."""
-    getattr(_LOCAL, "cache", {}).pop(spec.key, None)
+    """Drop ``spec``'s problem from this thread's store."""
+    PROBLEMS.drop((), spec.key)
 
 
 def single_threaded_blas():
