@@ -241,3 +241,18 @@ def test_a_store_keeps_by_owner_identity_and_key_value_the_most_recent():
     store.forget()
     assert store.get((a,), (1, b"x"), build("after forget")) == ["after forget"]
     del kept.STORES["test store"]
+
+
+def test_a_store_drops_one_value_and_keeps_the_others():
+    """Kept.drop (the multistart problems: a design drops its own when its search ends)."""
+    for shared in (False, True):
+        store: kept.Kept[list] = kept.Kept("test store", 4, shared=shared)
+        a = _Owner()
+        x = store.get((a,), 1, lambda: ["x"])
+        assert store.get((), "spec", lambda: ["y"]) == ["y"]
+        store.drop((), "spec")
+        store.drop((a,), 2)  # nothing kept there: nothing happens
+        assert store.get((a,), 1, lambda: ["x again"]) is x
+        assert store.get((), "spec", lambda: ["y again"]) == ["y again"]  # dropped: built anew
+        assert store.get((), "spec", lambda: ["third"]) == ["y again"]
+        del kept.STORES["test store"]
