@@ -89,27 +89,10 @@ def run(args: argparse.Namespace) -> int:
     prior = prior_from_args(args)
     constraints = safe_constraints_from_args(robot, args)  # with the safe defaults
     check_tradeoff_arguments(args, robot, q0)
-    if args.worst and args.criterion not in ("test-pose", "test-pose-worst"):
-        raise BadArgument(f"--worst applies to the test-pose criterion, not {args.criterion!r}")
-    if args.pool and args.pool_size is not None:
-        raise BadArgument("give --pool FILE.csv or --pool-size N, not both")
+    _check_search_arguments(args)
     taught = read_plan(robot, args.pool, args.deg) if args.pool else None
     pool = taught if taught is not None else args.pool_size
-    progress = args.progress
-    options = dict(
-        method=args.method,
-        pool=pool,
-        starts=args.starts,
-        polish=args.polish,
-        min_conditioning=args.min_conditioning,
-        prior=prior,
-        constraints=constraints,
-        sigma=sigma,
-        seed=args.seed,
-        workers=args.workers,
-        progress=progress,
-        **measuring.options,
-    )
+    options = _design_options(args, pool, prior, constraints, sigma, measuring.options)
     loads = _payload_options(args)
     if args.residual_model:
         loads["residual_model"] = residual_model_from_args(robot, args.residual_model)
@@ -159,6 +142,32 @@ def run(args: argparse.Namespace) -> int:
     )
     print_warnings(records)  # last, where they are seen
     return 0
+
+
+def _check_search_arguments(args: argparse.Namespace) -> None:
+    """--worst with the test-pose criterion only; --pool or --pool-size, not both."""
+    if args.worst and args.criterion not in ("test-pose", "test-pose-worst"):
+        raise BadArgument(f"--worst applies to the test-pose criterion, not {args.criterion!r}")
+    if args.pool and args.pool_size is not None:
+        raise BadArgument("give --pool FILE.csv or --pool-size N, not both")
+
+
+def _design_options(args: argparse.Namespace, pool, prior, constraints, sigma, measured: dict) -> dict:
+    """The options of :func:`pincal.design` the command line gives (the payloads' apart)."""
+    return dict(
+        method=args.method,
+        pool=pool,
+        starts=args.starts,
+        polish=args.polish,
+        min_conditioning=args.min_conditioning,
+        prior=prior,
+        constraints=constraints,
+        sigma=sigma,
+        seed=args.seed,
+        workers=args.workers,
+        progress=args.progress,
+        **measured,
+    )
 
 
 def _check_payload_design(args: argparse.Namespace, loads: dict) -> None:
