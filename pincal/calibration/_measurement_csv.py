@@ -35,24 +35,7 @@ def read_csv(
     millimetres: bool = False,
     kind: Kind | None = None,
 ) -> MeasurementData:
-    """Read measurements for ``robot`` from a CSV file (format: see the module doc).
-
-    Args:
-        path: the file.
-        robot: the robot measured: its joint names, markers and limits (and fixtures).
-        degrees: revolute joint values are in degrees (converted to radians).
-        millimetres: lengths are in millimetres (converted to metres).
-        kind: the measurement kind; default: read from the columns (points, poses, partial
-            poses, distances); image data need theirs (:class:`pincal.instruments.Image`).
-
-    Returns:
-        the data, in the robot's joint order, values in radians and metres.
-
-    Raises:
-        BadMeasurementData: missing, empty or malformed file, columns that do not match the
-            joints, markers or kind (listed), a bad row (its line is named).
-        BadConfiguration: a joint value outside its limits (its line is named).
-    """
+    """:meth:`MeasurementData.from_csv` (its arguments, returns and errors are documented there)."""
     source = str(path)
     header, rows, lines = read_numeric_csv(
         path, what="measurement", error=BadMeasurementData, may_be_empty=_columns.may_be_empty
@@ -130,17 +113,7 @@ def _points_from_rows(
 def csv_text(
     data: MeasurementData, *, degrees: bool = False, millimetres: bool = False, robot: Robot | None = None
 ) -> str:
-    """CSV text of these data (format: see the module doc).
-
-    Args:
-        degrees: write the revolute joints in degrees (prismatic joints stay in metres).
-        millimetres: write coordinates in millimetres.
-        robot: the robot, to tell revolute from prismatic joints; needed with ``degrees``,
-            and for a kind other than points (its columns' names).
-
-    Raises:
-        BadArgument: ``degrees`` (or another kind than points) without ``robot``.
-    """
+    """:meth:`MeasurementData.to_csv_text` of ``data`` (documented there)."""
     q = np.array(data.q)
     if degrees:
         if robot is None:

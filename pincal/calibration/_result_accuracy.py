@@ -32,17 +32,7 @@ def calibration_accuracy(
     workspace: int = WORKSPACE_SAMPLES,
     seed: int = 0,
 ) -> AccuracyReport:
-    """The accuracy report of this calibration: the error of its predictions
-    (:meth:`expected_error`: the parameters' standard errors and the residual model's variance)
-    at the test pose(s) or region ``test_pose``, over ±10° and ±20° around them and over the
-    workspace, with the task's ``payload`` (one load for every configuration) — the report
-    :func:`pincal.accuracy` gives a plan before it is measured, now for what was measured.
-
-    Args:
-        test_pose: test pose(s) or a region/path (see :func:`pincal.rho0`).
-        payload: the task's payload (a mass [kg] or a :class:`~pincal.Payload`), or None.
-        neighbourhoods, samples, workspace, seed: as for :func:`pincal.accuracy`.
-    """
+    """:meth:`IdentificationResult.accuracy` of ``result`` (documented there)."""
     robot = result.params.robot
     load = None if payload is None else payload_rows(payload, 1)
     if load is not None and not isinstance(payload, Payload):
