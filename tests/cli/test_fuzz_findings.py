@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal.cli.example import example_text
 from pincal.model.geometry import THIN, thickened
 from tests.conftest import ROOT
 from tests.support.fuzz_cli import Outcome, _snapshot, check_run
@@ -738,7 +739,7 @@ def test_a_value_starting_with_a_minus_sign_is_a_value_of_every_option(tmp_path,
 def test_images_that_see_no_target_point_at_all_are_one_line(tmp_path):
     """rail_arm's plans never show the example rig's target to its camera: measure-sim writes 8
     empty images, and identify stopped on 'Mean of empty slice' (an internal error)."""
-    (tmp_path / "rig.yaml").write_text((ROOT / "pincal" / "examples" / "rig.yaml").read_text())
+    (tmp_path / "rig.yaml").write_text(example_text("rig"))  # the installed package's
     rows = "".join(
         f"{0.2 * k},{0.1 * k},0,0\n" for k in range(8)
     )  # the camera looks up, away from the target
@@ -809,7 +810,7 @@ def test_a_campaign_orders_at_most_two_thousand_poses(tmp_path):
 
 def test_a_jacobian_beyond_what_memory_holds_is_one_line(tmp_path):
     """simulate of a 266 928-pose plan measured by a camera: a MemoryError (3.6 GiB)."""
-    (tmp_path / "rig.yaml").write_text((ROOT / "pincal" / "examples" / "rig.yaml").read_text())
+    (tmp_path / "rig.yaml").write_text(example_text("rig"))  # the installed package's
     _random_plan(tmp_path / "plan.csv", ["rail", "waist", "shoulder", "elbow"], 45_000)
     argv = ["simulate", "rail_arm", "--plan", "plan.csv", "--camera", "rig.yaml",
             "--test-pose=0.5,0.3,0.2,-0.4", "--trials", "5", "--no-progress"]  # fmt: skip
