@@ -43,9 +43,9 @@ import pinocchio as pin
 from lxml import etree
 
 from pincal.calibration.identification import IdentificationResult
-from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused, PincalWarning, UrdfError
+from pincal.errors import BadArgument, OverwriteRefused, PincalWarning, UrdfError
 from pincal.export._urdf_to_mjcf import urdf_to_mjcf
-from pincal.export.urdf import check_reproduces, placement_text, sidecar, sidecar_path
+from pincal.export.urdf import check_reproduces, exported_robot, placement_text, sidecar, sidecar_path
 from pincal.files import all_or_nothing, atomic_write_text
 from pincal.model.chain import default_root, frame_id
 from pincal.model.loading import load_robot
@@ -66,20 +66,6 @@ from pincal.version import __version__
 
 MARKER_SITE = "pincal_marker{}"
 """Name of the site of marker k."""
-
-
-def _robot_of(
-    calibrated: IdentificationResult | Robot, force: bool
-) -> tuple[Robot, IdentificationResult | None]:
-    result = calibrated if isinstance(calibrated, IdentificationResult) else None
-    robot = calibrated.robot if isinstance(calibrated, IdentificationResult) else calibrated
-    if result is not None and not (result.success or (force and result.status == "implausible")):
-        raise IdentificationFailed(result)
-    if not isinstance(robot, Robot):
-        raise BadArgument(
-            f"export_mjcf needs an IdentificationResult or a Robot, got {type(calibrated).__name__}"
-        )
-    return robot, result
 
 
 def export_mjcf(
@@ -114,7 +100,7 @@ def export_mjcf(
         IdentificationFailed, OverwriteRefused, UrdfError (no source, one that does not hold the
         chain, or that cannot reproduce the calibrated model), BadArgument.
     """
-    robot, result = _robot_of(calibrated, force)
+    robot, result = exported_robot(calibrated, force, "export_mjcf")
     if offsets not in ("ref", "fold"):
         raise BadArgument(f"offsets must be 'ref' or 'fold', got {offsets!r}", argument="offsets")
     given = source if source is not None else robot.urdf_path

@@ -39,9 +39,9 @@ import pinocchio as pin
 from lxml import etree
 
 from pincal.calibration.identification import IdentificationResult
-from pincal.errors import BadArgument, IdentificationFailed, PincalWarning, UrdfError
+from pincal.errors import PincalWarning, UrdfError
 from pincal.export._urdf_to_mjcf import NO_INERTIA, NO_MASS
-from pincal.export.urdf import placement_text
+from pincal.export.urdf import exported_robot, placement_text
 from pincal.files import atomic_write_text
 from pincal.model.robot import Robot
 from pincal.model.urdf import read_tree, resolve_mesh
@@ -82,15 +82,7 @@ def export_sdf(
         IdentificationFailed, OverwriteRefused (``path`` is an input), UrdfError (no URDF source,
         one that is not this robot, or a joint or name SDF cannot hold), BadArgument.
     """
-    result = calibrated if isinstance(calibrated, IdentificationResult) else None
-    robot = calibrated.robot if isinstance(calibrated, IdentificationResult) else calibrated
-    if result is not None and not (result.success or (force and result.status == "implausible")):
-        raise IdentificationFailed(result)
-    if not isinstance(robot, Robot):
-        raise BadArgument(
-            f"export_sdf needs an IdentificationResult or a Robot, got {type(calibrated).__name__}",
-            argument="calibrated",
-        )
+    robot, result = exported_robot(calibrated, force, "export_sdf")
     given = source if source is not None else robot.urdf_path
     if given is None:
         raise UrdfError(

@@ -137,6 +137,24 @@ def sidecar(
     return out
 
 
+def exported_robot(
+    calibrated: IdentificationResult | Robot, force: bool, writer: str
+) -> tuple[Robot, IdentificationResult | None]:
+    """(the robot to write, its identification result or None) of what ``writer`` (export_urdf,
+    export_mjcf, export_sdf) was given: a result must have succeeded (or, with ``force``, be only
+    implausible), else IdentificationFailed; anything but a result or a Robot is a BadArgument."""
+    result = calibrated if isinstance(calibrated, IdentificationResult) else None
+    robot = calibrated.robot if isinstance(calibrated, IdentificationResult) else calibrated
+    if result is not None and not (result.success or (force and result.status == "implausible")):
+        raise IdentificationFailed(result)
+    if not isinstance(robot, Robot):
+        raise BadArgument(
+            f"{writer} needs an IdentificationResult or a Robot, got {type(calibrated).__name__}",
+            argument="calibrated",
+        )
+    return robot, result
+
+
 @keywords_after(2)
 def export_urdf(
     calibrated: IdentificationResult | Robot,
@@ -168,14 +186,7 @@ def export_urdf(
         UrdfError: no source URDF, or one that does not hold the robot's chain, or that cannot
             reproduce the calibrated model.
     """
-    result = calibrated if isinstance(calibrated, IdentificationResult) else None
-    robot = calibrated.robot if isinstance(calibrated, IdentificationResult) else calibrated
-    if result is not None and not (result.success or (force and result.status == "implausible")):
-        raise IdentificationFailed(result)
-    if not isinstance(robot, Robot):
-        raise BadArgument(
-            f"export_urdf needs an IdentificationResult or a Robot, got {type(calibrated).__name__}"
-        )
+    robot, result = exported_robot(calibrated, force, "export_urdf")
     source = source_urdf if source_urdf is not None else robot.urdf_path
     if source is None:
         raise UrdfError(
