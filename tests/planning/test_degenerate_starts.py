@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal.cli.example import example_text
 from pincal.errors import SingularPlan
 from pincal.instruments import Instrument, PerCoordinate, load_rig
 from pincal.instruments.identifiability import identifiable
@@ -19,23 +20,7 @@ from pincal.planning import starts as _starts
 
 pytestmark = pytest.mark.filterwarnings("ignore::pincal.errors.DegenerateOptimumWarning")
 
-RIG = """\
-camera:
-  fx: 600.0
-  fy: 600.0
-  cx: 320.0
-  cy: 240.0
-  distortion: [0.05, -0.02, 0.0, 0.0, 0.0]
-  width: 640
-  height: 480
-  mount: tool
-  xyz: [0.05, 0.0, 0.05]
-target:
-  grid: {columns: 6, rows: 5, spacing: 0.03}
-  xyz: [0.5, 0.0, 0.0]
-  rpy_deg: [180, 0, 0]
-pixel_sigma: 0.5
-"""
+RIG = example_text("rig")
 """Notebook 05's rig (the README's rig.yaml): a camera on the hand seeing a 6 x 5 grid on the floor."""
 
 PANDA_Q0 = "0,-0.3,0,-2.2,0,2,0.8"
