@@ -11,10 +11,11 @@ from pincal.calibration.state import Setup
 def covariance(
     setup: Setup, z: np.ndarray, used: np.ndarray, scale_to: float | None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(std, correlation) of the parameters: (JᵀWJ + Σp⁻¹)⁻¹ over the free unknowns and the rows
-    used, scaled to σ̂² = ``scale_to``² when σ is estimated; NaN for the parameters left out."""
+    """(std, correlation) of the unknowns (the parameters, then the bases of sessions after the
+    first: ``problem.names``): (JᵀWJ + Σp⁻¹)⁻¹ over the free unknowns and the rows used, scaled to
+    σ̂² = ``scale_to``² when σ is estimated; NaN for the unknowns left out."""
     problem, free, prior_std = setup.problem, setup.free, setup.prior_std
-    n = len(problem.params)
+    n = len(problem.names)
     J = problem.noise.whiten(problem.jacobian(z)[np.ix_(problem.noise.coordinates(used), free)], used)
     M = J.T @ J + np.diag(np.where(np.isfinite(prior_std[free]), 1.0 / prior_std[free] ** 2, 0.0))
     d = np.sqrt(np.diag(M))

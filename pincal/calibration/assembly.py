@@ -43,6 +43,7 @@ def identification_result(
     z = None if solution is None else solution.z
     if z is None:
         values, std, correlation = np.full(n, np.nan), np.full(n, np.nan), np.full((n, n), np.nan)
+        later: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
         robot, residuals = problem.robot(setup.z0), setup.before.reshape(shape)
         sigma_out = np.nan if estimated else noise.reference
         z_final = setup.z0
@@ -57,6 +58,8 @@ def identification_result(
         std, correlation = covariance(
             setup, z, rows.used, per_coordinate if estimated and settings.prior is None else None
         )
+        later = _session_estimates(problem, z, std, correlation)
+        std, correlation = std[:n].copy(), correlation[:n, :n].copy()
         z_final = z
     bases = tuple(problem.robot(z_final, s).base for s in range(len(sessions))) if problem.base else ()
     initial_bases = (
@@ -94,7 +97,28 @@ def identification_result(
         initial_bases=initial_bases,
         residual_level=float(level),
         residual_dof=int(max(dof, 0)),
+        session_estimates=later,
     )
+
+
+def _session_estimates(
+    problem: Problem, z: np.ndarray, std: np.ndarray, correlation: np.ndarray
+) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+    """(x_s, C_s) for each session after the first: the parameter values it uses (its own base's)
+    and their covariance, from the (std, correlation) of every unknown (its base's block in place
+    of the first session's)."""
+    n, nb = len(problem.params), len(problem.base)
+    if not nb or len(problem.sessions) < 2:
+        return ()
+    full = correlation * np.outer(std, std)
+    out = []
+    for s in range(1, len(problem.sessions)):
+        index = np.arange(n)
+        index[problem.base] = n + (s - 1) * nb + np.arange(nb)
+        x, C = problem.session_values(z, s), full[np.ix_(index, index)]
+        x.flags.writeable = C.flags.writeable = False
+        out.append((x, C))
+    return tuple(out)
 
 
 def _per_coordinate(problem: Problem, residual: np.ndarray, used: np.ndarray, dof: int) -> float:

@@ -17,6 +17,7 @@ from pincal.calibration.problem import Linearisation
 from pincal.calibration.result_report import report_text, unexplained_text
 from pincal.calibration.sanity import Outlier
 from pincal.deprecation import moved_from
+from pincal.errors import BadArgument
 from pincal.evaluation.accuracy_report import AccuracyReport
 from pincal.evaluation.accuracy_samples import (
     NEIGHBOURHOOD_SAMPLES,
@@ -84,6 +85,10 @@ class IdentificationResult:
             freedom. Beyond the instrument's σ it is what the model does not explain
             (:attr:`unexplained`).
         residual_dof: those degrees of freedom (coordinates used − unknowns fitted).
+        session_estimates: for each session after the first, when ``base.*`` was identified, the
+            values of the parameters it uses (``values`` with its own base's) and their (P, P)
+            covariance (with its base's uncertainty, not the first session's): what
+            :meth:`point_variances` and :func:`~pincal.validate` predict with in that session.
     """
 
     params: ParameterSet
@@ -114,6 +119,7 @@ class IdentificationResult:
     residual_model: ResidualModel | None = None
     residual_level: float = float("nan")
     residual_dof: int = 0
+    session_estimates: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
 
     def predict(self, q: ConfigurationsLike, *, payload: PayloadLike = None, session: int = 0) -> np.ndarray:
         """(m, K, 3) the points the calibration predicts at joint readings ``q`` [m], in session
@@ -131,9 +137,19 @@ class IdentificationResult:
     def _fitted(self) -> tuple[Linearisation, np.ndarray, JacobianEngine, np.ndarray]:
         """The Jacobian of the fitted model (first session's base): its linearisation, the values it
         is taken at, its engine and its column map, kept for every prediction of this result."""
-        linear = Linearisation(self.params)
-        x = np.nan_to_num(np.asarray(self.values, dtype=float), nan=0.0)
-        return linear, x, linear.engine(x), linear.mapping(x)
+        return _linearised(self.params, self.values)
+
+    def _session(self, session: int) -> tuple[np.ndarray, np.ndarray]:
+        """(std, covariance) of the parameter values session ``session`` uses (its own base's)."""
+        if not 0 <= session < max(len(self.sessions), 1):
+            raise BadArgument(
+                f"session must be between 0 and {max(len(self.sessions), 1) - 1}, got {session}",
+                argument="session",
+            )
+        if session == 0 or not self.session_estimates:
+            return self.std, self.covariance
+        C = self.session_estimates[session - 1][1]
+        return np.sqrt(np.diag(C)), C
 
     @property
     def instrument_sigma(self) -> float:
@@ -160,13 +176,15 @@ class IdentificationResult:
         return float(level**2 - floor**2)
 
     def point_variances(
-        self, q: ConfigurationsLike, *, payload: PayloadLike = None
+        self, q: ConfigurationsLike, *, payload: PayloadLike = None, session: int = 0
     ) -> tuple[np.ndarray, np.ndarray]:
-        """((m, K), (m, K)) the variance [m²] of each predicted point (:meth:`predict`) at joint
-        readings ``q``, summed over its three coordinates, from each source: the parameters'
-        uncertainty, tr(J C Jᵀ) over the point's rows (J the Jacobian of the *fitted* model under
-        ``payload``, the one C belongs to, so that where the URDF puts the base does not matter;
-        C :attr:`covariance`; a dropped parameter, held nominal, adds nothing; NaN when a parameter
+        """((m, K), (m, K)) the variance [m²] of each predicted point (:meth:`predict`, in session
+        ``session``'s instrument frame) at joint readings ``q``, summed over its three coordinates,
+        from each source: the parameters' uncertainty, tr(J C Jᵀ) over the point's rows (J the
+        Jacobian of the *fitted* model under ``payload``, with that session's base, the one C belongs
+        to, so that where the URDF puts the base does not matter; C :attr:`covariance`, or for a
+        later session with its own base that base's (:attr:`session_estimates`); a dropped
+        parameter, held nominal, adds nothing; NaN when a parameter
         estimated has no standard error), and what the model
         does not explain: the residual model's posterior variance, 3·v(q), or without one the
         residual level beyond the instrument's noise, 3·:attr:`unexplained`. NaN without an
@@ -174,11 +192,15 @@ class IdentificationResult:
         robot = self.params.robot
         qs = robot.configurations(q)
         K = robot.n_markers
-        C = np.nan_to_num(self.covariance, nan=0.0)
+        std, C = self._session(session)
+        C = np.nan_to_num(C, nan=0.0)
         estimated = [name not in self.dropped for name in self.names]
-        if not np.any(np.isfinite(self.std)) or not np.all(np.isfinite(self.std[estimated])):
+        if not np.any(np.isfinite(std)) or not np.all(np.isfinite(std[estimated])):
             C = np.full_like(C, np.nan)  # a parameter estimated without a standard error: unknown
-        linear, x, engine, mapping = self._fitted
+        fitted = self._fitted
+        if session > 0 and self.session_estimates:
+            fitted = _linearised(self.params, self.session_estimates[session - 1][0])
+        linear, x, engine, mapping = fitted
         J = linear.points(x, qs, payload, engine, mapping).reshape(len(qs), K, 3, -1)
         parameters = np.einsum("mkip,pr,mkir->mk", J, C, J)
         if self.residual_model is not None:
@@ -187,25 +209,31 @@ class IdentificationResult:
             rest = np.full((len(qs), K), 3.0 * self.unexplained)
         return parameters, rest
 
-    def expected_error(self, q: ConfigurationsLike, *, payload: PayloadLike = None) -> np.ndarray:
+    def expected_error(
+        self, q: ConfigurationsLike, *, payload: PayloadLike = None, session: int = 0
+    ) -> np.ndarray:
         """(m,) the expected distance [m] between the points :meth:`predict` gives at joint readings
         ``q`` (all markers) and the robot's true ones (docs/method.md §11.6): sqrt(tr(J C Jᵀ) +
         3K·u²), the parameters' standard errors propagated to the points through the fitted model
         (the ρ of §8.3 with this fit's covariance) and what the model does not explain, u² per
         coordinate: with a residual model its posterior variance v(q) (small near the data it was
         fitted on, its amplitude s² far from them), without one the residual level measured on the
-        data beyond the instrument's noise (:attr:`unexplained`). NaN when it cannot be known."""
-        parameters, rest = self.point_variances(q, payload=payload)
+        data beyond the instrument's noise (:attr:`unexplained`). NaN when it cannot be known. In
+        session ``session``'s instrument frame, as :meth:`predict`."""
+        parameters, rest = self.point_variances(q, payload=payload, session=session)
         return np.sqrt(parameters.sum(axis=1) + rest.sum(axis=1))
 
     @cached_property
     def _expected_at_data(self) -> dict[str, float]:
         """RMS over the kept configurations of the expected error and its two parts [m]."""
-        data = self.data
-        used = self._used
-        parameters, rest = self.point_variances(
-            data.q[used], payload=None if data.payload is None else data.payload[used]
-        )
+        data, sessions = self.data, max(len(self.sessions), 1)
+        session = np.repeat(np.arange(sessions), [d.m for d in self.sessions] or [data.m])
+        parts = []
+        for s in range(sessions):  # each session's points with its own base's uncertainty
+            rows = self._used & (session == s)
+            load = None if data.payload is None else data.payload[rows]
+            parts.append(self.point_variances(data.q[rows], payload=load, session=s))
+        parameters, rest = (np.concatenate([p[i] for p in parts]) for i in (0, 1))
         part = "residual_model" if self.residual_model is not None else "unexplained"
         out = {
             "rms": float(np.sqrt(np.mean(parameters.sum(axis=1) + rest.sum(axis=1)))),
@@ -373,6 +401,15 @@ class IdentificationResult:
         """A human-readable report: status, residuals, data identifiability, estimates ± standard
         errors (mm, mrad), outliers."""
         return report_text(self)
+
+
+def _linearised(
+    params: ParameterSet, values: np.ndarray
+) -> tuple[Linearisation, np.ndarray, JacobianEngine, np.ndarray]:
+    """The linearisation of ``params`` at ``values`` (NaN: 0), the values, its engine and column map."""
+    linear = Linearisation(params)
+    x = np.nan_to_num(np.asarray(values, dtype=float), nan=0.0)
+    return linear, x, linear.engine(x), linear.mapping(x)
 
 
 def _pose(placement: pin.SE3) -> dict:

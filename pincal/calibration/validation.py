@@ -158,7 +158,7 @@ def _errors(
         predicted = result.predict(data.q, payload=data.payload, session=session)
         after = np.linalg.norm(data.points - predicted, axis=-1).reshape(-1)
         labels = [label for label in data.labels() for _ in range(data.n_markers)]
-        return before, after, _expected(result, data), labels
+        return before, after, _expected(result, data, session), labels
     after_robot = result.robot.replace(base=result.bases[session]) if result.bases else result.robot
     kind, heads = data.measure, _heads(data, result.robot)
 
@@ -172,13 +172,14 @@ def _errors(
     return before[measured], after[measured], None, labels
 
 
-def _expected(result: IdentificationResult, data: MeasurementData) -> np.ndarray:
-    """(m·K,) the error ``result`` predicts for each of ``data``'s points [m]: its prediction's
+def _expected(result: IdentificationResult, data: MeasurementData, session: int) -> np.ndarray:
+    """(m·K,) the error ``result`` predicts for each of ``data``'s points (measured in session
+    ``session``, with its own base's uncertainty) [m]: its prediction's
     variance (the parameters, and what the model does not explain: the residual model's variance or
     the residual level beyond the instrument's noise, u²) plus the noise of a measurement, 3n² per
     point (n the residual model's noise; else σ when given; when σ was estimated, the residual level
     less u²: with the noise, the residual level whole)."""
-    parameters, rest = result.point_variances(data.q, payload=data.payload)
+    parameters, rest = result.point_variances(data.q, payload=data.payload, session=session)
     model = result.residual_model
     if model is not None:
         noise2 = model.noise**2
