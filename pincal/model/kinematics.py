@@ -18,8 +18,11 @@ readings:
   robot's base frame (:class:`Placements`);
 * :meth:`~ForwardKinematics.chain_points` — the joint origins, the tip and the markers in the base
   frame, the mount's points: Pinocchio per configuration below :data:`BATCH` configurations, above
-  it all at once (:class:`~pincal.model.placements.JointPlacements`, which agrees with Pinocchio to
-  rounding);
+  it all at once (:meth:`~ForwardKinematics.batch_placements`);
+* :meth:`~ForwardKinematics.batch_placements` — every joint's placement at many joint values at once
+  (:class:`~pincal.model.placements.JointPlacements`, Pinocchio's recursion in NumPy, which agrees
+  with Pinocchio to rounding): the one batch of the package, read by the mount's points and the
+  self-collision check's bounding spheres;
 * :meth:`~ForwardKinematics.place_geometry` — a geometry model's placements (Pinocchio);
 * :meth:`~ForwardKinematics.frame_jacobian` — the tip frame's Jacobian with respect to the reading,
   J(θ)·∂θ/∂q, ∂θ/∂q = (I − C ∂τ/∂θ)⁻¹ (I + K);
@@ -188,9 +191,7 @@ class ForwardKinematics:
         """:meth:`chain_points` of all configurations in one batch
         (:class:`~pincal.model.placements.JointPlacements`)."""
         robot = self.robot
-        if self._batch is None:
-            self._batch = JointPlacements(self.model)
-        rotations, translations = self._batch(self.joint_values(qs, payload))
+        rotations, translations = self.batch_placements(self.joint_values(qs, payload))
         tip = self.model.frames[robot.tip_frame].placement
         up = rotations[robot.tip_joint].reshape(-1, 3)
         tip_rotation = (up @ tip.rotation).reshape(-1, 3, 3)
@@ -198,6 +199,15 @@ class ForwardKinematics:
         markers = tip_position[:, None, :] + np.einsum("mij,kj->mki", tip_rotation, robot.markers)
         origins = translations[1:].transpose(1, 0, 2)
         return np.concatenate([origins, tip_position[:, None, :], markers], axis=1)
+
+    def batch_placements(self, thetas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every joint's placement in the base frame at the joint values ``thetas`` (m, nq) (θ, not
+        the readings: :meth:`joint_values`), all configurations in one batch: (njoints, m, 3, 3)
+        rotations and (njoints, m, 3) translations [m], ``data.oMi`` of each configuration to
+        rounding (:class:`~pincal.model.placements.JointPlacements`)."""
+        if self._batch is None:
+            self._batch = JointPlacements(self.model)
+        return self._batch(thetas)
 
     # ------------------------------------------------------------------ geometry
     def place_geometry(

@@ -62,7 +62,10 @@ def test_the_culled_check_decides_as_the_all_pairs_check(name, n, clearance):
     # lower bound of its distance there, beyond the reach like the distance itself.
     reach = bound.reach
     thetas = bound.forward.joint_values(qs, None)
-    culled = bound.hull_spheres.lower_bounds(*bound.placements(thetas)) >= bound.min_distance + reach + 1e-3
+    culled = (
+        bound.hull_spheres.lower_bounds(*bound.forward.batch_placements(thetas))
+        >= bound.min_distance + reach + 1e-3
+    )
     assert culled.mean() > 0.3  # most pairs at most configurations are not measured
     assert np.all(oracle[culled] >= margins[culled] - 1e-9) and np.all(oracle[culled] >= reach)
     np.testing.assert_allclose(np.minimum(margins, reach), np.minimum(oracle, reach), rtol=0, atol=2e-6)
@@ -76,7 +79,7 @@ def test_few_pairs_are_measured():
     robot = robot_named("tiago_pro")
     bound = SelfCollision().bind(robot)
     thetas = bound.forward.joint_values(robot.random_configurations(300, 7), None)
-    lower = bound.hull_spheres.lower_bounds(*bound.placements(thetas))
+    lower = bound.hull_spheres.lower_bounds(*bound.forward.batch_placements(thetas))
     oracle, _ = all_pairs(bound, robot.random_configurations(300, 7))
     assert np.all(lower <= oracle + 1e-9)  # the spheres bound the distances from below
     measured = (lower < bound.reach + 1e-3).mean()

@@ -5,10 +5,10 @@ The check runs on the search's hot path (every margin evaluation of the continuo
 sampled configuration), so a pair is measured by coal only where it can matter: each shape's
 bounding sphere (coal's ``aabb_center`` and ``aabb_radius`` about its placement on its joint) gives
 a lower bound of the pair's distance for all configurations at once (the joints' placements in one
-batch, :class:`~pincal.model.placements.JointPlacements`); a pair whose bound is beyond the
-search's reach (or beyond the clearance, for the exact check) cannot change the result and is not
-measured. What is measured is measured as before (one coal call per pair, the same requests), so
-feasibility and the search's steps are unchanged.
+batch, :meth:`~pincal.model.kinematics.ForwardKinematics.batch_placements`); a pair whose bound is
+beyond the search's reach (or beyond the clearance, for the exact check) cannot change the result
+and is not measured. What is measured is measured as before (one coal call per pair, the same
+requests), so feasibility and the search's steps are unchanged.
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ from pincal.errors import BadConstraint, UrdfError
 from pincal.model.collision import touching_at_reference
 from pincal.model.geometry import convex_hulls, urdf_geometry
 from pincal.model.kinematics import ForwardKinematics
-from pincal.model.placements import JointPlacements
 from pincal.model.robot import Robot
 from pincal.model.urdf import few
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, NothingChecked, number
@@ -125,7 +124,8 @@ class Spheres:
 
     def lower_bounds(self, rotations: np.ndarray, translations: np.ndarray) -> np.ndarray:
         """(m, pairs) a lower bound of each pair's distance [m], from the joints' placements
-        (:class:`~pincal.model.placements.JointPlacements`: (njoints, m, 3, 3), (njoints, m, 3))."""
+        (:meth:`~pincal.model.kinematics.ForwardKinematics.batch_placements`: (njoints, m, 3, 3),
+        (njoints, m, 3))."""
         placed = np.einsum("smij,sj->msi", rotations[self.joints], self.centres)
         placed += translations[self.joints].transpose(1, 0, 2)
         return np.linalg.norm(placed[:, self.a] - placed[:, self.b], axis=2) - self.radii
@@ -197,7 +197,6 @@ class CollisionBound(Bound):
         self.min_distance = spec.min_distance
         for request in [*self.hull_data.distanceRequests, *self.exact_data.collisionRequests]:
             memoryless(request)
-        self.placements = JointPlacements(model)
         self.hull_spheres, self.exact_spheres = Spheres(hulls, pairs), Spheres(geom, pairs)
 
     def margins(self, kin: Kinematics) -> np.ndarray:
@@ -205,7 +204,7 @@ class CollisionBound(Bound):
         spheres are farther apart than the reach (and the slack) gets the spheres' bound, a lower
         bound of its distance beyond the reach, where the search reads 1 either way."""
         thetas = self.forward.joint_values(kin.qs, kin.payload)
-        out = self.hull_spheres.lower_bounds(*self.placements(thetas))
+        out = self.hull_spheres.lower_bounds(*self.forward.batch_placements(thetas))
         near = out < self.min_distance + self.reach + CULL_SLACK
         model, data, hulls, hull_data = self.model, self.data, self.hulls, self.hull_data
         for i in np.flatnonzero(near.any(axis=1)):
@@ -219,7 +218,8 @@ class CollisionBound(Bound):
         test with that security margin, on the pairs whose bounding spheres come that close)."""
         model, data, geom, gdata = self.model, self.data, self.exact, self.exact_data
         thetas = self.forward.joint_values(kin.qs, kin.payload)
-        near = self.exact_spheres.lower_bounds(*self.placements(thetas)) <= self.min_distance + CULL_SLACK
+        bounds = self.exact_spheres.lower_bounds(*self.forward.batch_placements(thetas))
+        near = bounds <= self.min_distance + CULL_SLACK
         ok = np.ones(len(thetas), dtype=bool)
         for i in np.flatnonzero(near.any(axis=1)):
             pin.updateGeometryPlacements(model, data, geom, gdata, thetas[i])
