@@ -414,19 +414,19 @@ def _pool(
     params: ParameterSet, settings: Settings, pool: PoolLike, init: Sequence[ConfigurationsLike]
 ) -> Pool:
     """The candidates (the user's feasible configurations, or drawn; each paired with every payload
-    of a loaded design) and the checked init plans."""
-    robot, feasibility, m = params.robot, settings.feasibility, settings.m
+    of a loaded design it satisfies the constraints under) and the checked init plans."""
+    robot, feasibility, m, loads = params.robot, settings.feasibility, settings.m, settings.loads
     rejected = 0
+    # Drawn strictly inside the constraints for a continuous search, as when its barrier needed
+    # it (SLSQP needs feasible starts only): the same draws, so the same plans.
+    strict = settings.method == "continuous" or settings.polish
     if settings.user_pool:
-        candidates, rejected = feasibility.feasible_pool(pool, m)  # type: ignore[arg-type]  # user_pool: not a size
+        candidates, rejected = feasibility.feasible_pool(pool, m, loads)  # type: ignore[arg-type]  # user_pool: not a size
     else:
-        default = DEFAULT_POOL if settings.loads is None else LOADED_POOL
+        default = DEFAULT_POOL if loads is None else LOADED_POOL
         size = default if pool is None else positive_int(pool, "pool size", m)
-        # Drawn strictly inside the constraints for a continuous search, as when its barrier needed
-        # it (SLSQP needs feasible starts only): the same draws, so the same plans.
-        strict = settings.method == "continuous" or settings.polish
         rng = np.random.default_rng(settings.seed_sequence(0))
-        candidates = feasibility.sample(size, rng, minimum=m, strict=strict)
+        candidates = feasibility.sample(size, rng, minimum=m, strict=strict, loads=loads)
         if settings.residual_model is not None and settings.test_poses is not None:
             # also where the residual is correlated with the test pose's
             near = _near(robot, feasibility, settings.test_poses, size // 4, rng)
@@ -437,12 +437,12 @@ def _pool(
     for q in plans:
         if q.shape != (m, robot.nq) or not feasibility.plan_feasible(q):
             raise Infeasible(f"an init plan must hold {m} configurations within every constraint")
-    if settings.loads is None:
+    if loads is None:
         return Pool(candidates, rejected, plans)
-    n = len(settings.loads)
-    return Pool(
-        np.repeat(candidates, n, axis=0), rejected, plans, np.tile(settings.loads, (len(candidates), 1))
-    )
+    # Each configuration with every payload it is feasible under: with compliances the payload
+    # bends the robot towards the floor, the cell or itself (each candidate holds one at least).
+    pairs, rows = feasibility.feasible_pairs(candidates, loads, strict)
+    return Pool(pairs, rejected, plans, rows)
 
 
 NEAR = 0.3

@@ -64,34 +64,72 @@ class Feasibility:
         """True when only the joint limits apply (the search's box bounds are enough)."""
         return not self.bound and self.spacing == 0
 
-    def kinematics(self, qs: np.ndarray) -> Kinematics:
-        return Kinematics(self.robot, qs, forward=self.forward)
+    @property
+    def loaded(self) -> bool:
+        """True when a payload moves the robot (it has joint compliances): the checks of a
+        configuration then read the payload it carries; else every payload gives the same checks."""
+        return self.forward.gravity is not None
 
-    def feasible(self, qs: np.ndarray, strict: bool = False) -> np.ndarray:
+    def kinematics(self, qs: np.ndarray, payload: np.ndarray | None = None) -> Kinematics:
+        """The kinematics of the readings ``qs`` (m, nq) under the payload rows ``payload`` (m, 4)
+        [kg, x, y, z] (None: none)."""
+        return Kinematics(self.robot, qs, payload=payload, forward=self.forward)
+
+    def feasible(self, qs: np.ndarray, strict: bool = False, payload: np.ndarray | None = None) -> np.ndarray:
         """(m,) True where a configuration satisfies every per-configuration constraint (``strict``:
-        and every margin is positive; for collisions, the convex hulls apart too)."""
+        and every margin is positive; for collisions, the convex hulls apart too), under its
+        payload row of ``payload`` (m, 4) [kg, x, y, z] (None: none)."""
         ok = self.limits.satisfied(_LimitsOnly(qs))  # type: ignore[arg-type]  # the limits read only q
         if self.bound and ok.any():
             idx = np.flatnonzero(ok)
-            kin = self.kinematics(qs[idx])
+            kin = self.kinematics(qs[idx], None if payload is None else payload[idx])
             for _, b in self.bound:
                 ok[idx] &= b.strictly_satisfied(kin) if strict else b.satisfied(kin)
         return ok
 
-    def feasible_pool(self, pool: ArrayLike, m: int) -> tuple[np.ndarray, int]:
+    def feasible_pairs(
+        self, qs: np.ndarray, loads: np.ndarray, strict: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The (configuration, payload) candidates of a loaded design: each configuration of ``qs``
+        (N, nq) paired with each payload row of ``loads`` (n, 4) [kg, x, y, z] it satisfies every
+        constraint under (:meth:`feasible` with that payload; every pair when the payload moves
+        nothing, :attr:`loaded` False): (configurations, payload rows), configuration by
+        configuration, in the order of ``loads``."""
+        pairs, rows = np.repeat(qs, len(loads), axis=0), np.tile(loads, (len(qs), 1))
+        if not self.loaded:
+            return pairs, rows
+        ok = self.feasible(pairs, strict, payload=rows)
+        return pairs[ok], rows[ok]
+
+    def _feasible_any(self, qs: np.ndarray, loads: np.ndarray | None) -> np.ndarray:
+        """(m,) :meth:`feasible` under no payload, or (``loads`` (n, 4) given and :attr:`loaded`)
+        under at least one payload row of ``loads``."""
+        if loads is None or not self.loaded:
+            return self.feasible(qs)
+        ok = np.zeros(len(qs), dtype=bool)
+        for row in loads:
+            ok |= self.feasible(qs, payload=np.tile(row, (len(qs), 1)))
+        return ok
+
+    def feasible_pool(
+        self, pool: ArrayLike, m: int, loads: np.ndarray | None = None
+    ) -> tuple[np.ndarray, int]:
         """The configurations of a user's pool that satisfy every constraint, and how many did not.
 
         Args:
             pool: (N, nq) configurations or a Plan [rad or m].
             m: configurations a plan needs: fewer feasible ones raise.
+            loads: (n, 4) the payload rows [kg, x, y, z] a configuration may carry: it is kept when
+                it satisfies every constraint under one of them at least (:meth:`feasible_pairs`
+                then pairs it with those); None: under none.
 
         Raises:
             BadConfiguration: a pool configuration of the wrong shape or outside the joint limits.
             Infeasible: fewer than m pool configurations are feasible.
         """
         qs = self.robot.configurations(pool, what="pool configuration")
-        ok = self.feasible(qs)
-        dropped = self._dropped_by(qs, ok)
+        ok = self._feasible_any(qs, loads)
+        dropped = self._dropped_by(qs, ok, loads if self.loaded else None)
         if ok.sum() < m:
             raise Infeasible(
                 f"only {int(ok.sum())} of the {len(qs)} pool configurations satisfy the constraints "
@@ -107,17 +145,22 @@ class Feasibility:
             )
         return qs[ok], int((~ok).sum())
 
-    def _dropped_by(self, qs: np.ndarray, ok: np.ndarray) -> str:
+    def _dropped_by(self, qs: np.ndarray, ok: np.ndarray, loads: np.ndarray | None = None) -> str:
         """Which constraints drop the configurations not ``ok``, in words: ``"mount 241, joint
-        limits 3"`` (a configuration counts under each constraint it breaks)."""
+        limits 3"`` (a configuration counts under each constraint it breaks; with payload rows
+        ``loads``, that it breaks under every one of them)."""
         bad = np.flatnonzero(~ok)
         if not len(bad):
             return "none"
         outside = ~self.limits.satisfied(_LimitsOnly(qs[bad]))  # type: ignore[arg-type]  # reads q only
         counts = {"joint limits (and their margins)": int(outside.sum())}
-        kin = self.kinematics(qs[bad])
+        kins = [
+            self.kinematics(qs[bad], None if row is None else np.tile(row, (len(bad), 1)))
+            for row in ([None] if loads is None else loads)
+        ]
         for key, b in self.bound:
-            counts[key.replace("_", " ")] = int((~b.satisfied(kin)).sum())
+            broken = np.logical_and.reduce([~b.satisfied(kin) for kin in kins])
+            counts[key.replace("_", " ")] = int(broken.sum())
         return ", ".join(f"{name} {n}" for name, n in counts.items() if n)
 
     def spacing_ok(self, qs: np.ndarray) -> bool:
@@ -183,6 +226,7 @@ class Feasibility:
         minimum: int | None = None,
         max_tries: int | None = None,
         strict: bool = False,
+        loads: np.ndarray | None = None,
     ) -> np.ndarray:
         """Up to ``n`` random feasible configurations (uniform within the limits, then filtered).
 
@@ -192,6 +236,9 @@ class Feasibility:
             minimum: fewest acceptable (default ``n``); stop trying after ``max_tries`` draws.
             max_tries: random draws allowed (default max(100000, 50 n)).
             strict: keep only strictly feasible configurations (see :meth:`feasible`).
+            loads: (r, 4) payload rows [kg, x, y, z]: keep the configurations feasible under one
+                of them at least (when the payload moves the robot, :attr:`loaded`; the pairs are
+                then :meth:`feasible_pairs`); None: under none.
 
         Raises:
             Infeasible: fewer than ``minimum`` found; the message says which constraint rejected
@@ -208,15 +255,9 @@ class Feasibility:
             tried += size
             ok = np.ones(size, dtype=bool)
             if self.bound:
-                kin = self.kinematics(qs)
-                for key, b in self.bound:
-                    idx = np.flatnonzero(ok)
-                    if not len(idx):
-                        break
-                    sub = kin if len(idx) == size else kin.subset(idx)
-                    s = b.strictly_satisfied(sub) if strict else b.satisfied(sub)
-                    rejected[key] = rejected.get(key, 0) + int((~s).sum())
-                    ok[idx[~s]] = False
+                ok, turned = self._screen(qs, strict, loads if self.loaded else None)
+                for key, n_out in turned.items():
+                    rejected[key] = rejected.get(key, 0) + n_out
             found.append(qs[ok])
             count += int(ok.sum())
         if count < minimum:
@@ -227,6 +268,32 @@ class Feasibility:
                 f"constraints ({minimum} needed): {detail or 'no constraint'}; relax the constraints"
             )
         return np.concatenate(found)[:n]
+
+    def _screen(
+        self, qs: np.ndarray, strict: bool, loads: np.ndarray | None
+    ) -> tuple[np.ndarray, dict[str, int]]:
+        """(m,) which draws ``qs`` (within the limits) satisfy every bound (``loads``: under one
+        payload row at least), and how many each bound turned away: the bounds in turn, each on
+        the draws the ones before kept (a draw counts under a bound when it turns it away under
+        every payload)."""
+        size = len(qs)
+        ok = np.zeros(size, dtype=bool)
+        turned: dict[str, np.ndarray] | None = None
+        for row in [None] if loads is None else loads:
+            kin = self.kinematics(qs, None if row is None else np.tile(row, (size, 1)))
+            kept, out = np.ones(size, dtype=bool), {}
+            for key, b in self.bound:
+                idx = np.flatnonzero(kept)
+                if not len(idx):
+                    break
+                sub = kin if len(idx) == size else kin.subset(idx)
+                s = b.strictly_satisfied(sub) if strict else b.satisfied(sub)
+                out[key] = np.zeros(size, dtype=bool)
+                out[key][idx[~s]] = True
+                kept[idx[~s]] = False
+            ok |= kept
+            turned = out if turned is None else {k: turned[k] & out[k] for k in turned if k in out}
+        return ok, {key: int(mask.sum()) for key, mask in (turned or {}).items()}
 
     def _inside_margins(self, qs: np.ndarray) -> np.ndarray:
         """Uniform draws within the joint limits (:meth:`Robot.sampled_range`) mapped onto the limits

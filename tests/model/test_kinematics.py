@@ -17,6 +17,7 @@ from pincal.model.collision import CollisionWorld
 from pincal.model.kinematics import BATCH, ForwardKinematics, torque_derivative_bound
 from pincal.model.statics import Payload
 from pincal.planning.constraints import Kinematics, Mount, Obstacle, Workcell
+from tests.support.kinematics_oracle import heights, oracle_frames, oracle_thetas
 
 MARKERS = [(0.1, 0.05, 0.2), (-0.03, 0.02, 0.08)]
 GAINS = np.array([0.0, 0.02, -0.015, 0.0, 0.01, 0.0])
@@ -34,39 +35,6 @@ def calibrated(nominal):
     """The KR 270 as a calibration leaves it: offsets, gains, compliances (on joints a2, a3)."""
     offsets = np.array([1e-3, -2e-3, 1.5e-3, 0.0, 1e-3, -1e-3])
     return nominal.replace(joint_offsets=offsets, joint_gains=GAINS, joint_compliances=COMPLIANCES)
-
-
-def oracle_thetas(robot: pincal.Robot, qs: np.ndarray, payload: Payload | None = None) -> np.ndarray:
-    """θ from the readings by the defining equation, θ = q + Δq + k⊙q + c⊙τ(θ), τ = −g(θ) from
-    Pinocchio on a model whose tip body carries the payload, iterated to a fixed point here."""
-    model = pin.Model(robot.model)
-    if payload is not None:
-        tip = model.frames[robot.tip_frame].placement
-        joint = robot.tip_joint
-        model.inertias[joint] = model.inertias[joint] + pin.Inertia(
-            payload.mass, tip.act(np.array(payload.centre)), np.zeros((3, 3))
-        )
-    data = model.createData()
-    start = qs + robot.joint_offsets + robot.joint_gains * qs
-    thetas = start.copy()
-    for _ in range(200):
-        thetas = start - robot.joint_compliances * np.array(
-            [pin.computeGeneralizedGravity(model, data, t) for t in thetas]
-        )
-    return thetas
-
-
-def oracle_frames(robot: pincal.Robot, thetas: np.ndarray):
-    """Pinocchio's framesForwardKinematics per configuration: (oMi translations, oMi rotations,
-    tip frame, markers), base frame."""
-    model, data = robot.model, robot.model.createData()
-    out = []
-    for theta in thetas:
-        pin.framesForwardKinematics(model, data, theta)
-        tip = pin.SE3(data.oMf[robot.tip_frame])
-        joints = [pin.SE3(m) for m in data.oMi]
-        out.append((joints, tip, np.array([tip.act(p) for p in robot.markers])))
-    return out
 
 
 @pytest.mark.parametrize("which", ["nominal", "calibrated"])
@@ -153,13 +121,6 @@ def test_motion_scale_bounds_the_joints_move_and_the_torque_bound_holds(calibrat
     assert np.all(moved <= np.abs(b - a) @ S.T + 1e-12)
     with pytest.raises(pincal.errors.BadArgument, match="too large to bound"):
         ForwardKinematics(calibrated.replace(joint_compliances=np.full(6, 1e-3))).motion_scale()
-
-
-def heights(robot: pincal.Robot, q: np.ndarray, payload: Payload | None = None) -> np.ndarray:
-    """The oracle: the heights (z, base frame) of the mount's candidate points at the reading
-    ``q``: the joint origins, the tip, the markers (Pinocchio at the oracle's θ)."""
-    ((joints, tip, points),) = oracle_frames(robot, oracle_thetas(robot, q[None], payload))
-    return np.array([m.translation[2] for m in joints[1:]] + [tip.translation[2], *points[:, 2]])
 
 
 def test_a_calibrated_robot_is_mount_checked_with_its_calibrated_kinematics(nominal, calibrated):

@@ -235,10 +235,12 @@ class WorkcellBound(Bound):
 
     def margins(self, kin: Kinematics) -> np.ndarray:
         # The continuous search reads the convex hulls' distances: smooth, and never above the true ones.
-        return self.world.distances_many(kin.qs, refine=False) - self.min_distance
+        distances = self.world.distances_many(kin.qs, refine=False, payload=kin.payload)
+        return distances - self.min_distance
 
     def satisfied(self, kin: Kinematics) -> np.ndarray:
-        return np.all(self.world.distances_many(kin.qs) - self.min_distance >= -1e-9, axis=1)
+        distances = self.world.distances_many(kin.qs, payload=kin.payload)
+        return np.all(distances - self.min_distance >= -1e-9, axis=1)
 
 
 def workcell_from_dict(entry: object, folder: Path | None = None) -> Workcell:
