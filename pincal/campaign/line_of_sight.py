@@ -45,22 +45,25 @@ class Occlusion:
         return {"pose": self.pose, "marker": self.marker, "by": self.by}
 
 
-def occlusions(world: CollisionWorld, qs: np.ndarray, tracker: np.ndarray) -> list[Occlusion]:
-    """Every (pose, marker) whose line of sight from ``tracker`` (base frame [m]) is blocked."""
+def occlusions(
+    world: CollisionWorld, qs: np.ndarray, tracker: np.ndarray, payload: np.ndarray | None = None
+) -> list[Occlusion]:
+    """Every (pose, marker) whose line of sight from ``tracker`` (base frame [m]) is blocked
+    (``payload``: (m, 4) each pose's payload row [kg, x, y, z]; default the world's)."""
     import coal
 
     robot = world.robot
     hulls, exact = world.geom.geometryObjects, world.exact.geometryObjects
     skip = {i for i in range(world.n_robot) if hulls[i].parentJoint == robot.tip_joint}
     shapes = [i for i in range(len(hulls)) if i not in skip]
-    points = robot.points(qs, check=False)
+    points = robot.points(qs, check=False, payload=world.payload if payload is None else payload)
     if robot.base is not None:  # the points in the base frame (the world's)
         inverse = robot.base.inverse()
         points = points @ inverse.rotation.T + inverse.translation
     out = []
     z = np.array([0.0, 0.0, 1.0])
     for i, q in enumerate(qs):
-        placements = world.placements(q)
+        placements = world.placements(q, None if payload is None else payload[i : i + 1])
         for k, p in enumerate(points[i]):
             d = np.asarray(tracker, dtype=float) - p
             length = float(np.linalg.norm(d)) - TARGET_GAP

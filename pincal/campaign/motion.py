@@ -43,6 +43,33 @@ DETOUR_SCALES = (0.05, 0.1, 0.2, 0.35, 0.5)
 """How far detour candidates are drawn from the segment, as fractions of each joint's range."""
 
 
+class Carrying:
+    """A collision world whose robot carries one of a few payloads, which one not known (a move
+    between two poses of a plan that mounts payloads: the payload is changed at one of them): each
+    pair's distance is the smallest over the payloads, and its motion weights bound the change of
+    every one (:meth:`~pincal.model.collision.CollisionWorld.weights_under` the payloads), so of
+    their minimum too. It reads as the world for :func:`certify_move` and :func:`find_detour`.
+
+    Args:
+        world: the collision world.
+        rows: (r, 4) the payloads [kg, x, y, z] (a row of zeros: none).
+    """
+
+    def __init__(self, world: CollisionWorld, rows: np.ndarray) -> None:
+        self.world, self.rows = world, np.asarray(rows, dtype=float).reshape(-1, 4)
+        self.size, self.names, self.n_points = world.size, world.names, world.n_points
+        self.refinable = world.refinable
+        self.weights = world.weights_under(self.rows)
+
+    def distances(self, q: np.ndarray, refine: bool = True) -> np.ndarray:
+        """(size,) the smallest distance of each pair over the payloads [m] at the reading ``q``."""
+        return np.min([self.world.distances(q, refine, row[None]) for row in self.rows], axis=0)
+
+    def exact_distances(self, q: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+        """The smallest over the payloads of :meth:`CollisionWorld.exact_distances`."""
+        return np.min([self.world.exact_distances(q, pairs, row[None]) for row in self.rows], axis=0)
+
+
 @dataclass(frozen=True)
 class MoveCheck:
     """The clearance of one straight joint-space move.
@@ -80,7 +107,7 @@ class MoveCheck:
 
 
 def certify_move(
-    world: CollisionWorld,
+    world: CollisionWorld | Carrying,
     a: np.ndarray,
     b: np.ndarray,
     required: np.ndarray | float = 0.0,
@@ -94,7 +121,7 @@ def certify_move(
     the stretch is bisected or declared blocked.
 
     Args:
-        world: the collision world.
+        world: the collision world (or the world under the payloads the move may carry, :class:`Carrying`).
         a, b: (nq,) the move's ends [rad or m].
         required: the clearance each pair must keep [m] (one for all, or (world.size,)).
         ends: the distances at ``a`` and ``b`` (:meth:`CollisionWorld.distances`), when known.
@@ -167,7 +194,7 @@ class _Samples:
     """The distances of a straight move's configurations visited, by s in [0, 1], and the
     distance evaluations spent on them (a convex hulls' evaluation, or a meshes' one, counts one)."""
 
-    def __init__(self, world: CollisionWorld, a: np.ndarray, b: np.ndarray, refinable: np.ndarray):
+    def __init__(self, world: CollisionWorld | Carrying, a: np.ndarray, b: np.ndarray, refinable: np.ndarray):
         self.world, self.a, self.b, self.refinable = world, a, b, refinable
         self.samples: dict[
             float, tuple[np.ndarray, np.ndarray]
@@ -207,7 +234,7 @@ class Detour:
 
 
 def find_detour(
-    world: CollisionWorld,
+    world: CollisionWorld | Carrying,
     a: np.ndarray,
     b: np.ndarray,
     required: np.ndarray | float,

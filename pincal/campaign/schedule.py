@@ -21,7 +21,7 @@ import numpy as np
 
 from pincal.arguments import Seed, generator
 from pincal.campaign.line_of_sight import occlusions
-from pincal.campaign.motion import certify_move, find_detour
+from pincal.campaign.motion import Carrying, certify_move, find_detour
 from pincal.campaign.ordering import best_tour, tour_cost
 from pincal.campaign.result import HOME, Campaign, Move
 from pincal.campaign.timing import Timing
@@ -102,6 +102,7 @@ def plan_campaign(
     """
     plan = plan if isinstance(plan, Plan) else Plan.for_robot(robot, plan)
     qs = robot.configurations(plan)
+    loads = plan.payload
     plan = Plan.for_robot(robot, qs)
     timing = Timing.for_robot(robot) if timing is None else timing
     constraints = with_safety(robot, constraints, joint_margin, mount, clearance=clearance)
@@ -121,10 +122,29 @@ def plan_campaign(
         return Campaign(
             robot, plan, home_q, order, unchecked, timing, tour.exact, given_time, home_source=home_source
         )
-    at = {i: world.distances(q) for i, q in enumerate(qs)}
+    # With compliances, each pose is checked under the payload it carries (home: none).
+    carried = loads if loads is not None and loads.any() and world.forward.gravity is not None else None
+    rows = {HOME: np.zeros(4), **({} if carried is None else dict(enumerate(carried)))}
+    at = {
+        i: world.distances(q, payload=None if carried is None else carried[i : i + 1])
+        for i, q in enumerate(qs)
+    }
     at[HOME] = world.distances(home_q)
     nodes = {HOME: home_q, **dict(enumerate(qs))}
-    moves = _certified_moves(robot, world, need, constraints, timing, cost, route, nodes, at, seed, progress)
+    moves = _certified_moves(
+        robot,
+        world,
+        need,
+        constraints,
+        timing,
+        cost,
+        route,
+        nodes,
+        at,
+        seed,
+        progress,
+        rows if carried is not None else None,
+    )
     return Campaign(
         robot,
         plan,
@@ -139,7 +159,7 @@ def plan_campaign(
         home_short=_short(world, at[HOME], need),
         skipped_pairs=tuple(world.skipped),
         home_source=home_source,
-        **_pose_checks(robot, world, need, constraints, qs, at),
+        **_pose_checks(robot, world, need, constraints, qs, at, carried),
     )
 
 
@@ -166,10 +186,12 @@ def _certified_moves(
     at: dict[int, np.ndarray],
     seed: Seed,
     progress: bool,
+    rows: dict[int, np.ndarray] | None = None,
 ) -> list[Move]:
     """Each move of the route certified (:func:`certify_move`), a detour found where a move between
     clear poses is not, and timed; ``nodes`` and ``at``: each pose's configuration and distances
-    (:data:`HOME` the home's)."""
+    (:data:`HOME` the home's); ``rows``: each pose's payload row [kg, x, y, z], when it matters
+    (a move is then checked under each payload of its ends, :class:`Carrying`)."""
     rng = generator(seed)
     margins = joint_margins(robot, constraints)
     lower = robot.model.lowerPositionLimit + margins
@@ -179,12 +201,17 @@ def _certified_moves(
     steps.stage("certified", len(route) - 1)
     for a, b in zip(route[:-1], route[1:], strict=True):
         straight = float(cost[a + 1, b + 1])
-        c = certify_move(world, nodes[a], nodes[b], need, (at[a], at[b]))
+        moving: CollisionWorld | Carrying = world
+        ends = at[a], at[b]
+        if rows is not None:
+            moving = Carrying(world, np.unique(np.vstack([rows[a], rows[b]]), axis=0))
+            ends = (moving.distances(nodes[a]), moving.distances(nodes[b]))
+        c = certify_move(moving, nodes[a], nodes[b], need, ends)
         detour = None
-        ends_clear = np.all(at[a] >= need) and np.all(at[b] >= need)
+        ends_clear = np.all(ends[0] >= need) and np.all(ends[1] >= need)
         if not c.clear and ends_clear:
             detour = find_detour(
-                world, nodes[a], nodes[b], need, lower, upper, timing.move_time, rng, extra=(nodes[HOME],)
+                moving, nodes[a], nodes[b], need, lower, upper, timing.move_time, rng, extra=(nodes[HOME],)
             )
         time = straight
         if detour is not None:
@@ -202,9 +229,11 @@ def _pose_checks(
     constraints: tuple,
     qs: np.ndarray,
     at: dict[int, np.ndarray],
+    carried: np.ndarray | None = None,
 ) -> dict:
     """The poses' checks as :class:`Campaign`'s fields: each pose's closest pair, its distance and
-    the clearance it keeps, the clearance of each kind of pair, the lines of sight blocked."""
+    the clearance it keeps, the clearance of each kind of pair, the lines of sight blocked (under
+    each pose's payload row of ``carried``, when given)."""
     m = len(qs)
     worst = [int(np.argmin(at[i] - need)) if world.size else -1 for i in range(m)]
     closest = tuple(world.names[k] if k >= 0 else "" for k in worst)
@@ -214,7 +243,7 @@ def _pose_checks(
     for con in constraints:
         if isinstance(con, Visibility):
             tracker = robot.base.inverse() * np.array(con.tracker)
-            blocked_sight += occlusions(world, qs, tracker)
+            blocked_sight += occlusions(world, qs, tracker, carried)
     kinds = np.array(world.kinds)
     required = {
         kind: float(need[kinds == kind][0]) if np.any(kinds == kind) else 0.0

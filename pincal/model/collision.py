@@ -372,12 +372,18 @@ class CollisionWorld:
             radius = self._point_extents(mount_points)
             points = [motion_weights(robot, j, r) for j, r in radius]
         self.n_points = len(points)
-        self.weights = np.array(weights + points).reshape(-1, robot.nq)
-        scale = self.forward.motion_scale(payload)  # the weights bound a move of θ: that of the readings
-        if scale is not None:
-            self.weights = self.weights @ scale
+        self._joint_weights = np.array(weights + points).reshape(-1, robot.nq)
+        self.weights = self.weights_under(payload)
         self.names = [p.name for p in pairs] + [f"{n} / floor" for n in getattr(mount_points, "names", [])]
         self.kinds = [p.kind for p in pairs] + ["floor"] * self.n_points
+
+    def weights_under(self, payload: PayloadLike) -> np.ndarray:
+        """(size, nq) the motion weights of the readings while the robot carries ``payload`` (None,
+        a mass [kg], a Payload, or (r, 4) rows [kg, x, y, z]: under any of them): the weights bound
+        a move of θ, mapped onto that of the readings
+        (:meth:`~pincal.model.kinematics.ForwardKinematics.motion_scale`)."""
+        scale = self.forward.motion_scale(payload)
+        return self._joint_weights if scale is None else self._joint_weights @ scale
 
     def _point_extents(self, mount: FloorPoints) -> list[tuple[int, float]]:
         """(joint, distance from its origin [m]) of each point the mount checks."""

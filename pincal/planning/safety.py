@@ -34,6 +34,7 @@ from pincal.planning.constraints import (
     Workcell,
     joint_margins,
 )
+from pincal.planning.plan import Plan
 from pincal.typing import ConfigurationsLike
 
 __all__ = ["Closest", "SafetyReport", "safety_margins"]
@@ -201,6 +202,7 @@ def safety_margins(
         BadConfiguration: a configuration of the wrong size or outside the joint limits.
     """
     qs = robot.configurations(plan)
+    payload = plan.payload if isinstance(plan, Plan) else None  # a compliant robot yields to it
     constraints = tuple(constraints)
     kept = joint_margins(robot, constraints)
     lower, upper = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
@@ -218,17 +220,17 @@ def safety_margins(
     mount = mounts[0] if mounts else Mount("none")
     floor = None
     bound = mount.bind(robot)
-    heights = bound.margins(Kinematics(robot, qs))
+    heights = bound.margins(Kinematics(robot, qs, payload=payload))
     if heights.size:
         i, k = np.unravel_index(int(np.argmin(heights)), heights.shape)
         floor = Closest(float(heights[i, k]) + mount.clearance, int(i), bound.names[k], mount.clearance)
     obstacle, note = None, ""
     for c in constraints:
         if isinstance(c, Workcell):
-            value, pose, pair, note = c.closest(robot, qs)
+            value, pose, pair, note = c.closest(robot, qs, payload)
             if pose >= 0 and (obstacle is None or value < obstacle.value):
                 obstacle = Closest(value, pose, pair, c.min_distance)
-    itself, self_note = _closest_links(robot, qs, constraints) if self_collision else (None, "")
+    itself, self_note = _closest_links(robot, qs, constraints, payload) if self_collision else (None, "")
     off = any(isinstance(c, SelfCollision) and not c.enabled for c in constraints)
     if off:
         self_note = "self-collision off (--self-collision off, SelfCollision(enabled=False))" + (
@@ -256,18 +258,19 @@ def safety_margins(
 
 
 def _closest_links(
-    robot: Robot, qs: np.ndarray, constraints: tuple[AnyConstraint, ...]
+    robot: Robot, qs: np.ndarray, constraints: tuple[AnyConstraint, ...], payload: np.ndarray | None = None
 ) -> tuple[Closest | None, str]:
-    """The closest pair of the robot's own links over ``qs`` (None: no pair can meet) and how the
-    distances were computed; the geometry and clearance of the constraints' SelfCollision and
-    Workcell when given (the campaign's checks use the same)."""
+    """The closest pair of the robot's own links over ``qs`` (None: no pair can meet; ``payload``:
+    each configuration's payload row, or None) and how the distances were computed; the geometry
+    and clearance of the constraints' SelfCollision and Workcell when given (the campaign's checks
+    use the same)."""
     selfs = [c for c in constraints if isinstance(c, SelfCollision)]
     cells = [c for c in constraints if isinstance(c, Workcell)]
     radius = next((c.link_radius for c in cells if c.link_radius is not None), None)
     dirs = tuple(d for c in selfs for d in c.package_dirs) + tuple(d for c in cells for d in c.package_dirs)
     try:
         world = CollisionWorld(robot, (), self_collision=True, link_radius=radius, search=dirs)
-        distances = world.distances_many(qs) if world.pairs and len(qs) else None
+        distances = world.distances_many(qs, payload=payload) if world.pairs and len(qs) else None
     except RuntimeError as exc:  # coal on a mesh it cannot take (its convex hull: "Too many neighbor")
         why = str(exc).strip().splitlines()[-1].removeprefix("message: ") if str(exc).strip() else "an error"
         return None, f"links not checked: coal could not take the collision geometry ({why})"

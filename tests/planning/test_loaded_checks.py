@@ -12,10 +12,12 @@ import numpy as np
 import pytest
 
 import pincal
+from pincal.campaign.schedule import plan_campaign
 from pincal.errors import DegenerateOptimumWarning, Infeasible
 from pincal.model.statics import Payload
-from pincal.planning.constraints import Mount
+from pincal.planning.constraints import Mount, Obstacle, Workcell, with_safety
 from pincal.planning.feasibility import Feasibility
+from pincal.planning.safety import safety_margins
 from tests.support.kinematics_oracle import heights
 
 COMPLIANCES = np.array([0.0, 2e-6, 3e-6, 0.0, 0.0, 0.0])  # rad/(N·m): industrial
@@ -100,3 +102,44 @@ def test_a_loaded_design_keeps_each_pose_clear_under_its_payload(compliant, pool
         assert lowest(compliant, q[None], load)[0] >= PLANE - 1e-9
     is_dipping = [bool(np.any(np.all(q == dipping, axis=1))) for q in plan.q]
     assert not np.any(plan.payload[is_dipping, 0])
+
+
+def test_a_campaign_checks_each_pose_and_move_under_its_payload(compliant, kr270_marker, pool):
+    """The campaign of a plan that mounts the payload at a dipping pose: that pose is below the
+    plane by the oracle's depth, and so is every move to or from it; unloaded, it clears the plane
+    by the oracle's height. A rigid robot's campaign does not depend on the payloads. The plan's
+    safety report says the same."""
+    dipping, free = pool
+    qs = np.vstack([dipping[:1], free[:1]])
+    options = dict(mount=Mount("plane", (0, 0, 1), PLANE), clearance=0.0, self_collision=False)
+    loaded = pincal.Plan.for_robot(compliant, qs, payload=[HEAVY, Payload(0.0)])
+    campaign = plan_campaign(compliant, loaded, **options)
+    bare = plan_campaign(compliant, qs, **options)
+    for i, load in enumerate([HEAVY, None]):
+        depth = lowest(compliant, qs[i : i + 1], load)[0] - PLANE
+        assert campaign.pose_clearance[i] == pytest.approx(depth, abs=1e-9)
+    assert campaign.pose_clearance[0] < 0 < bare.pose_clearance[0]
+    assert bare.pose_clearance[0] == pytest.approx(lowest(compliant, qs[:1])[0] - PLANE, abs=1e-9)
+    for move in campaign.moves:
+        if 0 in (move.start, move.end):
+            assert not move.check.clear and move.check.sampled < 0
+    rigid = [plan_campaign(kr270_marker, p, **options) for p in (qs, loaded)]
+    np.testing.assert_array_equal(rigid[0].pose_clearance, rigid[1].pose_clearance)
+    # The safety report of the plan: the floor under each pose's payload.
+    constraints = with_safety(compliant, mount=options["mount"], clearance=0.0)
+    floors = [safety_margins(compliant, p, constraints, self_collision=False).floor for p in (loaded, qs)]
+    assert floors[0] is not None and floors[0].pose == 0
+    assert floors[0].value == pytest.approx(campaign.pose_clearance[0], abs=1e-9)
+    assert floors[1] is not None and floors[1].value > 0
+
+
+def test_the_workcell_is_checked_under_the_candidates_payload(compliant, pool):
+    """A small ball where the loaded robot's marker is at a dipping pose: the unloaded robot clears
+    it, the loaded one touches it; the pairs say so."""
+    q = pool[0][0]
+    marker = compliant.points(q, payload=HEAVY)[0, 0]  # base frame (the robot has no base placement)
+    assert np.linalg.norm(marker - compliant.points(q)[0, 0]) > 5e-3
+    cell = Workcell((Obstacle("ball", "sphere", (1e-3,), tuple(marker)),), link_radius=0.01)
+    feasibility = Feasibility(compliant, [cell])
+    qs, rows = feasibility.feasible_pairs(q[None], LOADS)
+    np.testing.assert_array_equal(rows, np.zeros((1, 4)))

@@ -216,11 +216,14 @@ class Workcell(Constraint):
     def bind(self, robot: Robot) -> Bound:
         return WorkcellBound(self.world(robot), self.min_distance)
 
-    def closest(self, robot: Robot, qs: np.ndarray) -> tuple[float, int, str, str]:
+    def closest(
+        self, robot: Robot, qs: np.ndarray, payload: np.ndarray | None = None
+    ) -> tuple[float, int, str, str]:
         """(distance [m], configuration index, pair) of the robot/obstacle pair closest over
-        ``qs``, and which robot geometry was used (its :attr:`RobotGeometry.source`)."""
+        ``qs`` (``payload``: (m, 4) each configuration's payload row [kg, x, y, z], or None), and
+        which robot geometry was used (its :attr:`RobotGeometry.source`)."""
         world = self.world(robot)
-        d = world.distances_many(qs)
+        d = world.distances_many(qs, payload=payload)
         if not d.size:
             return np.inf, -1, "", world.geometry.source
         i, k = np.unravel_index(int(np.argmin(d)), d.shape)
