@@ -21,8 +21,10 @@ Every design runs one pipeline: validate (once), draw the pool, search the start
 multistart: executor, progress, degenerate starts dropped, adaptive starts), choose, report. The pool
 is of (configuration, payload) candidates: without :class:`~pincal.planning.options.Loads`, every
 candidate carries none (0 kg); with payloads, every configuration is paired with every payload
-(docs/method.md §11.3) and the exchange chooses them with the configurations (the continuous
-search cannot choose among discrete payloads: no polish, no continuous method).
+(docs/method.md §11.3), each pair checked under its payload (a robot with joint compliances
+yields to it: a pair it breaks a constraint under is left out), and the exchange chooses them
+with the configurations (the continuous search cannot choose among discrete payloads: no polish,
+no continuous method).
 
 The options are a few frozen values (:mod:`pincal.planning.options`): :class:`~pincal.Search`,
 :class:`~pincal.Safety`, :class:`~pincal.Loads`, and the :class:`~pincal.instruments.Instrument`
@@ -167,8 +169,9 @@ def design(
         loads: what loads the robot (:class:`pincal.Loads`: the payloads the experiment can mount,
             one chosen with each configuration, and the task's payload at the test pose(s)): the
             pool is then every configuration paired with every payload (1000 configurations by
-            default), the plan carries its payloads, ρ0 is under the task's payload. An exchange
-            without polish (the continuous search cannot choose among discrete payloads).
+            default) that it satisfies the constraints under (a compliant robot yields to it),
+            the plan carries its payloads, ρ0 is under the task's payload. An exchange without
+            polish (the continuous search cannot choose among discrete payloads).
         residual_model: a residual model from an earlier campaign (``result.residual_model``): the
             plan minimises the expected error at the test pose(s) with it (tr Σ₀,
             :mod:`pincal.evaluation.residual_criterion`; the test-pose criterion, points, no
