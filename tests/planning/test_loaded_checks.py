@@ -85,16 +85,12 @@ def test_a_loaded_design_keeps_each_pose_clear_under_its_payload(compliant, pool
     dipping, free = pool
     params = compliant.parameters("lengths,offsets,compliance")
     params = params.identifiable(payloads=[0.0, 270.0]).identifiable
+    search = pincal.Search(pool=np.vstack([dipping, free]), starts=2, workers=1, seed=0)
+    safety = pincal.Safety(mount=Mount("plane", (0, 0, 1), PLANE), clearance=0.0)
+    loads = pincal.Loads(payloads=[0.0, HEAVY])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DegenerateOptimumWarning)
-        result = pincal.design(
-            params,
-            12,
-            Q0,
-            search=pincal.Search(pool=np.vstack([dipping, free]), starts=2, workers=1, seed=0),
-            safety=pincal.Safety(mount=Mount("plane", (0, 0, 1), PLANE), clearance=0.0),
-            loads=pincal.Loads(payloads=[0.0, HEAVY]),
-        )
+        result = pincal.design(params, 12, Q0, search=search, safety=safety, loads=loads)
     plan = result.plan
     assert plan.payload is not None and set(plan.payload[:, 0]) == {0.0, 270.0}
     for q, row in zip(plan.q, plan.payload, strict=True):
