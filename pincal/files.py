@@ -6,8 +6,7 @@ stack: files that are not regular files (folders, devices, pipes), files larger 
 :data:`MAX_CELL_CHARS`, YAML nested deeper than :data:`MAX_YAML_DEPTH` or with more than
 :data:`MAX_YAML_NODES` values, YAML anchors/aliases, and non-finite numbers.
 
-The writers (atomic, all or nothing, never over an input) are :mod:`pincal.outputs`'; they are
-importable from here too.
+The writers (atomic, all or nothing, never over an input) are :mod:`pincal.outputs`'.
 """
 
 from __future__ import annotations
@@ -23,14 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from pincal.errors import BadArgument, BadPlanFile
-from pincal.outputs import (  # noqa: F401  (re-exported: the writers were here)
-    all_or_nothing,
-    atomic_write_bytes,
-    atomic_write_text,
-    check_output,
-    guard_inputs,
-    note_input,
-)
+from pincal.outputs import note_input
 
 MAX_FILE_BYTES = 64 * 2**20
 """Largest input file read (64 MiB): a plan or measurement file of a million rows fits."""

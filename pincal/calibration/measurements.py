@@ -47,12 +47,12 @@ from pincal.arguments import MAX_LENGTH, SIGMA_RANGE, check_lengths
 from pincal.calibration._measurement_csv import check_joint_names, check_markers, csv_text, read_csv
 from pincal.deprecation import keywords_after
 from pincal.errors import BadMeasurementData
-from pincal.files import atomic_write_text
 from pincal.instruments.image import Image
 from pincal.instruments.kind import Kind
 from pincal.instruments.point import Point
 from pincal.model.robot import Robot
 from pincal.model.statics import MAX_PAYLOAD
+from pincal.outputs import atomic_write_text
 from pincal.typing import ArrayLike, PayloadLike
 
 _MEASURED = re.compile(r"^([xyz])(\d*)$")

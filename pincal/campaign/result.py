@@ -14,8 +14,9 @@ from pincal.campaign.line_of_sight import Occlusion
 from pincal.campaign.motion import Detour, MoveCheck
 from pincal.campaign.timing import Timing
 from pincal.errors import CannotWrite
-from pincal.files import atomic_write_text, csv_header
+from pincal.files import csv_header
 from pincal.model.robot import Robot
+from pincal.outputs import atomic_write_text
 from pincal.planning.plan import Plan
 
 HOME = -1

@@ -234,7 +234,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI on ``argv`` (default ``sys.argv[1:]``); return the exit code (``--help``,
     ``--version`` and usage errors raise ``SystemExit`` with it, as argparse does).
 
-    Every output of a command is written all or nothing (:func:`pincal.files.all_or_nothing`): a
+    Every output of a command is written all or nothing (:func:`pincal.outputs.all_or_nothing`): a
     command that fails leaves none of its outputs.
 
     0: done; 2: bad input or a refused output (one line ``pincal: error: ...`` on stderr); 130:
@@ -256,7 +256,7 @@ def main(argv: list[str] | None = None) -> int:
         join_negative_values,
         trap_floating_point_warnings,
     )
-    from pincal.files import all_or_nothing, guard_inputs
+    from pincal.outputs import all_or_nothing, guard_inputs
 
     # --help and usage errors exit here through SystemExit (0, or 2 after one line).
     args = parser.parse_args(join_negative_values(argv, parser.commands[name]))

@@ -16,22 +16,12 @@ import numpy as np
 
 from pincal.arguments import DEFAULT_SIGMA, joint_range, positive_sigma, sigma_note
 from pincal.calibration.formats.robot_calibration import BAG_SUFFIXES, ROS_EXTRA
-
-# re-exported: the commands import these from here
-from pincal.cli._parameters import (  # noqa: F401
-    BASE_HELP,
-    DEFAULT_PARAMS,
-    add_base_argument,
-    mentions_base,
-    parameters_with_base,
-    params_from_args,
-)
-from pincal.cli._types import checked, count, seed_type, sigma_type  # noqa: F401
+from pincal.cli._parameters import DEFAULT_PARAMS
 from pincal.errors import BadArgument, BadConfiguration, MissingDependency, warn
-from pincal.files import check_output
 from pincal.model.loading import load_robot
 from pincal.model.robot import Robot
 from pincal.optional import require
+from pincal.outputs import check_output
 from pincal.planning.constraints import load_constraints
 from pincal.planning.plan import Plan
 from pincal.viewing.plots import PLOT_EXTRA, figure_format

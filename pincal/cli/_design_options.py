@@ -14,19 +14,16 @@ from pincal.cli._accuracy import (
 from pincal.cli._common import (
     CONDITIONING_HELP,
     SIGMA_HELP,
-    add_base_argument,
     add_output_arguments,
     add_progress_argument,
     add_robot_arguments,
     add_test_pose_argument,
-    checked,
-    count,
-    seed_type,
-    sigma_type,
 )
 from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments
+from pincal.cli._parameters import add_base_argument
 from pincal.cli._plot import add_plot_argument
 from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, add_self_collision_argument
+from pincal.cli._types import checked, count, seed_type, sigma_type
 from pincal.cli.campaign import TRADEOFF_HELP, add_tradeoff_arguments
 from pincal.planning import stopping as _stopping
 from pincal.planning.driver import METHODS, MIN_CONDITIONING

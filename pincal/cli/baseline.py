@@ -10,16 +10,16 @@ from pincal.cli._common import (
     add_command,
     add_output_arguments,
     add_progress_argument,
-    count,
     emit_json,
-    params_from_args,
     read_plan,
     recorded_warnings,
     robot_from_args,
     sigma_from_args,
 )
 from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
+from pincal.cli._parameters import params_from_args
 from pincal.cli._safety import safe_constraints_from_args
+from pincal.cli._types import count
 from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, design

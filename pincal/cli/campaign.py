@@ -21,9 +21,9 @@ from pincal.cli._common import (
     read_plan,
     recorded_warnings,
     robot_from_args,
-    seed_type,
 )
 from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
+from pincal.cli._types import seed_type
 from pincal.errors import BadArgument
 from pincal.planning.safety import safety_margins
 from pincal.viewing import plots

@@ -18,8 +18,9 @@ from pincal.cli._common import (
 from pincal.compensation.calibration_file import load_calibration
 from pincal.compensation.compensate import compensate
 from pincal.errors import BadArgument, BadPlanFile, warn
-from pincal.files import atomic_write_text, column_mismatch, csv_header, read_numeric_csv
+from pincal.files import column_mismatch, csv_header, read_numeric_csv
 from pincal.model.statics import Payload
+from pincal.outputs import atomic_write_text
 
 HELP = COMMANDS["compensate"].help
 EXAMPLES = """\

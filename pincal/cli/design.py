@@ -22,7 +22,6 @@ from pincal.cli._common import (
     emit_json,
     fmt_length,
     joint_units,
-    params_from_args,
     parse_floats,
     read_plan,
     recorded_warnings,
@@ -32,6 +31,7 @@ from pincal.cli._common import (
 from pincal.cli._design_options import EXAMPLES, add_design_options
 from pincal.cli._design_options import add_design_arguments as add_design_arguments  # baseline's
 from pincal.cli._instrument import measuring_from_args
+from pincal.cli._parameters import params_from_args
 from pincal.cli._plot import save_design_plot
 from pincal.cli._safety import (
     safe_constraints_from_args,

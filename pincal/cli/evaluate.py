@@ -23,19 +23,18 @@ from pincal.cli._accuracy import (
 from pincal.cli._common import (
     CONDITIONING_HELP,
     SIGMA_HELP,
-    add_base_argument,
     add_command,
     add_output_arguments,
     add_robot_arguments,
     add_test_pose_argument,
     emit_json,
     fmt_length,
-    params_from_args,
     read_plan,
     robot_from_args,
     sigma_from_args,
 )
 from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
+from pincal.cli._parameters import add_base_argument, params_from_args
 from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
 from pincal.errors import BadArgument, SingularPlan
 from pincal.evaluation.accuracy_report import AccuracyReport

@@ -10,8 +10,8 @@ from typing import NamedTuple
 from pincal.cli import COMMANDS
 from pincal.cli._common import add_command, add_output_arguments, emit_json
 from pincal.errors import BadArgument
-from pincal.files import atomic_write_text
 from pincal.model.dh import shipped_dh_tables
+from pincal.outputs import atomic_write_text
 
 HELP = COMMANDS["example"].help
 

@@ -18,8 +18,8 @@ from pincal.export.ros import robot_calibration_text, ros2_control_text
 from pincal.export.sdf import export_sdf
 from pincal.export.urdf import export_urdf, sidecar_path
 from pincal.export.xacro import corrections_path, export_xacro
-from pincal.files import atomic_write_text
 from pincal.model.loading import load_robot
+from pincal.outputs import atomic_write_text
 
 HELP = COMMANDS["export"].help
 EXAMPLES = """\

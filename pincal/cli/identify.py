@@ -18,19 +18,13 @@ from pincal.cli._accuracy import test_region_from_args
 from pincal.cli._common import (
     CONDITIONING_HELP,
     FIGURE_NOTE,
-    add_base_argument,
     add_command,
     add_output_arguments,
     add_progress_argument,
     add_robot_arguments,
     add_test_pose_argument,
-    checked,
-    count,
     emit_json,
-    parameters_with_base,
     robot_from_args,
-    seed_type,
-    sigma_type,
 )
 from pincal.cli._instrument import (
     INSTRUMENT_HELP,
@@ -41,6 +35,8 @@ from pincal.cli._instrument import (
     rig_from_args,
     robot_with_fixtures,
 )
+from pincal.cli._parameters import add_base_argument, parameters_with_base
+from pincal.cli._types import checked, count, seed_type, sigma_type
 from pincal.errors import BadArgument, IdentificationFailed, OverwriteRefused
 from pincal.evaluation.prior import Prior
 from pincal.export.mjcf import export_mjcf, writes_mjcf

@@ -16,12 +16,9 @@ from pincal.cli._common import (
     add_robot_arguments,
     joint_ranges_from_args,
     joint_units,
-    params_from_args,
     parse_floats,
     read_plan,
     robot_from_args,
-    seed_type,
-    sigma_type,
 )
 from pincal.cli._instrument import (
     INSTRUMENT_HELP,
@@ -31,6 +28,8 @@ from pincal.cli._instrument import (
     kind_from_args,
     robot_with_fixtures,
 )
+from pincal.cli._parameters import params_from_args
+from pincal.cli._types import seed_type, sigma_type
 from pincal.cli.simulate import parse_error_std
 from pincal.errors import BadArgument, BadConfiguration, UrdfError
 from pincal.export.mjcf import export_mjcf, writes_mjcf

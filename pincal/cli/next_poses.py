@@ -15,27 +15,24 @@ from pincal.cli import COMMANDS
 from pincal.cli._accuracy import REGION_HELP, add_region_arguments, prior_from_args, test_region_from_args
 from pincal.cli._common import (
     SIGMA_HELP,
-    add_base_argument,
     add_command,
     add_output_arguments,
     add_progress_argument,
     add_robot_arguments,
     add_test_pose_argument,
-    checked,
-    count,
     emit_json,
-    params_from_args,
     read_plan,
     recorded_warnings,
     robot_from_args,
-    seed_type,
 )
+from pincal.cli._parameters import add_base_argument, params_from_args
 from pincal.cli._safety import (
     SAFETY_HELP,
     add_safety_arguments,
     add_self_collision_argument,
     safe_constraints_from_args,
 )
+from pincal.cli._types import checked, count, seed_type
 from pincal.cli.design import print_warnings
 from pincal.errors import BadArgument
 

@@ -9,18 +9,13 @@ from pincal.calibration.measurements import MeasurementData
 from pincal.cli import COMMANDS
 from pincal.cli._common import (
     CONDITIONING_HELP,
-    DEFAULT_PARAMS,
-    add_base_argument,
     add_command,
     add_output_arguments,
     add_robot_arguments,
     emit_json,
-    mentions_base,
     parse_floats,
     read_plan,
     robot_from_args,
-    seed_type,
-    sigma_type,
 )
 from pincal.cli._instrument import (
     INSTRUMENT_HELP,
@@ -30,6 +25,8 @@ from pincal.cli._instrument import (
     rig_from_args,
     robot_with_fixtures,
 )
+from pincal.cli._parameters import DEFAULT_PARAMS, add_base_argument, mentions_base
+from pincal.cli._types import seed_type, sigma_type
 from pincal.evaluation.data_check import check_plan
 from pincal.instruments.identifiability import identifiable
 from pincal.planning.plan import Plan

@@ -30,20 +30,17 @@ from pincal.cli._common import (
     add_output_arguments,
     add_robot_arguments,
     add_test_pose_argument,
-    checked,
     constraints_from_args,
-    count,
     emit_json,
     fmt_length,
-    params_from_args,
     parse_floats,
     read_plan,
     robot_from_args,
-    seed_type,
     sigma_from_args,
-    sigma_type,
 )
+from pincal.cli._parameters import params_from_args
 from pincal.cli._safety import add_safety_arguments, safe_constraints_from_args
+from pincal.cli._types import checked, count, seed_type, sigma_type
 from pincal.errors import BadArgument, BadConfiguration
 from pincal.evaluation.test_pose import rho0
 from pincal.optional import require

@@ -16,20 +16,18 @@ from pincal.cli._common import (
     add_progress_argument,
     add_robot_arguments,
     add_test_pose_argument,
-    count,
     emit_json,
     fmt_length,
-    params_from_args,
     parse_floats,
     read_plan,
     robot_from_args,
-    seed_type,
     sigma_from_args,
-    sigma_type,
     test_poses_from_args,
 )
 from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
+from pincal.cli._parameters import params_from_args
 from pincal.cli._plot import add_simulation_plot_arguments, save_simulation_plot
+from pincal.cli._types import count, seed_type, sigma_type
 from pincal.errors import BadArgument
 from pincal.typing import ConfigurationsLike
 

@@ -46,7 +46,6 @@ from pincal.calibration.identification import IdentificationResult
 from pincal.errors import BadArgument, OverwriteRefused, PincalWarning, UrdfError
 from pincal.export._urdf_to_mjcf import urdf_to_mjcf
 from pincal.export.urdf import check_reproduces, exported_robot, placement_text, sidecar, sidecar_path
-from pincal.files import all_or_nothing, atomic_write_text
 from pincal.model.chain import default_root, frame_id
 from pincal.model.loading import load_robot
 from pincal.model.mjcf import (
@@ -62,6 +61,7 @@ from pincal.model.mjcf import (
     vector_text,
 )
 from pincal.model.robot import Robot
+from pincal.outputs import all_or_nothing, atomic_write_text
 from pincal.version import __version__
 
 MARKER_SITE = "pincal_marker{}"

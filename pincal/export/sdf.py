@@ -42,9 +42,9 @@ from pincal.calibration.identification import IdentificationResult
 from pincal.errors import PincalWarning, UrdfError
 from pincal.export._urdf_to_mjcf import NO_INERTIA, NO_MASS
 from pincal.export.urdf import exported_robot, placement_text
-from pincal.files import atomic_write_text
 from pincal.model.robot import Robot
 from pincal.model.urdf import read_tree, resolve_mesh
+from pincal.outputs import atomic_write_text
 from pincal.version import __version__
 
 SDF_VERSION = "1.9"

@@ -35,7 +35,7 @@ What :func:`export_urdf` writes, precisely:
 
 Before writing, the new URDF is loaded back with Pinocchio and must reproduce the calibrated
 model's points at random configurations to 1e-9 m; the URDF and its sidecar are then written all or
-nothing (:func:`pincal.files.all_or_nothing`: temporary files renamed together at the end). The
+nothing (:func:`pincal.outputs.all_or_nothing`: temporary files renamed together at the end). The
 source URDF is never overwritten. A xacro source is expanded as loading expands it, and the
 calibrated robot is written as that URDF.
 """
@@ -61,10 +61,10 @@ from pincal.errors import (
     PincalWarning,
     UrdfError,
 )
-from pincal.files import all_or_nothing, atomic_write_text
 from pincal.model.loading import load_robot
 from pincal.model.robot import Robot
 from pincal.model.urdf import expanded_text, model_from_text, prepare
+from pincal.outputs import all_or_nothing, atomic_write_text
 from pincal.version import __version__
 
 ROUND_TRIP_TOLERANCE = 1e-9

@@ -40,10 +40,10 @@ import pinocchio as pin
 from pincal.calibration.corrections import Corrections, corrections_yaml
 from pincal.errors import PincalWarning, UrdfError
 from pincal.export.urdf import sidecar_path
-from pincal.files import all_or_nothing, atomic_write_text
 from pincal.model import xacro_expansion
 from pincal.model.loading import load_robot
 from pincal.model.urdf import MAX_URDF_BYTES
+from pincal.outputs import all_or_nothing, atomic_write_text
 from pincal.version import __version__
 
 ARGUMENTS = ("kinematics_params", "kinematics_parameters_file", "kinematics_params_file")

@@ -29,9 +29,10 @@ import pinocchio as pin
 
 from pincal.arguments import check_lengths, generator, number
 from pincal.errors import BadDHTable, OverwriteRefused
-from pincal.files import atomic_write_text, read_yaml
+from pincal.files import read_yaml
 from pincal.model._dh_urdf import fixed_frame, origin_text, quoteattr, rx, rz, tx, tz
 from pincal.model.loading import ROBOTS_DIR
+from pincal.outputs import atomic_write_text
 from pincal.typing import ConfigurationsLike
 
 CONVENTIONS = ("standard", "modified")

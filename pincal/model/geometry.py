@@ -22,10 +22,10 @@ import pinocchio as pin
 from lxml import etree
 
 from pincal.errors import UrdfError, warn
-from pincal.files import note_input
 from pincal.model.mjcf import build_geometry, geometry_text, is_mjcf
 from pincal.model.robot import Robot
 from pincal.model.urdf import captured_stderr, first_error, read_tree, resolve_mesh
+from pincal.outputs import note_input
 
 
 @dataclass(frozen=True, eq=False)

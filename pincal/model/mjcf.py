@@ -37,7 +37,7 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from pincal import files
+from pincal import outputs
 from pincal.arguments import MAX_LENGTH
 from pincal.errors import UnknownName, UrdfError, warn
 from pincal.model.mjcf_document import read_document
@@ -394,7 +394,7 @@ def build_geometry(model: pin.Model, text: str, kind: pin.GeometryType) -> pin.G
 def geometry_text(path: Path) -> tuple[str, tuple[str, ...]]:
     """The prepared MJCF text of ``path`` for its geometry, the geoms whose mesh file cannot be
     found left out, and the ``file`` of each such mesh (sorted); the files found are inputs of the
-    command (:func:`pincal.files.note_input`)."""
+    command (:func:`pincal.outputs.note_input`)."""
     tree = read_document(path)
     folder = path.resolve().parent
     root = tree.getroot()
@@ -410,7 +410,7 @@ def geometry_text(path: Path) -> tuple[str, tuple[str, ...]]:
             file = str(mesh.get("file"))
             found = meshdir / file
             if found.is_file():
-                files.note_input(found)
+                outputs.note_input(found)
                 continue
             missing.add(file)
             gone.add(mesh.get("name") or Path(file).stem)

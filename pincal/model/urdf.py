@@ -30,7 +30,7 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from pincal import files
+from pincal import files, outputs
 from pincal.arguments import check_lengths, checked_name, joint_range
 from pincal.errors import BadArgument, UnknownName, UrdfError, warn
 from pincal.model import xacro_expansion
@@ -290,14 +290,14 @@ def few(names: Sequence[str], limit: int = 3) -> str:
 
 def check_meshes(text: str, urdf: Path, package_dirs: Mapping[str, str] | None = None) -> list[str]:
     """Mesh file names of the URDF that cannot be found (one warning names them); those found are
-    inputs of the command (:func:`pincal.files.note_input`)."""
+    inputs of the command (:func:`pincal.outputs.note_input`)."""
     names = sorted(
         {str(m.get("filename")) for m in _parse(text, str(urdf)).iter("mesh") if m.get("filename")}
     )
     found = {n: resolve_mesh(n, urdf, package_dirs) for n in names}
     for path in found.values():  # the robot's own files: no output of the command may replace them
         if path is not None:
-            files.note_input(path)
+            outputs.note_input(path)
     missing = [n for n, path in found.items() if path is None]
     if missing:
         warn(

@@ -16,8 +16,9 @@ import numpy as np
 
 from pincal.arguments import MAX_COUNT, positive_int
 from pincal.errors import BadArgument, BadPlanFile, warn
-from pincal.files import atomic_write_text, column_mismatch, csv_header, read_numeric_csv
+from pincal.files import column_mismatch, csv_header, read_numeric_csv
 from pincal.model.statics import PAYLOAD_COLUMNS, payload_columns, payload_rows
+from pincal.outputs import atomic_write_text
 from pincal.typing import ConfigurationsLike, PayloadLike
 
 

@@ -28,10 +28,10 @@ import pinocchio as pin
 
 from pincal.campaign.result import HOME, Campaign
 from pincal.errors import BadArgument
-from pincal.files import atomic_write_text
 from pincal.model.collision import reach as robot_reach
 from pincal.model.kinematics import ForwardKinematics
 from pincal.optional import require
+from pincal.outputs import atomic_write_text
 from pincal.planning.constraints import AnyConstraint, Mount, Workcell
 from pincal.viewing.drawing import (
     ROOT,

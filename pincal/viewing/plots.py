@@ -31,8 +31,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pincal.errors import BadArgument, CannotWrite
-from pincal.files import atomic_write_bytes
 from pincal.optional import require
+from pincal.outputs import atomic_write_bytes
 
 if TYPE_CHECKING:  # matplotlib is optional: imported when a figure is drawn
     from matplotlib.figure import Figure
@@ -86,7 +86,7 @@ def figure_format(path: str | os.PathLike, feature: str = "pincal.viewing.plots"
 
 def save_figure(fig: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
     """Save ``fig`` to ``path`` in the format of its suffix, atomically (never half-written, never
-    over an input: see :func:`pincal.files.atomic_write_bytes`)."""
+    over an input: see :func:`pincal.outputs.atomic_write_bytes`)."""
     fmt = figure_format(path)
     buffer = io.BytesIO()
     fig.savefig(buffer, format=fmt, dpi=dpi)

@@ -41,11 +41,11 @@ from pincal.errors import BadConfiguration, SingularPlan, warn
 from pincal.evaluation.predicted_error import PredictedError
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import position_covariance
-from pincal.files import atomic_write_text
 from pincal.model.collision import reach as robot_reach
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.optional import require
+from pincal.outputs import atomic_write_text
 from pincal.planning.plan import Plan
 from pincal.typing import ConfigurationsLike, InstrumentLike, PayloadLike, ViewerLike
 from pincal.viewing.drawing import (

@@ -15,8 +15,8 @@ import pytest
 
 import pincal
 from pincal.cli import main
-from pincal.files import atomic_write_text, guard_inputs
 from pincal.model import shipped_dh_tables
+from pincal.outputs import atomic_write_text, guard_inputs
 
 PLANAR = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
 

@@ -9,7 +9,7 @@ import os
 import pytest
 
 import pincal
-from pincal.files import all_or_nothing, atomic_write_text
+from pincal.outputs import all_or_nothing, atomic_write_text
 
 PLANAR = ["--tip", "tip", "--params", "joint2.tx,tip.tx"]
 

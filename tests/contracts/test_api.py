@@ -135,7 +135,7 @@ def test_no_import_inside_a_function_but_optional_ones():
         ("pincal/cli/campaign.py", "pincal.viewing.animation"),
         ("pincal/viewing/scene.py", "pincal.viewing.static_page"),
         ("pincal/cli/__init__.py", "pincal.cli._common"),
-        ("pincal/cli/__init__.py", "pincal.files"),
+        ("pincal/cli/__init__.py", "pincal.outputs"),
     }
     for path in sorted(PACKAGE.rglob("*.py")):
         name = path.relative_to(PACKAGE.parent).as_posix()

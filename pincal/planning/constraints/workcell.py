@@ -33,10 +33,10 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import BadConstraint
-from pincal.files import note_input
 from pincal.model.collision import CollisionWorld
 from pincal.model.robot import Robot
 from pincal.model.urdf import captured_stderr, first_error
+from pincal.outputs import note_input
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, number, vector
 from pincal.planning.constraints.mount import MountBound
 
