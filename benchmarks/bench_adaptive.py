@@ -41,12 +41,18 @@ def main(seeds: int) -> list[str]:
     region = pincal.around(np.radians([0, -60, 60, 0, 45, 0]), np.radians(10), samples=64)
     lines = header()
     with timed() as clock:
-        plan = one_shot_plan(params, region, TARGET, SIGMA, seed=0, **OPTIONS)
+        plan = one_shot_plan(params, region, TARGET, SIGMA, search=pincal.Search(**OPTIONS, seed=0))
         results = []
         for seed in range(seeds):
             results.append(
                 rehearse(
-                    params, region, TARGET, plan=plan, seed=seed, faults=Faults(), design_options=OPTIONS
+                    params,
+                    region,
+                    TARGET,
+                    plan=plan,
+                    seed=seed,
+                    faults=Faults(),
+                    search=pincal.Search(**OPTIONS, seed=seed),
                 )
             )
             r = results[-1]

@@ -21,6 +21,7 @@ each pose, which the campaign does not know), to check that stopping was honest.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,10 +31,11 @@ from pincal.adaptive.measured import MeasuredPrior
 from pincal.arguments import DEFAULT_SIGMA, generator
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.synthetic import random_errors
+from pincal.deprecation import moved_keywords
 from pincal.evaluation.region import resolve_test_poses
 from pincal.model.parameters import ParameterSet
 from pincal.planning.driver import design
-from pincal.planning.options import grouped
+from pincal.planning.options import FLAT, Search, check_value, regroup
 from pincal.planning.plan import Plan
 from pincal.typing import TestPoseLike
 
@@ -120,15 +122,17 @@ def _true_error(
     return _predicted(params, test_pose, DEFAULT_SIGMA, measured)
 
 
+@moved_keywords(FLAT, functools.partial(regroup, function="one_shot_plan"))
 def one_shot_plan(
     params: ParameterSet, test_pose: TestPoseLike, target: float, sigma: float, max_m: int = 60, **options
 ) -> Plan:
     """The smallest plan whose predicted error over the test region (at ``sigma``) meets ``target``
-    (``options``: :func:`pincal.design`'s)."""
+    (``options``: :func:`pincal.design`'s keywords, e.g. ``search=pincal.Search(...)``; its flat
+    keywords of pincal 0.1 keep working until pincal 0.3, with a DeprecationWarning)."""
     rows = 3 * params.robot.n_markers
     m = -(-len(params) // rows) + 1
     while True:
-        result = design(params, m, test_pose, **grouped(dict(options, sigma=sigma)))
+        result = design(params, m, test_pose, sigma=sigma, **options)
         rho0 = result.rho0
         assert rho0 is not None  # a design for a test pose reports its rho0
         if rho0 <= target or m >= max_m:
@@ -137,6 +141,18 @@ def one_shot_plan(
         m = max(m + 1, min(max_m, int(m * (rho0 / target) ** 2 * 0.9)))
 
 
+def _design_options(flat: dict, kwargs: dict) -> tuple[dict, str]:
+    """rehearse()'s ``search=`` for the ``design_options=`` dict of pincal 0.1 (see
+    :func:`pincal.deprecation.moved_keywords`)."""
+    if "design_options" not in flat:
+        return kwargs, ""
+    if "search" in kwargs:
+        raise TypeError("rehearse() got design_options= and search=: put them in search=")
+    options = {"starts": 4, "workers": 1, "seed": kwargs.get("seed", 0), **(flat["design_options"] or {})}
+    return dict(kwargs, search=Search(**options)), "search=pincal.Search(...) for design_options={...}"
+
+
+@moved_keywords(("design_options",), _design_options)
 def rehearse(
     params: ParameterSet,
     test_pose: TestPoseLike,
@@ -149,7 +165,7 @@ def rehearse(
     k: int = 3,
     first_extra: int = 2,
     max_poses: int = 120,
-    design_options: dict | None = None,
+    search: Search | None = None,
 ) -> dict[str, Rehearsal]:
     """Rehearse the one-shot and the adaptive campaign on one simulated robot (see the module doc).
 
@@ -164,14 +180,18 @@ def rehearse(
         k: poses the adaptive campaign adds at each step.
         first_extra: poses beyond the fewest that identify the parameters in its first batch.
         max_poses: a campaign stops there, target reached or not.
-        design_options: options of every design (starts, pool, workers, ...).
+        search: how every design searches, and the adaptive steps' starts, workers, pool and
+            polish (:class:`pincal.Search`; default 4 starts, 1 worker, ``seed``).
+            ``design_options=`` (a dict of its fields) keeps working until pincal 0.3, with a
+            DeprecationWarning.
 
     Returns:
         ``{"one-shot": Rehearsal, "adaptive": Rehearsal}``.
     """
-    options = {"starts": 4, "workers": 1, "seed": seed, **(design_options or {})}
+    search = Search(starts=4, workers=1, seed=seed) if search is None else search
+    check_value(search, Search, "search")
     resolve_test_poses(params.robot, test_pose)  # checked once, up front
-    plan = one_shot_plan(params, test_pose, target, sigma, **options) if plan is None else plan
+    plan = one_shot_plan(params, test_pose, target, sigma, search=search) if plan is None else plan
     robot = params.robot
     out = {}
     # Both campaigns are told the instrument's real noise level (not its spread over the cell, the
@@ -197,9 +217,7 @@ def rehearse(
     # Adaptive: a first batch that identifies the parameters, then k at a time.
     instrument = _Instrument(params, sigma, faults, seed)
     rows = 3 * robot.n_markers
-    first = design(
-        params, -(-len(params) // rows) + first_extra, test_pose, **grouped(dict(options, sigma=sigma))
-    ).plan
+    first = design(params, -(-len(params) // rows) + first_extra, test_pose, sigma=sigma, search=search).plan
     qs, points, s = instrument.measure(first.q)
     attempted, rounds = first.q, 1
     while True:
@@ -213,7 +231,7 @@ def rehearse(
             target=target,
             seed=seed + rounds,
             sigma=told,
-            **_next_options(options),
+            **_next_options(search),
         )
         if step.stop or len(qs) + k > max_poses:
             break
@@ -227,8 +245,14 @@ def rehearse(
     return out
 
 
-def _next_options(options: dict) -> dict:
-    return {key: options[key] for key in ("starts", "workers", "pool", "polish") if key in options}
+def _next_options(search: Search) -> dict:
+    """:func:`next_poses`'s search keywords of ``search`` (its own defaults for starts and workers
+    that ``search`` leaves to the design: adaptive starts, every CPU)."""
+    given = {"starts": search.starts, "workers": search.workers}
+    return {key: value for key, value in given.items() if value is not None} | {
+        "pool": search.pool,
+        "polish": search.polish,
+    }
 
 
 def summary(results: list[dict[str, Rehearsal]], target: float) -> dict[str, dict[str, float]]:

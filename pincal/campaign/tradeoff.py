@@ -10,6 +10,7 @@ identify the parameters (without a prior) are left out and named.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -18,12 +19,13 @@ from typing import Any
 from pincal.arguments import DEFAULT_SIGMA, positive_int
 from pincal.campaign.schedule import plan_campaign
 from pincal.campaign.timing import Timing
+from pincal.deprecation import moved_keywords
 from pincal.errors import BadArgument, PincalError
 from pincal.evaluation.prior import Prior
 from pincal.model.parameters import ParameterSet
-from pincal.planning.constraints import AnyConstraint, JointMargin, MountSpec, with_safety
+from pincal.planning.constraints import with_safety
 from pincal.planning.driver import design
-from pincal.planning.options import grouped
+from pincal.planning.options import FLAT, Safety, Search, check_value, regroup
 from pincal.planning.plan import Plan
 from pincal.typing import JointValues, TestPoseLike
 
@@ -122,6 +124,7 @@ def parse_sizes(text: str) -> tuple[int, ...]:
     return tuple(sorted(set(sizes)))
 
 
+@moved_keywords(FLAT, functools.partial(regroup, function="accuracy_vs_time"))
 def accuracy_vs_time(
     params: ParameterSet,
     test_pose: TestPoseLike,
@@ -131,10 +134,8 @@ def accuracy_vs_time(
     home: JointValues | None = None,
     sigma: float = DEFAULT_SIGMA,
     prior: Prior | None = None,
-    constraints: Iterable[AnyConstraint] = (),
-    joint_margin: JointMargin = None,
-    mount: MountSpec = None,
-    clearance: float | None = None,
+    search: Search | None = None,
+    safety: Safety | None = None,
     **options: Any,  # passed on to design(), which checks each
 ) -> Tradeoff:
     """The predicted error over the test region and the campaign time for each plan size.
@@ -145,8 +146,13 @@ def accuracy_vs_time(
         sizes: the plan sizes (default :data:`DEFAULT_SIZES`, 6 … 30).
         timing: the campaign's time model (default: the URDF's speeds, a laser tracker's dwell).
         home: where each campaign starts and ends (see :func:`plan_campaign`).
-        sigma, prior, constraints, joint_margin, mount, clearance: as :func:`pincal.design`'s.
-        options: more :func:`pincal.design` options (starts, seed, workers, method, pool, ...).
+        sigma, prior: as :func:`pincal.design`'s.
+        search: how each plan is searched (:class:`pincal.Search`), as :func:`pincal.design`'s.
+        safety: how each plan is kept safe (:class:`pincal.Safety`), as :func:`pincal.design`'s;
+            its constraints, with the safe defaults, are also those each campaign is ordered with.
+        options: more :func:`pincal.design` keywords (``criterion``, ``loads``, ``instrument``, ...).
+            The flat keywords of pincal 0.1 (``starts=``, ``constraints=``, ...) keep working until
+            pincal 0.3, with a DeprecationWarning.
 
     Raises:
         BadArgument: a size that is not a positive integer, more than :data:`MAX_SIZES` sizes, or a
@@ -162,7 +168,12 @@ def accuracy_vs_time(
             valid=(1, MAX_SIZES),
         )
     timing = Timing.for_robot(robot) if timing is None else timing
-    constraints = with_safety(robot, constraints, joint_margin, mount, clearance=clearance)
+    safety = Safety() if safety is None else safety
+    check_value(safety, Safety, "safety")
+    constraints = with_safety(
+        robot, safety.constraints, safety.joint_margin, safety.mount, clearance=safety.clearance
+    )
+    kept = Safety(constraints=constraints, min_conditioning=safety.min_conditioning)
     rows, skipped = [], []
     minimum = -(-len(params) // (3 * robot.n_markers))
     for m in sizes:
@@ -174,8 +185,11 @@ def accuracy_vs_time(
                 params,
                 m,
                 test_pose,
+                sigma=sigma,
                 prior=prior,
-                **grouped(dict(options, sigma=sigma, constraints=constraints)),
+                search=search,
+                safety=kept,
+                **options,
             )
         except PincalError as exc:
             skipped.append((m, str(exc).split(";")[0]))

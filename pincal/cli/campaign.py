@@ -241,20 +241,18 @@ def check_tradeoff_arguments(args: argparse.Namespace, robot, test_pose) -> tupl
     return sizes, timing
 
 
-def report_tradeoff(args: argparse.Namespace, params, test_pose, plan, options: dict):
-    """(this plan's campaign, the trade-off) of --campaign, the figure saved; (None, None) without it."""
+def report_tradeoff(args: argparse.Namespace, params, test_pose, plan, sigma: float, keywords: dict):
+    """(this plan's campaign, the trade-off) of --campaign, the figure saved; (None, None) without it.
+    ``keywords``: the design's (its search, safety and prior are the trade-off's)."""
     checked = check_tradeoff_arguments(args, params.robot, test_pose)
     if checked is None:
         return None, None
     sizes, timing = checked
-    robot = params.robot
-    keep = ("method", "starts", "polish", "min_conditioning", "seed", "workers", "pool", "progress")
-    design_options = {key: options[key] for key in keep if key in options}
-    constraints = options.get("constraints", ())
-    campaign = plan_campaign(robot, plan, timing=timing, constraints=constraints, check=False)
+    search, safety = keywords["search"], keywords["safety"]
+    campaign = plan_campaign(params.robot, plan, timing=timing, constraints=safety.constraints, check=False)
     tradeoff = accuracy_vs_time(
-        params, test_pose, sizes, timing=timing, sigma=options["sigma"], prior=options.get("prior"),
-        constraints=constraints, **design_options,
+        params, test_pose, sizes, timing=timing, sigma=sigma, prior=keywords.get("prior"), search=search,
+        safety=safety,
     )  # fmt: skip
     if args.campaign_plot:
         rows = tradeoff.rows

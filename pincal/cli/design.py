@@ -9,6 +9,7 @@ import numpy as np
 
 from pincal.cli import COMMANDS
 from pincal.cli._accuracy import (
+    design_measuring,
     payload_centre_from_args,
     prior_from_args,
     report_accuracy,
@@ -48,7 +49,7 @@ from pincal.model.statics import Payload
 from pincal.planning import stopping as _stopping
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import design
-from pincal.planning.options import grouped
+from pincal.planning.options import Loads, Safety, Search
 from pincal.planning.placement import SCREEN, STEPS, Placement, place_instrument
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans, dropped_line
@@ -92,16 +93,15 @@ def run(args: argparse.Namespace) -> int:
     _check_search_arguments(args)
     taught = read_plan(robot, args.pool, args.deg) if args.pool else None
     pool = taught if taught is not None else args.pool_size
-    options = _design_options(args, pool, prior, constraints, sigma, measuring.options)
-    loads = _payload_options(args)
-    if args.residual_model:
-        loads["residual_model"] = residual_model_from_args(robot, args.residual_model)
-    if loads:
-        _check_payload_design(args, loads)
-        options.update(loads)
+    options = _design_keywords(args, pool, prior, constraints, sigma, measuring.options)
+    loads = _loads(args)
+    residual = residual_model_from_args(robot, args.residual_model) if args.residual_model else None
+    if loads is not None or residual is not None:
+        _check_payload_design(args, residual is not None)
+        options.update(loads=loads, residual_model=residual)
     placement = None
     if args.place_instrument is not None:
-        placement, options = _placed(args, params, q0, criterion, options, taught, loads)
+        placement = _placed(args, params, q0, criterion, options, taught, sigma, measuring.options)
     elif args.placement_plot or args.place_steps is not None or args.place_screen is not None:
         raise BadArgument(
             "--placement-plot, --place-steps and --place-screen go with --place-instrument X0,Y0,Z0,X1,Y1,Z1"
@@ -109,15 +109,15 @@ def run(args: argparse.Namespace) -> int:
     with recorded_warnings() as records:
         if placement is None:
             # --baseline's D-optimal plan is searched from the same starts, on the same workers
-            with_d = args.baseline is not None and options.get("method") == "exchange"
-            result = design(
-                params, args.m, q0, criterion=criterion, with_d_optimal=with_d, **grouped(options)
-            )
+            with_d = args.baseline is not None and options["search"].method == "exchange"
+            result = design(params, args.m, q0, criterion=criterion, with_d_optimal=with_d, **options)
         else:
             result = placement.result
         baseline = None
         if args.baseline is not None:
-            baseline = _baseline(params, args, q0, criterion, taught, options, result.d_optimal)
+            baseline = _baseline(
+                params, args, q0, criterion, taught, sigma, options, measuring.options, result.d_optimal
+            )
         reference = None if baseline is None or baseline[1] is None else baseline[1].plan
         report = report_accuracy(
             args,
@@ -129,11 +129,11 @@ def run(args: argparse.Namespace) -> int:
             reference,
             constraints,
             pool,
-            loads.get("task_payload"),
-            loads.get("residual_model"),
+            None if loads is None else loads.task_payload,
+            residual,
             **measuring.options,
         )
-        campaign = report_tradeoff(args, params, q0, result.plan, options)  # --campaign
+        campaign = report_tradeoff(args, params, q0, result.plan, sigma, options)  # --campaign
         safety = safety_margins(robot, result.plan, constraints)  # warns of a pose colliding with itself
     if placement is not None and args.placement_plot:
         plots.save_figure(plots.placement_map(placement), args.placement_plot)
@@ -152,33 +152,34 @@ def _check_search_arguments(args: argparse.Namespace) -> None:
         raise BadArgument("give --pool FILE.csv or --pool-size N, not both")
 
 
-def _design_options(args: argparse.Namespace, pool, prior, constraints, sigma, measured: dict) -> dict:
-    """The options of :func:`pincal.design` the command line gives (the payloads' apart)."""
+def _design_keywords(args: argparse.Namespace, pool, prior, constraints, sigma, measured: dict) -> dict:
+    """The keywords of :func:`pincal.design` the command line gives (the loads apart): its search,
+    its safety, the prior and what is measured (``measured``: the instrument's options)."""
     return dict(
-        method=args.method,
-        pool=pool,
-        starts=args.starts,
-        polish=args.polish,
-        min_conditioning=args.min_conditioning,
+        search=Search(
+            method=args.method,
+            starts=args.starts,
+            seed=args.seed,
+            pool=pool,
+            polish=args.polish,
+            workers=args.workers,
+            progress=args.progress,
+        ),
+        safety=Safety(constraints=constraints, min_conditioning=args.min_conditioning),
         prior=prior,
-        constraints=constraints,
-        sigma=sigma,
-        seed=args.seed,
-        workers=args.workers,
-        progress=args.progress,
-        **measured,
+        **design_measuring(measured, sigma),
     )
 
 
-def _check_payload_design(args: argparse.Namespace, loads: dict) -> None:
+def _check_payload_design(args: argparse.Namespace, residual: bool) -> None:
     """What a design with --payloads/--task-payload/--residual-model does not take, said with why."""
-    what = "--residual-model" if "residual_model" in loads else "--payloads/--task-payload"
+    what = "--residual-model" if residual else "--payloads/--task-payload"
     refused = {
         "--baseline": (args.baseline is not None, "random plans carry no payloads"),
         "--method continuous": (args.method != "exchange", CONTINUOUS_WHY),
         "--polish": (bool(args.polish), CONTINUOUS_WHY),
     }
-    if "residual_model" in loads:
+    if residual:
         refused["--accuracy-plot"] = (bool(args.accuracy_plot), "the plot has no residual model")
     given = [f"{name} ({why})" for name, (on, why) in refused.items() if on]
     if given:
@@ -188,10 +189,12 @@ def _check_payload_design(args: argparse.Namespace, loads: dict) -> None:
         )
 
 
-def _placed(args, params, q0, criterion: str, options: dict, taught, loads: dict):
-    """(the :class:`Placement` of --place-instrument, the options of the rest of the command: its
-    instrument where the placement put it)."""
-    if args.baseline is not None or taught is not None or loads:
+def _placed(
+    args, params, q0, criterion: str, options: dict, taught, sigma: float, measured: dict
+) -> Placement:
+    """The :class:`Placement` of --place-instrument (``options``: design()'s keywords, ``measured``
+    the instrument's options)."""
+    if args.baseline is not None or taught is not None or "loads" in options or "residual_model" in options:
         raise BadArgument(
             "--place-instrument designs over a generated pool: no --baseline, --pool, --payloads or "
             "--residual-model with it"
@@ -201,45 +204,56 @@ def _placed(args, params, q0, criterion: str, options: dict, taught, loads: dict
         raise BadArgument(
             f"--place-instrument {args.place_instrument!r}: expected X0,Y0,Z0,X1,Y1,Z1 (six numbers, metres)"
         )
-    kind, error = options.get("measure"), options.get("instrument")
-    rest = {k: v for k, v in options.items() if k not in ("measure", "instrument", "constraints", "progress")}
+    kind, error = measured.get("measure"), measured.get("instrument")
+    search, safety = options["search"], options["safety"]
+    rest = dict(
+        method=search.method, pool=search.pool, starts=search.starts, polish=search.polish,
+        min_conditioning=safety.min_conditioning, prior=options["prior"], sigma=sigma, seed=search.seed,
+        workers=search.workers, **{k: v for k, v in measured.items() if k == "orientation_length"},
+    )  # fmt: skip
     default_at = getattr(error, "at", None) if getattr(args, "instrument_at", None) else None
     screen = {None: SCREEN, "all": None}.get(args.place_screen, args.place_screen)
     with recorded_warnings() as records:
         placement = place_instrument(
             params, args.m, q0, (box[:3], box[3:]), criterion=criterion, measure=kind, instrument=error,
-            constraints=options["constraints"], steps=args.place_steps or STEPS, default_at=default_at,
+            constraints=safety.constraints, steps=args.place_steps or STEPS, default_at=default_at,
             screen=screen, progress=args.progress, **rest,
         )  # fmt: skip
     print_warnings(records)
-    options = dict(options)
-    if isinstance(placement.result.instrument, Instrument) and isinstance(
-        placement.result.instrument.error, Tracker
-    ):
-        options["instrument"] = placement.result.instrument.error
-    else:  # a camera: its fixture moved; the accuracy report would be of the nominal camera
+    if not (
+        isinstance(placement.result.instrument, Instrument)
+        and isinstance(placement.result.instrument.error, Tracker)
+    ):  # a camera: its fixture moved; the accuracy report would be of the nominal camera
         args.no_accuracy = True
-    return placement, options
+    return placement
 
 
 CONTINUOUS_WHY = "the continuous search cannot choose among discrete payloads"
 
 
-def _payload_options(args: argparse.Namespace) -> dict:
-    """design()'s payloads and task_payload from --payloads, --task-payload, --payload-centre."""
+def _loads(args: argparse.Namespace) -> Loads | None:
+    """design()'s loads from --payloads, --task-payload, --payload-centre, or None."""
     task = task_payload_from_args(args)
     if args.payloads is None and task is None:
-        return {}
+        return None
     centre = payload_centre_from_args(args)
     masses = [0.0] if args.payloads is None else parse_floats(args.payloads, "--payloads")
-    return {
-        "payloads": [Payload(kg, centre) for kg in masses],
-        "task_payload": task if task is not None else Payload(0.0, centre),
-    }
+    return Loads(
+        payloads=[Payload(kg, centre) for kg in masses],
+        task_payload=task if task is not None else Payload(0.0, centre),
+    )
 
 
 def _baseline(
-    params, args: argparse.Namespace, q0, criterion: str, taught, options: dict, d_optimal=None
+    params,
+    args: argparse.Namespace,
+    q0,
+    criterion: str,
+    taught,
+    sigma: float,
+    options: dict,
+    measured: dict,
+    d_optimal=None,
 ) -> tuple[RandomPlans, DesignResult | None]:
     """(random feasible plans, the D-optimal plan) of --baseline: the random plans drawn from the
     taught pool if any, the D-optimal plan designed with the same options as the plan (given:
@@ -250,15 +264,15 @@ def _baseline(
         args.baseline,
         q0,
         criterion=_rho0_criterion(criterion),
-        sigma=options["sigma"],
+        sigma=sigma,
         prior=options["prior"],
-        constraints=options["constraints"],
+        constraints=options["safety"].constraints,
         seed=args.seed,
         pool=taught,
-        **{k: options[k] for k in ("measure", "instrument", "orientation_length") if k in options},
+        **measured,
     )
     if d_optimal is None:
-        d_optimal = design(params, args.m, q0, criterion="D", **grouped(options))
+        d_optimal = design(params, args.m, q0, criterion="D", **options)
     return randoms, d_optimal
 
 
@@ -312,7 +326,8 @@ def _split(params, result: DesignResult, args: argparse.Namespace) -> dict | Non
     """ρ0² split into geometric and elastic parts (with gain or compliance parameters), or None."""
     if result.rho0 is None or not any(p.kind in ("gain", "compliance") for p in params):
         return None
-    task = _payload_options(args).get("task_payload")
+    loads = _loads(args)
+    task = None if loads is None else loads.task_payload
     return rho0_split(
         params, result.plan, test_region_from_args(params.robot, args), sigma=result.sigma, task_payload=task
     )

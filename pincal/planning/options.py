@@ -124,9 +124,10 @@ ORDER_0_1 = (
 """design()'s keywords in pincal 0.1's order (what arguments by position after the third meant)."""
 
 
-def regroup(flat: dict, kwargs: dict) -> tuple[dict, str]:
-    """The keywords of today's :func:`pincal.design` for the flat ones ``flat`` of pincal 0.1 and the
-    others ``kwargs``, with what to write instead (for the DeprecationWarning).
+def regroup(flat: dict, kwargs: dict, function: str = "design") -> tuple[dict, str]:
+    """The keywords of today's :func:`pincal.design` (or of ``function``, which passes them on to
+    it) for the flat ones ``flat`` of pincal 0.1 and the others ``kwargs``, with what to write
+    instead (for the DeprecationWarning).
 
     Raises:
         TypeError: a flat keyword and the value it belongs to are both given.
@@ -138,7 +139,7 @@ def regroup(flat: dict, kwargs: dict) -> tuple[dict, str]:
         if not given:
             continue
         if group in kwargs:
-            raise TypeError(f"design() got {', '.join(given)} and {group}=: put them in {group}=")
+            raise TypeError(f"{function}() got {', '.join(given)} and {group}=: put them in {group}=")
         out[group] = kind(**given)
         hints.append(f"{group}=pincal.{kind.__name__}({', '.join(f'{n}=...' for n in given)})")
     if "measure" in flat or isinstance(kwargs.get("instrument"), ErrorModel):

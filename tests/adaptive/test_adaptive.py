@@ -118,9 +118,17 @@ def test_adaptive_reaches_the_target_in_fewer_poses_than_one_shot(params, region
     with the distance to the tracker), an outlier and an unreachable pose: the same stopping rule,
     fewer poses measured adaptively (benchmarks/bench_adaptive.py runs more seeds)."""
     target = 2e-5
-    plan = one_shot_plan(params, region, target, SIGMA, seed=0, **FAST)
+    plan = one_shot_plan(params, region, target, SIGMA, search=pincal.Search(**FAST, seed=0))
     results = [
-        rehearse(params, region, target, plan=plan, seed=seed, faults=Faults(), design_options=FAST)
+        rehearse(
+            params,
+            region,
+            target,
+            plan=plan,
+            seed=seed,
+            faults=Faults(),
+            search=pincal.Search(**FAST, seed=seed),
+        )
         for seed in range(3)
     ]
     stats = summary(results, target)
@@ -146,3 +154,20 @@ def test_cli_next(tmp_path, cli, params, first, kr270_marker):
     code, text, _ = cli.run(*argv, "--target", "10mm")
     assert code == 0 and "stop: the predicted error is below the target" in text
     cli.fails(*argv, "--target", "fast", match="--target 'fast'")
+
+
+def test_the_rehearsal_takes_a_search_and_its_0_1_options_until_0_3(params, region):
+    """``one_shot_plan``'s flat keywords and ``rehearse``'s ``design_options=`` dict of pincal 0.1
+    become ``search=`` with a DeprecationWarning at the caller's line, and the same campaigns."""
+    target = 2e-5
+    with pytest.warns(DeprecationWarning, match=r"one_shot_plan\(\): the flat keywords") as caught:
+        old = one_shot_plan(params, region, target, SIGMA, seed=0, **FAST)
+    assert caught[0].filename == __file__
+    new = one_shot_plan(params, region, target, SIGMA, search=pincal.Search(**FAST, seed=0))
+    assert old.q.tobytes() == new.q.tobytes()
+    with pytest.warns(DeprecationWarning, match=r"rehearse\(\): the flat keywords .* search=pincal.Search"):
+        before = rehearse(params, region, target, plan=new, seed=1, design_options=FAST)
+    after = rehearse(params, region, target, plan=new, seed=1, search=pincal.Search(**FAST, seed=1))
+    assert before == after
+    with pytest.raises(TypeError, match="design_options= and search="):
+        rehearse(params, region, target, plan=new, design_options=FAST, search=pincal.Search())

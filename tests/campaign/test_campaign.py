@@ -340,7 +340,11 @@ def test_accuracy_against_campaign_time(kr270_marker):
     region = pincal.around(q0, math.radians(10), samples=32)
     timing = Timing.for_robot(kr270_marker, dwell="probe")
     result = accuracy_vs_time(
-        params, region, (3, 6, 9), timing=timing, starts=2, pool=200, workers=1, polish=False
+        params,
+        region,
+        (3, 6, 9),
+        timing=timing,
+        search=pincal.Search(starts=2, pool=200, workers=1, polish=False),
     )
     assert (
         [r.m for r in result.rows] == [6, 9]
@@ -368,3 +372,27 @@ def test_cli_design_campaign_reports_the_tradeoff(tmp_path, cli):
     assert [r["m"] for r in payload["tradeoff"]["rows"]] == [6, 8] and payload["campaign"]["time"] > 6 * 2.5
     assert figure.stat().st_size > 1000
     cli.fails(*argv, "--campaign-plot", figure, match="go with --campaign")
+
+
+def test_accuracy_vs_time_takes_design_values_and_its_flat_keywords_until_0_3(kr270_marker):
+    """The flat design keywords of pincal 0.1 (``starts=``, ``constraints=``, ...) regroup into
+    ``search=``/``safety=`` with a DeprecationWarning at the caller's line, and the same trade-off."""
+    from pincal.campaign.tradeoff import accuracy_vs_time
+
+    params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
+    q0 = np.radians([0, -60, 60, 0, 45, 0])
+    fast = dict(starts=1, pool=100, workers=1, polish=False)
+    with pytest.warns(DeprecationWarning, match=r"accuracy_vs_time\(\): the flat keywords") as caught:
+        old = accuracy_vs_time(params, q0, (6,), clearance=0.1, **fast)
+    assert caught[0].filename == __file__
+    assert "search=pincal.Search(starts=..." in str(caught[0].message)
+    assert "safety=pincal.Safety(clearance=...)" in str(caught[0].message)
+    new = accuracy_vs_time(
+        params, q0, (6,), search=pincal.Search(**fast), safety=pincal.Safety(clearance=0.1)
+    )
+    assert old.rows[0].plan.q.tobytes() == new.rows[0].plan.q.tobytes()
+    assert old.as_dict() == new.as_dict()
+    with pytest.raises(TypeError, match=r"accuracy_vs_time\(\) got starts and search="):
+        accuracy_vs_time(params, q0, (6,), starts=1, search=pincal.Search())
+    with pytest.raises(BadArgument, match=r"safety= takes a pincal.Safety"):
+        accuracy_vs_time(params, q0, (6,), safety={"clearance": 0.1})  # type: ignore[arg-type]
