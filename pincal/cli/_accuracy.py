@@ -9,7 +9,7 @@ import warnings
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, UNITS_TEXT, quantities
+from pincal.arguments import UNITS_TEXT, quantities
 from pincal.arguments import angle as checked_angle
 from pincal.arguments import length as checked_length
 from pincal.cli._common import (
@@ -26,10 +26,9 @@ from pincal.evaluation.accuracy_report import AccuracyReport
 from pincal.evaluation.error_profile import error_profile
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestPath, around, cartesian_box, resolve_test_poses
-from pincal.instruments.instrument import instrument_for
 from pincal.model.statics import Payload
 from pincal.planning.driver import design
-from pincal.planning.options import Safety, Search
+from pincal.planning.options import Safety, Search, grouped
 from pincal.viewing.plots import error_vs_distance, save_figure
 
 REGION_HELP = """\
@@ -267,7 +266,7 @@ def d_optimal_plan(params, m: int, constraints=(), pool=None, seed: int = 0, **m
                 criterion="D",
                 search=Search(starts=4, seed=seed, pool=pool, workers=1, polish=False),
                 safety=Safety(constraints=constraints),
-                **design_measuring(_without_orientation(measuring)),
+                **grouped(_without_orientation(measuring)),
             ).plan
         except PincalError:
             return None
@@ -318,20 +317,3 @@ def _without_orientation(measuring: dict) -> dict:
     """The instrument's options without the test-pose criterion's orientation length (the
     position-only reports and the D-optimal reference do not take it)."""
     return {k: v for k, v in measuring.items() if k != "orientation_length"}
-
-
-def design_measuring(measuring: dict, sigma: float | None = None) -> dict:
-    """:func:`pincal.design`'s keywords for a command's instrument options ``measuring``
-    (``measure=`` a kind, ``instrument=`` an error model, ``orientation_length=``) and its checked
-    ``sigma``: ``instrument=`` the :class:`~pincal.instruments.Instrument` of the kind and error
-    model (the error model ``sigma`` per coordinate, or the default, when none is given), or
-    ``sigma=`` for points (nothing: design()'s default), and ``orientation_length=``."""
-    out = {k: v for k, v in measuring.items() if k == "orientation_length"}
-    if "measure" in measuring or "instrument" in measuring:
-        error = measuring.get("instrument")
-        out["instrument"] = instrument_for(
-            measuring.get("measure"), error, DEFAULT_SIGMA if sigma is None else sigma
-        )
-    elif sigma is not None:
-        out["sigma"] = sigma
-    return out

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from pincal.cli import COMMANDS
-from pincal.cli._accuracy import design_measuring, prior_from_args, test_region_from_args
+from pincal.cli._accuracy import prior_from_args, test_region_from_args
 from pincal.cli._common import (
     add_command,
     add_output_arguments,
@@ -23,7 +23,7 @@ from pincal.cli._types import count
 from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, design
-from pincal.planning.options import Safety, Search
+from pincal.planning.options import Safety, Search, grouped
 
 HELP = COMMANDS["baseline"].help
 EXAMPLES = """\
@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
                     progress=args.progress,
                 ),
                 safety=Safety(constraints=constraints),
-                **design_measuring(measuring.options, sigma),
+                **grouped(dict(sigma=sigma, **measuring.options)),
             )
     print_warnings(records)
     if args.json:

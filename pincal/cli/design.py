@@ -9,7 +9,6 @@ import numpy as np
 
 from pincal.cli import COMMANDS
 from pincal.cli._accuracy import (
-    design_measuring,
     payload_centre_from_args,
     prior_from_args,
     report_accuracy,
@@ -43,8 +42,9 @@ from pincal.cli.campaign import (
 )
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0_split
-from pincal.instruments.error_model import Tracker
+from pincal.instruments.error_model import PerCoordinate, Tracker
 from pincal.instruments.instrument import Instrument
+from pincal.instruments.point import Point
 from pincal.model.statics import Payload
 from pincal.planning import stopping as _stopping
 from pincal.planning.baselines import random_plans
@@ -167,8 +167,21 @@ def _design_keywords(args: argparse.Namespace, pool, prior, constraints, sigma, 
         ),
         safety=Safety(constraints=constraints, min_conditioning=args.min_conditioning),
         prior=prior,
-        **design_measuring(measured, sigma),
+        **_measured(measured, sigma),
     )
+
+
+def _measured(measured: dict, sigma: float) -> dict:
+    """design()'s ``instrument=`` (the kind and error model of ``measured``, the instrument's
+    options; the error model ``sigma`` per coordinate when none is given) or ``sigma=`` for points,
+    and its ``orientation_length=``."""
+    out = {k: v for k, v in measured.items() if k == "orientation_length"}
+    if "measure" in measured or "instrument" in measured:
+        kind, error = measured.get("measure", Point()), measured.get("instrument", PerCoordinate(sigma))
+        out["instrument"] = Instrument(kind, error)
+    else:
+        out["sigma"] = sigma
+    return out
 
 
 def _check_payload_design(args: argparse.Namespace, residual: bool) -> None:
