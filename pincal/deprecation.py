@@ -7,6 +7,10 @@ into values (:func:`moved_keywords`, e.g. :func:`pincal.design`'s ``starts=`` in
 write instead, until pincal :data:`REMOVAL`.
 
 Imports nothing but the standard library: ``import pincal`` reads :data:`REMOVAL`.
+
+A keyword renamed so that one name means one thing across pincal (:func:`renamed_keyword`, e.g.
+:func:`pincal.compensate`'s ``seed=``, a starting configuration, into ``start=``: ``seed=`` is a
+random seed everywhere else) keeps working the same way.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import warnings
 from collections.abc import Callable, Collection, Sequence
 from typing import Any, ParamSpec, TypeVar
 
-__all__ = ["REMOVAL", "keywords_after", "moved_from", "moved_keywords", "moved_module"]
+__all__ = ["REMOVAL", "keywords_after", "moved_from", "moved_keywords", "moved_module", "renamed_keyword"]
 
 REMOVAL = "0.3"
 """The release that removes what 0.2 deprecates."""
@@ -155,3 +159,39 @@ def _caller() -> int:
     while frame is not None and frame.f_code.co_filename == __file__:
         frame, level = frame.f_back, level + 1
     return level - 1
+
+
+def renamed_keyword(
+    old: str, new: str, why: str, old_form: Callable[[Any], bool] | None = None, what: str = ""
+) -> Callable[[Callable[P, R]], Callable[P, R]]:
+    """Let the decorated function take, until pincal :data:`REMOVAL`, its keyword ``new`` under the
+    name ``old`` of pincal 0.1, with a DeprecationWarning at the caller's line saying why it was
+    renamed. Type checkers and help() read today's signature.
+
+    Args:
+        old: the keyword's name in pincal 0.1.
+        new: its name today.
+        why: why it was renamed (what ``old`` means elsewhere in pincal), for the warning.
+        old_form: when ``old`` is still a keyword of the function, with another meaning: which of
+            its values are of the 0.1 meaning (those are moved to ``new``); None: every value.
+        what: the 0.1 meaning in words, for the warning (``" as a position"``).
+    """
+
+    def decorate(function: Callable[P, R]) -> Callable[P, R]:
+        @functools.wraps(function)
+        def call(*args: P.args, **kwargs: P.kwargs) -> R:
+            if old in kwargs and (old_form is None or old_form(kwargs[old])):
+                if new in kwargs:
+                    raise TypeError(f"{function.__name__}() got {old}={what} and {new}=: give {new}= only")
+                kwargs[new] = kwargs.pop(old)
+                warnings.warn(
+                    f"{function.__name__}(): {old}={what} is renamed {new}= ({why}): write {new}=... "
+                    f"({old}={what} stops working in pincal {REMOVAL})",
+                    DeprecationWarning,
+                    stacklevel=_caller(),
+                )
+            return function(*args, **kwargs)
+
+        return call
+
+    return decorate

@@ -111,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
         payload=payload,
         residual_model=deployed.residual_model,
         cartesian=cartesian,
-        seed=seeds,
+        init=seeds,
     )
     commands = nominal.to_degrees(result.commands) if args.deg else result.commands
     rows = "".join(",".join(repr(float(v)) for v in row) + "\n" for row in commands)

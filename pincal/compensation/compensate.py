@@ -6,7 +6,7 @@ the nominal model. For each target, the tool pose T* the nominal model gives (or
 position with the tool's orientation kept), the corrected command q_c is the one whose *actual* tool
 pose, under the calibrated geometry, the joint gains, the compliance under the program's payload
 and the residual model's mean, equals T*. It is found by Newton's method from the target (or a
-seed): the step solves J(θ)·(dθ/dq)·Δq = −e in the least-squares sense, with e the tool's
+``init``): the step solves J(θ)·(dθ/dq)·Δq = −e in the least-squares sense, with e the tool's
 position error and, for a chain of six joints or more, its orientation error (log₃ of
 R_actual·R*ᵀ), J the calibrated model's tool Jacobian (world-aligned) at the actual joint values θ
 and dθ/dq = (I − C ∂τ/∂θ)⁻¹(I + K) (differentiating the static equation; ∂τ/∂θ from Pinocchio's
@@ -28,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.arguments import positive_int
+from pincal.deprecation import renamed_keyword
 from pincal.errors import BadArgument
 from pincal.model.kinematics import ForwardKinematics
 from pincal.model.residual import ResidualModel
@@ -133,6 +134,11 @@ def _solve(tool: _Tool, start: np.ndarray, goal: tuple, load: np.ndarray, steps:
     raise AssertionError("unreachable")
 
 
+@renamed_keyword(
+    "seed",
+    "init",
+    "seed= is a random seed everywhere else in pincal; init= starts a search, as Search(init=)",
+)
 def compensate(
     calibrated: Robot,
     nominal: Robot,
@@ -141,7 +147,7 @@ def compensate(
     payload: PayloadLike = None,
     residual_model: ResidualModel | None = None,
     cartesian: bool = False,
-    seed: ConfigurationsLike | None = None,
+    init: ConfigurationsLike | None = None,
     max_iterations: int = MAX_ITERATIONS,
 ) -> Compensation:
     """Corrected joint commands for a program (see the module doc).
@@ -157,9 +163,10 @@ def compensate(
             :class:`~pincal.Payload`, or one per target); it bends a compliant robot.
         residual_model: the calibration's residual model, whose mean corrects the tool position.
         cartesian: the targets are tool positions; the tool keeps the nominal orientation it has at
-            ``seed``, and each target starts from the previous one's solution.
-        seed: (nq,) a configuration near the first Cartesian target (required with ``cartesian``);
-            or (m, nq), one per target.
+            ``init``, and each target starts from the previous one's solution.
+        init: (nq,) a configuration near the first Cartesian target, where Newton's method starts
+            (required with ``cartesian``); or (m, nq), one per target. Named ``seed=`` in pincal
+            0.1 (it keeps working until pincal 0.3, with a DeprecationWarning).
         max_iterations: Newton steps per target.
 
     Returns:
@@ -167,7 +174,7 @@ def compensate(
 
     Raises:
         BadArgument: robots of different chains, targets of the wrong shape or outside the joint
-            limits, a Cartesian program without a seed.
+            limits, a Cartesian program without ``init``.
     """
     if nominal.joint_names != calibrated.joint_names or nominal.tip != calibrated.tip:
         raise BadArgument(
@@ -179,7 +186,7 @@ def compensate(
     rigid_nominal = nominal.replace(base=pin.SE3.Identity())
     if cartesian:
         goals = _positions(targets)
-        starts = _seeds(nominal, seed, len(goals))
+        starts = _starts(nominal, init, len(goals))
         rotations, _ = rigid_nominal.tip_poses(starts[:1], check=False)
         rotations = np.repeat(rotations, len(goals), axis=0)
     else:
@@ -188,11 +195,11 @@ def compensate(
     loads = payload_rows(payload, len(goals))
     nominal_tool = _Tool(rigid_nominal, None)
     tool = _Tool(calibrated, residual_model)
-    per_row_seed = seed is not None and np.ndim(seed) == 2
+    per_row = init is not None and np.ndim(init) == 2
     commands, planned = np.empty((len(goals), calibrated.nq)), np.empty((len(goals), calibrated.nq))
     distance, angle, steps = np.empty(len(goals)), np.empty(len(goals)), np.empty(len(goals), dtype=int)
     for i, (goal, rotation) in enumerate(zip(goals, rotations)):
-        start = starts[i] if (not cartesian or per_row_seed or i == 0) else planned[i - 1]
+        start = starts[i] if (not cartesian or per_row or i == 0) else planned[i - 1]
         pose = (goal, rotation if orient else None)
         planned[i] = _solve(nominal_tool, start, pose, loads[i], max_iterations)[0] if cartesian else start
         commands[i], distance[i], angle[i], steps[i] = _solve(
@@ -216,14 +223,15 @@ def _positions(targets: ArrayLike) -> np.ndarray:
     return goals
 
 
-def _seeds(robot: Robot, seed: ConfigurationsLike | None, m: int) -> np.ndarray:
-    if seed is None:
+def _starts(robot: Robot, init: ConfigurationsLike | None, m: int) -> np.ndarray:
+    """(m, nq) where each Cartesian target's search starts, from ``init`` (one, or one per target)."""
+    if init is None:
         raise BadArgument(
-            "Cartesian targets need a seed: a configuration near the first target (seed=, --seed-pose), "
+            "Cartesian targets need a seed: a configuration near the first target (init=, --seed-pose), "
             "which also gives the tool orientation kept",
-            argument="seed",
+            argument="init",
         )
-    seeds = robot.configurations(seed, "seed")
+    seeds = robot.configurations(init, "seed")
     if len(seeds) not in (1, m):
-        raise BadArgument(f"give one seed or one per target ({m}), got {len(seeds)}", argument="seed")
+        raise BadArgument(f"give one seed or one per target ({m}), got {len(seeds)}", argument="init")
     return np.repeat(seeds, m, axis=0) if len(seeds) == 1 else seeds

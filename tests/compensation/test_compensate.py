@@ -60,7 +60,7 @@ def test_cartesian_targets_keep_the_seed_orientation(kr270_marker, calibrated):
     seed = np.radians([10, -60, 70, 20, 40, -30])
     R0, p0 = _tool(kr270_marker, seed)
     path = p0 + np.array([[0.0, 0.0, 0.0], [0.05, 0.0, 0.0], [0.1, 0.02, -0.03], [0.1, 0.08, -0.05]])
-    result = compensate(calibrated, kr270_marker, path, cartesian=True, seed=seed, payload=50.0)
+    result = compensate(calibrated, kr270_marker, path, cartesian=True, init=seed, payload=50.0)
     R, p = _tool(calibrated, result.commands, payload=50.0)
     np.testing.assert_allclose(p, path, atol=1e-9)
     assert max(np.linalg.norm(pin.log3(r @ R0[0].T)) for r in R) < 1e-9
@@ -104,8 +104,24 @@ def test_bad_programs_are_refused(kr270_marker, calibrated):
     with pytest.raises(BadArgument, match="same chain"):
         compensate(calibrated, pincal.load_robot("ur10"), np.zeros(6))
     with pytest.raises(BadArgument, match="Cartesian targets"):
-        compensate(calibrated, kr270_marker, [["a", "b", "c"]], cartesian=True, seed=np.zeros(6))
+        compensate(calibrated, kr270_marker, [["a", "b", "c"]], cartesian=True, init=np.zeros(6))
 
 
 def test_tolerance_is_below_any_instrument():
     assert TOLERANCE <= 1e-9
+
+
+def test_the_starting_configuration_is_init_and_seed_keeps_working_until_0_3(kr270_marker, calibrated):
+    """``seed=`` is a random seed everywhere else in pincal: compensate's starting configuration
+    is ``init=``; pincal 0.1's ``seed=`` gives the same commands, with a DeprecationWarning at the
+    caller's line."""
+    start = np.radians([10, -60, 70, 20, 40, -30])
+    _, p0 = _tool(kr270_marker, start)
+    path = p0 + np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]])
+    with pytest.warns(DeprecationWarning, match=r"compensate\(\): seed= is renamed init= ") as caught:
+        old = compensate(calibrated, kr270_marker, path, cartesian=True, seed=start)
+    assert caught[0].filename == __file__ and "pincal 0.3" in str(caught[0].message)
+    new = compensate(calibrated, kr270_marker, path, cartesian=True, init=start)
+    assert old.commands.tobytes() == new.commands.tobytes()
+    with pytest.raises(TypeError, match="give init= only"):
+        compensate(calibrated, kr270_marker, path, cartesian=True, seed=start, init=start)
