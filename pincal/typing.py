@@ -28,6 +28,7 @@ if TYPE_CHECKING:  # annotations only: pincal.typing imports no stage at run tim
     import pinocchio as pin
 
     from pincal.evaluation.region import TestRegion
+    from pincal.instruments.error_model import Tracker
     from pincal.model.statics import Payload
     from pincal.planning.constraints import Visibility
     from pincal.planning.plan import Plan
@@ -35,7 +36,7 @@ if TYPE_CHECKING:  # annotations only: pincal.typing imports no stage at run tim
 __all__ = [
     "ArrayLike",
     "ConfigurationsLike",
-    "InstrumentLike",
+    "InstrumentAt",
     "JointValues",
     "PathLike",
     "PayloadLike",
@@ -91,9 +92,14 @@ RobotSource: TypeAlias = "str | os.PathLike[str] | pin.Model"
 """A robot to load: a URDF (or xacro) path, the name of a shipped or example-robot-data robot
 (``pincal robots`` lists them), or a ``pinocchio.Model``."""
 
-InstrumentLike: TypeAlias = "npt.ArrayLike | Visibility | None"
-"""Where the instrument stands, for a scene: its position (x, y, z) in the base/instrument frame
-[m], a :class:`~pincal.planning.constraints.Visibility` constraint (its tracker), or None."""
+InstrumentAt: TypeAlias = "npt.ArrayLike | Visibility | Tracker | None"
+"""Where the instrument stands, for a scene (``instrument_at=``): its position (x, y, z) in the
+base/instrument frame [m], a :class:`~pincal.planning.constraints.Visibility` constraint (its
+tracker), a :class:`~pincal.instruments.Tracker` (its ``at``), or None."""
+
+InstrumentLike: TypeAlias = InstrumentAt
+"""pincal 0.2's first name of :data:`InstrumentAt` (a position, where ``instrument=`` is an
+:class:`~pincal.instruments.Instrument` across pincal); kept, out of ``__all__``, until pincal 0.3."""
 
 ViewerLike: TypeAlias = "str | meshcat.Visualizer | None"
 """Where a scene is drawn: a ``meshcat.Visualizer``, ``"static"`` (a serverless one, for an HTML

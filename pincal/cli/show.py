@@ -41,7 +41,7 @@ from pincal.cli._common import (
 from pincal.cli._parameters import params_from_args
 from pincal.cli._safety import add_safety_arguments, safe_constraints_from_args
 from pincal.cli._types import checked, count, seed_type, sigma_type
-from pincal.errors import BadArgument, BadConfiguration
+from pincal.errors import BadArgument, BadConfiguration, warn
 from pincal.evaluation.test_pose import rho0
 from pincal.optional import require
 from pincal.planning.baselines import random_plans
@@ -50,6 +50,10 @@ from pincal.planning.safety import safety_margins
 from pincal.viewing import plots
 
 HELP = COMMANDS["show"].help
+INSTRUMENT_RENAMED = (
+    "show --instrument X,Y,Z is deprecated: write --instrument-at X,Y,Z (--instrument is what is measured, "
+    "as in pincal design; --instrument X,Y,Z stops working in pincal 0.3)"
+)
 MAX_SHOWN_POSES = 500
 """Most poses a scene draws (a robot each, some 75 kB of the page and 10 ms): a plan of 250 000
 poses ran for minutes towards a page of gigabytes."""
@@ -68,7 +72,7 @@ examples:
 
 The scene: the robot at the test pose (opaque), one translucent numbered ghost per configuration
 with its measured points, the 3-sigma ellipsoid of the predicted error at the test pose after
-calibration (drawn larger than life by the stated factor), the instrument if --instrument is given;
+calibration (drawn larger than life by the stated factor), the instrument if --instrument-at is given;
 with --error-cloud N, the measured point at N random configurations coloured by the predicted error
 after calibration (green: smallest, red: largest, log scale). Of a region or path, the scene draws
 its first configuration (the centre of --around); the report covers the whole region.
@@ -96,10 +100,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--deg", action="store_true", help="plan and test poses are in degrees")
     add_task_payload_arguments(p)
     p.add_argument(
-        "--instrument",
+        "--instrument-at",
         metavar="X,Y,Z",
         help="instrument position in the base frame [m] (default: the tracker of --constraints)",
     )
+    # pincal 0.1's name of --instrument-at (--instrument is what is measured, in design): until 0.3
+    p.add_argument("--instrument", metavar="X,Y,Z", help=argparse.SUPPRESS)
     p.add_argument(
         "--constraints",
         metavar="FILE.yaml",
@@ -168,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
         plan,
         drawn,
         sigma=sigma,
-        instrument=instrument,
+        instrument_at=instrument,
         scale=args.scale,
         viewer=viewer,
         error_samples=args.error_cloud,
@@ -221,7 +227,7 @@ def _check_options(args: argparse.Namespace) -> None:
 def _scene_inputs(args: argparse.Namespace, robot, q0) -> tuple:
     """(test poses drawn, constraints, instrument) of the scene: of a region or path, its first
     configuration (the centre); the instrument from --instrument, else the tracker of the
-    constraints' visibility, else None."""
+    constraints' visibility, else None (--instrument X,Y,Z, pincal 0.1's spelling, is warned of)."""
     if args.error_cloud is not None:
         positive_int(args.error_cloud, "--error-cloud")
     drawn = None if q0 is None else test_poses_of(robot, q0)
@@ -229,12 +235,16 @@ def _scene_inputs(args: argparse.Namespace, robot, q0) -> tuple:
     constraints = constraints_from_args(args)
     visible = [c for c in constraints if isinstance(c, Visibility)]
     instrument: Visibility | list[float] | None = visible[0] if visible else None
+    at, flag = args.instrument_at, "--instrument-at"
     if args.instrument:
-        instrument = parse_floats(args.instrument, "--instrument")
+        if at:
+            raise BadArgument("--instrument X,Y,Z is --instrument-at's old name: give --instrument-at only")
+        at, flag = args.instrument, "--instrument"
+        warn(INSTRUMENT_RENAMED)
+    if at:
+        instrument = parse_floats(at, flag)
         if len(instrument) != 3:
-            raise BadConfiguration(
-                f"--instrument {args.instrument!r}: expected X,Y,Z (three numbers, metres)"
-            )
+            raise BadConfiguration(f"{flag} {at!r}: expected X,Y,Z (three numbers, metres)")
     return drawn, constraints, instrument
 
 

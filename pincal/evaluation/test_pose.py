@@ -373,15 +373,23 @@ def position_covariance(
     *,
     sigma: float = DEFAULT_SIGMA,
     task_payload: PayloadLike = None,
+    instrument: Instrument | None = None,
 ) -> np.ndarray:
     """(k, 3K, 3K) predicted covariance σ² J₀ M⁻¹ J₀ᵀ of the measured points at each test pose,
     after calibration, in the instrument frame [m²]. Its trace is ρ0² (as :func:`rho0_each`
     gives it): a :class:`~pincal.Plan` is measured under its payloads, the test poses are taken
-    under ``task_payload`` (a mass [kg], a :class:`~pincal.Payload`, or one per test pose)."""
-    sigma = positive_sigma(sigma)
+    under ``task_payload`` (a mass [kg], a :class:`~pincal.Payload`, or one per test pose). With
+    ``instrument`` (an :class:`~pincal.instruments.Instrument`), M is the information of its
+    whitened rows and σ its reference σ (``sigma`` is not read), as :class:`TestPoseCriterion`
+    takes them."""
+    sigma = positive_sigma(sigma) if instrument is None else instrument.reference
     qs = params.robot.configurations(plan)
     q0 = params.robot.configurations(test_pose, what="test pose")
-    J = params.jacobian(qs, frame="tip", payload=getattr(plan, "payload", None))
+    payload = getattr(plan, "payload", None)
+    if instrument is None:
+        J = params.jacobian(qs, frame="tip", payload=payload)
+    else:
+        J = engine_for(params, instrument).jacobian(qs, frame="tip", payload=payload)
     L = factor(information_matrix(J), J.shape[1], len(qs))
     task = None if task_payload is None else payload_rows(task_payload, len(q0))
     J0 = params.jacobian(q0, frame="world", payload=task)  # (k, 3K, P)

@@ -9,7 +9,8 @@ The scene holds, under ``/meshcat/pincal``:
   factor is written next to it: "q0 3σ ×2000").
 * ``ghosts/pose_<i>``: one translucent "ghost" of the robot per measurement configuration, each
   in its own colour, with its measured point(s) as spheres and its number as a label.
-* ``instrument``: the instrument (a dark box) and its lines of sight, when its position is given.
+* ``instrument``: the instrument (a dark box) and its lines of sight, when its position is given
+  (``instrument_at=``, or the position of an ``instrument=`` whose error model is a tracker).
 * ``error_cloud``: with ``error_samples``, the measured point at each sampled configuration,
   coloured by the predicted error after calibration there (green: the smallest, red: the largest,
   on a log scale; the range is written next to it): where the plan leaves the robot accurate.
@@ -35,19 +36,22 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, positive_sigma, ratio
-from pincal.deprecation import keywords_after
+from pincal.arguments import ratio
+from pincal.deprecation import keywords_after, renamed_keyword
 from pincal.errors import BadConfiguration, SingularPlan, warn
 from pincal.evaluation.predicted_error import PredictedError
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import position_covariance
+from pincal.instruments.error_model import ErrorModel, Tracker
+from pincal.instruments.instrument import Instrument
 from pincal.model.collision import reach as robot_reach
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.optional import require
 from pincal.outputs import atomic_write_text
+from pincal.planning.options import instrument_of
 from pincal.planning.plan import Plan
-from pincal.typing import ConfigurationsLike, InstrumentLike, PayloadLike, ViewerLike
+from pincal.typing import ConfigurationsLike, InstrumentAt, PayloadLike, ViewerLike
 from pincal.viewing.drawing import (
     ROOT,
     add_ellipsoid,
@@ -77,6 +81,20 @@ GHOST_OPACITY = 0.35
 TEST_POSE_COLOR = "#2b3a4e"
 """Colour of the robot at the test pose (opaque dark slate, among translucent pastel ghosts)."""
 
+ORDER_0_1 = ("sigma", "instrument", "scale", "viewer", "error_samples", "prior", "task_payload")
+"""show()'s and scene()'s keywords in pincal 0.1's order (what arguments by position after the
+third meant; ``instrument`` was the position, now ``instrument_at``)."""
+
+AT_WHAT = " as a position"
+AT_WHY = "instrument= is a pincal.instruments.Instrument across pincal; where it stands is instrument_at="
+
+
+def _a_position(value: object) -> bool:
+    """``instrument=`` in pincal 0.1's meaning: where the instrument stands (not an Instrument, nor
+    an error model, refused as ``instrument=`` would be)."""
+    return value is not None and not isinstance(value, (Instrument, ErrorModel))
+
+
 # tab20 without its oranges: distinct colours for up to 18 poses, then evenly spaced hues.
 _PALETTE = (
     "#1f77b4", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22",
@@ -105,7 +123,8 @@ class Scene:
         plan: (m, nq) measurement configurations [rad or m].
         test_poses: (k, nq) test poses (k = 0 when none was given).
         colors: ``#rrggbb`` colour of each measurement configuration.
-        sigma: measurement noise per coordinate [m] used for the ellipsoids.
+        sigma: measurement noise per coordinate [m] used for the ellipsoids (with an
+            ``instrument``: its reference σ).
         covariance: (k, 3K, 3K) predicted covariance of the measured points at each test pose
             after calibration [m²], or None (no test pose, or a plan that cannot identify the
             parameters: see ``note``).
@@ -116,6 +135,8 @@ class Scene:
         note: why something is missing from the scene, or "".
         error_samples: (n, nq) configurations of the error cloud, or None.
         error_values: (n,) predicted error after calibration at each [m], or None.
+        instrument: what the plan is measured with (its rows weigh the prediction), or None:
+            points with ``sigma``.
     """
 
     viewer: Any
@@ -131,6 +152,7 @@ class Scene:
     note: str = ""
     error_samples: np.ndarray | None = None
     error_values: np.ndarray | None = None
+    instrument: Instrument | None = None
 
     def html(self) -> str:
         """The scene as one self-contained HTML page (meshcat's static export)."""
@@ -152,14 +174,16 @@ def static_viewer() -> Visualizer:
     return meshcat.Visualizer(window=StaticWindow())
 
 
-@keywords_after(3)
+@keywords_after(3, ORDER_0_1)
+@renamed_keyword("instrument", "instrument_at", AT_WHY, old_form=_a_position, what=AT_WHAT)
 def show(
     params_or_robot: ParameterSet | Robot,
     plan: ConfigurationsLike,
     test_pose: ConfigurationsLike | None = None,
     *,
-    sigma: float = DEFAULT_SIGMA,
-    instrument: InstrumentLike = None,
+    sigma: float | None = None,
+    instrument: Instrument | None = None,
+    instrument_at: InstrumentAt = None,
     scale: float | None = None,
     viewer: ViewerLike = None,
     error_samples: int | ConfigurationsLike | None = None,
@@ -173,10 +197,17 @@ def show(
             (then the identifiable base set of ``full,offsets``).
         plan: (m, nq) measurement configurations [rad or m], or a :class:`~pincal.Plan`.
         test_pose: (nq,) or (k, nq) test pose(s), or None.
-        sigma: measurement noise per coordinate [m]: the ellipsoid is the 3σ ellipsoid of
-            σ² J₀ M⁻¹ J₀ᵀ.
-        instrument: position (x, y, z) of the instrument in the base/instrument frame [m], or a
-            :class:`pincal.planning.constraints.Visibility` constraint (its tracker), or None.
+        sigma: the shorthand for points measured with this noise per coordinate [m] (default
+            :data:`~pincal.arguments.DEFAULT_SIGMA`): the ellipsoid is the 3σ ellipsoid of
+            σ² J₀ M⁻¹ J₀ᵀ. Not with ``instrument``.
+        instrument: what the plan is measured with and how well
+            (:class:`pincal.instruments.Instrument`): M is the information of its whitened rows
+            and σ its reference σ; a :class:`~pincal.instruments.Tracker`'s position is where the
+            instrument is drawn (unless ``instrument_at``). Default: points, ``sigma``.
+        instrument_at: where the instrument is drawn: its position (x, y, z) in the
+            base/instrument frame [m], a :class:`pincal.planning.constraints.Visibility`
+            constraint (its tracker) or a Tracker (its ``at``), or None. pincal 0.1 took it as
+            ``instrument=``, which keeps working until pincal 0.3 with a DeprecationWarning.
         scale: how many times larger than life the ellipsoid is drawn; None chooses a factor
             (1, 2 or 5 × 10^n) that makes its largest semi-axis about a tenth of the robot's reach
             (see :attr:`Scene.ellipsoid_scale`, written next to it in the scene).
@@ -202,6 +233,7 @@ def show(
         test_pose,
         sigma=sigma,
         instrument=instrument,
+        instrument_at=instrument_at,
         scale=scale,
         viewer=viewer,
         error_samples=error_samples,
@@ -210,14 +242,16 @@ def show(
     ).viewer
 
 
-@keywords_after(3)
+@keywords_after(3, ORDER_0_1)
+@renamed_keyword("instrument", "instrument_at", AT_WHY, old_form=_a_position, what=AT_WHAT)
 def scene(
     params_or_robot: ParameterSet | Robot,
     plan: ConfigurationsLike,
     test_pose: ConfigurationsLike | None = None,
     *,
-    sigma: float = DEFAULT_SIGMA,
-    instrument: InstrumentLike = None,
+    sigma: float | None = None,
+    instrument: Instrument | None = None,
+    instrument_at: InstrumentAt = None,
     scale: float | None = None,
     viewer: ViewerLike = "static",
     error_samples: int | ConfigurationsLike | None = None,
@@ -235,11 +269,14 @@ def scene(
         prior: the errors' prior for that prediction (and the ellipsoids are still σ²J₀M⁻¹J₀ᵀ).
     """
     meshcat = require("meshcat", "pincal.visualize", "meshcat")
-    params = _checked_params(params_or_robot, sigma, scale)
+    params = _checked_params(params_or_robot, scale)
+    measured, shorthand = instrument_of(instrument, sigma)  # σ checked; not both
+    given = None if shorthand else measured  # points with one σ take their own path, as always
+    sigma = measured.reference
     robot = params.robot
     qs = robot.configurations(plan)
     q0 = np.empty((0, robot.nq)) if test_pose is None else robot.configurations(test_pose, what="test pose")
-    where = _instrument_position(instrument)
+    where = _instrument_position(instrument_at, given)
 
     vis = _viewer(meshcat, viewer)
     vis[ROOT].delete()  # a viewer reused for another plan starts afresh
@@ -247,15 +284,15 @@ def scene(
     colors = pose_colors(len(qs))
     visual, ghost = geometry_models(robot, reach)
     points = _draw_ghosts(vis, robot, ghost, qs, colors, reach)
-    measured = plan if isinstance(plan, Plan) else qs  # a Plan is measured under its payloads
+    plan_measured = plan if isinstance(plan, Plan) else qs  # a Plan is measured under its payloads
     cov, note, radii, axes, rho, drawn_scale = _error_ellipsoids(
-        params, measured, q0, sigma, scale, reach, task_payload
+        params, plan_measured, q0, sigma, scale, reach, task_payload, given
     )
     _draw_test_poses(vis, robot, visual, q0, radii, axes, drawn_scale, reach)
     samples = values = None
     if error_samples is not None:
         samples, values, cloud_note = _draw_error_cloud(
-            vis, params, measured, sigma, prior, error_samples, reach, task_payload
+            vis, params, plan_measured, sigma, prior, error_samples, reach, task_payload, given
         )
         if cloud_note:
             note = (note + "; " if note else "") + cloud_note
@@ -276,12 +313,13 @@ def scene(
         note=note,
         error_samples=samples,
         error_values=values,
+        instrument=given,
     )
 
 
-def _checked_params(params_or_robot: ParameterSet | Robot, sigma: float, scale: float | None) -> ParameterSet:
-    """The parameters of the prediction (a robot's full identifiable set), after checking σ and
-    the ellipsoid scale."""
+def _checked_params(params_or_robot: ParameterSet | Robot, scale: float | None) -> ParameterSet:
+    """The parameters of the prediction (a robot's full identifiable set), after checking the
+    ellipsoid scale."""
     if isinstance(params_or_robot, ParameterSet):
         params = params_or_robot
     elif isinstance(params_or_robot, Robot):
@@ -290,7 +328,6 @@ def _checked_params(params_or_robot: ParameterSet | Robot, sigma: float, scale: 
         raise BadConfiguration(
             f"expected a pincal ParameterSet or Robot, got {type(params_or_robot).__name__}"
         )
-    positive_sigma(sigma)
     if scale is not None:
         ratio(scale, "scale")
     return params
@@ -304,13 +341,16 @@ def _error_ellipsoids(
     scale: float | None,
     reach: float,
     task_payload: PayloadLike = None,
+    instrument: Instrument | None = None,
 ) -> tuple[np.ndarray | None, str, np.ndarray | None, np.ndarray | None, np.ndarray | None, float]:
     """(covariance, note, radii, axes, ρ0, drawn scale) of the predicted error at the test poses;
     a singular plan gives no ellipsoid (None) and a note, also warned."""
     cov, note = None, ""
     if len(q0):
         try:
-            cov = position_covariance(params, qs, q0, sigma=sigma, task_payload=task_payload)
+            cov = position_covariance(
+                params, qs, q0, sigma=sigma, task_payload=task_payload, instrument=instrument
+            )
         except SingularPlan as exc:
             note = f"no error ellipsoid: {exc}"
             warn(note, UserWarning)
@@ -333,6 +373,7 @@ def _draw_error_cloud(
     error_samples: int | ConfigurationsLike,
     reach: float,
     task_payload: PayloadLike = None,
+    instrument: Instrument | None = None,
 ) -> tuple[np.ndarray | None, np.ndarray | None, str]:
     """(sample configurations, predicted errors there, note) of the error cloud, drawn: a number of
     samples draws them within the joint limits (seed 0); a singular plan draws none and says why."""
@@ -343,7 +384,7 @@ def _draw_error_cloud(
     else:
         samples = robot.configurations(error_samples, what="error sample")
     try:
-        values = PredictedError(params, qs, sigma, prior, task_payload)(samples)
+        values = PredictedError(params, qs, sigma, prior, task_payload, instrument=instrument)(samples)
         add_error_cloud(vis, robot.points(samples)[:, 0], values, reach)
     except SingularPlan as exc:
         return None, values, f"no error cloud: {exc}"
@@ -390,16 +431,20 @@ def _draw_test_poses(
 
 
 # ---------------------------------------------------------------------------- numbers
-def _instrument_position(instrument: InstrumentLike) -> np.ndarray | None:
-    if instrument is None:
+def _instrument_position(at: InstrumentAt, instrument: Instrument | None) -> np.ndarray | None:
+    """Where the instrument is drawn: ``at`` (a position, a Visibility's tracker, a Tracker's
+    ``at``), else the position of ``instrument``'s tracker, else None."""
+    if at is None and instrument is not None and isinstance(instrument.error, Tracker):
+        at = instrument.error
+    if at is None:
         return None
-    value = getattr(instrument, "tracker", getattr(instrument, "position", instrument))
+    value = getattr(at, "tracker", getattr(at, "position", getattr(at, "at", at)))
     try:
         arr = np.array(value, dtype=float).reshape(-1)
     except (TypeError, ValueError):
         arr = np.empty(0)
     if arr.size != 3 or not np.all(np.isfinite(arr)):
-        raise BadConfiguration(f"instrument: expected a position (x, y, z) in metres, got {value!r}")
+        raise BadConfiguration(f"instrument_at: expected a position (x, y, z) in metres, got {value!r}")
     return arr
 
 

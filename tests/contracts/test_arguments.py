@@ -151,7 +151,7 @@ def test_sigma_has_one_answer_everywhere(planar, sigma):
             continue
         if name == "identify" and sigma is None:  # identify's None: estimated from the residuals
             continue
-        if name == "design" and sigma is None:  # design's None: not given (the default σ, or instrument=)
+        if name in ("design", "scene") and sigma is None:  # None: not given (the default σ, or instrument=)
             continue
         with pytest.raises(pincal.errors.BadArgument, match=SIGMA_REFUSED) as caught:
             call(sigma)

@@ -35,7 +35,7 @@ SIGMA = 3e-5
 def kr_scene(kr270_marker):
     params = kr270_marker.parameters("full,offsets").identifiable().identifiable
     plan = kr270_marker.random_configurations(12, 7)
-    built = visualize.scene(params, plan, KR_Q0, sigma=SIGMA, instrument=(2.0, -1.5, 0.5))
+    built = visualize.scene(params, plan, KR_Q0, sigma=SIGMA, instrument_at=(2.0, -1.5, 0.5))
     return params, plan, built
 
 
@@ -121,8 +121,57 @@ def test_explicit_scale_and_instrument(kr_scene, kr270_marker):
     box = node(built, "instrument/body")
     assert np.allclose(matrix(box)[:3, 3], [2.0, -1.5, 0.5])
     assert len(node(built, "instrument/sight_lines")) == len(plan)
-    with pytest.raises(pincal.errors.BadConfiguration, match="instrument"):
-        visualize.scene(params, plan, KR_Q0, instrument=(1.0, 2.0))
+    with pytest.raises(pincal.errors.BadConfiguration, match="instrument_at"):
+        visualize.scene(params, plan, KR_Q0, instrument_at=(1.0, 2.0))
+
+
+def test_the_instrument_position_is_instrument_at_and_the_0_1_form_keeps_working(kr_scene):
+    """``instrument=`` is an Instrument across pincal: where it stands is ``instrument_at=``;
+    pincal 0.1's position (or Visibility) as ``instrument=``, by keyword or by position, draws the
+    same scene with a DeprecationWarning at the caller's line."""
+    params, plan, built = kr_scene
+    with pytest.warns(
+        DeprecationWarning, match=r"scene\(\): instrument= as a position is renamed instrument_at="
+    ) as w:
+        old = visualize.scene(params, plan, KR_Q0, sigma=SIGMA, instrument=(2.0, -1.5, 0.5))
+    assert w[0].filename == __file__ and "pincal 0.3" in str(w[0].message)
+    assert np.array_equal(old.ellipsoid_radii, built.ellipsoid_radii)
+    assert np.allclose(matrix(node(old, "instrument/body"))[:3, 3], [2.0, -1.5, 0.5])
+    visible = pincal.planning.constraints.Visibility(tracker=(1.0, 2.0, 0.5))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        by_position = visualize.scene(params, plan, KR_Q0, SIGMA, visible)
+    assert {str(c.message).split(":")[0] for c in caught} == {"scene()"}  # by position, and the rename
+    assert np.allclose(matrix(node(by_position, "instrument/body"))[:3, 3], [1.0, 2.0, 0.5])
+    with pytest.raises(TypeError, match="give instrument_at= only"):
+        visualize.scene(params, plan, KR_Q0, instrument=(1.0, 2.0, 3.0), instrument_at=(1.0, 2.0, 3.0))
+
+
+def test_an_instrument_sets_the_ellipsoids_and_a_tracker_where_it_is_drawn(kr_scene):
+    """``instrument=`` an Instrument: its rows and reference σ make the ellipsoids (points with
+    one σ: bit for bit the ``sigma=`` scene), a tracker is drawn where it stands, and ``sigma=``
+    beside it is refused."""
+    from pincal.instruments import Instrument, PerCoordinate, Point, Pose, Tracker
+
+    params, plan, built = kr_scene
+    same = visualize.scene(params, plan, KR_Q0, instrument=Instrument(Point(), PerCoordinate(SIGMA)))
+    assert same.covariance.tobytes() == built.covariance.tobytes() and same.sigma == SIGMA
+    tracker = Instrument(Pose(), Tracker(at=(3.0, 1.0, 0.5)))
+    error_cloud = kr_scene[1][:5]
+    seen = visualize.scene(params, plan, KR_Q0, instrument=tracker, error_samples=error_cloud)
+    assert seen.instrument is tracker and seen.sigma == tracker.reference
+    assert np.allclose(matrix(node(seen, "instrument/body"))[:3, 3], [3.0, 1.0, 0.5])
+    expected = pincal.evaluation.TestPoseCriterion(params, KR_Q0, aggregate="each", instrument=tracker)(plan)
+    assert seen.rho0 == pytest.approx(expected, rel=1e-9)
+    assert not np.allclose(seen.rho0, built.rho0, rtol=0.05)  # not σ per coordinate
+    predicted = pincal.evaluation.PredictedError(params, plan, SIGMA, instrument=tracker)(error_cloud)
+    assert seen.error_values == pytest.approx(predicted, rel=1e-12)
+    moved = visualize.scene(params, plan, KR_Q0, instrument=tracker, instrument_at=(0.0, 2.0, 1.0))
+    assert np.allclose(matrix(node(moved, "instrument/body"))[:3, 3], [0.0, 2.0, 1.0])
+    with pytest.raises(pincal.errors.BadArgument, match="not both"):
+        visualize.scene(params, plan, KR_Q0, sigma=SIGMA, instrument=tracker)
+    with pytest.raises(pincal.errors.BadArgument, match=r"instrument= takes"):
+        visualize.scene(params, plan, KR_Q0, instrument=Tracker())
 
 
 def test_singular_plan_still_shows_the_poses(kr270_marker):
@@ -233,7 +282,7 @@ def test_exported_html_renders_in_headless_chromium(tmp_path, planar):
         pytest.skip("chromium not found (apt-get install chromium, or set PINCAL_CHROMIUM)")
     Image = pytest.importorskip("PIL.Image")
     plan = [[0.1, 1.0], [0.5, -1.0], [1.0, 2.0], [-1.5, 0.7]]
-    built = visualize.scene(planar.parameters("lengths"), plan, [0.3, 1.2], instrument=(1.0, -1.0, 0.5))
+    built = visualize.scene(planar.parameters("lengths"), plan, [0.3, 1.2], instrument_at=(1.0, -1.0, 0.5))
     assert built.ellipsoid_radii is not None
     html = built.save_html(tmp_path / "s.html")
     png = tmp_path / "s.png"
@@ -266,7 +315,7 @@ def test_cli_show_writes_html_and_plot(capsys, tmp_path, planar_plan):
     html, png = tmp_path / "scene.html", tmp_path / "rho0.png"
     argv = ["show", "planar_2r", "--plan", str(planar_plan), "--test-pose=-0.3,1.2", "--params",
             "joint2.tx,tip.tx", "--sigma", "1e-4", "--html", str(html), "--plot", str(png),
-            "--baseline", "50", "--instrument", "-1,-1,0.5", "--json"]  # fmt: skip
+            "--baseline", "50", "--instrument-at", "-1,-1,0.5", "--json"]  # fmt: skip
     assert main(argv) == 0
     out = json.loads(capsys.readouterr().out)
     robot = pincal.load_robot("planar_2r", tip="tip")
@@ -277,6 +326,19 @@ def test_cli_show_writes_html_and_plot(capsys, tmp_path, planar_plan):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert out["random_rho0"]["n"] == 50 and out["random_rho0"]["min"] > 0
     assert out["url"] is None
+
+
+def test_cli_show_instrument_is_instrument_at_until_0_3(capsys, tmp_path, planar_plan):
+    """``show --instrument X,Y,Z`` (pincal 0.1's name of --instrument-at) draws the same scene, with
+    a warning naming the new option."""
+    argv = ["show", "planar_2r", "--plan", str(planar_plan), "--test-pose=0.3,1.2", "--params", "lengths",
+            "--html", str(tmp_path / "s.html"), "--json"]  # fmt: skip
+    assert main(argv + ["--instrument-at", "1,-1,0.5"]) == 0
+    new = capsys.readouterr()
+    assert main(argv + ["--instrument", "1,-1,0.5"]) == 0
+    old = capsys.readouterr()
+    assert old.out == new.out and new.err == ""
+    assert old.err.startswith("pincal: warning: show --instrument X,Y,Z is deprecated: write --instrument-at")
 
 
 def test_cli_show_takes_the_tracker_from_the_constraints(capsys, tmp_path, planar_plan, monkeypatch):
@@ -301,7 +363,8 @@ def test_cli_show_takes_the_tracker_from_the_constraints(capsys, tmp_path, plana
     "extra, message",
     [
         (["--plot", "x.png"], "--test-pose"),
-        (["--html", "x.html", "--instrument", "1,2"], "X,Y,Z"),
+        (["--html", "x.html", "--instrument-at", "1,2"], "X,Y,Z"),
+        (["--html", "x.html", "--instrument", "1,2,3", "--instrument-at", "1,2,3"], "--instrument-at only"),
         (["--html", "x.html", "--test-pose=0,9"], "outside its limits"),
         (["--html", "x.html", "--scale", "-1"], "--scale"),
     ],
