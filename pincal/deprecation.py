@@ -162,7 +162,12 @@ def _caller() -> int:
 
 
 def renamed_keyword(
-    old: str, new: str, why: str, old_form: Callable[[Any], bool] | None = None, what: str = ""
+    old: str,
+    new: str,
+    why: str,
+    old_form: Callable[[Any], bool] | None = None,
+    what: str = "",
+    name: str | None = None,
 ) -> Callable[[Callable[P, R]], Callable[P, R]]:
     """Let the decorated function take, until pincal :data:`REMOVAL`, its keyword ``new`` under the
     name ``old`` of pincal 0.1, with a DeprecationWarning at the caller's line saying why it was
@@ -175,17 +180,21 @@ def renamed_keyword(
         old_form: when ``old`` is still a keyword of the function, with another meaning: which of
             its values are of the 0.1 meaning (those are moved to ``new``); None: every value.
         what: the 0.1 meaning in words, for the warning (``" as a position"``).
+        name: the function's name in the warning (default its ``__name__``; a class's for its
+            ``__init__``).
     """
 
     def decorate(function: Callable[P, R]) -> Callable[P, R]:
+        called = name or function.__name__
+
         @functools.wraps(function)
         def call(*args: P.args, **kwargs: P.kwargs) -> R:
             if old in kwargs and (old_form is None or old_form(kwargs[old])):
                 if new in kwargs:
-                    raise TypeError(f"{function.__name__}() got {old}={what} and {new}=: give {new}= only")
+                    raise TypeError(f"{called}() got {old}={what} and {new}=: give {new}= only")
                 kwargs[new] = kwargs.pop(old)
                 warnings.warn(
-                    f"{function.__name__}(): {old}={what} is renamed {new}= ({why}): write {new}=... "
+                    f"{called}(): {old}={what} is renamed {new}= ({why}): write {new}=... "
                     f"({old}={what} stops working in pincal {REMOVAL})",
                     DeprecationWarning,
                     stacklevel=_caller(),

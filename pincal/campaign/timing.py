@@ -22,7 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.errors import BadArgument
+from pincal.deprecation import renamed_keyword
+from pincal.errors import BadArgument, warn
 from pincal.model.robot import Robot
 
 DWELLS = {"tracker": 2.0, "probe": 10.0}
@@ -100,7 +101,11 @@ class Timing:
         accelerations: (nq,) joint acceleration limits [rad/s², m/s²], or None (instant speed).
         settle: wait after each move to a measurement pose [s].
         dwell: the instrument's time per measurement pose [s].
-        instrument: ``tracker``, ``probe`` or ``given`` (the dwell given in seconds).
+        dwell_source: where the dwell came from: ``tracker`` or ``probe`` (its typical dwell) or
+            ``given`` (in seconds). Named ``instrument`` in pincal 0.1 (``instrument=`` is a
+            :class:`pincal.instruments.Instrument` across pincal); ``Timing(instrument=...)`` and
+            ``.instrument`` keep working until pincal 0.3, with a DeprecationWarning (the JSON key of
+            :meth:`as_dict` stays ``"instrument"``).
         speed_source: where the speeds came from (``URDF velocity limits`` or ``given``).
     """
 
@@ -108,7 +113,7 @@ class Timing:
     accelerations: np.ndarray | None
     settle: float = DEFAULT_SETTLE
     dwell: float = DWELLS[DEFAULT_DWELL]
-    instrument: str = DEFAULT_DWELL
+    dwell_source: str = DEFAULT_DWELL
     speed_source: str = "given"
 
     @classmethod
@@ -176,10 +181,10 @@ class Timing:
                 argument="settle",
                 value=settle,
             )
-        dwell_s, instrument = dwell_seconds(dwell)
+        dwell_s, dwell_source = dwell_seconds(dwell)
         if fraction < 1:
             source += f" × {fraction:g}"
-        return cls(v * fraction, a, settle_s, dwell_s, instrument, source)
+        return cls(v * fraction, a, settle_s, dwell_s, dwell_source, source)
 
     def joint_times(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(..., nq) time each joint needs from ``a`` to ``b`` [s] (broadcast over leading axes)."""
@@ -210,7 +215,7 @@ class Timing:
     def describe(self) -> str:
         """The model in words, for reports."""
         acc = "no acceleration limits" if self.accelerations is None else "acceleration limits given"
-        kind = {"tracker": "laser tracker", "probe": "6-DoF probe"}.get(self.instrument, "given")
+        kind = {"tracker": "laser tracker", "probe": "6-DoF probe"}.get(self.dwell_source, "given")
         return (
             f"joint speeds: {self.speed_source}, {acc}; settle {self.settle:g} s, dwell {self.dwell:g} s "
             f"per pose ({kind})"
@@ -222,6 +227,23 @@ class Timing:
             "accelerations": None if self.accelerations is None else self.accelerations.tolist(),
             "settle": self.settle,
             "dwell": self.dwell,
-            "instrument": self.instrument,
+            "instrument": self.dwell_source,  # the key of pincal 0.1's outputs
             "speed_source": self.speed_source,
         }
+
+    @property
+    def instrument(self) -> str:
+        """pincal 0.1's name of :attr:`dwell_source` (until pincal 0.3)."""
+        warn(
+            f"Timing.instrument is renamed dwell_source ({RENAMED_WHY}): read .dwell_source "
+            "(Timing.instrument stops working in pincal 0.3)",
+            DeprecationWarning,
+        )
+        return self.dwell_source
+
+
+RENAMED_WHY = "instrument= is a pincal.instruments.Instrument across pincal"
+# Timing(instrument=...) of pincal 0.1, until 0.3
+Timing.__init__ = renamed_keyword(  # type: ignore[method-assign]
+    "instrument", "dwell_source", RENAMED_WHY, name="Timing"
+)(Timing.__init__)

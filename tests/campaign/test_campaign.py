@@ -396,3 +396,17 @@ def test_accuracy_vs_time_takes_design_values_and_its_flat_keywords_until_0_3(kr
         accuracy_vs_time(params, q0, (6,), starts=1, search=pincal.Search())
     with pytest.raises(BadArgument, match=r"safety= takes a pincal.Safety"):
         accuracy_vs_time(params, q0, (6,), safety={"clearance": 0.1})  # type: ignore[arg-type]
+
+
+def test_the_dwell_source_is_not_an_instrument_and_its_0_1_name_works_until_0_3(kr270_marker):
+    """``instrument=`` is an Instrument across pincal: a Timing's dwell source is ``dwell_source``;
+    ``Timing(instrument=...)`` and ``.instrument`` keep working with a DeprecationWarning at the
+    caller's line, and the JSON key stays "instrument" (pincal campaign's output)."""
+    timing = Timing.for_robot(kr270_marker, dwell="probe")
+    assert timing.dwell_source == "probe" and timing.as_dict()["instrument"] == "probe"
+    with pytest.warns(DeprecationWarning, match=r"Timing\(\): instrument= is renamed dwell_source=") as w:
+        old = Timing(timing.speeds, None, instrument="probe")
+    assert w[0].filename == __file__ and old.dwell_source == "probe"
+    with pytest.warns(DeprecationWarning, match=r"Timing.instrument is renamed dwell_source ") as w:
+        assert old.instrument == "probe"
+    assert w[0].filename == __file__
