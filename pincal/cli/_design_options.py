@@ -28,6 +28,7 @@ from pincal.cli.campaign import TRADEOFF_HELP, add_tradeoff_arguments
 from pincal.planning import stopping as _stopping
 from pincal.planning.driver import METHODS, MIN_CONDITIONING
 from pincal.planning.objectives import CRITERIA
+from pincal.planning.options import Search
 from pincal.planning.placement import SCREEN, STEPS
 
 EXAMPLES = """\
@@ -140,6 +141,20 @@ def add_design_arguments(p: argparse.ArgumentParser) -> None:
         metavar="FILE.csv",
         help="candidate configurations (plan CSV format, e.g. taught poses): plans are made of them, "
         "random baselines drawn from them",
+    )
+
+
+def search_from_args(args: argparse.Namespace, pool) -> Search:
+    """The :class:`pincal.Search` of the arguments design and baseline share (--method, --starts,
+    --seed, --workers, --progress, design's --polish) over ``pool``."""
+    return Search(
+        method=args.method,
+        starts=args.starts,
+        seed=args.seed,
+        pool=pool,
+        polish=getattr(args, "polish", None),
+        workers=args.workers,
+        progress=args.progress,
     )
 
 

@@ -16,6 +16,7 @@ from pincal.cli._common import (
     robot_from_args,
     sigma_from_args,
 )
+from pincal.cli._design_options import search_from_args
 from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
 from pincal.cli._parameters import params_from_args
 from pincal.cli._safety import safe_constraints_from_args
@@ -23,7 +24,7 @@ from pincal.cli._types import count
 from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, design
-from pincal.planning.options import Safety, Search, grouped
+from pincal.planning.options import Safety, grouped
 
 HELP = COMMANDS["baseline"].help
 EXAMPLES = """\
@@ -110,14 +111,7 @@ def run(args: argparse.Namespace) -> int:
                 q0,
                 criterion="D",
                 prior=prior,
-                search=Search(
-                    method=args.method,
-                    starts=args.starts,
-                    seed=args.seed,
-                    pool=pool,
-                    workers=args.workers,
-                    progress=args.progress,
-                ),
+                search=search_from_args(args, pool),
                 safety=Safety(constraints=constraints),
                 **grouped(dict(sigma=sigma, **measuring.options)),
             )

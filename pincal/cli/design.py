@@ -28,7 +28,7 @@ from pincal.cli._common import (
     robot_from_args,
     sigma_from_args,
 )
-from pincal.cli._design_options import EXAMPLES, add_design_options
+from pincal.cli._design_options import EXAMPLES, add_design_options, search_from_args
 from pincal.cli._design_options import add_design_arguments as add_design_arguments  # baseline's
 from pincal.cli._instrument import measuring_from_args
 from pincal.cli._parameters import params_from_args
@@ -49,7 +49,7 @@ from pincal.model.statics import Payload
 from pincal.planning import stopping as _stopping
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import design
-from pincal.planning.options import Loads, Safety, Search
+from pincal.planning.options import Loads, Safety
 from pincal.planning.placement import SCREEN, STEPS, Placement, place_instrument
 from pincal.planning.plan import Plan
 from pincal.planning.results import DesignResult, RandomPlans, dropped_line
@@ -156,15 +156,7 @@ def _design_keywords(args: argparse.Namespace, pool, prior, constraints, sigma, 
     """The keywords of :func:`pincal.design` the command line gives (the loads apart): its search,
     its safety, the prior and what is measured (``measured``: the instrument's options)."""
     return dict(
-        search=Search(
-            method=args.method,
-            starts=args.starts,
-            seed=args.seed,
-            pool=pool,
-            polish=args.polish,
-            workers=args.workers,
-            progress=args.progress,
-        ),
+        search=search_from_args(args, pool),
         safety=Safety(constraints=constraints, min_conditioning=args.min_conditioning),
         prior=prior,
         **_measured(measured, sigma),
