@@ -3,8 +3,9 @@
 module moved to another stage: :func:`moved_module`), arguments passed
 by position after a function's first few (:func:`keywords_after`) and flat keywords now grouped
 into values (:func:`moved_keywords`, e.g. :func:`pincal.design`'s ``starts=`` into
-``search=pincal.Search(starts=...)``). All keep working, with a DeprecationWarning naming what to
-write instead, until pincal :data:`REMOVAL`.
+``search=pincal.Search(starts=...)``; ``measure=`` and an error model as ``instrument=`` into one
+:class:`~pincal.instruments.Instrument`, :mod:`pincal.instruments.given`). All keep working, with
+a DeprecationWarning naming what to write instead, until pincal :data:`REMOVAL`.
 
 Imports nothing but the standard library: ``import pincal`` reads :data:`REMOVAL`.
 
@@ -116,36 +117,54 @@ def moved_module(old: str, new: str, names: tuple[str, ...]) -> Callable[[str], 
 
 
 Regroup = Callable[[dict, dict], tuple[dict, str]]
-"""(the flat keywords given, the others) -> (the keywords to call with, what to write instead: ""
-when nothing given is deprecated)."""
+"""(the flat keywords given, every other argument by name, those given by position included) ->
+(the keywords to call with, what to write instead: "" when nothing given is deprecated)."""
+
+GROUPED = (
+    "{function}(): the flat keywords are deprecated: write {hint} (grouped in pincal 0.2; the flat "
+    "keywords stop working in pincal {removal})"
+)
+"""The warning of :func:`moved_keywords` for flat keywords now grouped into values."""
 
 
-def moved_keywords(names: Collection[str], regroup: Regroup) -> Callable[[Callable[P, R]], Callable[P, R]]:
+def moved_keywords(
+    names: Collection[str], regroup: Regroup, message: str = GROUPED
+) -> Callable[[Callable[P, R]], Callable[P, R]]:
     """Let the decorated function take, until pincal :data:`REMOVAL`, the flat keywords ``names`` of
-    pincal 0.1 that its signature now groups into values: ``regroup`` turns them (and any other
-    keyword given in an old form) into today's keywords and says what to write, which a
-    DeprecationWarning at the caller's line repeats. Type checkers and help() read today's
-    signature.
+    pincal 0.1 that its signature now groups into values (or replaces by another keyword's
+    value): ``regroup`` turns them (and any other argument given in an old form) into today's
+    keywords and says what to write, which a DeprecationWarning at the caller's line repeats
+    (``message``, with ``{function}``, ``{hint}`` and ``{removal}``). Type checkers and help() read
+    today's signature.
 
     Args:
         names: the flat keywords no longer in the signature.
-        regroup: see :data:`Regroup`; it raises TypeError for a flat keyword given with its value.
+        regroup: see :data:`Regroup`; it sees the function's positional arguments by name (a
+            ``sigma`` given by position), and raises TypeError for a flat keyword given with its
+            value.
+        message: the warning (default :data:`GROUPED`).
     """
     flat_names = frozenset(names)
 
     def decorate(function: Callable[P, R]) -> Callable[P, R]:
+        parameters = inspect.signature(function).parameters.values()
+        positional = [p.name for p in parameters if p.kind is p.POSITIONAL_OR_KEYWORD]
+
         @functools.wraps(function)
         def call(*args: P.args, **kwargs: P.kwargs) -> R:
             flat = {name: kwargs.pop(name) for name in list(kwargs) if name in flat_names}
-            new, hint = regroup(flat, kwargs)
+            named = dict(zip(positional, args))
+            twice = sorted(named.keys() & kwargs.keys())
+            if twice:
+                raise TypeError(f"{function.__name__}() got multiple values for argument {twice[0]!r}")
+            new, hint = regroup(flat, {**named, **kwargs})
             if hint:
                 warnings.warn(
-                    f"{function.__name__}(): the flat keywords are deprecated: write {hint} (grouped in "
-                    f"pincal 0.2; the flat keywords stop working in pincal {REMOVAL})",
+                    message.format(function=function.__name__, hint=hint, removal=REMOVAL),
                     DeprecationWarning,
                     stacklevel=_caller(),
                 )
-            return function(*args, **new)
+            return function(*args[len(named) :], **new)  # type: ignore[arg-type]
 
         return call
 

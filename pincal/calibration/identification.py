@@ -64,7 +64,8 @@ from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument, BadMeasurementData, SingularPlan
 from pincal.evaluation.data_check import DataCheck, check_parameters
 from pincal.evaluation.prior import Prior
-from pincal.instruments.error_model import ErrorModel
+from pincal.instruments.given import error_model_of, takes_instrument_of_data
+from pincal.instruments.instrument import Instrument
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
@@ -96,6 +97,7 @@ errors do not explain the data (non-geometric errors, a model that is too small)
 
 
 @keywords_after(2)
+@takes_instrument_of_data
 def identify(
     params: ParameterSet,
     data: MeasurementData | Sequence[MeasurementData],
@@ -109,7 +111,7 @@ def identify(
     reject: float | None = None,
     sanity: bool = True,
     residual_model: str | None = None,
-    instrument: ErrorModel | None = None,
+    instrument: Instrument | None = None,
     progress: bool = False,
 ) -> IdentificationResult:
     """Identify the errors ``params`` from measurements (see the module doc).
@@ -140,9 +142,10 @@ def identify(
             result's :meth:`~IdentificationResult.predict` adds its mean. None: no residual model.
             Beyond 500 configurations it is approximate (FITC through 1 500 inducing
             configurations; :class:`~pincal.model.residual.Approximation`).
-        instrument: the instrument's error model (:mod:`pincal.instruments`: ``PerCoordinate``,
-            ``Tracker``): the weights of data without uncertainty columns (a tracker's
-            at each point); default ``sigma`` per length and pincal's default σ of angles and pixels.
+        instrument: what the data measure and how well (:class:`pincal.instruments.Instrument`,
+            of the data's kind): its error model (``PerCoordinate``, ``Tracker``) weighs data
+            without uncertainty columns (a tracker's at each point) and makes σ known; not with
+            ``sigma``. Default ``sigma`` per length and pincal's default σ of angles and pixels.
         progress: report the residual model's fit on stderr (a bar on a terminal, else a line
             every few seconds).
 
@@ -173,13 +176,9 @@ def identify(
             f"the residual model is fitted to points; these data measure {sessions[0].measure.name}",
             argument="residual_model",
         )
-    if instrument is not None and not isinstance(instrument, ErrorModel):
-        raise BadArgument(
-            "instrument must be an error model (pincal.instruments.PerCoordinate or Tracker), "
-            f"got {instrument!r}",
-            argument="instrument",
-        )
-    settings = replace(settings, instrument=instrument)
+    settings = replace(
+        settings, instrument=error_model_of(instrument, sigma, sessions[0].measure, params.robot)
+    )
     m, per_row = sum(d.m for d in sessions), sessions[0].row_size
     if m * per_row < len(params):
         raise SingularPlan(len(params), per_row, m)

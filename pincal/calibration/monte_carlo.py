@@ -15,15 +15,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import DEFAULT_SIGMA, generator, positive_int, positive_sigma
+from pincal.arguments import generator, positive_int
 from pincal.calibration.identification import IdentificationResult, identify
 from pincal.calibration.synthetic import error_std_pair, random_errors, simulate_measurements
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0
-from pincal.instruments.error_model import ErrorModel
-from pincal.instruments.instrument import Instrument, optional_instrument, orientation_length_of
-from pincal.instruments.kind import Kind
+from pincal.instruments.given import keywords, measured, takes_instrument
+from pincal.instruments.instrument import Instrument, orientation_length_of
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.model.statics import payload_rows
@@ -111,19 +110,26 @@ class MonteCarloResult:
         }
 
 
-@keywords_after(3)
+ORDER_0_1 = (
+    "sigma", "trials", "seed", "error_std", "task_payload", "measure", "instrument", "orientation_length",
+    "progress",
+)  # fmt: skip
+"""monte_carlo()'s keywords in pincal 0.1's order (what arguments by position after the third meant)."""
+
+
+@keywords_after(3, ORDER_0_1)
+@takes_instrument
 def monte_carlo(
     params: ParameterSet,
     plan: ConfigurationsLike,
     test_pose: ConfigurationsLike,
     *,
-    sigma: float = DEFAULT_SIGMA,
+    sigma: float | None = None,
+    instrument: Instrument | None = None,
     trials: int = 200,
     seed: SeedLike = None,
     error_std: Mapping[str, float] | None = None,
     task_payload: PayloadLike = None,
-    measure: Kind | None = None,
-    instrument: ErrorModel | None = None,
     orientation_length: float | None = None,
     progress: bool = False,
 ) -> MonteCarloResult:
@@ -141,17 +147,19 @@ def monte_carlo(
         params: the parameters (an identifiable set).
         plan: (m, nq) configurations or a :class:`~pincal.Plan`.
         test_pose: (nq,) or (k, nq) test configuration(s).
-        sigma: measurement noise per coordinate [m], > 0.
+        sigma: the shorthand for points measured with this noise per coordinate [m] (default
+            :data:`~pincal.arguments.DEFAULT_SIGMA`); not with ``instrument``.
+        instrument: what is measured and how well (:class:`pincal.instruments.Instrument`: a
+            pose, part of one, distances, pixels or points, with an error model): the trials
+            simulate and identify it, its error model both drawing the noise and weighing the
+            fit; the error at the test pose is still the markers'. The result's σ is then its
+            reference σ.
         trials: number of trials (the relative statistical error of ρ0 is about 1/sqrt(2·trials)
             or more).
         seed: a numpy Generator or a seed; one seed gives one result.
         error_std: ``{"length": [m], "angle": [rad]}`` of the random errors; default 1 mm, 1 mrad.
         task_payload: the payload at the test pose(s) (a mass [kg] or a :class:`~pincal.Payload`),
             or None.
-        measure: what is measured (a pose, part of one, distances, pixels; default points): the
-            trials simulate and identify it; the error at the test pose is still the markers'.
-        instrument: the instrument's error model, which both draws the noise and weighs the fit
-            (default ``sigma`` per length and pincal's default σ of angles and pixels).
         orientation_length: L [m]: the error at the test pose also counts L times the tool's
             orientation error (and the prediction its expectation), as the test-pose criterion does.
         progress: report the trials done on stderr (a bar on a terminal, else a line every few
@@ -164,7 +172,7 @@ def monte_carlo(
         SingularPlan: the plan cannot identify ``params``.
         BadConfiguration: a configuration or test pose outside the limits.
     """
-    sigma = positive_sigma(sigma)
+    inst, sigma = measured(instrument, sigma)
     trials = positive_int(trials, "trials", 2)
     length_std, angle_std = error_std_pair(error_std)
     robot = params.robot
@@ -173,17 +181,14 @@ def monte_carlo(
     loads = getattr(plan, "payload", None)
     loads = None if loads is None else payload_rows(loads, len(qs))
     task = None if task_payload is None else payload_rows(task_payload, len(q0))
-    inst = optional_instrument(measure, instrument, sigma)
     predicted = float(
         rho0(
             params,
             _planned(robot, qs, loads),
             q0,
-            sigma=sigma,
             task_payload=task,
-            measure=measure,
-            instrument=instrument,
             orientation_length=orientation_length,
+            **keywords(inst, sigma),
         )
     )
     errors = {"length": length_std, "angle": angle_std}
@@ -257,13 +262,11 @@ def _run_trials(check: _Check, rng: np.random.Generator, steps: Steps) -> _Runs:
     errors, before, at_truth = [], [], []
     failures = local_minima = 0
     inst, length = check.instrument, check.orientation_length
-    kind, error = (None, None) if inst is None else (inst.kind, inst.error)
+    measuring = keywords(inst, sigma)
     for _ in steps.each("done", range(check.trials)):
         truth = random_errors(params, error_std=check.error_std, seed=rng)
-        data = simulate_measurements(
-            truth.robot, qs, sigma, seed=rng, payload=check.payload, measure=kind, instrument=error
-        )
-        result = identify(params, data, sigma=None if inst else sigma, sanity=False, instrument=error)
+        data = simulate_measurements(truth.robot, qs, seed=rng, payload=check.payload, **measuring)
+        result = identify(params, data, sanity=False, **measuring)
         if not result.success:
             failures += 1
             continue
@@ -278,11 +281,9 @@ def _run_trials(check: _Check, rng: np.random.Generator, steps: Steps) -> _Runs:
                     params.on(truth.robot),
                     plan,
                     q0,
-                    sigma=sigma,
                     task_payload=task,
-                    measure=kind,
-                    instrument=error,
                     orientation_length=length,
+                    **measuring,
                 )
             )
         )

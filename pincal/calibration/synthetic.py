@@ -20,12 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from pincal.arguments import DEFAULT_SIGMA, angle, generator, length, positive_sigma
+from pincal.arguments import angle, generator, length, positive_sigma
 from pincal.calibration.measurements import MeasurementData
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
-from pincal.instruments.error_model import ErrorModel, PerCoordinate
-from pincal.instruments.kind import Kind
+from pincal.instruments.given import measured, takes_instrument
+from pincal.instruments.instrument import Instrument
 from pincal.instruments.point import Point
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
@@ -208,36 +208,37 @@ class SmoothField:
         return np.sum(np.sin(angles[:, :, None] + self.phases[None]) * self.weights[None], axis=1)
 
 
-@keywords_after(3)
+@keywords_after(3, ("seed", "payload", "unmodelled", "measure", "instrument"))
+@takes_instrument
 def simulate_measurements(
     true_robot: Robot | RandomErrors,
     plan: ConfigurationsLike,
-    sigma: float = DEFAULT_SIGMA,
+    sigma: float | None = None,
     *,
     seed: SeedLike = None,
     payload: PayloadLike = None,
     unmodelled: SmoothField | None = None,
-    measure: Kind | None = None,
-    instrument: ErrorModel | None = None,
+    instrument: Instrument | None = None,
 ) -> MeasurementData:
-    """What an instrument with Gaussian noise would measure: i.i.d. ``sigma`` per coordinate, or the
-    error model ``instrument``.
+    """What an instrument with Gaussian noise would measure: the markers' points with i.i.d.
+    ``sigma`` per coordinate, or what ``instrument`` measures, its noise drawn from its error model.
 
     Args:
         true_robot: the robot measured (a :class:`~pincal.Robot`, or :class:`RandomErrors`).
         plan: (m, nq) configurations [rad or m] or a :class:`~pincal.Plan`, within the limits.
-        sigma: noise standard deviation per coordinate [m] (0: exact points); the lengths' σ of
-            another kind (its angles and pixels take pincal's defaults: give ``instrument``).
+        sigma: the points' noise standard deviation per coordinate [m] (default
+            :data:`~pincal.arguments.DEFAULT_SIGMA`); not with ``instrument``, but 0: exact
+            values, of the points or of what ``instrument`` measures.
         seed: an int, a numpy Generator, or None for fresh entropy.
         payload: the payload at each configuration (:func:`~pincal.model.statics.payload_rows`;
             default a Plan's own); the data then carry it (the payload columns), and a compliant
             robot bends under it.
         unmodelled: a smooth error added to every measured point (rotated into the instrument's
             frame), as real robots have.
-        measure: what is measured (:mod:`pincal.instruments`: a pose, part of one, distances,
-            pixels); default the markers' points.
-        instrument: the error model the noise is drawn from (:class:`pincal.instruments.PerCoordinate`,
-            :class:`pincal.instruments.Tracker`, taken at the true points); default ``sigma`` per length.
+        instrument: what is measured and how well (:class:`pincal.instruments.Instrument`: a
+            pose, part of one, distances, pixels or points, with the error model the noise is
+            drawn from, ``PerCoordinate`` or ``Tracker``, taken at the true points); default the
+            markers' points with ``sigma``.
 
     Returns:
         the measurements (in the true robot's base frame, i.e. the instrument's frame when
@@ -246,14 +247,15 @@ def simulate_measurements(
     robot = true_robot.robot if isinstance(true_robot, RandomErrors) else true_robot
     if not isinstance(robot, Robot):
         raise BadArgument(f"simulate_measurements needs a Robot, got {type(true_robot).__name__}")
-    sigma = positive_sigma(sigma, zero=True)
+    exact = instrument is not None and sigma is not None and positive_sigma(sigma, zero=True) == 0
+    inst, sigma = measured(instrument, None if exact else sigma, zero=True)
     qs = robot.configurations(plan)
     payload = getattr(plan, "payload", None) if payload is None else payload  # a Plan's own payloads
     loads = None if payload is None else payload_rows(payload, len(qs))
-    if (measure is not None and not isinstance(measure, Point)) or instrument is not None:
+    if inst is not None:
         if unmodelled is not None:
-            raise BadArgument("unmodelled errors are simulated for points only (no measure or instrument)")
-        return _simulate_kind(robot, qs, loads, sigma, seed, measure or Point(), instrument)
+            raise BadArgument("unmodelled errors are simulated for points with sigma= only (no instrument)")
+        return _simulate_kind(robot, qs, loads, seed, inst, exact)
     points = robot.points(qs, payload=loads)
     if unmodelled is not None:
         points = points + (unmodelled(qs) @ robot.base.rotation.T)[:, None, :]
@@ -266,22 +268,17 @@ def _simulate_kind(
     robot: Robot,
     qs: np.ndarray,
     loads: np.ndarray | None,
-    sigma: float,
     seed: SeedLike,
-    kind: Kind,
-    error: ErrorModel | None,
+    instrument: Instrument,
+    exact: bool = False,
 ) -> MeasurementData:
-    """:func:`simulate_measurements` of any kind at configurations ``qs`` under payload rows
-    ``loads``, noise drawn from the error model's covariance."""
-    if not isinstance(kind, Kind):
-        raise BadArgument(
-            f"measure must be a pincal measurement kind (pincal.instruments.Pose(), ...), got {kind!r}"
-        )
+    """:func:`simulate_measurements` of what ``instrument`` measures at configurations ``qs`` under
+    payload rows ``loads``, noise drawn from its error model's covariance (none when ``exact``)."""
+    kind = instrument.kind
     kind.check(robot)
     values = kind.predict(robot, qs, loads)
-    if error is not None or sigma > 0:
-        model = error if error is not None else PerCoordinate(sigma)
-        covariance = model.covariance(kind, robot, qs)
+    if not exact:
+        covariance = instrument.error.covariance(kind, robot, qs)
         white = generator(seed).standard_normal(values.shape)
         if covariance.std is not None:
             values = values + covariance.std * white

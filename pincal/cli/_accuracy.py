@@ -19,6 +19,7 @@ from pincal.cli._common import (
     read_plan,
     trap_floating_point_warnings,
 )
+from pincal.cli._instrument import with_sigma
 from pincal.compensation.calibration_file import load_calibration
 from pincal.errors import BadArgument, PincalError, SingularPlan
 from pincal.evaluation.accuracy import accuracy
@@ -290,13 +291,12 @@ def accuracy_report(
         params,
         plan,
         test_pose,
-        sigma=sigma,
         prior=prior,
         compare=compare,
         seed=seed,
         task_payload=task_payload,
         residual_model=residual_model,
-        **_without_orientation(measuring),
+        **with_sigma(sigma, _without_orientation(measuring)),
     )
     assert isinstance(report, AccuracyReport)  # one plan, one report
     return report
@@ -307,8 +307,8 @@ def save_accuracy_plot(
 ) -> None:
     """The predicted error against the distance from the test pose, for each plan, saved."""
     profiles = error_profile(
-        params, plans, test_pose, sigma=sigma, prior=prior, task_payload=task_payload,
-        **_without_orientation(measuring),
+        params, plans, test_pose, prior=prior, task_payload=task_payload,
+        **with_sigma(sigma, _without_orientation(measuring)),
     )  # fmt: skip
     save_figure(error_vs_distance(profiles), path)
 

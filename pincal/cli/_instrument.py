@@ -222,8 +222,9 @@ class Measuring:
     Attributes:
         robot: the robot with the instrument's fixtures (--anchor, --camera).
         instrument: what is measured and how well (points with --sigma by default).
-        options: ``measure=``, ``instrument=``, ``orientation_length=`` for the core's functions:
-            empty for points with one σ and no orientation (their calls as they always were).
+        options: ``instrument=`` and ``orientation_length=`` for the core's functions: empty for
+            points with one σ and no orientation (their calls take ``sigma=``, as they always
+            did: :func:`with_sigma`).
         text: the instrument in words for the report, or "" for points with one σ.
     """
 
@@ -240,10 +241,8 @@ def measuring_from_args(args: argparse.Namespace, robot: Robot, sigma: float | N
     error = error_from_args(args, sigma)
     instrument = instrument_from_args(args, kind, sigma)
     options: dict = {}
-    if kind is not None and not isinstance(kind, Point):
-        options["measure"] = kind
-    if error is not None:
-        options["instrument"] = error
+    if (kind is not None and not isinstance(kind, Point)) or error is not None:
+        options["instrument"] = instrument
     length = getattr(args, "orientation_length", None)
     if length is not None:
         options["orientation_length"] = orientation_length_of(length)
@@ -251,3 +250,10 @@ def measuring_from_args(args: argparse.Namespace, robot: Robot, sigma: float | N
     if length is not None:
         text += f"; rho0 counts the tool's orientation error times L = {length:g} m"
     return Measuring(robot, instrument, options, text.lstrip("; "))
+
+
+def with_sigma(sigma: float, options: dict) -> dict:
+    """The keywords of what is measured for the core's functions: a :class:`Measuring`'s
+    ``options``, and ``sigma=`` (the checked --sigma, or the default) when they name no instrument
+    (the core refuses both: an instrument's error model has its own σ)."""
+    return dict(options) if "instrument" in options else dict(options, sigma=sigma)

@@ -17,14 +17,14 @@ from pincal.cli._common import (
     sigma_from_args,
 )
 from pincal.cli._design_options import search_from_args
-from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
+from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args, with_sigma
 from pincal.cli._parameters import params_from_args
 from pincal.cli._safety import safe_constraints_from_args
 from pincal.cli._types import count
 from pincal.cli.design import add_design_arguments, print_baseline, print_warnings
 from pincal.planning.baselines import random_plans
 from pincal.planning.driver import METHODS, design
-from pincal.planning.options import Safety, grouped
+from pincal.planning.options import Safety
 
 HELP = COMMANDS["baseline"].help
 EXAMPLES = """\
@@ -96,12 +96,11 @@ def run(args: argparse.Namespace) -> int:
             args.random,
             q0,
             criterion=criterion,
-            sigma=sigma,
             prior=prior,
             constraints=constraints,
             seed=args.seed,
             pool=pool,
-            **measuring.options,
+            **with_sigma(sigma, measuring.options),
         )
         d_opt = None
         if args.d_optimal:
@@ -113,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
                 prior=prior,
                 search=search_from_args(args, pool),
                 safety=Safety(constraints=constraints),
-                **grouped(dict(sigma=sigma, **measuring.options)),
+                **with_sigma(sigma, measuring.options),
             )
     print_warnings(records)
     if args.json:

@@ -30,7 +30,7 @@ from pincal.cli._common import (
 )
 from pincal.cli._design_options import EXAMPLES, add_design_options, search_from_args
 from pincal.cli._design_options import add_design_arguments as add_design_arguments  # baseline's
-from pincal.cli._instrument import measuring_from_args
+from pincal.cli._instrument import error_from_args, measuring_from_args, with_sigma
 from pincal.cli._parameters import params_from_args
 from pincal.cli._plot import save_design_plot
 from pincal.cli._safety import (
@@ -42,9 +42,9 @@ from pincal.cli.campaign import (
 )
 from pincal.errors import BadArgument
 from pincal.evaluation.test_pose import rho0_split
-from pincal.instruments.error_model import PerCoordinate, Tracker
+from pincal.instruments.error_model import Tracker
+from pincal.instruments.image import Image
 from pincal.instruments.instrument import Instrument
-from pincal.instruments.point import Point
 from pincal.model.statics import Payload
 from pincal.planning import stopping as _stopping
 from pincal.planning.baselines import random_plans
@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         options.update(loads=loads, residual_model=residual)
     placement = None
     if args.place_instrument is not None:
-        placement = _placed(args, params, q0, criterion, options, taught, sigma, measuring.options)
+        placement = _placed(args, params, q0, criterion, options, taught, measuring.options)
     elif args.placement_plot or args.place_steps is not None or args.place_screen is not None:
         raise BadArgument(
             "--placement-plot, --place-steps and --place-screen go with --place-instrument X0,Y0,Z0,X1,Y1,Z1"
@@ -159,21 +159,8 @@ def _design_keywords(args: argparse.Namespace, pool, prior, constraints, sigma, 
         search=search_from_args(args, pool),
         safety=Safety(constraints=constraints, min_conditioning=args.min_conditioning),
         prior=prior,
-        **_measured(measured, sigma),
+        **with_sigma(sigma, measured),
     )
-
-
-def _measured(measured: dict, sigma: float) -> dict:
-    """design()'s ``instrument=`` (the kind and error model of ``measured``, the instrument's
-    options; the error model ``sigma`` per coordinate when none is given) or ``sigma=`` for points,
-    and its ``orientation_length=``."""
-    out = {k: v for k, v in measured.items() if k == "orientation_length"}
-    if "measure" in measured or "instrument" in measured:
-        kind, error = measured.get("measure", Point()), measured.get("instrument", PerCoordinate(sigma))
-        out["instrument"] = Instrument(kind, error)
-    else:
-        out["sigma"] = sigma
-    return out
 
 
 def _check_payload_design(args: argparse.Namespace, residual: bool) -> None:
@@ -194,9 +181,7 @@ def _check_payload_design(args: argparse.Namespace, residual: bool) -> None:
         )
 
 
-def _placed(
-    args, params, q0, criterion: str, options: dict, taught, sigma: float, measured: dict
-) -> Placement:
+def _placed(args, params, q0, criterion: str, options: dict, taught, measured: dict) -> Placement:
     """The :class:`Placement` of --place-instrument (``options``: design()'s keywords, ``measured``
     the instrument's options)."""
     if args.baseline is not None or taught is not None or "loads" in options or "residual_model" in options:
@@ -209,18 +194,25 @@ def _placed(
         raise BadArgument(
             f"--place-instrument {args.place_instrument!r}: expected X0,Y0,Z0,X1,Y1,Z1 (six numbers, metres)"
         )
-    kind, error = measured.get("measure"), measured.get("instrument")
+    instrument = measured.get("instrument")
+    if (
+        instrument is not None
+        and not isinstance(instrument.kind, Image)
+        and error_from_args(args, None) is None
+    ):
+        instrument = Instrument(instrument.kind, Tracker())  # no error model given: a tracker is placed
     search, safety = options["search"], options["safety"]
     rest = dict(
         method=search.method, pool=search.pool, starts=search.starts, polish=search.polish,
-        min_conditioning=safety.min_conditioning, prior=options["prior"], sigma=sigma, seed=search.seed,
+        min_conditioning=safety.min_conditioning, prior=options["prior"], seed=search.seed,
         workers=search.workers, **{k: v for k, v in measured.items() if k == "orientation_length"},
     )  # fmt: skip
-    default_at = getattr(error, "at", None) if getattr(args, "instrument_at", None) else None
+    tracker = None if instrument is None else instrument.error
+    default_at = getattr(tracker, "at", None) if getattr(args, "instrument_at", None) else None
     screen = {None: SCREEN, "all": None}.get(args.place_screen, args.place_screen)
     with recorded_warnings() as records:
         placement = place_instrument(
-            params, args.m, q0, (box[:3], box[3:]), criterion=criterion, measure=kind, instrument=error,
+            params, args.m, q0, (box[:3], box[3:]), criterion=criterion, instrument=instrument,
             constraints=safety.constraints, steps=args.place_steps or STEPS, default_at=default_at,
             screen=screen, progress=args.progress, **rest,
         )  # fmt: skip
@@ -269,12 +261,11 @@ def _baseline(
         args.baseline,
         q0,
         criterion=_rho0_criterion(criterion),
-        sigma=sigma,
         prior=options["prior"],
         constraints=options["safety"].constraints,
         seed=args.seed,
         pool=taught,
-        **measured,
+        **with_sigma(sigma, measured),
     )
     if d_optimal is None:
         d_optimal = design(params, args.m, q0, criterion="D", **options)

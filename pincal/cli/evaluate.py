@@ -33,7 +33,7 @@ from pincal.cli._common import (
     robot_from_args,
     sigma_from_args,
 )
-from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
+from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args, with_sigma
 from pincal.cli._parameters import add_base_argument, params_from_args
 from pincal.cli._safety import SAFETY_HELP, add_safety_arguments, safe_constraints_from_args
 from pincal.errors import BadArgument, SingularPlan
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     q0 = test_region_from_args(robot, args)
     prior = prior_from_args(args)
     task = task_payload_from_args(args)
-    each = rho0_each(params, plan, q0, sigma=sigma, prior=prior, task_payload=task, **options)
+    each = rho0_each(params, plan, q0, prior=prior, task_payload=task, **with_sigma(sigma, options))
     value = float(each.max()) if args.worst else float(np.sqrt(np.mean(each**2)))
     crit = _classic_criteria(params, plan, prior, options)
     model = None if args.residual_model is None else residual_model_from_args(robot, args.residual_model)

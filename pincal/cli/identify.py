@@ -286,8 +286,8 @@ def run(args: argparse.Namespace) -> int:
         sigma=sigma, maxiter=args.maxiter, prior=prior, loss=args.loss, method=args.method,
         reject=args.reject, residual_model=args.residual_model, progress=args.progress,
     )  # fmt: skip
-    if error is not None:
-        options["instrument"] = error
+    if error is not None:  # the error model has its own σ
+        options.update(sigma=None, instrument=instrument)
     result, validation = _fit(args, robot, params, sessions, options)
     writable = result.success or (args.force and result.status == "implausible")
     writer = export_mjcf if args.out and writes_mjcf(robot, args.out) else export_urdf

@@ -34,6 +34,9 @@ from pincal.cli.simulate import parse_error_std
 from pincal.errors import BadArgument, BadConfiguration, UrdfError
 from pincal.export.mjcf import export_mjcf, writes_mjcf
 from pincal.export.urdf import export_urdf
+from pincal.instruments.error_model import PerCoordinate
+from pincal.instruments.instrument import Instrument
+from pincal.instruments.point import Point
 from pincal.model.loading import load_robot
 
 HELP = COMMANDS["measure-sim"].help
@@ -136,7 +139,12 @@ def run(args: argparse.Namespace) -> int:
         if args.save_true:
             description += f", saved to {args.save_true}"
     measured = true_robot.replace(base=_base_pose(args.base_pose, args.deg))
-    data = simulate_measurements(measured, plan, sigma, seed=rng, measure=kind, instrument=error)
+    if (kind is None or isinstance(kind, Point)) and error is None:
+        data = simulate_measurements(measured, plan, sigma, seed=rng)
+    else:  # --sigma 0: exact values of what is measured
+        exact = error is None and sigma == 0
+        instrument = Instrument(kind or Point(), error or PerCoordinate(DEFAULT_SIGMA if exact else sigma))
+        data = simulate_measurements(measured, plan, 0.0 if exact else None, seed=rng, instrument=instrument)
     data.to_csv(args.out, degrees=args.deg, millimetres=args.mm, robot=robot)
     if args.save_true:
         (export_mjcf if writes_mjcf(robot, args.save_true) else export_urdf)(true_robot, args.save_true)

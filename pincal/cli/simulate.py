@@ -24,7 +24,7 @@ from pincal.cli._common import (
     sigma_from_args,
     test_poses_from_args,
 )
-from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args
+from pincal.cli._instrument import INSTRUMENT_HELP, add_instrument_arguments, measuring_from_args, with_sigma
 from pincal.cli._parameters import params_from_args
 from pincal.cli._plot import add_simulation_plot_arguments, save_simulation_plot
 from pincal.cli._types import count, seed_type, sigma_type
@@ -118,8 +118,8 @@ def run(args: argparse.Namespace) -> int:
 
     def simulated(configurations: ConfigurationsLike) -> MonteCarloResult:  # the same trials, errors and seed
         return monte_carlo(
-            params, configurations, q0, sigma=sigma, trials=args.trials, seed=args.seed, error_std=error_std,
-            task_payload=task, progress=args.progress, **measuring.options,
+            params, configurations, q0, trials=args.trials, seed=args.seed, error_std=error_std,
+            task_payload=task, progress=args.progress, **with_sigma(sigma, measuring.options),
         )  # fmt: skip
 
     mc = simulated(plan)

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from pincal.arguments import positive_sigma
 from pincal.deprecation import keywords_after, moved_from
 from pincal.evaluation._accuracy_residual import task_loads, with_residual_model
 from pincal.evaluation.accuracy_report import AccuracyReport, ErrorSummary, PlanAccuracy
@@ -32,22 +31,29 @@ from pincal.evaluation.predicted_error import PredictedError, worst_found
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.residual_criterion import check_points
 from pincal.evaluation.test_pose_worst import TestPoseWorst
-from pincal.instruments.error_model import ErrorModel
-from pincal.instruments.instrument import optional_instrument
-from pincal.instruments.kind import Kind
+from pincal.instruments.given import measured, takes_instrument
+from pincal.instruments.instrument import Instrument
 from pincal.kept import REPORTS
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.typing import PayloadLike, PlansLike, TestPoseLike
 
+ORDER_0_1 = (
+    "sigma", "prior", "compare", "neighbourhoods", "samples", "workspace", "seed", "task_payload",
+    "residual_model", "measure", "instrument",
+)  # fmt: skip
+"""accuracy()'s keywords in pincal 0.1's order (what arguments by position after the third meant)."""
 
-@keywords_after(3)
+
+@keywords_after(3, ORDER_0_1)
+@takes_instrument
 def accuracy(
     params: ParameterSet,
     plan: PlansLike,
     test_pose: TestPoseLike,
     *,
-    sigma: float,
+    sigma: float | None = None,
+    instrument: Instrument | None = None,
     prior: Prior | None = None,
     compare: dict[str, object] | None = None,
     neighbourhoods: tuple[float, ...] = NEIGHBOURHOODS,
@@ -56,8 +62,6 @@ def accuracy(
     seed: int = 0,
     task_payload: PayloadLike = None,
     residual_model: ResidualModel | None = None,
-    measure: Kind | None = None,
-    instrument: ErrorModel | None = None,
 ) -> AccuracyReport | tuple[AccuracyReport, ...]:
     """Predicted error after calibrating with ``plan`` (and each plan of ``compare``), at the
     test pose(s), over neighbourhoods of them, and over the workspace; for a batch of plans
@@ -73,7 +77,10 @@ def accuracy(
         params: the parameters identified.
         plan: the plan (m, nq) or a Plan, or a batch of plans.
         test_pose: test pose(s) or a region/path (see :func:`pincal.rho0`).
-        sigma: measurement noise per coordinate [m].
+        sigma: the shorthand for points measured with this noise per coordinate [m] (default
+            :data:`~pincal.arguments.DEFAULT_SIGMA`); not with ``instrument``.
+        instrument: what the plans measure and how well (:class:`pincal.instruments.Instrument`,
+            see :func:`pincal.rho0`); the report's σ is then its reference σ.
         prior: the errors' prior, or None.
         compare: ``{name: plan}`` to report next to it, e.g. ``{"D-optimal": d_plan}``.
         neighbourhoods: half-widths δ of the revolute joints [rad]; the prismatic joints move
@@ -88,12 +95,8 @@ def accuracy(
             expected error when the parameters and the residual are estimated together from the
             plan (sqrt tr Σ₀ at each configuration, docs/method.md §11.5), the residual model's
             variance included, and the worst found over a region searched on it; no prior.
-        measure, instrument: what the plans measure and the instrument's error model (see
-            :func:`pincal.rho0`); ``sigma`` is then the error model's reference σ.
     """
-    sigma = positive_sigma(sigma)
-    inst = optional_instrument(measure, instrument, sigma)
-    sigma = sigma if inst is None else inst.reference
+    inst, sigma = measured(instrument, sigma)
     robot = params.robot
     batch, batched = plan_batch(params, plan)
     if residual_model is not None:

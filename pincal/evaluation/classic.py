@@ -18,12 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA
 from pincal.evaluation.information import factor, informations, raise_singular
 from pincal.evaluation.plans import SMALL, blas_for, engine_for, in_blocks, plan_batch, plan_payloads
-from pincal.instruments.error_model import ErrorModel
-from pincal.instruments.instrument import optional_instrument
-from pincal.instruments.kind import Kind
+from pincal.instruments.given import measured, takes_instrument
+from pincal.instruments.instrument import Instrument
 from pincal.lapack import eigenvalues
 from pincal.model.parameters import ParameterSet
 from pincal.typing import PlansLike
@@ -169,17 +167,18 @@ def _regular_plan(J: np.ndarray, m: int) -> Criteria | None:
     )
 
 
+@takes_instrument
 def criteria(
     params: ParameterSet,
     plan: PlansLike,
     *,
-    measure: Kind | None = None,
-    instrument: ErrorModel | None = None,
+    instrument: Instrument | None = None,
 ) -> Criteria | tuple[Criteria, ...]:
     """The classic criteria (D, A, E, cond, O1–O4) of ``plan`` for ``params``; of each plan of a
     batch ((k, m, nq) or a sequence of Plans: a tuple of k, see :mod:`pincal.evaluation.plans`).
-    With ``measure`` or ``instrument`` (see :func:`pincal.rho0`), of the whitened rows the
-    instrument measures, scaled by its reference σ (σ·L⁻¹J): points with one σ are unchanged.
+    With an ``instrument`` (:class:`pincal.instruments.Instrument`, see :func:`pincal.rho0`), of
+    the whitened rows it measures, scaled by its reference σ (σ·L⁻¹J): points with one σ are
+    unchanged.
 
     The singular values come from the eigenvalues of M where cond(J) ≤ :data:`EIGEN_CONDITION`
     (exact to about ε·cond(J)², at most 2e-10 relative), else from an SVD of J. One plan alone
@@ -187,7 +186,7 @@ def criteria(
     precision, not bit for bit."""
     qs, batched = plan_batch(params, plan)
     k, m, _ = qs.shape
-    engine = engine_for(params, optional_instrument(measure, instrument, DEFAULT_SIGMA))
+    engine = engine_for(params, measured(instrument)[0])
     rows = engine.rows
 
     def evaluate(J: np.ndarray) -> tuple[Criteria, ...]:

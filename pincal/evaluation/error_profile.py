@@ -9,15 +9,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.arguments import angle, generator, positive_int, positive_sigma
+from pincal.arguments import angle, generator, positive_int
 from pincal.deprecation import keywords_after
 from pincal.evaluation.accuracy_samples import prismatic_per_radian
 from pincal.evaluation.predicted_error import PredictedError
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import resolve_test_poses
-from pincal.instruments.error_model import ErrorModel
-from pincal.instruments.instrument import optional_instrument
-from pincal.instruments.kind import Kind
+from pincal.instruments.given import measured, takes_instrument
+from pincal.instruments.instrument import Instrument
 from pincal.model.parameters import ParameterSet
 from pincal.typing import ConfigurationsLike, PayloadLike, TestPoseLike
 
@@ -42,28 +41,33 @@ class ErrorProfile:
         return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()}
 
 
-@keywords_after(3)
+ORDER_0_1 = (
+    "sigma", "prior", "max_distance", "steps", "samples", "seed", "task_payload", "measure", "instrument",
+)  # fmt: skip
+"""error_profile()'s keywords in pincal 0.1's order (what arguments by position after the third meant)."""
+
+
+@keywords_after(3, ORDER_0_1)
+@takes_instrument
 def error_profile(
     params: ParameterSet,
     plans: Mapping[str, ConfigurationsLike],
     test_pose: TestPoseLike,
     *,
-    sigma: float,
+    sigma: float | None = None,
+    instrument: Instrument | None = None,
     prior: Prior | None = None,
     max_distance: float = math.radians(30),
     steps: int = 13,
     samples: int = 128,
     seed: int = 0,
     task_payload: PayloadLike = None,
-    measure: Kind | None = None,
-    instrument: ErrorModel | None = None,
 ) -> tuple[ErrorProfile, ...]:
     """Median and 95th percentile of ρ on shells at distance d = max_j |q_j − q0_j| from the test
     pose(s), for d in [0, max_distance] (``samples`` configurations per shell, the same for every
-    plan; a test pose drawn per sample; clipped to the joint limits). ``measure`` and
+    plan; a test pose drawn per sample; clipped to the joint limits). ``sigma`` and
     ``instrument`` as for :func:`accuracy`."""
-    sigma = positive_sigma(sigma)
-    inst = optional_instrument(measure, instrument, sigma)
+    inst, sigma = measured(instrument, sigma)
     max_distance = angle(max_distance, "max_distance")
     steps = positive_int(steps, "steps", 2)
     samples = positive_int(samples, "samples")

@@ -50,9 +50,8 @@ from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestRegion, resolve_test_poses
 from pincal.evaluation.test_pose_worst import TestPoseWorst
 from pincal.evaluation.weighted_trace import WeightedTrace
-from pincal.instruments.error_model import ErrorModel
-from pincal.instruments.instrument import Instrument, optional_instrument, orientation_length_of, tool_rows
-from pincal.instruments.kind import Kind
+from pincal.instruments.given import measured, takes_instrument
+from pincal.instruments.instrument import Instrument, orientation_length_of, tool_rows
 from pincal.kept import CRITERIA
 from pincal.lapack import trsm, trsm_batch
 from pincal.model.parameters import ParameterSet
@@ -216,18 +215,22 @@ class TestPoseCriterion:
         return each.max(axis=1) if self.aggregate == "worst" else each
 
 
-@keywords_after(3)
+ORDER_0_1 = ("sigma", "aggregate", "prior", "task_payload", "measure", "instrument", "orientation_length")
+"""rho0()'s keywords in pincal 0.1's order (what arguments by position after the third meant)."""
+
+
+@keywords_after(3, ORDER_0_1)
+@takes_instrument
 def rho0(
     params: ParameterSet,
     plan: PlansLike,
     test_pose: TestPoseLike,
     *,
-    sigma: float = DEFAULT_SIGMA,
+    sigma: float | None = None,
     aggregate: str = "mean",
     prior: Prior | None = None,
     task_payload: PayloadLike = None,
-    measure: Kind | None = None,
-    instrument: ErrorModel | None = None,
+    instrument: Instrument | None = None,
     orientation_length: float | None = None,
 ) -> float:
     """Expected position error at the test pose(s) after calibrating with ``plan``.
@@ -241,19 +244,20 @@ def rho0(
             Pinocchio's own work (see :mod:`pincal.evaluation.plans`).
         test_pose: (nq,) or (k, nq) test configuration(s), or a region or path
             (:func:`pincal.around`, :class:`pincal.TestPath`, :func:`pincal.cartesian_box`).
-        sigma: measurement noise standard deviation per coordinate [m] (default 3e-5, a laser
-            tracker); ρ0 is proportional.
+        sigma: the shorthand for points measured with this noise per coordinate [m] (default
+            :data:`~pincal.arguments.DEFAULT_SIGMA`, a laser tracker's); ρ0 is proportional. Not
+            with ``instrument``.
         aggregate: over several test poses, ``"mean"`` (root mean square) or ``"worst"``;
             :func:`rho0_each` gives one ρ0 per test pose.
         prior: the errors' prior (:class:`pincal.Prior`): ρ0 from the posterior covariance
             σ²(M + σ²Σp⁻¹)⁻¹, finite for every plan (σ must then be the real noise in metres).
         task_payload: the payload at the test pose(s) (matters with compliance parameters); the
             plan's own payloads are its :attr:`~pincal.Plan.payload`.
-        measure: what the instrument measures (:mod:`pincal.instruments`: ``Pose``, ``Partial``,
-            ``Distance``, ``Image``); default points. ρ0 is still the
-            error of the markers' positions at the test pose(s).
-        instrument: its error model (:mod:`pincal.instruments`: ``PerCoordinate``, ``Tracker``):
-            M = Σ JᵢᵀΣᵢ⁻¹Jᵢ; ``sigma`` is then not used. Default ``sigma`` per coordinate.
+        instrument: what is measured and how well (:class:`pincal.instruments.Instrument`: a
+            kind, ``Pose``, ``Partial``, ``Distance``, ``Image`` or points, with an error model,
+            ``PerCoordinate`` or ``Tracker``): M = Σ JᵢᵀΣᵢ⁻¹Jᵢ of its whitened rows. ρ0 is still
+            the error of the markers' positions at the test pose(s). Default: points, ``sigma``
+            per coordinate.
         orientation_length: L [m]: add L² times the expected squared orientation error of the
             tool (ρ0² = E‖δp‖² + L²·E‖δθ‖²), for a user who works with the tool's orientation.
 
@@ -272,28 +276,26 @@ def rho0(
             value=aggregate,
             valid=("mean", "worst"),
         )
-    sigma = positive_sigma(sigma)
-    inst = optional_instrument(measure, instrument, sigma)
+    inst, sigma = measured(instrument, sigma)
     return _evaluate(params, plan, test_pose, sigma, aggregate, prior, task_payload, inst, orientation_length)
 
 
-@keywords_after(3)
+@keywords_after(3, tuple(name for name in ORDER_0_1 if name != "aggregate"))
+@takes_instrument
 def rho0_each(
     params: ParameterSet,
     plan: PlansLike,
     test_pose: TestPoseLike,
     *,
-    sigma: float = DEFAULT_SIGMA,
+    sigma: float | None = None,
     prior: Prior | None = None,
     task_payload: PayloadLike = None,
-    measure: Kind | None = None,
-    instrument: ErrorModel | None = None,
+    instrument: Instrument | None = None,
     orientation_length: float | None = None,
 ) -> np.ndarray:
     """(n,) ρ0 [m] at each of n test poses, or (k, n) for a batch of k plans (arguments as
     :func:`rho0`)."""
-    sigma = positive_sigma(sigma)
-    inst = optional_instrument(measure, instrument, sigma)
+    inst, sigma = measured(instrument, sigma)
     return _evaluate(params, plan, test_pose, sigma, "each", prior, task_payload, inst, orientation_length)
 
 

@@ -106,18 +106,6 @@ class Instrument:
         return {"measure": self.kind.as_dict(), "error": self.error.as_dict()}
 
 
-def instrument_for(kind: Kind | None, error: ErrorModel | None, sigma: float) -> Instrument:
-    """The instrument of a ``measure=`` and an ``instrument=`` argument (None: points, and
-    :class:`PerCoordinate` with ``sigma``)."""
-    return Instrument(Point() if kind is None else kind, PerCoordinate(sigma) if error is None else error)
-
-
-def optional_instrument(kind: Kind | None, error: ErrorModel | None, sigma: float) -> Instrument | None:
-    """:func:`instrument_for`, or None when neither is given (points with ``sigma``, as always:
-    the evaluations take their own, unchanged path)."""
-    return None if kind is None and error is None else instrument_for(kind, error, sigma)
-
-
 class RowsEngine:
     """The whitened rows of one instrument for one parameter set (see module doc).
 

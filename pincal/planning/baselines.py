@@ -7,13 +7,12 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, generator, positive_int, positive_sigma
+from pincal.arguments import generator, positive_int
 from pincal.errors import Infeasible
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.registry import make_criterion
-from pincal.instruments.error_model import ErrorModel
-from pincal.instruments.instrument import optional_instrument, orientation_length_of, rows_engine, tool_rows
-from pincal.instruments.kind import Kind
+from pincal.instruments.given import measured, takes_instrument
+from pincal.instruments.instrument import Instrument, orientation_length_of, rows_engine, tool_rows
 from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint
 from pincal.planning.feasibility import Feasibility
@@ -25,6 +24,7 @@ from pincal.typing import PoolLike, SeedLike, TestPoseLike
 __all__ = ["random_plans"]
 
 
+@takes_instrument
 def random_plans(
     params: ParameterSet,
     m: int,
@@ -32,13 +32,12 @@ def random_plans(
     test_pose: TestPoseLike | None = None,
     *,
     criterion: str = "test-pose",
-    sigma: float = DEFAULT_SIGMA,
+    sigma: float | None = None,
+    instrument: Instrument | None = None,
     prior: Prior | None = None,
     constraints: Iterable[AnyConstraint] = (),
     seed: SeedLike = 0,
     pool: PoolLike = None,
-    measure: Kind | None = None,
-    instrument: ErrorModel | None = None,
     orientation_length: float | None = None,
 ) -> RandomPlans:
     """The distribution of a criterion over ``n`` random feasible plans of m configurations.
@@ -55,14 +54,16 @@ def random_plans(
         n: number of plans.
         test_pose: (nq,) or (k, nq) test pose(s) (required by the test-pose criteria).
         criterion: one of :data:`CRITERIA` (default ρ0, the mean over the test poses).
-        sigma: measurement noise per coordinate [m].
+        sigma: the shorthand for points measured with this noise per coordinate [m] (default
+            :data:`~pincal.arguments.DEFAULT_SIGMA`); not with ``instrument``.
+        instrument: what is measured and how well (:class:`pincal.instruments.Instrument`), as
+            for :func:`design`.
         prior: the errors' prior: the Bayesian criterion, as :func:`pincal.design` minimises it.
         constraints: as for :func:`design`.
         seed: seed of the draws (an int, a numpy Generator, or None for fresh entropy).
         pool: (N, nq) configurations or a Plan (e.g. taught poses) to draw the plans from, as
             :func:`design` searches them (infeasible ones are dropped); default: the joint limits.
-        measure, instrument, orientation_length: what is measured, the instrument's error model
-            and the test-pose criterion's orientation length, as for :func:`design`.
+        orientation_length: the test-pose criterion's orientation length, as for :func:`design`.
 
     Returns:
         the values (ρ0 [m] for the test-pose criteria) and their min / mean / median / max.
@@ -75,8 +76,7 @@ def random_plans(
         >>> randoms.n, randoms.n_singular
         (50, 0)
     """
-    sigma = positive_sigma(sigma)
-    inst = optional_instrument(measure, instrument, sigma)
+    inst, sigma = measured(instrument, sigma)
     length = orientation_length_of(orientation_length)
     with single_threaded_blas():
         return _random_plans(
@@ -91,7 +91,6 @@ def _random_plans(
     m = positive_int(m, "m (number of configurations)")
     n = positive_int(n, "n (number of random plans)")
     test_poses = checked_test_poses(params, test_pose, criterion)
-    sigma = sigma if inst is None else inst.reference
     feasibility = Feasibility(params.robot, constraints)
     rng = generator(seed)
     if pool is None:

@@ -20,6 +20,7 @@ from pincal.evaluation.data_check import MIN_DATA_CONDITIONING, DataCheck, check
 from pincal.evaluation.registry import TEST_POSE_CRITERIA, make_criterion
 from pincal.evaluation.residual_criterion import ResidualCriterion
 from pincal.evaluation.test_pose import TestPoseCriterion, rho0_each
+from pincal.instruments.given import keywords
 from pincal.instruments.instrument import RowsEngine
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
@@ -202,11 +203,8 @@ def _report(params, plan, settings: Settings, J) -> tuple[float, float | None, n
     criterion, test_poses, sigma, prior = s.criterion, s.test_poses, s.sigma, s.prior
     rho0 = each = None
     if test_poses is not None and s.loads is not None:  # under the plan's payloads and the task's
-        measured = s.measured
-        each = rho0_each(params, plan, test_poses, sigma=sigma, prior=prior, task_payload=s.task_payload,
-                         measure=None if measured is None else measured.kind,
-                         instrument=None if measured is None else measured.error,
-                         orientation_length=s.orientation_length)  # fmt: skip
+        each = rho0_each(params, plan, test_poses, prior=prior, task_payload=s.task_payload,
+                         orientation_length=s.orientation_length, **keywords(s.measured, sigma))  # fmt: skip
     elif test_poses is not None:
         each = TestPoseCriterion(
             params,

@@ -60,6 +60,7 @@ from pincal.errors import BadArgument, FloorUnreachable, Infeasible, SingularPla
 from pincal.evaluation.data_check import MIN_DATA_CONDITIONING
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.residual_criterion import check_points
+from pincal.instruments.given import instrument_of, takes_instrument
 from pincal.instruments.instrument import Instrument, orientation_length_of, rows_engine
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
@@ -77,7 +78,6 @@ from pincal.planning.options import (
     Safety,
     Search,
     check_value,
-    instrument_of,
     regroup,
 )
 from pincal.planning.results import DesignResult
@@ -113,7 +113,8 @@ __all__ = ["DEFAULT_POOL", "LOADED_POOL", "METHODS", "MIN_CONDITIONING", "SINGUL
 
 # ------------------------------------------------------------------------------ driver
 @keywords_after(3, ORDER_0_1)
-@moved_keywords((*FLAT, "measure"), regroup)
+@moved_keywords(FLAT, regroup)
+@takes_instrument
 def design(
     params: ParameterSet,
     m: int,

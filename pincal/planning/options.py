@@ -15,10 +15,7 @@ from collections.abc import Iterable, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, fields
 
-from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.errors import BadArgument
-from pincal.instruments.error_model import ErrorModel
-from pincal.instruments.instrument import Instrument, instrument_for
 from pincal.planning.constraints import AnyConstraint, JointMargin, MountSpec
 from pincal.typing import ConfigurationsLike, PayloadLike, PoolLike, SeedLike
 
@@ -113,7 +110,8 @@ GROUPS: dict[str, type] = {"search": Search, "safety": Safety, "loads": Loads}
 
 FLAT: dict[str, str] = {f.name: group for group, kind in GROUPS.items() for f in fields(kind)}
 """The flat keywords of pincal 0.1 and the value each now belongs to (``measure`` and an
-``instrument`` that is an error model become an :class:`~pincal.instruments.Instrument`)."""
+``instrument`` that is an error model become an :class:`~pincal.instruments.Instrument`:
+:func:`pincal.instruments.given.old_instrument`)."""
 
 ORDER_0_1 = (
     "criterion", "method", "constraints", "pool", "starts", "seed", "sigma", "executor", "workers",
@@ -127,7 +125,8 @@ ORDER_0_1 = (
 def regroup(flat: dict, kwargs: dict, function: str = "design") -> tuple[dict, str]:
     """The keywords of today's :func:`pincal.design` (or of ``function``, which passes them on to
     it) for the flat ones ``flat`` of pincal 0.1 and the others ``kwargs``, with what to write
-    instead (for the DeprecationWarning).
+    instead (for the DeprecationWarning). ``measure=`` and an error model as ``instrument=`` are
+    :func:`pincal.instruments.given.old_instrument`'s.
 
     Raises:
         TypeError: a flat keyword and the value it belongs to are both given.
@@ -142,16 +141,7 @@ def regroup(flat: dict, kwargs: dict, function: str = "design") -> tuple[dict, s
             raise TypeError(f"{function}() got {', '.join(given)} and {group}=: put them in {group}=")
         out[group] = kind(**given)
         hints.append(f"{group}=pincal.{kind.__name__}({', '.join(f'{n}=...' for n in given)})")
-    if "measure" in flat or isinstance(kwargs.get("instrument"), ErrorModel):
-        error = kwargs.get("instrument")
-        sigma = out.pop("sigma", None)  # pincal 0.1 let an error model overrule sigma=
-        out["instrument"] = instrument_for(flat.get("measure"), error, _sigma_or_default(sigma))
-        hints.append("instrument=pincal.instruments.Instrument(kind, error model)")
     return out, "; ".join(hints)
-
-
-def _sigma_or_default(sigma: object) -> float:
-    return DEFAULT_SIGMA if sigma is None else positive_sigma(sigma)
 
 
 def check_value(value: object, kind: type, name: str) -> None:
@@ -166,25 +156,9 @@ def check_value(value: object, kind: type, name: str) -> None:
         )
 
 
-def instrument_of(instrument: object, sigma: object) -> tuple[Instrument, bool]:
-    """(the instrument the design measures with, True when it is ``sigma=``'s shorthand: points
-    with one σ per coordinate): the one conversion and check of σ at the door."""
-    if instrument is None:  # PerCoordinate checks σ (positive_sigma)
-        return instrument_for(None, None, DEFAULT_SIGMA if sigma is None else sigma), True  # type: ignore[arg-type]
-    if sigma is not None:
-        raise BadArgument(
-            "give sigma= (points, one σ per coordinate) or instrument= (its error model has its own σ), "
-            "not both",
-            argument="sigma",
-        )
-    check_value(instrument, Instrument, "instrument")
-    assert isinstance(instrument, Instrument)
-    return instrument, False
-
-
 def grouped(options: dict) -> dict:
     """:func:`pincal.design`'s keywords for a dict of flat ones and others (a command's options,
     gathered flag by flag): the values built from the flat ones, as :func:`regroup` does for a
     caller of pincal 0.1, without its warning."""
-    flat = {name: value for name, value in options.items() if name in FLAT or name == "measure"}
+    flat = {name: value for name, value in options.items() if name in FLAT}
     return regroup(flat, {name: value for name, value in options.items() if name not in flat})[0]

@@ -41,16 +41,29 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.arguments import positive_int, seed_entropy
+from pincal.deprecation import moved_keywords
 from pincal.errors import BadArgument, BadConstraint, DegenerateOptimum, Infeasible, SingularPlan, warn
 from pincal.evaluation.region import resolve_test_poses
-from pincal.instruments.error_model import ErrorModel, Tracker
+from pincal.instruments.error_model import Tracker
+from pincal.instruments.given import OLD_FORM
 from pincal.instruments.image import Image
+from pincal.instruments.instrument import Instrument
 from pincal.instruments.kind import Kind
 from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint, LineOfSight, Visibility
 from pincal.planning.driver import design
-from pincal.planning.options import grouped
 from pincal.planning.placement_grid import MAX_POSITIONS, _box, _grid, _grid_size, _point  # noqa: F401  (MAX_POSITIONS: its name here too)
+from pincal.planning.placement_options import (  # noqa: F401  (the constants: their names here too)
+    FINAL_MAXITER,
+    FINAL_STARTS,
+    FULL_ONLY,
+    SCREEN_STARTS,
+    design_values,
+    finalist,
+    old_placed,
+    placed_instrument,
+    placed_tracker,
+)
 from pincal.planning.placement_screen import Screen
 from pincal.planning.results import DesignResult
 from pincal.progress import Steps
@@ -67,16 +80,6 @@ SCREEN = 3
 """Default number of positions designed in full: the best of the screen. On the UR10's boxes of
 benchmarks/RESULTS.md (bench_placement), the position and ρ0 the exhaustive search finds, for a third
 of its CPU without the polish and a fraction with it (a polished design a position)."""
-
-SCREEN_STARTS = 2
-"""Exchange starts of a position's quick design in the screen."""
-
-FINAL_STARTS = 8
-"""Exchange starts of a finalist's design (the screen's best, the default placement): one batch,
-its best quarter polished, not batches until the starts agree (``starts=`` given is used)."""
-
-FINAL_MAXITER = 150
-"""Iterations of a finalist's polish (:func:`pincal.design`'s ``maxiter``, default 3000; given: used)."""
 
 ACCEPTANCE = math.radians(30.0)
 """Default acceptance half-angle of a tracker's reflector [rad]: a 1.5" red-ring reflector's ±30°."""
@@ -191,6 +194,7 @@ class Placement:
         }
 
 
+@moved_keywords(("measure",), old_placed, OLD_FORM)
 def place_instrument(
     params: ParameterSet,
     m: int,
@@ -198,8 +202,7 @@ def place_instrument(
     box: object,
     *,
     criterion: str = "test-pose",
-    measure: Kind | None = None,
-    instrument: ErrorModel | None = None,
+    instrument: Instrument | None = None,
     constraints: tuple[AnyConstraint, ...] = (),
     sight: Sight = Sight(),
     steps: int = STEPS,
@@ -215,10 +218,11 @@ def place_instrument(
         params: the parameters identified (on the robot, with the camera's fixture for a camera).
         m, test_pose, criterion: as for :func:`pincal.design`.
         box: ((x0, y0, z0), (x1, y1, z1)) the positions allowed [m], instrument frame.
-        measure: what is measured: points or poses with a tracker, or an eye-to-hand
-            :class:`~pincal.instruments.Image` (its camera is placed, looking at the target at the test pose).
-        instrument: the error model; a :class:`~pincal.instruments.Tracker` is moved to each position (its
-            ``at``); default a tracker with pincal's defaults for points and poses.
+        instrument: what is measured and how well (:class:`pincal.instruments.Instrument`):
+            points or poses with a :class:`~pincal.instruments.Tracker`, moved to each position
+            (its ``at``), or an eye-to-hand :class:`~pincal.instruments.Image` (its camera is
+            placed, looking at the target at the test pose); default points with a tracker of
+            pincal's defaults. Its error model has its own σ: no ``sigma=`` among ``options``.
         constraints: the workcell's other constraints.
         sight: what a tracker at a position must see (range, acceptance angle, line of sight).
         steps: grid positions per axis of the box (an axis of zero width has one).
@@ -246,24 +250,25 @@ def place_instrument(
     _grid_size(lower, upper, steps)
     if screen is not None:
         screen = positive_int(screen, "screen (positions designed in full)")
-    kind = measure
+    given = placed_instrument(instrument, options.pop("sigma", None))
+    kind = given.kind
     camera = isinstance(kind, Image)
     if isinstance(kind, Image) and kind.eye_in_hand:
         raise BadArgument(
             "a camera on the tool moves with it: place_instrument places a camera fixed in the cell"
         )
-    tracker = None if camera else _tracker(instrument)  # none when a camera is placed
+    tracker = None if camera else placed_tracker(given.error)  # none when a camera is placed
     base_constraints, notes = tuple(constraints), _sight_notes(params, sight, camera)
     options = dict(options, seed=seed_entropy(options.get("seed", 0)))  # one seed for every design
     quick = {k: v for k, v in options.items() if k not in FULL_ONLY}
     quick.update(starts=SCREEN_STARTS, workers=1, polish=False)
-    final = options if screen is None else _finalist(options)  # the exhaustive search: full designs
+    final = options if screen is None else finalist(options)  # the exhaustive search: full designs
     shared = None if screen is None else Screen(params, base_constraints, options, m)
     steps_done = Steps(progress, "placement", "position")
     trials = _Trials(
         lambda at: _placed(params, kind, tracker, at, test_pose, sight, notes),
-        lambda at: instrument if tracker is None else replace(tracker, at=tuple(at)),
-        dict(m=m, test_pose=test_pose, criterion=criterion, measure=measure, constraints=base_constraints),
+        lambda at: given if tracker is None else Instrument(kind, replace(tracker, at=tuple(at))),
+        dict(m=m, test_pose=test_pose, criterion=criterion, constraints=base_constraints),
         quick, final, shared, steps_done, progress,
     )  # fmt: skip
     look, in_full, designed = trials.look, trials.in_full, trials.designed
@@ -301,15 +306,6 @@ def place_instrument(
                      np.array([at in full for at in tried]), screen)  # fmt: skip
 
 
-def _tracker(instrument: ErrorModel | None) -> Tracker:
-    """The tracker placed (pincal's default one when none is given)."""
-    if not (instrument is None or isinstance(instrument, Tracker)):
-        raise BadArgument(
-            "place_instrument places a laser tracker (instrument=pincal.instruments.Tracker(...)) or a camera"
-        )
-    return instrument or Tracker()
-
-
 def _nothing_seen(lower: np.ndarray, upper: np.ndarray, m: int, reasons: dict, screened: bool) -> Infeasible:
     """The error when no position of the box gives a feasible plan."""
     how = " (screened: a larger pool, or screen=None, designs each in full)" if screened else ""
@@ -326,8 +322,8 @@ class _Trials:
     plan), those designed in full, and why positions failed (one reason per error type)."""
 
     place: Callable[[np.ndarray], tuple[ParameterSet, tuple[AnyConstraint, ...]]]
-    error_model: Callable[[np.ndarray], ErrorModel | None]
-    problem: dict  # m, test_pose, criterion, measure, constraints
+    instrument: Callable[[np.ndarray], Instrument]
+    problem: dict  # m, test_pose, criterion, constraints
     quick: dict
     final: dict
     shared: Screen | None
@@ -340,7 +336,7 @@ class _Trials:
     def designed(self, at: np.ndarray, quickly: Screen | None = None) -> DesignResult | None:
         """The plan designed with the instrument at ``at``: in full, or quickly (the screen)."""
         placed, extra = self.place(at)
-        error = self.error_model(at)
+        instrument = self.instrument(at)
         how, m = self.final, self.problem["m"]
         try:
             if quickly is not None:
@@ -353,10 +349,10 @@ class _Trials:
                 how = dict(self.quick, pool=pool)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
+                given = dict(how, constraints=self.problem["constraints"] + extra,
+                             progress=self.progress and quickly is None)  # fmt: skip
                 result = design(placed, m, self.problem["test_pose"], criterion=self.problem["criterion"],
-                    **grouped(dict(how, measure=self.problem["measure"], instrument=error,
-                    constraints=self.problem["constraints"] + extra,
-                    progress=self.progress and quickly is None)))  # fmt: skip
+                                instrument=instrument, **design_values(given))  # fmt: skip
         except (Infeasible, SingularPlan, DegenerateOptimum) as failure:  # nothing it can see there
             self.reasons.setdefault(type(failure).__name__, str(failure))
             return None
@@ -390,21 +386,6 @@ class _Trials:
         if screened is None or (result is not None and result.value <= screened.value):
             self.tried[at] = result
         self.steps_done.advance(_best_note(self.tried, self.problem["criterion"]))
-
-
-FULL_ONLY = frozenset(
-    ("pool", "starts", "workers", "polish", "executor", "init", "method", "keep", "screen_iterations",
-     "maxiter", "with_d_optimal", "progress")
-)  # fmt: skip
-"""The options of :func:`pincal.design` that the full designs take and the screen's quick designs
-do not (they run :data:`SCREEN_STARTS` exchange starts over the shared pool, in this process)."""
-
-
-def _finalist(options: dict) -> dict:
-    """The options of a finalist's design: those given, and :data:`FINAL_STARTS` starts and
-    :data:`FINAL_MAXITER` polish iterations where none (or None: adaptive) is given."""
-    given = {k: v for k, v in options.items() if not (k in ("starts", "maxiter") and v is None)}
-    return {"starts": FINAL_STARTS, "maxiter": FINAL_MAXITER, **given}
 
 
 def _best_note(tried: dict[tuple[float, ...], DesignResult | None], criterion: str) -> str:

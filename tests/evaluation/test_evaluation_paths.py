@@ -28,8 +28,8 @@ from pincal.evaluation.plans import engine_for, jacobians
 from pincal.evaluation.predicted_error import PredictedError
 from pincal.evaluation.region import width_text
 from pincal.evaluation.test_pose import TestPoseCriterion
-from pincal.instruments import Tracker
-from pincal.instruments.instrument import optional_instrument
+from pincal.instruments import Point, Tracker
+from pincal.instruments.instrument import Instrument
 from pincal.kept import REPORTS
 from pincal.model.jacobian import JacobianEngine
 from tests.conftest import ROOT
@@ -396,15 +396,13 @@ def test_an_accuracy_reports_jacobians_are_each_sets_own(kr270_marker):
     views = [J for _, J in jacobians]
     for rho, J in zip(predicted.at_sets(views), views, strict=True):
         assert np.array_equal(rho, np.sqrt(predicted.squared_at(J)))
-    for prior, error_model in (
+    for prior, instrument in (
         (None, None),
         (pincal.Prior(1e-3, 1e-3), None),
-        (None, Tracker(at=(3.0, 1.0, 0.5))),
+        (None, Instrument(Point(), Tracker(at=(3.0, 1.0, 0.5)))),
     ):
-        report = pincal.accuracy(
-            params, plan, q0, sigma=SIGMA, prior=prior, instrument=error_model, samples=20, workspace=40
-        )
-        instrument = optional_instrument(None, error_model, SIGMA)
+        measuring = {"sigma": SIGMA} if instrument is None else {"instrument": instrument}
+        report = pincal.accuracy(params, plan, q0, prior=prior, samples=20, workspace=40, **measuring)
         sigma = SIGMA if instrument is None else instrument.reference
         predicted = PredictedError(params, plan, sigma, prior, instrument=instrument)
         criterion = TestPoseCriterion(params, q0, sigma, "each", prior, instrument=instrument)

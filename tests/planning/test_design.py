@@ -17,6 +17,7 @@ from pincal.errors import DegenerateOptimum, DegenerateOptimumWarning
 from pincal.evaluation.information import conditioning
 from pincal.evaluation.registry import CRITERIA
 from pincal.evaluation.registry import make_criterion as make_objective
+from pincal.instruments.given import instrument_of
 from pincal.model.jacobian import JacobianEngine
 from pincal.planning import exchange as _exchange
 from pincal.planning import multistart as _multistart
@@ -31,7 +32,6 @@ from pincal.planning.constraints import (
     with_safety,
 )
 from pincal.planning.driver import _validate, design
-from pincal.planning.options import instrument_of
 from pincal.planning.results import StartRecord
 from pincal.planning.search import Outcome
 from pincal.planning.starts import draw_start, exchange_of, start_seed
