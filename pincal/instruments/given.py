@@ -81,8 +81,11 @@ def measured(
 def instrument_of(instrument: object = None, sigma: object = None) -> tuple[Instrument, bool]:
     """(the instrument, True when it is ``sigma=``'s shorthand: points with one σ per coordinate,
     whose rows are the points' own): :func:`measured`, the shorthand as an Instrument."""
-    given, s = measured(instrument, sigma)
-    return (Instrument(Point(), PerCoordinate(s)), True) if given is None else (given, False)
+    if instrument is None:  # PerCoordinate checks σ (positive_sigma), once
+        return Instrument(Point(), PerCoordinate(DEFAULT_SIGMA if sigma is None else sigma)), True  # type: ignore[arg-type]
+    given, _ = measured(instrument, sigma)
+    assert given is not None  # an instrument was given
+    return given, False
 
 
 def old_instrument(flat: dict, kwargs: dict) -> tuple[dict, str]:

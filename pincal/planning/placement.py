@@ -53,13 +53,9 @@ from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint, LineOfSight, Visibility
 from pincal.planning.driver import design
 from pincal.planning.placement_grid import MAX_POSITIONS, _box, _grid, _grid_size, _point  # noqa: F401  (MAX_POSITIONS: its name here too)
-from pincal.planning.placement_options import (  # noqa: F401  (the constants: their names here too)
-    FINAL_MAXITER,
-    FINAL_STARTS,
+from pincal.planning.placement_options import (
     FULL_ONLY,
-    SCREEN_STARTS,
     design_values,
-    finalist,
     old_placed,
     placed_instrument,
     placed_tracker,
@@ -80,6 +76,17 @@ SCREEN = 3
 """Default number of positions designed in full: the best of the screen. On the UR10's boxes of
 benchmarks/RESULTS.md (bench_placement), the position and ρ0 the exhaustive search finds, for a third
 of its CPU without the polish and a fraction with it (a polished design a position)."""
+
+SCREEN_STARTS = 2
+"""Exchange starts of a position's quick design in the screen."""
+
+FINAL_STARTS = 8
+"""Exchange starts of a finalist's design (the screen's best, the default placement): one batch,
+its best quarter polished, not batches until the starts agree (``starts=`` given is used)."""
+
+FINAL_MAXITER = 150
+"""Iterations of a finalist's polish (:func:`pincal.design`'s ``maxiter``, default 3000; given: used)."""
+
 
 ACCEPTANCE = math.radians(30.0)
 """Default acceptance half-angle of a tracker's reflector [rad]: a 1.5" red-ring reflector's ±30°."""
@@ -262,7 +269,7 @@ def place_instrument(
     options = dict(options, seed=seed_entropy(options.get("seed", 0)))  # one seed for every design
     quick = {k: v for k, v in options.items() if k not in FULL_ONLY}
     quick.update(starts=SCREEN_STARTS, workers=1, polish=False)
-    final = options if screen is None else finalist(options)  # the exhaustive search: full designs
+    final = options if screen is None else _finalist(options)  # the exhaustive search: full designs
     shared = None if screen is None else Screen(params, base_constraints, options, m)
     steps_done = Steps(progress, "placement", "position")
     trials = _Trials(
@@ -386,6 +393,13 @@ class _Trials:
         if screened is None or (result is not None and result.value <= screened.value):
             self.tried[at] = result
         self.steps_done.advance(_best_note(self.tried, self.problem["criterion"]))
+
+
+def _finalist(options: dict) -> dict:
+    """The options of a finalist's design: those given, and :data:`FINAL_STARTS` starts and
+    :data:`FINAL_MAXITER` polish iterations where none (or None: adaptive) is given."""
+    given = {k: v for k, v in options.items() if not (k in ("starts", "maxiter") and v is None)}
+    return {"starts": FINAL_STARTS, "maxiter": FINAL_MAXITER, **given}
 
 
 def _best_note(tried: dict[tuple[float, ...], DesignResult | None], criterion: str) -> str:

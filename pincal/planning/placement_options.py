@@ -14,16 +14,6 @@ from pincal.instruments.instrument import Instrument
 from pincal.instruments.point import Point
 from pincal.planning.options import Loads, Safety, Search
 
-SCREEN_STARTS = 2
-"""Exchange starts of a position's quick design in the screen."""
-
-FINAL_STARTS = 8
-"""Exchange starts of a finalist's design (the screen's best, the default placement): one batch,
-its best quarter polished, not batches until the starts agree (``starts=`` given is used)."""
-
-FINAL_MAXITER = 150
-"""Iterations of a finalist's polish (:func:`pincal.design`'s ``maxiter``, default 3000; given: used)."""
-
 
 def placed_instrument(instrument: object, sigma: object) -> Instrument:
     """The instrument placed, checked at the door (:func:`~pincal.instruments.given.measured`):
@@ -73,7 +63,8 @@ FULL_ONLY = frozenset(
      "maxiter", "with_d_optimal", "progress")
 )  # fmt: skip
 """The options of :func:`pincal.design` that the full designs take and the screen's quick designs
-do not (they run :data:`SCREEN_STARTS` exchange starts over the shared pool, in this process)."""
+do not (they run :data:`~pincal.planning.placement.SCREEN_STARTS` exchange starts over the shared
+pool, in this process)."""
 
 
 def design_values(options: dict) -> dict:
@@ -90,10 +81,3 @@ def design_values(options: dict) -> dict:
 OF_VALUES = frozenset(f.name for kind in (Search, Safety, Loads) for f in fields(kind))
 """The options of a design that belong to :class:`~pincal.Search`, :class:`~pincal.Safety` or
 :class:`~pincal.Loads`."""
-
-
-def finalist(options: dict) -> dict:
-    """The options of a finalist's design: those given, and :data:`FINAL_STARTS` starts and
-    :data:`FINAL_MAXITER` polish iterations where none (or None: adaptive) is given."""
-    given = {k: v for k, v in options.items() if not (k in ("starts", "maxiter") and v is None)}
-    return {"starts": FINAL_STARTS, "maxiter": FINAL_MAXITER, **given}

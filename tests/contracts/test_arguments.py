@@ -140,6 +140,13 @@ def _sigma_calls(planar):
     }
 
 
+SIGMA_OR_INSTRUMENT = (
+    "rho0", "rho0_each", "accuracy", "error_profile", "design", "random_plans", "monte_carlo",
+    "simulate_measurements", "scene",
+)  # fmt: skip
+"""The functions whose ``sigma=`` is the shorthand of ``instrument=`` (pincal.instruments.given)."""
+
+
 @pytest.mark.parametrize("sigma", [1e-20, -1.0, 0.0, float("inf"), float("nan"), 1e308, True, "3e-5", None])
 def test_sigma_has_one_answer_everywhere(planar, sigma):
     """rho0(sigma=1e-20) was accepted where design refused it, position_covariance(sigma=-1)
@@ -151,7 +158,8 @@ def test_sigma_has_one_answer_everywhere(planar, sigma):
             continue
         if name == "identify" and sigma is None:  # identify's None: estimated from the residuals
             continue
-        if name in ("design", "scene") and sigma is None:  # None: not given (the default σ, or instrument=)
+        if name in SIGMA_OR_INSTRUMENT and sigma is None:  # None: not given (the default σ, or instrument=)
+            call(sigma)
             continue
         with pytest.raises(pincal.errors.BadArgument, match=SIGMA_REFUSED) as caught:
             call(sigma)

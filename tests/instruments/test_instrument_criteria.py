@@ -35,9 +35,10 @@ def test_default_instrument_is_today_exactly(ur10):
     params = ur10.parameters("full,offsets").identifiable().identifiable
     plan = ur10.random_configurations(15, 1)
     plain = pincal.rho0(params, plan, Q0, sigma=2e-5)
-    same = pincal.rho0(params, plan, Q0, measure=Point(), instrument=PerCoordinate(2e-5))
+    points = Instrument(Point(), PerCoordinate(2e-5))
+    same = pincal.rho0(params, plan, Q0, instrument=points)
     assert same == plain
-    assert pincal.criteria(params, plan, instrument=PerCoordinate(2e-5)) == pincal.criteria(params, plan)
+    assert pincal.criteria(params, plan, instrument=points) == pincal.criteria(params, plan)
 
 
 def test_rho0_is_weighted_by_the_inverse_covariance(ur10):
@@ -50,8 +51,9 @@ def test_rho0_is_weighted_by_the_inverse_covariance(ur10):
     M = sum(j.T @ np.linalg.solve(c, j) for j, c in zip(J, cov))
     J0 = params.jacobian(Q0, frame="world")[0]
     expected = np.sqrt(np.trace(J0 @ np.linalg.solve(M, J0.T)))
-    assert pincal.rho0(params, plan, Q0, instrument=tracker) == pytest.approx(expected, rel=1e-9)
-    each = pincal.evaluation.rho0_each(params, plan, [Q0, Q0 * 0.5], instrument=tracker)
+    measured = Instrument(Point(), tracker)
+    assert pincal.rho0(params, plan, Q0, instrument=measured) == pytest.approx(expected, rel=1e-9)
+    each = pincal.evaluation.rho0_each(params, plan, [Q0, Q0 * 0.5], instrument=measured)
     assert each[0] == pytest.approx(expected, rel=1e-9)
 
 
@@ -65,7 +67,7 @@ def test_orientation_part_of_the_test_pose_criterion(ur10, pose_params):
     points = JacobianEngine(pose_params)
     Jp, Jw = points.jacobian(Q0[None], frame="tip")[0], points.frame_rows(Q0[None])[0][0, 3:]
     position, angle = np.trace(Jp @ C @ Jp.T), np.trace(Jw @ C @ Jw.T)
-    kw = {"measure": Pose(), "instrument": mocap}
+    kw = {"instrument": Instrument(Pose(), mocap)}
     assert pincal.rho0(pose_params, plan, Q0, **kw) == pytest.approx(np.sqrt(position), rel=1e-9)
     with_angle = pincal.rho0(pose_params, plan, Q0, orientation_length=0.25, **kw)
     assert with_angle == pytest.approx(np.sqrt(position + 0.25**2 * angle), rel=1e-9)
@@ -101,9 +103,9 @@ def test_design_measures_what_the_instrument_does(ur10, pose_params):
             search=pincal.Search(starts=2, workers=1, seed=1, pool=300),
         )
     assert result.sigma == mocap.sigma and result.as_dict()["instrument"]["measure"] == {"kind": "pose"}
-    again = pincal.rho0(pose_params, result.plan, Q0, measure=Pose(), instrument=mocap)
+    again = pincal.rho0(pose_params, result.plan, Q0, instrument=Instrument(Pose(), mocap))
     assert result.rho0 == pytest.approx(again, rel=1e-12)
-    randoms = pincal.random_plans(pose_params, 8, 50, Q0, measure=Pose(), instrument=mocap, seed=2)
+    randoms = pincal.random_plans(pose_params, 8, 50, Q0, instrument=Instrument(Pose(), mocap), seed=2)
     assert randoms.n_singular == 0 and result.rho0 < randoms.min
     with pytest.raises(pincal.errors.SingularPlan):  # 4 poses of 6 values cannot identify 30 parameters
         pincal.design(
@@ -116,20 +118,18 @@ def test_design_measures_what_the_instrument_does(ur10, pose_params):
 
 
 def test_monte_carlo_of_a_pose_plan_matches_its_prediction(ur10, pose_params):
-    mocap = PerCoordinate(1e-4, 2e-3)
+    mocap = Instrument(Pose(), PerCoordinate(1e-4, 2e-3))
     plan = ur10.random_configurations(20, 5)
-    mc = pincal.monte_carlo(pose_params, plan, Q0, trials=40, seed=3, measure=Pose(), instrument=mocap)
+    mc = pincal.monte_carlo(pose_params, plan, Q0, trials=40, seed=3, instrument=mocap)
     assert mc.failures == 0 and abs(mc.ratio - 1) < 4 * mc.ratio_se
-    assert mc.rho0_predicted == pytest.approx(
-        pincal.rho0(pose_params, plan, Q0, measure=Pose(), instrument=mocap), rel=1e-12
-    )
+    assert mc.rho0_predicted == pytest.approx(pincal.rho0(pose_params, plan, Q0, instrument=mocap), rel=1e-12)
 
 
 def test_accuracy_away_from_the_test_pose_with_a_tracker(ur10):
     params = ur10.parameters("full,offsets").identifiable().identifiable
     plan = ur10.random_configurations(15, 6)
-    tracker = Tracker(at=(3.0, 0.0, 1.0))
-    report = pincal.accuracy(params, plan, Q0, sigma=3e-5, instrument=tracker, samples=16, workspace=32)
+    tracker = Instrument(Point(), Tracker(at=(3.0, 0.0, 1.0)))
+    report = pincal.accuracy(params, plan, Q0, instrument=tracker, samples=16, workspace=32)
     at = report.plans[0].rows[0].rms
     assert at == pytest.approx(pincal.rho0(params, plan, Q0, instrument=tracker), rel=1e-9)
     assert report.sigma == tracker.reference

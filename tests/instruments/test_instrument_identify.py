@@ -39,8 +39,8 @@ def campaign(robot, kind, spec, m, error=None, seed=0, prefer=()):
         if isinstance(kind, Image)
         else robot.random_configurations(m, seed + 1)
     )
-    data = pincal.simulate_measurements(truth, qs, seed=seed + 2, measure=kind, instrument=error)
-    return pincal.identify(params, data, instrument=error or PerCoordinate()), truth
+    data = pincal.simulate_measurements(truth, qs, seed=seed + 2, instrument=instrument)
+    return pincal.identify(params, data, instrument=instrument), truth
 
 
 def assert_within_standard_errors(result, truth):
@@ -74,14 +74,10 @@ def test_mocap_poses_in_the_instrument_frame_with_its_own_noise():
     ur10 = pincal.load_robot("ur10").replace(
         base=pin.SE3(pin.rpy.rpyToMatrix(0, 0, 0.4), np.array([1.0, 0.5, 0]))
     )
-    mocap = PerCoordinate(1e-4, 2e-3)
-    params = identifiable(
-        ur10.parameters("full,offsets,base"), Instrument(Pose(), mocap), prefer="base"
-    ).identifiable
+    mocap = Instrument(Pose(), PerCoordinate(1e-4, 2e-3))
+    params = identifiable(ur10.parameters("full,offsets,base"), mocap, prefer="base").identifiable
     truth = pincal.random_errors(params, seed=3)
-    data = pincal.simulate_measurements(
-        truth, ur10.random_configurations(30, 4), seed=5, measure=Pose(), instrument=mocap
-    )
+    data = pincal.simulate_measurements(truth, ur10.random_configurations(30, 4), seed=5, instrument=mocap)
     result = pincal.identify(params.on(ur10.replace(base=pin.SE3.Identity())), data, instrument=mocap)
     assert result.status == "converged"
     assert np.allclose(result.robot.base.translation, truth.robot.base.translation, atol=1e-3)
@@ -162,14 +158,17 @@ def test_kind_files_round_trip(tmp_path):
     ur10 = pincal.load_robot("ur10", markers=[(0.05, 0.02, 0.1), (0.0, 0.0, 0.1)])
     qs = ur10.random_configurations(3, 0)
     for kind in (Pose(), Partial((("z",), ("x", "y"))), Partial(("z",))):
-        data = pincal.simulate_measurements(ur10, qs, 1e-5, seed=1, measure=kind)
+        data = pincal.simulate_measurements(
+            ur10, qs, seed=1, instrument=Instrument(kind, PerCoordinate(1e-5))
+        )
         path = tmp_path / f"{kind.name}.csv"
         data.to_csv(path, millimetres=True, robot=ur10)
         back = pincal.MeasurementData.from_csv(path, ur10, millimetres=True)
         assert type(back.measure) is type(kind) and np.allclose(back.values, data.values, atol=1e-12)
     panda_kind, panda = panda_camera()
+    exact = Instrument(panda_kind)  # sigma=0: exact values, of what it measures too
     data = pincal.simulate_measurements(
-        panda, seen_plan(panda, panda_kind, 3, 2, minimum=2), 0.0, measure=panda_kind
+        panda, seen_plan(panda, panda_kind, 3, 2, minimum=2), 0.0, instrument=exact
     )
     assert np.isnan(data.values).any()  # points out of view
     path = tmp_path / "image.csv"

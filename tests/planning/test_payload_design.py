@@ -233,14 +233,14 @@ def test_a_pose_design_with_payloads_recovers_the_parameters(pose_params):
     assert isinstance(result.instrument, Instrument) and isinstance(result.instrument.kind, Pose)
     # The criterion the exchange minimised is the one pincal.rho0 evaluates on the plan.
     again = pincal.rho0(
-        params, plan, Q0, task_payload=TASK, measure=Pose(), instrument=MOCAP, orientation_length=0.2
+        params, plan, Q0, task_payload=TASK, instrument=Instrument(Pose(), MOCAP), orientation_length=0.2
     )
     assert result.rho0 == pytest.approx(again, rel=1e-9)
     # Parameters recovered from one simulated campaign under the plan's payloads, within their
     # standard errors (z = (estimate - truth) / standard error: RMS about 1).
     truth = pincal.random_errors(params, seed=7)
-    data = pincal.simulate_measurements(truth, plan, seed=8, measure=Pose(), instrument=MOCAP)
-    fitted = pincal.identify(params, data, instrument=MOCAP)
+    data = pincal.simulate_measurements(truth, plan, seed=8, instrument=Instrument(Pose(), MOCAP))
+    fitted = pincal.identify(params, data, instrument=Instrument(Pose(), MOCAP))
     assert fitted.success
     z = (fitted.values - truth.values) / fitted.std
     assert np.sqrt(np.mean(z**2)) < 2.0 and np.abs(z).max() < 5.0
@@ -257,4 +257,4 @@ def test_a_residual_model_design_measures_points(params):
         )  # type: ignore[arg-type]
     plan = params.robot.random_configurations(15, 3)
     with pytest.raises(BadArgument, match="orientations, pixels or distances"):
-        pincal.accuracy(params, plan, Q0, sigma=SIGMA, residual_model=object(), measure=Pose())  # type: ignore[arg-type]
+        pincal.accuracy(params, plan, Q0, residual_model=object(), instrument=Instrument(Pose()))  # type: ignore[arg-type]

@@ -9,7 +9,7 @@ import pytest
 
 import pincal
 from pincal.errors import BadArgument, BadConstraint
-from pincal.instruments import PerCoordinate, Tracker
+from pincal.instruments import Instrument, PerCoordinate, Point, Tracker
 from pincal.planning.constraints import LineOfSight, Visibility, constraints_from_dict
 from pincal.planning.placement import place_instrument
 from pincal.viewing import plots
@@ -117,7 +117,7 @@ def test_a_placed_tracker_beats_the_default_placement(params, placement):
     away) is a measured factor worse, and the plan satisfies the tracker's sight there."""
     finite = placement.values[np.isfinite(placement.values)]
     assert placement.result.value == pytest.approx(finite.min(), rel=1e-12)
-    tracker = Tracker(tuple(placement.at))
+    tracker = Instrument(Point(), Tracker(tuple(placement.at)))
     assert pincal.rho0(params, placement.result.plan, Q0, instrument=tracker) == pytest.approx(
         placement.result.rho0, rel=1e-9
     )
@@ -147,7 +147,9 @@ def test_bad_placements_are_refused(params):
     with pytest.raises(BadArgument, match="X0,Y0,Z0,X1,Y1,Z1"):
         place_instrument(params, 12, Q0, (1, 2, 3))
     with pytest.raises(BadArgument, match="laser tracker"):
-        place_instrument(params, 12, Q0, BOX, instrument=PerCoordinate(1e-5))
+        place_instrument(params, 12, Q0, BOX, instrument=Instrument(Point(), PerCoordinate(1e-5)))
+    with pytest.raises(BadArgument, match="give instrument=, not sigma="):
+        place_instrument(params, 12, Q0, BOX, sigma=1e-5)
 
 
 def test_design_places_the_tracker_from_the_command_line(cli, tmp_path):
