@@ -107,7 +107,7 @@ def test_the_flat_keywords_and_the_values_design_the_same_plan(robot, params, lo
     p = {"params": params, "loaded": loaded}[which]
     with pytest.warns(
         DeprecationWarning,
-        match=r"design\(\): (the flat keywords|measure= and an error model as instrument=) are deprecated: write ",
+        match=r"design\(\): (the flat keywords|measure= and an error model as instrument=) are deprecated",
     ) as caught:
         old = pincal.design(p, m, Q0, **flat)
     assert {w.filename for w in caught if w.category is DeprecationWarning} == {__file__}  # the caller's line
@@ -160,7 +160,7 @@ def test_the_values_are_checked(params):
         pincal.design(params, 8, Q0, safety=pincal.Search())  # type: ignore[arg-type]
     with pytest.raises(BadArgument, match="give sigma= .* or instrument= .*not both"):
         pincal.design(params, 8, Q0, sigma=SIGMA, instrument=Instrument(Pose(), PerCoordinate(1e-4)))
-    with pytest.raises(BadArgument, match=r"instrument= takes a pincal.instruments.Instrument\(kind, error model\)"):
+    with pytest.raises(BadArgument, match=r"instrument= takes a pincal.instruments.Instrument\("):
         pincal.design(params, 8, Q0, instrument=Pose())  # type: ignore[arg-type]
     with pytest.raises(BadArgument, match="sigma must be a positive number of metres"):
         pincal.design(params, 8, Q0, sigma=-1.0)
