@@ -49,28 +49,22 @@ class _Printed(list):
         super().append(line)
 
 
-def recovered(params, truth, plan, measure, error, seed) -> tuple[float, float]:
+def recovered(params, truth, plan, instrument, seed) -> tuple[float, float]:
     """(RMS z, max |z|) of one simulated campaign's estimates against the truth."""
-    data = pincal.simulate_measurements(truth, plan, seed=seed, measure=measure, instrument=error)
-    result = pincal.identify(params, data, instrument=error)
+    data = pincal.simulate_measurements(truth, plan, seed=seed, instrument=instrument)
+    result = pincal.identify(params, data, instrument=instrument)
     assert result.status == "converged", result.message
     z = (result.values - truth.values) / result.std
     return float(np.sqrt(np.mean(z**2))), float(np.abs(z).max())
 
 
-def campaign(name, params, m, q0, measure, error, trials, seed, **design):
+def campaign(name, params, m, q0, instrument, trials, seed, **design):
     """One row: design, recovery, Monte-Carlo."""
     t = cpu_seconds()
-    result = pincal.design(
-        params,
-        m,
-        q0,
-        instrument=Instrument(Point() if measure is None else measure, error),
-        search=pincal.Search(seed=seed, **design),
-    )
+    result = pincal.design(params, m, q0, instrument=instrument, search=pincal.Search(seed=seed, **design))
     t_design = cpu_seconds() - t
     truth = pincal.random_errors(params, error_std=ERRORS, seed=seed + 1)
-    z_rms, z_max = recovered(params, truth, result.plan, measure, error, seed + 2)
+    z_rms, z_max = recovered(params, truth, result.plan, instrument, seed + 2)
     t = cpu_seconds()
     mc = pincal.monte_carlo(
         params,
@@ -79,8 +73,7 @@ def campaign(name, params, m, q0, measure, error, trials, seed, **design):
         trials=trials,
         seed=seed + 3,
         error_std=ERRORS,
-        measure=measure,
-        instrument=error,
+        instrument=instrument,
     )
     t_mc = cpu_seconds() - t
     return (
@@ -105,7 +98,7 @@ def campaigns(trials: int) -> list[str]:
     mocap = PerCoordinate(1e-4, 2e-3)
     params = identifiable(ur10.parameters("full,offsets,base"), Instrument(Pose(), mocap), prefer="base")
     rows.append(campaign("UR10, 6-D mocap (0.1 mm, 2 mrad), base identified", params.identifiable, 20,
-                         UR10_Q0, Pose(), mocap, trials, 10))  # fmt: skip
+                         UR10_Q0, Instrument(Pose(), mocap), trials, 10))  # fmt: skip
     # An eye-in-hand camera on a Panda seeing a 6 × 5 grid (0.5 px).
     kind = Image(Camera(600, 600, 320, 240, (0.05, -0.02, 0.0, 0.0, 0.0), 640, 480), grid(6, 5, 0.03))
     target = pin.SE3(pin.rpy.rpyToMatrix(np.pi, 0, 0), np.array([0.5, 0, 0.0]))
@@ -113,13 +106,13 @@ def campaigns(trials: int) -> list[str]:
     pixels = PerCoordinate(sigma_px=0.5)
     params = identifiable(panda.parameters("full,offsets,instrument"), Instrument(kind, pixels))
     rows.append(campaign("Panda, eye-in-hand camera, 6 × 5 grid (0.5 px)", params.identifiable, 20, PANDA_Q0,
-                         kind, pixels, trials, 0, starts=2))  # fmt: skip
+                         Instrument(kind, pixels), trials, 0, starts=2))  # fmt: skip
     # A laser tracker (AT500 defaults) at 2 m and at 10 m from a KR 270.
     kr270 = pincal.load_robot("kr270", markers=[(0.1, 0.05, 0.2)])
     params = kr270.parameters("full").identifiable().identifiable
     for d in (2.0, 10.0):
         tracker = Tracker((d + 1.0, 0.0, 1.5))  # the robot reaches ~1 m towards it
-        rows.append(campaign(f"KR 270, tracker {d:g} m in front", params, 12, KR270_Q0, None, tracker,
+        rows.append(campaign(f"KR 270, tracker {d:g} m in front", params, 12, KR270_Q0, Instrument(Point(), tracker),
                              trials, 30 + int(d)))  # fmt: skip
     return rows
 
@@ -160,7 +153,6 @@ def sweep(robot_name, q0, seed) -> dict:
     out = {}
     for name, (robot, instrument) in kinds.items():
         params = instrument.identifiable(robot.parameters("full,offsets")).identifiable
-        measure = None if isinstance(instrument.kind, pincal.instruments.Point) else instrument.kind
         rows = instrument.kind.size(robot)
         designs = {}
         for m in M_SWEEP:
@@ -168,7 +160,7 @@ def sweep(robot_name, q0, seed) -> dict:
                 continue
             t = cpu_seconds()
             try:
-                result = pincal.design(params, m, q0, instrument=pincal.instruments.Instrument(measure, instrument.error), search=pincal.Search(seed=seed, starts=4, workers=1))  # fmt: skip
+                result = pincal.design(params, m, q0, instrument=instrument, search=pincal.Search(seed=seed, starts=4, workers=1))  # fmt: skip
             except (SingularPlan, Infeasible, DegenerateOptimum):
                 continue
             designs[m] = (
@@ -176,7 +168,7 @@ def sweep(robot_name, q0, seed) -> dict:
                 rho0_at_marker(params, result.plan, q0, instrument, single),
                 cpu_seconds() - t,
             )
-        out[name] = (params, instrument, measure, designs)
+        out[name] = (params, instrument, designs)
     return out
 
 
@@ -194,13 +186,13 @@ def pose_against_point(trials: int) -> list[str]:
         t = cpu_seconds()
         kinds = sweep(robot_name, q0, seed)
         figure[robot_name] = kinds
-        reference = kinds["point, 1 marker"][3][30][1]
+        reference = kinds["point, 1 marker"][2][30][1]
         rows.append(f"**{robot_name}** (test pose {np.round(q0, 3).tolist()} rad; sweep CPU {cpu_seconds() - t:.0f} s; "
                     f"the 30-configuration one-marker point plan reaches ρ0 {reference * 1e3:.4g} mm)")  # fmt: skip
         rows.append("")
         rows.append("| ρ0 at the marker, m = | " + " | ".join(str(m) for m in M_SWEEP) + " |")
         rows.append("| --- | " + " | ".join("---:" for _ in M_SWEEP) + " |")
-        for name, (params, _, _, designs) in kinds.items():
+        for name, (params, _, designs) in kinds.items():
             cells = [f"{designs[m][1] * 1e3:.4g}" if m in designs else "–" for m in M_SWEEP]
             rows.append(f"| {name} ({len(params)} parameters) [mm] | " + " | ".join(cells) + " |")
         rows.append("")
@@ -210,7 +202,7 @@ def pose_against_point(trials: int) -> list[str]:
         rows.append("| --- | " + " | ".join("---:" for _ in kinds) + " |")
         for label, target in targets:
             cells = []
-            for _, _, _, designs in kinds.values():
+            for _, _, designs in kinds.values():
                 m = fewest(designs, target)
                 cells.append("> 30" if m is None else str(m))
             rows.append(f"| {label} | " + " | ".join(cells) + " |")
@@ -219,11 +211,11 @@ def pose_against_point(trials: int) -> list[str]:
         # markers) against whole simulated calibrations.
         rows.append("| Monte-Carlo | m | predicted ρ0 | Monte-Carlo error at q0 | MC / predicted | CPU |")
         rows.append("| --- | ---: | ---: | ---: | ---: | ---: |")
-        for name, (params, instrument, measure, designs) in kinds.items():
+        for name, (params, instrument, designs) in kinds.items():
             for m in (min(designs), 12 if 12 in designs else max(designs)):
                 t = cpu_seconds()
                 mc = pincal.monte_carlo(params, designs[m][0].plan, q0, trials=trials, seed=seed + m,
-                                        error_std=ERRORS, measure=measure, instrument=instrument.error)  # fmt: skip
+                                        error_std=ERRORS, instrument=instrument)  # fmt: skip
                 rows.append(
                     f"| {name} | {m} | {mc.rho0_predicted * 1e3:.4g} mm | {mc.rho0_empirical * 1e3:.4g} ± "
                     f"{mc.rho0_empirical_se * 1e3:.2g} mm ({mc.trials - mc.failures} trials) | "
@@ -246,7 +238,7 @@ def _plot(figure: dict, path: str = "benchmarks/pose_against_point.png") -> None
         return
     fig, axes = plt.subplots(1, len(figure), figsize=(5 * len(figure), 3.8))
     for ax, (robot_name, kinds) in zip(np.atleast_1d(axes), figure.items()):
-        for name, (_, _, _, designs) in kinds.items():
+        for name, (_, _, designs) in kinds.items():
             ms = sorted(designs)
             ax.semilogy(ms, [designs[m][1] * 1e3 for m in ms], "o-", label=name, markersize=3)
         ax.set_xlabel("configurations m")

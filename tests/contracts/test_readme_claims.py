@@ -425,6 +425,7 @@ CLAIMS: tuple[Claim, ...] = (
     ),
     Claim("The names that were top-level in 0.1", equals(0.1)),  # the release before (CHANGELOG's 0.1.0)
     Claim("The flat keywords of 0.1", equals(0.1)),  # design()'s, grouped into values in 0.2
+    Claim("The two keywords of 0.1", equals(0.1)),  # measure= and an error model: one Instrument in 0.2
     Claim("a DH table, an ISO 9283 test), `pincal example rig", GIVEN),  # the standard's number
     Claim("still work until 0.3", equals(float(pincal._REMOVAL))),
     # Speed
