@@ -38,7 +38,8 @@ from pincal.typing import ConfigurationsLike, PayloadLike
 POINTS_ONLY = (
     "a residual model is a Gaussian process of the markers' positions, fitted to point residuals "
     "with one kernel for every coordinate: it says nothing of orientations, pixels or distances; "
-    "with it, plans measure points (no measure=, one sigma per coordinate)"
+    "with it, plans measure points with one sigma per coordinate (sigma=, or an instrument of points and "
+    "PerCoordinate)"
 )
 """Why a residual model goes with points only (designs, accuracy)."""
 
@@ -50,7 +51,7 @@ def check_points(instrument: object) -> None:
         BadArgument: ``instrument`` measures something else (see :data:`POINTS_ONLY`).
     """
     if instrument is not None and not getattr(instrument, "is_default", False):
-        raise BadArgument(POINTS_ONLY, argument="measure")
+        raise BadArgument(POINTS_ONLY, argument="instrument")
 
 
 class ResidualCriterion(Criterion):

@@ -40,9 +40,9 @@ def _families(ur10, params, plan):
         "error_profile": lambda **kw: pincal.evaluation.error_profile(
             params, {"p": plan}, Q0, steps=2, samples=8, **kw
         )[0].as_dict(),
-        "random_plans": lambda **kw: pincal.random_plans(params, 8, 10, Q0, seed=1, **kw).values,
+        "random_plans": lambda **kw: pincal.random_plans(params, 8, 4, Q0, seed=1, **kw).values,
         "simulate_measurements": lambda **kw: pincal.simulate_measurements(ur10, plan, seed=2, **kw).values,
-        "monte_carlo": lambda **kw: pincal.monte_carlo(params, plan, Q0, trials=3, seed=3, **kw).as_dict(),
+        "monte_carlo": lambda **kw: pincal.monte_carlo(params, plan, Q0, trials=2, seed=3, **kw).as_dict(),
     }
 
 
@@ -85,7 +85,7 @@ def test_criteria_and_design_take_the_0_1_form_too(setting):
     with pytest.warns(DeprecationWarning, match=OLD):
         old = pincal.criteria(params, plan, measure=Pose(), instrument=MOCAP)
     assert old == pincal.criteria(params, plan, instrument=Instrument(Pose(), MOCAP))
-    search = pincal.Search(starts=1, workers=1, pool=100, seed=1)
+    search = pincal.Search(starts=1, workers=1, pool=100, seed=1, polish=False)
     with pytest.warns(DeprecationWarning, match=OLD):
         before = pincal.design(params, 8, Q0, measure=Pose(), instrument=MOCAP, search=search)
     after = pincal.design(params, 8, Q0, instrument=Instrument(Pose(), MOCAP), search=search)

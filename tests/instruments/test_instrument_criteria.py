@@ -150,3 +150,20 @@ def test_cli_design_and_evaluate_with_instruments(cli, tmp_path):
     code, text, _ = cli.run("evaluate", "ur10", "--plan", plan, "--test-pose=0,-1.2,1.5,-1,-1.5,0", *pose,
                             "--orientation-length", "0.2", "--no-accuracy")  # fmt: skip
     assert code == 0 and "L = 0.2 m" in text
+
+
+def test_cli_reports_use_the_instrument_of_the_command_line(cli, tmp_path):
+    """--measure pose --sigma S: every number of the report is of poses with S per length (0.1's
+    classic criteria and D-optimal reference took the default σ: the keyword went without it)."""
+    ur10 = pincal.load_robot("ur10")
+    plan = tmp_path / "plan.csv"
+    pincal.Plan.for_robot(ur10, ur10.random_configurations(10, 7)).to_csv(plan)
+    pose = ("--measure", "pose", "--sigma", "1e-4")
+    ev = cli.json(
+        "evaluate", "ur10", "--plan", plan, "--test-pose=0,-1.2,1.5,-1,-1.5,0", *pose, "--no-accuracy"
+    )
+    params, qs = ur10.parameters(",".join(ev["params"])), pincal.Plan.from_csv(plan, ur10)
+    expected = pincal.criteria(params, qs, instrument=Instrument(Pose(), PerCoordinate(1e-4)))
+    assert ev["criteria"]["log_det"] == pytest.approx(expected.log_det, rel=1e-12)
+    default = pincal.criteria(params, qs, instrument=Instrument(Pose()))
+    assert abs(ev["criteria"]["log_det"] - default.log_det) > 1.0  # σ = 1e-4, not the default 3e-5
