@@ -29,14 +29,14 @@ import pinocchio as pin
 
 import pincal
 from pincal.calibration.measurements import MeasurementData
-from pincal.instruments import PerCoordinate, Pose
+from pincal.instruments import Instrument, PerCoordinate, Pose
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "franka_handeye"
 CAMERA_TURN = pin.rpy.rpyToMatrix(0.0, 0.0, np.pi / 2)
 """The camera's nominal orientation in the tool frame (mounted turned 90° about the tool's z)."""
 CAMERA_AT = (0.05, 0.0, -0.04)
 """The camera's nominal origin in the tool frame [m] (rounded)."""
-NOISE = PerCoordinate(1e-3, 5e-3)
+NOISE = Instrument(Pose(), PerCoordinate(1e-3, 5e-3))
 """The weights of identification: 1 mm per position coordinate, 5 mrad per angle (about the
 per-coordinate RMS of the hand-eye fit's residuals: 2.4 mm and 10 mrad per pose over 3)."""
 HAND_EYE = "base,markers,panda_hand_tcp.rx,panda_hand_tcp.ry,panda_hand_tcp.rz"
