@@ -29,7 +29,7 @@ from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestPath, around, cartesian_box, resolve_test_poses
 from pincal.model.statics import Payload
 from pincal.planning.driver import design
-from pincal.planning.options import Safety, Search, grouped
+from pincal.planning.options import Safety, Search
 from pincal.viewing.plots import error_vs_distance, save_figure
 
 REGION_HELP = """\
@@ -267,7 +267,7 @@ def d_optimal_plan(params, m: int, constraints=(), pool=None, seed: int = 0, **m
                 criterion="D",
                 search=Search(starts=4, seed=seed, pool=pool, workers=1, polish=False),
                 safety=Safety(constraints=constraints),
-                **grouped(_without_orientation(measuring)),
+                **_without_orientation(measuring),
             ).plan
         except PincalError:
             return None

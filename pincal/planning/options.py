@@ -19,7 +19,7 @@ from pincal.errors import BadArgument
 from pincal.planning.constraints import AnyConstraint, JointMargin, MountSpec
 from pincal.typing import ConfigurationsLike, PayloadLike, PoolLike, SeedLike
 
-__all__ = ["FLAT", "Loads", "Safety", "Search", "grouped", "regroup"]
+__all__ = ["FLAT", "Loads", "Safety", "Search", "regroup"]
 
 
 @dataclass(frozen=True)
@@ -154,11 +154,3 @@ def check_value(value: object, kind: type, name: str) -> None:
         raise BadArgument(
             f"{name}= takes a pincal.{kind.__name__}(...), got {value!r}", argument=name, value=value
         )
-
-
-def grouped(options: dict) -> dict:
-    """:func:`pincal.design`'s keywords for a dict of flat ones and others (a command's options,
-    gathered flag by flag): the values built from the flat ones, as :func:`regroup` does for a
-    caller of pincal 0.1, without its warning."""
-    flat = {name: value for name, value in options.items() if name in FLAT}
-    return regroup(flat, {name: value for name, value in options.items() if name not in flat})[0]

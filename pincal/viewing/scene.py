@@ -43,13 +43,13 @@ from pincal.evaluation.predicted_error import PredictedError
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import position_covariance
 from pincal.instruments.error_model import ErrorModel, Tracker
+from pincal.instruments.given import instrument_of
 from pincal.instruments.instrument import Instrument
 from pincal.model.collision import reach as robot_reach
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.optional import require
 from pincal.outputs import atomic_write_text
-from pincal.planning.options import instrument_of
 from pincal.planning.plan import Plan
 from pincal.typing import ConfigurationsLike, InstrumentAt, PayloadLike, ViewerLike
 from pincal.viewing.drawing import (
