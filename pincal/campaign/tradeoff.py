@@ -16,12 +16,14 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from pincal.arguments import DEFAULT_SIGMA, positive_int
+from pincal.arguments import positive_int
 from pincal.campaign.schedule import plan_campaign
 from pincal.campaign.timing import Timing
 from pincal.deprecation import moved_keywords
 from pincal.errors import BadArgument, PincalError
 from pincal.evaluation.prior import Prior
+from pincal.instruments.given import measured
+from pincal.instruments.instrument import Instrument
 from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import with_safety
 from pincal.planning.driver import design
@@ -132,7 +134,8 @@ def accuracy_vs_time(
     *,
     timing: Timing | None = None,
     home: JointValues | None = None,
-    sigma: float = DEFAULT_SIGMA,
+    sigma: float | None = None,
+    instrument: Instrument | None = None,
     prior: Prior | None = None,
     search: Search | None = None,
     safety: Safety | None = None,
@@ -146,7 +149,8 @@ def accuracy_vs_time(
         sizes: the plan sizes (default :data:`DEFAULT_SIZES`, 6 … 30).
         timing: the campaign's time model (default: the URDF's speeds, a laser tracker's dwell).
         home: where each campaign starts and ends (see :func:`plan_campaign`).
-        sigma, prior: as :func:`pincal.design`'s.
+        sigma, instrument, prior: as :func:`pincal.design`'s (what each plan measures and how
+            well: its instrument's rows set the fewest poses that identify the parameters).
         search: how each plan is searched (:class:`pincal.Search`), as :func:`pincal.design`'s.
         safety: how each plan is kept safe (:class:`pincal.Safety`), as :func:`pincal.design`'s;
             its constraints, with the safe defaults, are also those each campaign is ordered with.
@@ -175,7 +179,10 @@ def accuracy_vs_time(
     )
     kept = Safety(constraints=constraints, min_conditioning=safety.min_conditioning)
     rows, skipped = [], []
-    minimum = -(-len(params) // (3 * robot.n_markers))
+    instrument, sigma = measured(instrument, sigma)
+    rows_each = 3 * robot.n_markers if instrument is None else instrument.kind.size(robot)
+    minimum = -(-len(params) // rows_each)
+    how = {"sigma": sigma} if instrument is None else {"instrument": instrument}
     for m in sizes:
         if prior is None and m < minimum:
             skipped.append((m, f"fewer than the {minimum} poses that identify the {len(params)} parameters"))
@@ -185,10 +192,10 @@ def accuracy_vs_time(
                 params,
                 m,
                 test_pose,
-                sigma=sigma,
                 prior=prior,
                 search=search,
                 safety=kept,
+                **how,
                 **options,
             )
         except PincalError as exc:

@@ -243,16 +243,17 @@ def check_tradeoff_arguments(args: argparse.Namespace, robot, test_pose) -> tupl
 
 def report_tradeoff(args: argparse.Namespace, params, test_pose, plan, sigma: float, keywords: dict):
     """(this plan's campaign, the trade-off) of --campaign, the figure saved; (None, None) without it.
-    ``keywords``: the design's (its search, safety and prior are the trade-off's)."""
+    ``keywords``: the design's (its search, safety, prior and instrument are the trade-off's)."""
     checked = check_tradeoff_arguments(args, params.robot, test_pose)
     if checked is None:
         return None, None
     sizes, timing = checked
     search, safety = keywords["search"], keywords["safety"]
     campaign = plan_campaign(params.robot, plan, timing=timing, constraints=safety.constraints, check=False)
+    measured = {k: keywords[k] for k in ("instrument", "orientation_length") if k in keywords}
     tradeoff = accuracy_vs_time(
-        params, test_pose, sizes, timing=timing, sigma=sigma, prior=keywords.get("prior"), search=search,
-        safety=safety,
+        params, test_pose, sizes, timing=timing, prior=keywords.get("prior"), search=search, safety=safety,
+        **(measured if "instrument" in measured else dict(measured, sigma=sigma)),
     )  # fmt: skip
     if args.campaign_plot:
         rows = tradeoff.rows

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 
 import numpy as np
 
@@ -102,6 +103,10 @@ def run(args: argparse.Namespace) -> int:
     placement = None
     if args.place_instrument is not None:
         placement = _placed(args, params, q0, criterion, options, taught, measuring.options)
+        # the plan is measured by the placed instrument: the reports are of it, not of the default
+        placed = placement.result.instrument
+        measuring = replace(measuring, options=dict(measuring.options, instrument=placed))
+        options = {k: v for k, v in options.items() if k != "sigma"} | {"instrument": placed}
     elif args.placement_plot or args.place_steps is not None or args.place_screen is not None:
         raise BadArgument(
             "--placement-plot, --place-steps and --place-screen go with --place-instrument X0,Y0,Z0,X1,Y1,Z1"

@@ -410,3 +410,30 @@ def test_the_dwell_source_is_not_an_instrument_and_its_0_1_name_works_until_0_3(
     with pytest.warns(DeprecationWarning, match=r"Timing.instrument is renamed dwell_source ") as w:
         assert old.instrument == "probe"
     assert w[0].filename == __file__
+
+
+def test_the_tradeoff_measures_with_the_design_s_instrument(kr270_marker, cli):
+    """A pose measures 6 values a configuration: no fewer than 2 poses can identify 12 parameters
+    (points: 4), and each plan's predicted error is ρ0 with that instrument (it was points with the
+    default σ)."""
+    from pincal.campaign.tradeoff import accuracy_vs_time
+    from pincal.instruments import Instrument, PerCoordinate, Pose
+
+    params = kr270_marker.parameters("lengths,offsets").identifiable().identifiable
+    q0 = np.radians([0, -60, 60, 0, 45, 0])
+    pose = Instrument(Pose(), PerCoordinate(2e-5, 1e-4))
+    fast = pincal.Search(starts=1, pool=100, workers=1, polish=False)
+    result = accuracy_vs_time(params, q0, (1, 3, 4), instrument=pose, search=fast)
+    assert [r.m for r in result.rows] == [3, 4] and "the 2 poses" in result.skipped[0][1]
+    for row in result.rows:
+        assert row.predicted == pytest.approx(pincal.rho0(params, row.plan, q0, instrument=pose), rel=1e-9)
+    assert result.sigma == 2e-5
+    with pytest.raises(BadArgument, match="not both"):
+        accuracy_vs_time(params, q0, (4,), instrument=pose, sigma=1e-5, search=fast)
+    argv = ["design", "kr270", "-m", "4", "--test-pose=0,-60,60,0,45,0", "--deg", "--marker", "0.1,0.05,0.2"]
+    argv += ["--params", "lengths,offsets", "--starts", "1", "--workers", "1", "--pool-size", "100"]
+    argv += ["--no-accuracy", "--no-polish", "--measure", "pose", "--sigma", "2e-5", "--sigma-rot", "1e-4"]
+    payload = cli.json(*argv, "--campaign", "--campaign-m", "3,4")
+    rows = payload["tradeoff"]["rows"]
+    assert [r["m"] for r in rows] == [3, 4]
+    assert rows[1]["predicted"] == pytest.approx(payload["rho0"], rel=1e-9)

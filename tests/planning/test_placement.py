@@ -157,9 +157,12 @@ def test_design_places_the_tracker_from_the_command_line(cli, tmp_path):
     picture = tmp_path / "placement.png"
     common = ("design", "ur10", "-m", "12", "--test-pose=0,-1.2,1.5,-1,-1.5,0", "--marker", "0.05,0.02,0.1")
     fast = ("--no-polish", "--pool-size", "300", "--starts", "2", "--seed", "3", "--workers", "1")
-    out = cli.json(*common, *fast, "--place-instrument", "1.5,0,0.75,9,0,0.75", "--no-accuracy",
+    out = cli.json(*common, *fast, "--place-instrument", "1.5,0,0.75,9,0,0.75",
                    "--placement-plot", picture, "--json")  # fmt: skip
     placement = out["placement"]
+    # the accuracy report is of the placed tracker that measures the plan (it was of points with the
+    # default σ, 3.4 times the design's ρ0)
+    assert out["accuracy"]["plans"][0]["rows"][0]["rms"] == pytest.approx(out["rho0"], rel=1e-9)
     assert out["instrument_at"] == placement["instrument_at"] and placement["default_at"] == [5.25, 0.0, 0.75]
     assert placement["factor"] > 1.3 and out["rho0"] == pytest.approx(
         min(v for v in placement["values"] if v)
