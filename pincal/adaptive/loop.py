@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from pincal.adaptive.kinds import of_data, own_rows, scaled
 from pincal.adaptive.measured import MeasuredPrior
 from pincal.arguments import DEFAULT_SIGMA, Seed, positive_int, positive_sigma
 from pincal.calibration.identification import IdentificationResult, identify
@@ -42,6 +43,8 @@ from pincal.calibration.sanity import OUTLIER_SCORE, Outlier
 from pincal.errors import BadArgument, DegenerateOptimumWarning, PincalError, SingularPlan
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import TestPoseCriterion
+from pincal.instruments.given import keywords
+from pincal.instruments.instrument import Instrument
 from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import AnyConstraint, AvoidPoses, JointMargin, MountSpec, with_safety
 from pincal.planning.driver import design
@@ -194,6 +197,8 @@ class Assessment:
         predicted: the predicted error over the test region with the data so far [m] (NaN: unknown).
         unexplained: the variance per coordinate the fitted model does not explain [m²].
         params: the parameters on the fitted robot (the nominal one without a fit).
+        instrument: what the data measure and how well, at the σ of the prediction (its error
+            model scaled to the σ re-estimated); None: points with one σ per coordinate.
     """
 
     identification: IdentificationResult | None
@@ -206,10 +211,12 @@ class Assessment:
     predicted: float
     unexplained: float
     params: ParameterSet
+    instrument: Instrument | None = None
 
     def with_unexplained(self, rho: float) -> float:
         """The predicted error [m] of a ρ [m] from the parameters' part: with what the model does not
-        explain, sqrt(ρ² + 3K·u²); NaN while σ is unknown."""
+        explain, sqrt(ρ² + 3K·u²) (3K: the markers' coordinates at the test pose, whatever the data
+        measure); NaN while σ is unknown."""
         if self.sigma_source == "unknown" or not math.isfinite(self.unexplained):
             return math.nan
         return math.sqrt(rho**2 + 3 * self.params.robot.n_markers * self.unexplained)
@@ -224,6 +231,7 @@ def assess(
     sigma: float | None = None,
     prior: Prior | None = None,
     reject: float = OUTLIER_SCORE,
+    instrument: Instrument | None = None,
 ) -> Assessment:
     """Identify from ``data``, re-estimate σ, drop outliers, name the unreachable planned poses and
     predict the error over the test region with the data so far (arguments as :func:`next_poses`)."""
@@ -231,13 +239,15 @@ def assess(
     if prior is not None and not isinstance(prior, Prior):
         raise BadArgument(f"prior must be a pincal.Prior, got {prior!r}", argument="prior")
     data = data.for_robot(robot)
-    given = None if sigma is None else positive_sigma(sigma)
-    fit, used, outliers = _identified(params, data, given, prior, reject)
+    inst, given = of_data(instrument, sigma, data, robot)
+    fit, used, outliers = _identified(params, data, given, prior, reject, inst)
     fitted = params.on(fit.robot) if fit is not None and fit.success else params
     unexplained = 0.0 if fit is None else fit.unexplained
-    if data.sigma is not None:
+    if data.sigma is not None and inst is None:  # points with their own σ
         noise, source = data.sigma[used], "data"
         value = float(np.median(data.sigma[used]))
+    elif data.sigma is not None or data.covariance is not None:  # own_rows below says it
+        noise, value, source = math.nan, math.nan, "data"
     elif given is not None:
         noise, source, value = given, "given", given
     elif fit is not None and fit.sigma_estimated and math.isfinite(fit.sigma) and fit.sigma > 0:
@@ -245,11 +255,18 @@ def assess(
         source = "estimated"
     else:  # no degrees of freedom left to estimate σ: the prediction is unknown (method §11.6)
         noise, value, source, unexplained = DEFAULT_SIGMA, math.nan, "unknown", math.nan
-    measured = MeasuredPrior.from_measurements(fitted, data.q[used], noise, prior)
+    if inst is None:  # points with one σ per coordinate, as always
+        measured = MeasuredPrior.from_measurements(fitted, data.q[used], noise, prior)
+    elif source == "data":
+        rows, value, inst = own_rows(fitted, data, used, inst if given is not None else None)
+        measured = MeasuredPrior.from_rows(fitted, rows, prior)
+    else:
+        inst = scaled(inst, value) if source == "estimated" else inst
+        measured = MeasuredPrior.from_instrument(fitted, data.q[used], inst, prior)
     planned = np.empty((0, robot.nq)) if plan is None else robot.configurations(plan, what="planned pose")
     missing = planned[unmeasured(planned, data.q)]
-    a = Assessment(fit, used, outliers, value, source, measured, missing, math.nan, unexplained, fitted)
-    rho = _predicted(fitted, test_pose, DEFAULT_SIGMA if source == "unknown" else value, measured)
+    a = Assessment(fit, used, outliers, value, source, measured, missing, math.nan, unexplained, fitted, inst)
+    rho = _predicted(fitted, test_pose, DEFAULT_SIGMA if source == "unknown" else value, measured, inst)
     return replace(a, predicted=a.with_unexplained(rho))
 
 
@@ -274,6 +291,7 @@ def next_poses(
     pool: PoolLike = None,
     polish: bool | None = None,
     progress: bool = False,
+    instrument: Instrument | None = None,
 ) -> NextPoses:
     """The next ``k`` poses to measure given the data so far, or stop (see the module doc).
 
@@ -285,9 +303,11 @@ def next_poses(
         k: how many poses to choose next.
         plan: the poses planned so far (those not in ``data`` are unreachable and avoided), or None.
         target: stop when the predicted error over the test region is below this [m].
-        sigma: the instrument's noise per coordinate [m]; default: re-estimated from the residuals
-            of the rows kept (or the data's uncertainty columns); while too few rows are kept to
-            estimate it, the prediction is unknown and the campaign does not stop.
+        sigma: the instrument's noise per coordinate [m] (per length for data of another kind than
+            points, pincal's default σ of angles and pixels, as :func:`pincal.identify` takes it);
+            default: re-estimated from the residuals of the rows kept (or the data's uncertainty
+            columns); while too few rows are kept to estimate it, the prediction is unknown and
+            the campaign does not stop. Not with ``instrument``.
         prior: the errors' prior before any measurement, or None.
         constraints, joint_margin, mount, clearance: the workcell and the safe defaults (the
             clearance from the floor and the obstacles, the robot clear of itself), as for
@@ -295,6 +315,12 @@ def next_poses(
         reject: rows beyond this many robust σ are outliers, dropped.
         starts, seed, workers, pool, polish, progress: the next design's search (see
             :func:`pincal.design`).
+        instrument: what the data measure and how well (:class:`pincal.instruments.Instrument`
+            of the data's kind: its error model weighs the data, makes σ known, measures the poses
+            so far and the next ones); default: the data's kind (points, poses, partial poses,
+            distances, images), one σ per unit (``sigma``, or re-estimated). Every kind works:
+            the information of the poses so far and the next design are the instrument's whitened
+            rows (:mod:`pincal.adaptive.kinds`).
 
     Raises:
         SingularPlan: ``k`` poses cannot complete what the data leave undetermined (the message
@@ -306,7 +332,9 @@ def next_poses(
     if target is not None:
         target = positive_sigma(target, "target")
     reject = positive_sigma(reject, "reject (robust sigma)")
-    a = assess(params, data, test_pose, plan=plan, sigma=sigma, prior=prior, reject=reject)
+    a = assess(
+        params, data, test_pose, plan=plan, sigma=sigma, prior=prior, reject=reject, instrument=instrument
+    )
     common: dict[str, Any] = dict(  # NextPoses' fields shared by both outcomes
         target=target, sigma=a.sigma, sigma_source=a.sigma_source, measured=data.m, used=int(a.used.sum()),
         outliers=a.outliers, unreachable=a.unreachable, identification=a.identification,
@@ -319,7 +347,7 @@ def next_poses(
         )
         return NextPoses(empty, True, a.predicted, None, message=message, **common)
     noise = DEFAULT_SIGMA if a.sigma_source == "unknown" else a.sigma  # unknown: to rank poses by only
-    _check_enough(a.params, a.measured, noise, k)
+    _check_enough(a.params, a.measured, noise, k, data.measure.size(robot))
     cell = tuple(constraints) + ((AvoidPoses(a.unreachable, AVOID_DISTANCE),) if len(a.unreachable) else ())
     cell = with_safety(robot, cell, joint_margin, mount, clearance=clearance)
     with warnings.catch_warnings():
@@ -333,9 +361,9 @@ def next_poses(
             k,
             test_pose,
             prior=a.measured,
-            sigma=noise,
             safety=Safety(constraints=cell),
             search=search,
+            **keywords(a.instrument, noise),  # the data's instrument, or points with σ
         )
     rho0 = result.rho0
     assert rho0 is not None  # a design for a test pose reports its rho0
@@ -353,14 +381,23 @@ def next_poses(
 
 
 def _identified(
-    params: ParameterSet, data: MeasurementData, sigma: float | None, prior: Prior | None, reject: float
+    params: ParameterSet,
+    data: MeasurementData,
+    sigma: float | None,
+    prior: Prior | None,
+    reject: float,
+    instrument: Instrument | None = None,
 ) -> tuple[IdentificationResult | None, np.ndarray, tuple[Outlier, ...]]:
-    """(the identification from the data, or None when it cannot run; the rows used; the outliers)."""
+    """(the identification from the data, or None when it cannot run; the rows used; the outliers).
+    With an ``instrument`` (not points with one σ), its error model weighs the data when σ is given."""
     used = np.ones(data.m, dtype=bool)
-    if data.m * 3 * params.robot.n_markers <= len(params):  # no residual left to judge σ or outliers by
+    if data.m * data.row_size <= len(params):  # no residual left to judge σ or outliers by
         return None, used, ()
+    weights: dict[str, Any] = {"sigma": sigma}
+    if instrument is not None:
+        weights = {"instrument": instrument if sigma is not None else None}
     try:
-        fit = identify(params, data, sigma=sigma, prior=prior, reject=reject, sanity=False)
+        fit = identify(params, data, prior=prior, reject=reject, sanity=False, **weights)
     except PincalError:
         return None, used, ()
     if fit.status == "rank_deficient":
@@ -371,10 +408,16 @@ def _identified(
     return fit, used, rejected
 
 
-def _predicted(params: ParameterSet, test_pose: TestPoseLike, sigma: float, measured: MeasuredPrior) -> float:
+def _predicted(
+    params: ParameterSet,
+    test_pose: TestPoseLike,
+    sigma: float,
+    measured: MeasuredPrior,
+    instrument: Instrument | None = None,
+) -> float:
     """The predicted error over the test region with the measured information only [m] (inf when it
-    does not determine every parameter)."""
-    criterion = TestPoseCriterion(params, test_pose, sigma, "mean", measured)
+    does not determine every parameter); an ``instrument``'s reference σ overrules ``sigma``."""
+    criterion = TestPoseCriterion(params, test_pose, sigma, "mean", measured, instrument=instrument)
     P = len(params)
     try:
         return float(criterion.from_information(np.zeros((P, P)), 0))
@@ -382,14 +425,13 @@ def _predicted(params: ParameterSet, test_pose: TestPoseLike, sigma: float, meas
         return math.inf
 
 
-def _check_enough(params: ParameterSet, measured: MeasuredPrior, sigma: float, k: int) -> None:
-    """Refuse a k that cannot complete what the data leave undetermined."""
+def _check_enough(params: ParameterSet, measured: MeasuredPrior, sigma: float, k: int, rows: int) -> None:
+    """Refuse a k that cannot complete what the data leave undetermined (``rows`` values per pose)."""
     info = measured.information(params, sigma)
     d = np.sqrt(np.maximum(np.diag(info), 1e-300))
     w = np.linalg.eigvalsh(info / np.outer(d, d)) if len(info) else np.zeros(0)
     rank = int(np.sum(w > 1e-10 * max(w.max(initial=0.0), 1e-300)))
     missing = len(params) - rank
-    rows = 3 * params.robot.n_markers
     if missing > k * rows:
         need = -(-missing // rows)
         raise SingularPlan(

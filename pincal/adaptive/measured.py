@@ -21,6 +21,7 @@ import numpy as np
 
 from pincal.errors import BadArgument
 from pincal.evaluation.prior import Prior
+from pincal.instruments.instrument import Instrument
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 
@@ -69,6 +70,25 @@ class MeasuredPrior(Prior):
         Jw = J.reshape(-1, len(params)) / s[:, None]
         base = prior if prior is not None else Prior(math.inf, math.inf)
         return cls(base.length, base.angle, dict(base.overrides), tuple(params.names), Jw.T @ Jw, len(qs))
+
+    @classmethod
+    def from_instrument(
+        cls, params: ParameterSet, qs: np.ndarray, instrument: Instrument, prior: Prior | None = None
+    ) -> MeasuredPrior:
+        """The prior of poses ``qs`` measured with ``instrument`` (any kind, its error model), on top
+        of ``prior``: F = Σᵢ JᵢᵀΣᵢ⁻¹Jᵢ from the instrument's whitened rows s·Lᵢ⁻¹Jᵢ over s², its
+        reference σ (:class:`~pincal.instruments.instrument.RowsEngine`), in the instrument's frame."""
+        qs = params.robot.configurations(qs, what="measured configuration")
+        rows = instrument.engine(params).jacobian(qs, frame="world") / instrument.reference
+        return cls.from_rows(params, rows, prior)
+
+    @classmethod
+    def from_rows(cls, params: ParameterSet, rows: np.ndarray, prior: Prior | None = None) -> MeasuredPrior:
+        """The prior of measured poses whose rows, whitened by their own covariance (Lᵢ⁻¹Jᵢ, zero where
+        a value was not measured), are ``rows`` (m, r, P) [1/m, 1/rad], on top of ``prior``."""
+        Jw = np.asarray(rows, dtype=float).reshape(-1, len(params))
+        base = prior if prior is not None else Prior(math.inf, math.inf)
+        return cls(base.length, base.angle, dict(base.overrides), tuple(params.names), Jw.T @ Jw, len(rows))
 
     def _check(self, params: ParameterSet) -> None:
         if tuple(params.names) != self.names:

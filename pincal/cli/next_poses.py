@@ -25,6 +25,13 @@ from pincal.cli._common import (
     recorded_warnings,
     robot_from_args,
 )
+from pincal.cli._instrument import (
+    INSTRUMENT_HELP,
+    add_instrument_arguments,
+    error_from_args,
+    kind_from_args,
+    robot_with_fixtures,
+)
 from pincal.cli._parameters import add_base_argument, params_from_args
 from pincal.cli._safety import (
     SAFETY_HELP,
@@ -35,6 +42,7 @@ from pincal.cli._safety import (
 from pincal.cli._types import checked, count, seed_type
 from pincal.cli.design import print_warnings
 from pincal.errors import BadArgument
+from pincal.instruments.instrument import Instrument
 
 HELP = COMMANDS["next"].help
 EXAMPLES = f"""\
@@ -44,6 +52,8 @@ examples:
   pincal next kr270 --data measured.csv --plan plan.csv --deg --mm --base --test-path weld.csv --json
   pincal next kr270 --data measured.csv --plan plan.csv --deg --pool taught.csv -k 3 \\
       --test-pose=0,-60,60,0,45,0
+  pincal next ur10 --data mocap.csv --measure pose --sigma 1e-4 --sigma-rot 2e-3 -k 2 \\
+      --test-pose=0,-90,90,0,90,0 --around 10deg --deg
 
 What it does, from --data (the measurement CSV, as 'pincal identify' reads it) and --plan (the poses
 planned so far: those not in the data are unreachable, and the next poses keep
@@ -56,14 +66,22 @@ planned so far: those not in the data are unreachable, and the next poses keep
   3. stops when it is below --target; otherwise designs the next -k poses that most reduce the
      criterion over the test region given what is already measured, and predicts the error after
      them. Measure them, add them to the data and the plan, and run it again.
+Every measurement kind works (points, poses, partial poses, distances, images; read from the data's
+columns, or --measure, as 'pincal identify' reads them): the data so far and the next poses are
+measured with the data's instrument (--sigma per length, --sigma-rot, --sigma-px, or --instrument
+tracker; sigma re-estimated when none is given), the predicted error is the markers' at the test
+region whatever the instrument measures.
 --target takes a length with a unit (0.02mm, 20um, 2e-5m; a bare number is metres).
 --out writes the next poses (plan CSV; degrees with --deg); run 'pincal campaign' on them to order
 and check the moves.
+
+{{instrument}}
 
 {SAFETY_HELP.rstrip()}
 
 {REGION_HELP.rstrip()}
 """
+EXAMPLES = EXAMPLES.replace("{instrument}", INSTRUMENT_HELP)
 
 _LENGTH = re.compile(r"^\s*([0-9.eE+-]+)\s*(m|mm|um|µm|cm)?\s*$")
 
@@ -92,8 +110,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--target", metavar="LENGTH", help="stop when the predicted error is below this (e.g. 0.02mm)"
     )
     p.add_argument(
-        "--sigma", type=float, default=None, help=SIGMA_HELP + "; default: re-estimated from the data"
+        "--sigma",
+        type=float,
+        default=None,
+        help=SIGMA_HELP + " (per length for another kind); default: re-estimated from the data",
     )
+    add_instrument_arguments(p)
     p.add_argument(
         "--deg", action="store_true", help="joint values in degrees (data, plan, test poses, --out)"
     )
@@ -136,10 +158,15 @@ def parse_length(text: str, what: str) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    robot = robot_from_args(args)
+    robot = robot_with_fixtures(robot_from_args(args), args)
     params, source = params_from_args(robot, args)
     target = None if args.target is None else parse_length(args.target, "--target")
-    data = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm)
+    kind = kind_from_args(args, robot)
+    data = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm, kind=kind)
+    error = error_from_args(args, args.sigma)
+    measuring: dict = {"sigma": args.sigma}  # an error model has its own σ
+    if error is not None:
+        measuring = {"instrument": Instrument(data.measure, error)}
     plan = read_plan(robot, args.plan, args.deg) if args.plan else None
     pool = read_plan(robot, args.pool, args.deg, what="pool") if args.pool else None
     region = test_region_from_args(robot, args)
@@ -153,7 +180,6 @@ def run(args: argparse.Namespace) -> int:
             args.k,
             plan=plan,
             target=target,
-            sigma=args.sigma,
             prior=prior,
             constraints=constraints,
             reject=args.reject,
@@ -162,6 +188,7 @@ def run(args: argparse.Namespace) -> int:
             workers=args.workers,
             pool=pool,
             progress=args.progress,
+            **measuring,
         )
     if args.out and not result.stop:
         result.plan.to_csv(args.out, degrees=args.deg)
