@@ -12,7 +12,9 @@
    measured (outliers left out), F = Σ JᵢᵀJᵢ/σ², taken as a prior (:class:`MeasuredPrior`), with
    the Jacobians of the *fitted* robot (where the URDF puts the base does not matter), plus what
    the fitted model does not explain (the residual level beyond σ, 3K·u² per point:
-   :attr:`~pincal.IdentificationResult.unexplained`);
+   :attr:`~pincal.IdentificationResult.unexplained`); data of another kind than points (a pose,
+   part of one, distances, pixels) are measured with their instrument (:mod:`.kinds`): F from its
+   whitened rows, the next design with it;
 4. stops when that prediction is known and below ``target``; otherwise designs the next ``k`` poses that most
    reduce the criterion over the test region *given what is already measured* (the design's prior is
    F plus the user's prior), kept away from the unreachable poses, and predicts the error after

@@ -1,7 +1,10 @@
 r"""What the poses measured so far already tell, as a prior for the next design.
 
 Measurements of noise σᵢ per coordinate at configurations qᵢ carry the information
-F = Σᵢ JᵢᵀWᵢJᵢ, Wᵢ = diag(1/σᵢ²) [1/m², 1/rad²] about the parameters. Designing the next poses
+F = Σᵢ JᵢᵀWᵢJᵢ, Wᵢ = diag(1/σᵢ²) [1/m², 1/rad²] about the parameters; measurements of
+any other kind (a pose, distances, pixels: :mod:`pincal.instruments`), Wᵢ = Σᵢ⁻¹ of their error
+model (:meth:`MeasuredPrior.from_instrument`) or of their own uncertainties
+(:meth:`MeasuredPrior.from_rows`). Designing the next poses
 *given* them is designing with F added to what the new poses bring — exactly the way a prior's
 precision Σp⁻¹ is added (Chaloner & Verdinelli 1995): the posterior precision after the next
 poses is Σp⁻¹ + F + Mₙₑw/σ². :class:`MeasuredPrior` is a :class:`~pincal.Prior` whose precision

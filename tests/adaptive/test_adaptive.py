@@ -4,8 +4,6 @@ Monte-Carlo over simulated campaigns (heteroscedastic noise, an outlier, an unre
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
@@ -14,25 +12,9 @@ from pincal.adaptive.loop import AVOID_DISTANCE, assess, next_poses
 from pincal.adaptive.measured import MeasuredPrior
 from pincal.adaptive.rehearsal import Faults, one_shot_plan, rehearse, summary
 from pincal.errors import BadArgument, SingularPlan
+from tests.adaptive.conftest import FAST
 
 SIGMA = 3e-5
-Q0 = np.radians([0, -60, 60, 0, 45, 0])
-FAST = dict(starts=2, pool=300, workers=1, polish=False)
-
-
-@pytest.fixture(scope="module")
-def params(kr270_marker):
-    return kr270_marker.parameters("lengths,offsets").identifiable().identifiable
-
-
-@pytest.fixture(scope="module")
-def region():
-    return pincal.around(Q0, math.radians(10), samples=64)
-
-
-@pytest.fixture(scope="module")
-def first(params, region):
-    return pincal.design(params, 6, region, search=pincal.Search(**FAST, seed=0)).plan
 
 
 def test_measured_information_is_the_plans_own(params, first, region, kr270_marker):

@@ -14,25 +14,9 @@ from pincal.adaptive.loop import assess, next_poses
 from pincal.errors import BadArgument, SingularPlan
 from pincal.evaluation.region import resolve_test_poses
 from pincal.instruments import Instrument, Partial, PerCoordinate, Point, Pose, Tracker
+from tests.adaptive.conftest import FAST, Q0
 
-Q0 = np.radians([0, -60, 60, 0, 45, 0])
-FAST = dict(starts=2, pool=300, workers=1, polish=False)
 MOCAP = Instrument(Pose(), PerCoordinate(2e-5, 1e-4))
-
-
-@pytest.fixture(scope="module")
-def params(kr270_marker):
-    return kr270_marker.parameters("lengths,offsets").identifiable().identifiable
-
-
-@pytest.fixture(scope="module")
-def region():
-    return pincal.around(Q0, math.radians(10), samples=16)
-
-
-@pytest.fixture(scope="module")
-def first(params, region):
-    return pincal.design(params, 6, region, search=pincal.Search(**FAST, seed=0)).plan
 
 
 @pytest.fixture(scope="module")
