@@ -133,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     split = None
     if prior is None and any(p.kind in ("gain", "compliance") for p in params):
         split = rho0_split(params, plan, q0, sigma=sigma, task_payload=task)
-    check = check_plan(params, plan, sigma=sigma, instrument=measuring.instrument if options else None)
+    check = check_plan(params, plan, instrument=measuring.instrument)  # --sigma's points by default
     safety = safety_margins(robot, plan, safe_constraints_from_args(robot, args))
     e = _Evaluation(each, value, crit, split, with_model, check, safety, report)
     if args.json:

@@ -132,12 +132,7 @@ def run(args: argparse.Namespace) -> int:
             configurations = Plan.for_robot(robot, data.q, data.payload)  # under the payloads carried
         else:
             configurations = read_plan(robot, args.plan, args.deg)
-        check = check_plan(
-            ident.identifiable,
-            configurations,
-            sigma=DEFAULT_SIGMA if sigma is None else sigma,
-            instrument=instrument,
-        )
+        check = check_plan(ident.identifiable, configurations, instrument=instrument)
     if args.json:
         emit_json(
             {

@@ -30,7 +30,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.arguments import positive_sigma
 from pincal.deprecation import keywords_after
 from pincal.evaluation.information import (
     condition_number,
@@ -41,6 +40,7 @@ from pincal.evaluation.information import (
     rank,
     weakest,
 )
+from pincal.instruments.given import measured
 from pincal.instruments.instrument import Instrument
 from pincal.model.base_parameters import preference_order
 from pincal.model.jacobian import ZERO_COLUMN
@@ -329,17 +329,20 @@ def check_parameters(
 
 @keywords_after(2)
 def check_plan(
-    params: ParameterSet, plan: ConfigurationsLike, *, sigma: float, instrument: Instrument | None = None
+    params: ParameterSet,
+    plan: ConfigurationsLike,
+    *,
+    sigma: float | None = None,
+    instrument: Instrument | None = None,
 ) -> DataCheck:
     """The data check of ``params`` on configurations ``plan`` (a Plan, (m, nq) array, or the
-    ``q`` of measurements) for noise ``sigma`` per coordinate [m], as identify makes it
-    (:func:`check_parameters`); with ``instrument``, of what it measures, weighted by its error
-    model (``sigma`` is then ignored)."""
-    sigma = positive_sigma(sigma)
+    ``q`` of measurements), as identify makes it (:func:`check_parameters`), for what
+    ``instrument`` measures, weighted by its error model, or for points with noise ``sigma`` per
+    coordinate [m] (its shorthand; default :data:`~pincal.arguments.DEFAULT_SIGMA`; not both)."""
+    instrument, sigma = measured(instrument, sigma)
     qs = params.robot.configurations(plan)
     payload = getattr(plan, "payload", None)
     if instrument is not None and not instrument.is_default:
-        sigma = instrument.reference
         rows = instrument.engine(params).jacobian(qs, frame="tip", payload=payload)
         M = information_matrix(rows) / sigma**2
         return check_parameters(params, M, len(qs), sigma)

@@ -373,7 +373,7 @@ def position_covariance(
     plan: ConfigurationsLike,
     test_pose: ConfigurationsLike,
     *,
-    sigma: float = DEFAULT_SIGMA,
+    sigma: float | None = None,
     task_payload: PayloadLike = None,
     instrument: Instrument | None = None,
 ) -> np.ndarray:
@@ -382,9 +382,9 @@ def position_covariance(
     gives it): a :class:`~pincal.Plan` is measured under its payloads, the test poses are taken
     under ``task_payload`` (a mass [kg], a :class:`~pincal.Payload`, or one per test pose). With
     ``instrument`` (an :class:`~pincal.instruments.Instrument`), M is the information of its
-    whitened rows and σ its reference σ (``sigma`` is not read), as :class:`TestPoseCriterion`
-    takes them."""
-    sigma = positive_sigma(sigma) if instrument is None else instrument.reference
+    whitened rows and σ its reference σ, as :class:`TestPoseCriterion` takes them; else points with
+    ``sigma`` per coordinate [m] (default :data:`~pincal.arguments.DEFAULT_SIGMA`; not both)."""
+    instrument, sigma = measured(instrument, sigma)
     qs = params.robot.configurations(plan)
     q0 = params.robot.configurations(test_pose, what="test pose")
     payload = getattr(plan, "payload", None)

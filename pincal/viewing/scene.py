@@ -349,7 +349,11 @@ def _error_ellipsoids(
     if len(q0):
         try:
             cov = position_covariance(
-                params, qs, q0, sigma=sigma, task_payload=task_payload, instrument=instrument
+                params,
+                qs,
+                q0,
+                task_payload=task_payload,
+                **({"sigma": sigma} if instrument is None else {"instrument": instrument}),
             )
         except SingularPlan as exc:
             note = f"no error ellipsoid: {exc}"

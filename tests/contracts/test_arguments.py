@@ -142,7 +142,7 @@ def _sigma_calls(planar):
 
 SIGMA_OR_INSTRUMENT = (
     "rho0", "rho0_each", "accuracy", "error_profile", "design", "random_plans", "monte_carlo",
-    "simulate_measurements", "scene",
+    "simulate_measurements", "scene", "check_plan", "position_covariance",
 )  # fmt: skip
 """The functions whose ``sigma=`` is the shorthand of ``instrument=`` (pincal.instruments.given)."""
 

@@ -158,3 +158,23 @@ def test_the_door_itself():
     # place_instrument's default error model for a kind alone is a tracker's
     placed, hint = old_placed({"measure": Pose()}, {"sigma": 1e-5})
     assert isinstance(placed["instrument"].error, Tracker) and "sigma" not in placed and "Tracker" in hint
+
+
+def test_the_data_check_and_the_covariance_take_the_one_door_too(setting):
+    """check_plan and position_covariance: an Instrument, or sigma='s points (default σ), not both;
+    points given as an Instrument are sigma='s numbers."""
+    _, params, plan = setting
+    points = Instrument(Point(), PerCoordinate(1e-5))
+    calls = {
+        "check_plan": lambda **kw: pincal.evaluation.check_plan(params, plan, **kw).as_dict(),
+        "position_covariance": lambda **kw: pincal.evaluation.position_covariance(params, plan, Q0, **kw),
+    }
+    for name, call in calls.items():
+        with pytest.raises(BadArgument, match=r"give sigma= .* or instrument= .*not both"):
+            call(sigma=1e-5, instrument=points)
+        _equal(call(sigma=1e-5), call(instrument=points))
+        _equal(call(), call(sigma=pincal.arguments.DEFAULT_SIGMA))
+        assert name
+    tracker = Instrument(Point(), Tracker())
+    cov = pincal.evaluation.position_covariance(params, plan, Q0, instrument=tracker)
+    assert np.trace(cov[0]) == pytest.approx(pincal.rho0(params, plan, Q0, instrument=tracker) ** 2, rel=1e-9)
