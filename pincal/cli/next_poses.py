@@ -8,7 +8,7 @@ import re
 import sys
 
 from pincal.adaptive.loop import AVOID_DISTANCE, next_poses
-from pincal.arguments import ratio
+from pincal.arguments import DEFAULT_SIGMA, ratio
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.sanity import OUTLIER_SCORE
 from pincal.cli import COMMANDS
@@ -42,6 +42,7 @@ from pincal.cli._safety import (
 from pincal.cli._types import checked, count, seed_type
 from pincal.cli.design import print_warnings
 from pincal.errors import BadArgument
+from pincal.instruments.error_model import PerCoordinate
 from pincal.instruments.instrument import Instrument
 
 HELP = COMMANDS["next"].help
@@ -159,7 +160,6 @@ def parse_length(text: str, what: str) -> float:
 
 def run(args: argparse.Namespace) -> int:
     robot = robot_with_fixtures(robot_from_args(args), args)
-    params, source = params_from_args(robot, args)
     target = None if args.target is None else parse_length(args.target, "--target")
     kind = kind_from_args(args, robot)
     data = MeasurementData.from_csv(args.data, robot, degrees=args.deg, millimetres=args.mm, kind=kind)
@@ -167,6 +167,10 @@ def run(args: argparse.Namespace) -> int:
     measuring: dict = {"sigma": args.sigma}  # an error model has its own σ
     if error is not None:
         measuring = {"instrument": Instrument(data.measure, error)}
+    # what the data's instrument identifies (its fixtures, --anchor or --camera, with the robot), as
+    # identify's set: a point's identifiability would drop the anchors and leave their errors in σ
+    measured = Instrument(data.measure, error or PerCoordinate(args.sigma or DEFAULT_SIGMA))
+    params, source = params_from_args(robot, args, measured)
     plan = read_plan(robot, args.plan, args.deg) if args.plan else None
     pool = read_plan(robot, args.pool, args.deg, what="pool") if args.pool else None
     region = test_region_from_args(robot, args)
