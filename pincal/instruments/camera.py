@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import ndtr
 
 from pincal.errors import BadArgument
 
@@ -109,6 +110,20 @@ class Camera:
         if self.height is not None:
             inside &= (uv[..., 1] >= 0) & (uv[..., 1] <= self.height)
         return front & inside
+
+    def inside_probability(self, uv: np.ndarray, spread: np.ndarray) -> np.ndarray:
+        """(...) the probability that points whose pixels (..., 2) are Gaussian about ``uv`` with
+        standard deviations ``spread`` (..., 2) [px] land inside the image (1 on an unbounded
+        side; a spread of 0 is the hard test of :meth:`in_view`)."""
+        probability = np.ones(uv.shape[:-1])
+        for axis, size in enumerate((self.width, self.height)):
+            if size is None:
+                continue
+            u, s = uv[..., axis], spread[..., axis]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inside = ndtr((size - u) / s) - ndtr(-u / s)
+            probability *= np.where(s > 0, inside, (u >= 0) & (u <= size))
+        return probability
 
     def as_dict(self) -> dict:
         return {

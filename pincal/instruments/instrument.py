@@ -7,7 +7,10 @@ configurations, the *whitened* rows s·Lᵢ⁻¹Jᵢ (Σᵢ = LᵢLᵢᵀ the co
 s the model's reference σ [m]): their information is s²·Σ JᵢᵀΣᵢ⁻¹Jᵢ, so every criterion that scales by
 s (ρ0 = s·√tr(J₀M⁻¹J₀ᵀ)) gives the weighted one, ρ0² = tr(J₀(Σ JᵢᵀΣᵢ⁻¹Jᵢ)⁻¹J₀ᵀ), in metres whatever
 the instrument reads. Values the instrument cannot read at a configuration (a target point out of
-the camera's view) give zero rows.
+the camera's view) give zero rows; a value read only with some probability (a target point near
+the image's edge, which the errors still unknown may move out of it) gives its rows times √w, w
+its weight below 1 (:meth:`Kind.weights`): the information counts only what a measurement is
+likely to deliver.
 
 Points with one σ per coordinate — pincal's default — need no whitening: the rows are the point
 Jacobian itself, exactly as before instruments existed, so designs and criteria are unchanged.
@@ -156,11 +159,15 @@ class RowsEngine:
         if self.plain and isinstance(kind, Point):  # today's rows, bit for bit
             return self.points.jacobian(qs, frame="tip" if tip else "world", payload=payload)
         J = kind.tip_rows(self.points, qs, payload) if tip else kind.rows(self.points, qs, payload)
-        seen = kind.seen(self.robot, qs, payload) if masked else np.ones(J.shape[:2], dtype=bool)
+        weight = kind.weights(self.points, qs, J, payload) if masked else np.ones(J.shape[:2])
+        seen = weight > 0
         if self.plain:
-            return J if seen.all() else np.where(seen[..., None], J, 0.0)
-        covariance = error.covariance(kind, self.robot, qs, payload)
-        return self.scale * covariance.whiten(J, seen)
+            out = J if seen.all() else np.where(seen[..., None], J, 0.0)
+        else:
+            out = self.scale * error.covariance(kind, self.robot, qs, payload).whiten(J, seen)
+        if np.all((weight == 0) | (weight == 1)):
+            return out  # seen or not: the rows as they are
+        return np.where(seen[..., None], out * np.sqrt(weight)[..., None], 0.0)
 
     def tool_rows(
         self, qs: np.ndarray, orientation_length: float | None = None, payload: PayloadLike = None

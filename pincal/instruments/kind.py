@@ -92,6 +92,15 @@ class Kind(ABC):
         its view); every value by default."""
         return np.ones((len(qs), self.size(robot)), dtype=bool)
 
+    def weights(
+        self, engine: JacobianEngine, qs: np.ndarray, rows: np.ndarray, payload: PayloadLike = None
+    ) -> np.ndarray:
+        """(m, r) the share of each value's information a measurement at ``qs`` is expected to
+        deliver, given its rows (m, r, P) from :meth:`rows`: 1 where :meth:`seen`, 0 elsewhere by
+        default. A kind whose view depends on the errors still unknown (a camera: a corner near the
+        image's edge) weighs each value by how likely it is read (:meth:`Image.weights`)."""
+        return self.seen(engine.robot, qs, payload).astype(float)
+
     @abstractmethod
     def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
         """(m, r, P) the parameter Jacobian of the measured values at ``qs``, in the instrument's
