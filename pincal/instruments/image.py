@@ -64,6 +64,7 @@ class Image(Kind):
     eye_in_hand: bool = True
     error_std: tuple[float, float] | None = VISIBILITY_ERROR_STD
     name: ClassVar[str] = "image"
+    partial_view: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         try:
@@ -184,6 +185,24 @@ class Image(Kind):
         spread = spread.reshape(len(qs), len(self.points), 2)
         inside = self.camera.inside_probability(self.camera.project(safe), spread)
         return np.repeat(np.where(front & (inside >= LIKELY_READ), inside, 0.0), 2, axis=1)
+
+    def reads(self, engine: JacobianEngine, qs: np.ndarray) -> np.ndarray:
+        """(m,) True where the target points likely read (:meth:`weights` above 0) reveal the
+        camera's pose relative to the target as all its points in front of it would: three at
+        least, not in a line (rank 6 of their rows). A design draws its candidates, and so its
+        starts, among these: of 2000 random Panda configurations on the example rig, 121 qualify
+        and 1782 read no point at all, and a random plan of 20 is then rank-deficient."""
+        out = np.zeros(len(qs), dtype=bool)
+        looked = np.flatnonzero(self.seen(engine.robot, qs).any(axis=1))  # a point read is seen
+        if not len(looked):
+            return out
+        rows = self.rows(engine, qs[looked])
+        read = self.weights(engine, qs[looked], rows) > 0
+        front = np.repeat(self.camera_points(engine.robot, qs[looked])[..., 2] > MIN_DEPTH, 2, axis=1)
+        front &= np.isfinite(rows).all(axis=2)
+        full = np.linalg.matrix_rank(np.where(front[..., None], rows, 0.0))
+        out[looked] = (np.linalg.matrix_rank(np.where(read[..., None], rows, 0.0)) == full) & (full > 0)
+        return out
 
     def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
         robot = engine.robot

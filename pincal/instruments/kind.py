@@ -36,10 +36,13 @@ class Kind(ABC):
         rotation_invariant: the information of a configuration is unchanged when its rows are
             rotated as the tool turns (a point, a pose): with noise that does not depend on the
             direction, the criteria may take the rows in the tip frame, which is cheaper.
+        partial_view: a measurement may read only some of its values, or none (a camera sees
+            part of its target): a design draws its candidates where :meth:`reads` is true.
     """
 
     name: ClassVar[str] = ""
     rotation_invariant: ClassVar[bool] = False
+    partial_view: ClassVar[bool] = False
 
     # ----------------------------------------------------------------- what is measured
     @abstractmethod
@@ -100,6 +103,13 @@ class Kind(ABC):
         default. A kind whose view depends on the errors still unknown (a camera: a corner near the
         image's edge) weighs each value by how likely it is read (:meth:`Image.weights`)."""
         return self.seen(engine.robot, qs, payload).astype(float)
+
+    def reads(self, engine: JacobianEngine, qs: np.ndarray) -> np.ndarray:
+        """(m,) True where a measurement at ``qs`` (no payload) is likely to read all that its
+        configuration can reveal: the rows its :meth:`weights` count span what the rows of all
+        its values span. Every configuration by default; a camera's where it likely reads enough
+        of the target (:meth:`Image.reads`)."""
+        return np.ones(len(qs), dtype=bool)
 
     @abstractmethod
     def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:

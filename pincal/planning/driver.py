@@ -83,6 +83,7 @@ from pincal.planning.options import (
 from pincal.planning.results import DesignResult
 from pincal.planning.search import draw_starts, search
 from pincal.planning.settings import D_OPTIMAL, Pool, Settings
+from pincal.planning.views import draw_candidates
 from pincal.typing import ConfigurationsLike, PoolLike, TestPoseLike
 
 METHODS = ("continuous", "exchange")
@@ -430,7 +431,9 @@ def _pool(
         default = DEFAULT_POOL if loads is None else LOADED_POOL
         size = default if pool is None else positive_int(pool, "pool size", m)
         rng = np.random.default_rng(settings.seed_sequence(0))
-        candidates = feasibility.sample(size, rng, minimum=m, strict=strict, loads=loads)
+        candidates = draw_candidates(
+            feasibility, settings.instrument.kind, params, size, rng, m, strict, loads
+        )
         if settings.residual_model is not None and settings.test_poses is not None:
             # also where the residual is correlated with the test pose's
             near = _near(robot, feasibility, settings.test_poses, size // 4, rng)
