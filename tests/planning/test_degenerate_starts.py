@@ -57,8 +57,11 @@ def blind_pool(camera):
     return Feasibility(robot, with_safety(robot)).sample(2000, np.random.default_rng(1))
 
 
-def _q0() -> np.ndarray:
-    return np.array([float(v) for v in PANDA_Q0.split(",")])
+def _design(camera, search: pincal.Search) -> pincal.DesignResult:
+    """The camera design of 20 views for the README's test pose."""
+    params, kind, pixels = camera
+    q0 = np.array([float(v) for v in PANDA_Q0.split(",")])
+    return pincal.design(params, 20, q0, instrument=Instrument(kind, pixels), search=search)
 
 
 @pytest.fixture(scope="module")
@@ -86,14 +89,7 @@ def singular_starts(monkeypatch):
 
 
 def test_the_camera_design_drops_its_degenerate_starts(camera, blind_pool):
-    params, kind, pixels = camera
-    result = pincal.design(
-        params,
-        20,
-        _q0(),
-        instrument=pincal.instruments.Instrument(kind, pixels),
-        search=pincal.Search(seed=0, starts=4, workers=1, pool=blind_pool),
-    )
+    result = _design(camera, pincal.Search(seed=0, starts=4, workers=1, pool=blind_pool))
     dropped = [h.start for h in result.history if h.message.startswith("degenerate, dropped")]
     assert 0 < result.dropped == len(dropped) < result.starts == 4
     assert f"{result.dropped} of 4 starts were degenerate and dropped" in result.message
@@ -106,14 +102,8 @@ def test_the_camera_design_drops_its_degenerate_starts(camera, blind_pool):
 def test_the_camera_design_draws_its_starts_where_the_grid_is_read(camera):
     # Before the generated pool held only views that read enough of the grid, 9 in 10 of its
     # candidates read nothing and every start of this design was degenerate (SingularPlan).
-    params, kind, pixels = camera
-    result = pincal.design(
-        params,
-        20,
-        _q0(),
-        instrument=pincal.instruments.Instrument(kind, pixels),
-        search=pincal.Search(seed=1, starts=4, polish=False, workers=1),
-    )
+    params, kind, _ = camera
+    result = _design(camera, pincal.Search(seed=1, starts=4, polish=False, workers=1))
     assert result.dropped == 0 and "degenerate" not in result.message
     assert all(np.isfinite(h.value) for h in result.history)
     # Unpolished, the plan is made of pool candidates: each reads (p >= 0.9) three corners or more,
