@@ -36,14 +36,14 @@ q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
 t = time.process_time()
 search = pincal.Search(starts=2, seed=0)
 plan = pincal.design(params, m, q0, instrument=Instrument(kind, pixels), search=search).plan
-rho0 = pincal.rho0(params, plan, q0, measure=kind, instrument=pixels)
+rho0 = pincal.rho0(params, plan, q0, instrument=Instrument(kind, pixels))
 seen_nominal = rig.kind.seen(params.robot, plan.q).mean()
 errors, seen = [], []
 for k in range(N):
     truth = pincal.random_errors(params, error_std={"length": 1e-3, "angle": 1e-3}, seed=1000 + k)
-    data = pincal.simulate_measurements(truth, plan, seed=2000 + k, measure=kind, instrument=pixels)
+    data = pincal.simulate_measurements(truth, plan, seed=2000 + k, instrument=Instrument(kind, pixels))
     seen.append(1 - np.isnan(np.asarray(data.values)).mean())
-    fit = pincal.identify(params, data, instrument=pixels)
+    fit = pincal.identify(params, data, instrument=Instrument(kind, pixels))
     errors.append(np.linalg.norm(fit.robot.points(q0) - truth.robot.points(q0)))
 errors = np.array(errors)
 rms = np.sqrt(np.mean(errors**2))

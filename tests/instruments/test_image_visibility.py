@@ -58,9 +58,9 @@ def test_a_configuration_that_sees_none_of_the_grid_adds_no_information(rig, cam
     engine = Instrument(rig.kind, PerCoordinate(sigma_px=rig.pixel_sigma)).engine(camera_params)
     assert not np.any(engine.jacobian(blind))
     plan = pool[rig.kind.seen(robot, pool).sum(axis=1) >= 24][:12]
-    instrument = PerCoordinate(sigma_px=rig.pixel_sigma)
-    before = pincal.rho0(camera_params, plan, Q0, measure=rig.kind, instrument=instrument)
-    after = pincal.rho0(camera_params, np.vstack([plan, blind]), Q0, measure=rig.kind, instrument=instrument)
+    instrument = Instrument(rig.kind, PerCoordinate(sigma_px=rig.pixel_sigma))
+    before = pincal.rho0(camera_params, plan, Q0, instrument=instrument)
+    after = pincal.rho0(camera_params, np.vstack([plan, blind]), Q0, instrument=instrument)
     assert after == pytest.approx(before, rel=1e-9)
 
 
@@ -108,7 +108,7 @@ def test_the_predicted_error_is_the_one_calibration_delivers(rig, case):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         mc = pincal.monte_carlo(
-            params, plan, Q0, trials=N_TRIALS, seed=7, error_std=ERRORS, measure=rig.kind, instrument=pixels
+            params, plan, Q0, trials=N_TRIALS, seed=7, error_std=ERRORS, instrument=instrument
         )
     assert mc.failures == 0 and mc.local_minima == 0, mc.note
     linearisation = abs(mc.rho0_at_truth / mc.rho0_predicted - 1)
