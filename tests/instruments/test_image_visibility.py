@@ -21,7 +21,7 @@ from pincal.instruments.rig import rig_from_dict
 
 Q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
 ERRORS = {"length": 1e-3, "angle": 1e-3}  # the simulation's, and the image kind's default
-N_TRIALS = 40
+N_TRIALS = 100
 
 EXAMPLE = yaml.safe_load(example_text("rig"))
 """The example rig (notebook 05's): a camera on the tool seeing a 6 x 5 grid on the floor."""
@@ -94,9 +94,13 @@ EYE_TO_HAND = {
 @pytest.mark.parametrize("case", ["eye-in-hand", "eye-to-hand"])
 def test_the_predicted_error_is_the_one_calibration_delivers(rig, case):
     """Over N simulated calibrations (pincal.monte_carlo: fresh 1 mm / 1 mrad errors and pixel
-    noise each), the RMS error at the test pose is the design's prediction, within the tolerance
-    pincal's point designs are held to (tests/evaluation/test_regions_monte_carlo.py): 4 standard
-    errors of the ratio, plus the measured linearisation difference, plus 2 %."""
+    noise each), the RMS error at the test pose is the design's prediction within 3 standard errors
+    of the ratio + 2 %. Point designs are held to 4 standard errors + the linearisation difference +
+    2 % (tests/evaluation/test_regions_monte_carlo.py); here that band would pass main's design
+    before this fix (1.24 ± 0.06 over these 100 trials: 0.24 < 0.28), and for a camera the
+    linearisation term (ρ0 at each true robot) also decides anew which corners are read: 62 % on
+    the example rig, which would make any band pass. 3 standard errors fail main's design
+    (0.24 > 0.21) and pass this one's."""
     if case == "eye-to-hand":
         rig = rig_from_dict(EYE_TO_HAND)
     panda = pincal.load_robot("panda").with_fixtures(*rig.fixtures)
@@ -111,10 +115,8 @@ def test_the_predicted_error_is_the_one_calibration_delivers(rig, case):
             params, plan, Q0, trials=N_TRIALS, seed=7, error_std=ERRORS, instrument=instrument
         )
     assert mc.failures == 0 and mc.local_minima == 0, mc.note
-    linearisation = abs(mc.rho0_at_truth / mc.rho0_predicted - 1)
-    tolerance = 4 * mc.ratio_se + linearisation + 0.02
-    # Measured (benchmarks/RESULTS.md, "Camera designs"; the bench's seeds): the example rig 1.01 ±
-    # 0.09 (N = 40) and 0.88 ± 0.04 (N = 150: the floor p >= 0.9 makes it a little pessimistic), the
-    # eye-to-hand rig 0.99 ± 0.07 and 0.98 ± 0.04. Before (the nominal view, a pool drawn without
-    # looking at the grid) the example rig's was 1.47 ± 0.15: optimistic, outside the band.
+    tolerance = 3 * mc.ratio_se + 0.02
+    # Measured here (seed 7, N = 100): the example rig 0.91 ± 0.05, the eye-to-hand rig 0.99 ± 0.04;
+    # with the bench's seeds (benchmarks/RESULTS.md, "Camera designs") over 150 trials 0.88 ± 0.04
+    # and 0.98 ± 0.04: the floor p >= 0.9 makes the example rig's prediction a little pessimistic.
     assert abs(mc.ratio - 1) < tolerance, (mc.ratio, tolerance, mc.note)
