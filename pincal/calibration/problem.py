@@ -28,7 +28,7 @@ from pincal.instruments.pose import Pose
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
-from pincal.typing import PayloadLike
+from pincal.model.statics import PayloadRows
 
 
 class Problem:
@@ -196,7 +196,7 @@ class Linearisation:
         self,
         x: np.ndarray,
         qs: np.ndarray,
-        payload: PayloadLike = None,
+        payload: PayloadRows = None,
         engine: JacobianEngine | None = None,
         mapping: np.ndarray | None = None,
     ) -> np.ndarray:

@@ -30,6 +30,7 @@ from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
 from pincal.model.robot import Robot
+from pincal.model.statics import payload_rows
 from pincal.typing import ConfigurationsLike, PayloadLike, TestPoseLike
 
 UNEXPLAINED_TEST = 0.01
@@ -201,7 +202,8 @@ class IdentificationResult:
         if session > 0 and self.session_estimates:
             fitted = _linearised(self.params, self.session_estimates[session - 1][0])
         linear, x, engine, mapping = fitted
-        J = linear.points(x, qs, payload, engine, mapping).reshape(len(qs), K, 3, -1)
+        loads = None if payload is None else payload_rows(payload, len(qs))  # the door: rows below
+        J = linear.points(x, qs, loads, engine, mapping).reshape(len(qs), K, 3, -1)
         parameters = np.einsum("mkip,pr,mkir->mk", J, C, J)
         if self.residual_model is not None:
             rest = np.repeat(3.0 * self.residual_model.variance(qs)[:, None], K, axis=1)

@@ -12,8 +12,7 @@ from pincal.evaluation.plans import blas_for, engine_for, plan_payloads
 from pincal.evaluation.predicted_error import worst_found
 from pincal.evaluation.residual_criterion import ResidualCriterion
 from pincal.model.residual import ResidualModel
-from pincal.model.statics import payload_rows
-from pincal.typing import PayloadLike
+from pincal.model.statics import PayloadRows, repeated
 
 
 def with_residual_model(
@@ -30,7 +29,7 @@ def with_residual_model(
     engine = engine_for(params)
     loads = plan_payloads(plan, batch.shape)
 
-    def rows(q: np.ndarray, load: PayloadLike, name: str) -> PlanAccuracy:
+    def rows(q: np.ndarray, load: PayloadRows, name: str) -> PlanAccuracy:
         error = _ResidualError(
             engine, model, sigma, q, engine.jacobian(q, frame="world", payload=load), task_payload
         )
@@ -69,21 +68,22 @@ class _ResidualError:
         model: the residual model.
         sigma: the instrument's noise per coordinate [m].
         q: (m, nq) the plan; J: (m, r, P) its world-aligned rows (under its payloads).
-        task_payload: the load under which ρ(q) is asked, or None.
+        task_payload: the load under which ρ(q) is asked, one row (1, 4), or None.
     """
 
     def __init__(
-        self, engine, model: ResidualModel, sigma: float, q: np.ndarray, J: np.ndarray, task_payload
+        self,
+        engine,
+        model: ResidualModel,
+        sigma: float,
+        q: np.ndarray,
+        J: np.ndarray,
+        task_payload: PayloadRows,
     ):
         self.engine, self.model, self.sigma = engine, model, sigma
         self.q, self.J, self.task_payload = q, J, task_payload
 
     def squared(self, qs: np.ndarray) -> np.ndarray:
         """(n,) ρ² [m²] at the (n, nq) configurations ``qs``."""
-        J_at = self.engine.jacobian(qs, frame="world", payload=task_loads(self.task_payload, len(qs)))
+        J_at = self.engine.jacobian(qs, frame="world", payload=repeated(self.task_payload, len(qs)))
         return np.maximum(ResidualCriterion(self.model, J_at, qs, self.sigma).each(self.J, self.q), 0.0)
-
-
-def task_loads(task_payload: PayloadLike, n: int) -> np.ndarray | None:
-    """(n, 4) rows of the task's load at n configurations, or None."""
-    return None if task_payload is None else payload_rows(task_payload, n)

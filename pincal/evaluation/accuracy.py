@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from pincal.deprecation import keywords_after, moved_from
-from pincal.evaluation._accuracy_residual import task_loads, with_residual_model
+from pincal.evaluation._accuracy_residual import with_residual_model
 from pincal.evaluation.accuracy_report import AccuracyReport, ErrorSummary, PlanAccuracy
 from pincal.evaluation.accuracy_samples import (
     NEIGHBOURHOOD_SAMPLES,
@@ -36,6 +36,7 @@ from pincal.instruments.instrument import Instrument
 from pincal.kept import REPORTS
 from pincal.model.parameters import ParameterSet
 from pincal.model.residual import ResidualModel
+from pincal.model.statics import PayloadRows, payload_rows, repeated
 from pincal.typing import PayloadLike, PlansLike, TestPoseLike
 
 ORDER_0_1 = (
@@ -99,15 +100,16 @@ def accuracy(
     inst, sigma = measured(instrument, sigma)
     robot = params.robot
     batch, batched = plan_batch(params, plan)
+    task = None if task_payload is None else payload_rows(task_payload, 1)  # the door: one row below
     if residual_model is not None:
         sets, poses, region = sample_sets(robot, test_pose, neighbourhoods, samples, workspace, seed)
         check_points(inst)
         return with_residual_model(
-            params, batch, batched, plan, compare, sets, region, sigma, prior, task_payload, residual_model
+            params, batch, batched, plan, compare, sets, region, sigma, prior, task, residual_model
         )
     with blas_for(0):
         report = _report(
-            params, test_pose, neighbourhoods, samples, workspace, seed, sigma, prior, task_payload, inst
+            params, test_pose, neighbourhoods, samples, workspace, seed, sigma, prior, task, inst
         )
         _, poses, region, jacobians, at_test_poses = report
         loads = plan_payloads(plan, batch.shape)
@@ -118,7 +120,7 @@ def accuracy(
         if prior is not None and np.all(np.isfinite(prior.std(params))):
             J0 = jacobians[0][1]  # ρ² is unchanged by each pose's rotation to the tip frame
             before = float(np.sqrt(np.einsum("kip,p,kip->", J0, prior.std(params) ** 2, J0) / len(poses)))
-        shared = (params, sigma, prior, jacobians, region, at_test_poses, task_payload, inst)
+        shared = (params, sigma, prior, jacobians, region, at_test_poses, task, inst)
         compared = _plans_accuracy([(name, q, None) for name, q in (compare or {}).items()], *shared)
         reports = tuple(
             AccuracyReport(
@@ -134,7 +136,9 @@ def accuracy(
     return reports if batched else reports[0]
 
 
-def _report(params, test_pose, neighbourhoods, samples, workspace, seed, sigma, prior, task_payload, inst):
+def _report(
+    params, test_pose, neighbourhoods, samples, workspace, seed, sigma, prior, task_payload: PayloadRows, inst
+):
     """(sets, test poses, region, the sets' tip-frame Jacobians, the test poses' criterion) of an
     accuracy report: computed once and kept (:data:`pincal.kept.REPORTS`, per thread) for the same
     parameter set, test pose array (its values), draws and σ, without a prior, a task payload or an
@@ -172,7 +176,9 @@ def _report(params, test_pose, neighbourhoods, samples, workspace, seed, sigma, 
     return build() if key is None else REPORTS.get((params,), key, build)
 
 
-def _set_jacobians(engine, sets: list[tuple[str, np.ndarray]], task_payload) -> list[tuple[str, np.ndarray]]:
+def _set_jacobians(
+    engine, sets: list[tuple[str, np.ndarray]], task_payload: PayloadRows
+) -> list[tuple[str, np.ndarray]]:
     """[(where, (n, r, P) read-only tip-frame Jacobians)] of each set of configurations. For a
     plain set (:attr:`JacobianEngine.plain`: rigid, one marker), one pass over every set's
     configurations, each set a view of it (each configuration's Jacobian is its own forward
@@ -185,7 +191,7 @@ def _set_jacobians(engine, sets: list[tuple[str, np.ndarray]], task_payload) -> 
         return [(where, J[end - len(qs) : end]) for (where, qs), end in zip(sets, ends, strict=True)]
     out = []
     for where, qs in sets:
-        J = engine.jacobian(qs, frame="tip", payload=task_loads(task_payload, len(qs))).copy()
+        J = engine.jacobian(qs, frame="tip", payload=repeated(task_payload, len(qs))).copy()
         J.flags.writeable = False
         out.append((where, J))
     return out

@@ -25,7 +25,7 @@ from pincal.evaluation.region import ResolvedRegion
 from pincal.instruments.instrument import Instrument
 from pincal.lapack import trtrs
 from pincal.model.parameters import ParameterSet
-from pincal.model.statics import payload_rows
+from pincal.model.statics import PayloadRows, payload_rows, repeated
 from pincal.typing import ConfigurationsLike, PayloadLike
 
 
@@ -40,7 +40,8 @@ class PredictedError:
         task_payload: the load under which ρ(q) is asked (one for every q: a mass [kg] or a
             :class:`~pincal.Payload`), or None; the plan's own payloads (:attr:`Plan.payload`)
             enter its information.
-        payload: the plan's payload rows (m, 4), instead of its own.
+        payload: the plan's payload rows (m, 4) (:func:`~pincal.model.statics.payload_rows`),
+            instead of its own.
         instrument: what the plan measures and how well (its whitened rows; ``sigma`` is then its
             reference σ), or None: points with ``sigma``. ρ is the markers' position error.
         checked: ``plan`` is an (m, nq) array already checked against the joint limits (not
@@ -57,14 +58,15 @@ class PredictedError:
         sigma: float,
         prior: Prior | None = None,
         task_payload: PayloadLike = None,
-        payload: PayloadLike = None,
+        payload: PayloadRows = None,
         instrument: Instrument | None = None,
         checked: bool = False,
     ) -> None:
         self.params = params
         self.sigma = positive_sigma(sigma) if instrument is None else instrument.reference
         self.prior = prior
-        self.task_payload = task_payload
+        # the door of the task's load: one row (1, 4), carried at every q asked
+        self.task_payload = None if task_payload is None else payload_rows(task_payload, 1)
         self.engine = engine_for(params)
         measured = engine_for(params, instrument)
         qs = np.asarray(plan) if checked else params.robot.configurations(plan)
@@ -84,7 +86,7 @@ class PredictedError:
         out = np.empty(len(qs))
         for a in range(0, len(qs), chunk):
             n = len(qs[a : a + chunk])
-            load = None if self.task_payload is None else payload_rows(self.task_payload, n)
+            load = repeated(self.task_payload, n)
             J = self.engine.jacobian(qs[a : a + chunk], frame="tip", payload=load)
             out[a : a + len(J)] = self.squared_at(J)
         return out

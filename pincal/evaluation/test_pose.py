@@ -55,7 +55,7 @@ from pincal.instruments.instrument import Instrument, orientation_length_of, too
 from pincal.kept import CRITERIA
 from pincal.lapack import trsm, trsm_batch
 from pincal.model.parameters import ParameterSet
-from pincal.model.statics import payload_rows
+from pincal.model.statics import PayloadRows, payload_rows
 from pincal.typing import ConfigurationsLike, PayloadLike, PlansLike, TestPoseLike
 
 AGGREGATES = ("mean", "worst", "each")
@@ -188,9 +188,10 @@ class TestPoseCriterion:
             return float(np.sqrt(r2.max()))
         return np.sqrt(r2)
 
-    def __call__(self, qs: np.ndarray, payload: PayloadLike = None):
+    def __call__(self, qs: np.ndarray, payload: PayloadRows = None):
         """ρ0 [m] of the plan ``qs`` ((m, nq), trusted: not checked against limits) measured
-        under ``payload`` (one per configuration, see :func:`~pincal.model.statics.payload_rows`)."""
+        under ``payload`` ((m, 4) rows, one per configuration, as
+        :func:`~pincal.model.statics.payload_rows` gives them; or None)."""
         J = self.engine.jacobian(qs, frame="tip", payload=payload).reshape(-1, self.J0T.shape[0])
         return self.from_information(J.T @ J, len(qs))
 

@@ -26,7 +26,7 @@ from pincal.instruments.kind import Kind
 from pincal.model.fixtures import Fixture
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.robot import Robot
-from pincal.typing import PayloadLike
+from pincal.model.statics import PayloadRows
 
 
 def anchor_names(count: int) -> tuple[str, ...]:
@@ -113,10 +113,10 @@ class Distance(Kind):
         fixtures = [robot.fixtures[i].placement.translation for i in self.anchor_indices(robot)]
         return np.stack([points[:, k] - fixtures[j] for k, j in self.pairs], axis=1)
 
-    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         return np.linalg.norm(self._vectors(robot, robot.points(qs, check=False, payload=payload)), axis=2)
 
-    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         robot, m = engine.robot, len(qs)
         J = engine.jacobian(qs, frame="world", payload=payload).reshape(m, robot.n_markers, 3, -1)
         vectors = self._vectors(robot, robot.points(qs, check=False, payload=payload))

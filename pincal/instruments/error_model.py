@@ -33,7 +33,7 @@ from pincal.arguments import DEFAULT_SIGMA, positive_sigma
 from pincal.errors import BadArgument
 from pincal.instruments.kind import Kind, marker_poses
 from pincal.model.robot import Robot
-from pincal.typing import PayloadLike
+from pincal.model.statics import PayloadRows
 
 DEFAULT_SIGMA_ROT = 1e-4
 """Default orientation noise [rad] (0.006°): a 6-DoF tracker probe's order; motion capture is
@@ -97,7 +97,7 @@ class ErrorModel(ABC):
 
     @abstractmethod
     def covariance(
-        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: PayloadLike = None
+        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: PayloadRows = None
     ) -> RowCovariance:
         """The covariance of the rows ``kind`` measures on ``robot`` at ``qs`` (m, nq)."""
 
@@ -153,7 +153,7 @@ class PerCoordinate(ErrorModel):
         return np.array([{"m": self.sigma, "rad": self.sigma_rot, "px": self.sigma_px}[u] for u in units])
 
     def covariance(
-        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: PayloadLike = None
+        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: PayloadRows = None
     ) -> RowCovariance:
         return RowCovariance(std=np.tile(self.std(kind.units(robot)), (len(qs), 1)))
 
@@ -229,7 +229,7 @@ class Tracker(ErrorModel):
         return (sr**2)[..., None, None] * uu + (st**2)[..., None, None] * (np.eye(3) - uu)
 
     def covariance(
-        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: PayloadLike = None
+        self, kind: Kind, robot: Robot, qs: np.ndarray, payload: PayloadRows = None
     ) -> RowCovariance:
         every = kind.components(robot)
         components = [c for c in every if c is not None]  # all of them, or refused here

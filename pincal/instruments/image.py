@@ -28,7 +28,7 @@ from pincal.instruments.kind import Kind
 from pincal.model.fixtures import Fixture
 from pincal.model.jacobian import JacobianEngine, _skew
 from pincal.model.robot import Robot
-from pincal.typing import PayloadLike
+from pincal.model.statics import PayloadRows
 
 VISIBILITY_ERROR_STD = (1e-3, 1e-3)
 """The errors before calibration that decide which target points a measurement reads: 1 mm and
@@ -139,7 +139,7 @@ class Image(Kind):
         return tuple((2 * j, 2 * j + 1) for j in range(len(self.points)))
 
     # --------------------------------------------------------------- the geometry
-    def camera_points(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def camera_points(self, robot: Robot, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """(m, N, 3) the target's points in the camera's frame [m]."""
         tool = robot.fixture(self.on_tool).placement
         cell = robot.fixture(self.in_cell).placement
@@ -152,14 +152,14 @@ class Image(Kind):
         world = np.einsum("mij,nj->mni", R_f, self.points) + p_f[:, None]
         return (world - cell.translation) @ cell.rotation
 
-    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         return self.camera.project(self.camera_points(robot, qs, payload)).reshape(len(qs), -1)
 
-    def seen(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def seen(self, robot: Robot, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         return np.repeat(self.camera.in_view(self.camera_points(robot, qs, payload)), 2, axis=1)
 
     def weights(
-        self, engine: JacobianEngine, qs: np.ndarray, rows: np.ndarray, payload: PayloadLike = None
+        self, engine: JacobianEngine, qs: np.ndarray, rows: np.ndarray, payload: PayloadRows = None
     ) -> np.ndarray:
         """(m, 2N) each target point's weight at ``qs``: p, the probability that it is read (in
         front of the camera on the nominal model, and inside the image once the errors still
@@ -204,7 +204,7 @@ class Image(Kind):
         out[looked] = (np.linalg.matrix_rank(np.where(read[..., None], rows, 0.0)) == full) & (full > 0)
         return out
 
-    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         robot = engine.robot
         tool = robot.fixture(self.on_tool).placement
         cell = robot.fixture(self.in_cell).placement

@@ -38,6 +38,7 @@ from pincal.model.base_parameters import NEARLY_REDUNDANT, Identifiability
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
+from pincal.model.statics import PayloadRows
 from pincal.typing import PayloadLike, SeedLike
 
 MAX_JACOBIAN_VALUES = 50_000_000
@@ -137,7 +138,7 @@ class RowsEngine:
         )
 
     def jacobian(
-        self, qs: np.ndarray, frame: str = "tip", payload: PayloadLike = None, masked: bool = True
+        self, qs: np.ndarray, frame: str = "tip", payload: PayloadRows = None, masked: bool = True
     ) -> np.ndarray:
         """(m, r, P) whitened rows at joint readings ``qs`` (validated by the caller).
 
@@ -170,7 +171,7 @@ class RowsEngine:
         return np.where(seen[..., None], out * np.sqrt(weight)[..., None], 0.0)
 
     def tool_rows(
-        self, qs: np.ndarray, orientation_length: float | None = None, payload: PayloadLike = None
+        self, qs: np.ndarray, orientation_length: float | None = None, payload: PayloadRows = None
     ) -> np.ndarray:
         """(k, 3K [+ 3], P) the rows of the test poses ``qs`` (see :func:`tool_rows`)."""
         return tool_rows(self.points, qs, orientation_length, payload)
@@ -201,7 +202,7 @@ def tool_rows(
     engine: JacobianEngine | RowsEngine,
     qs: np.ndarray,
     orientation_length: float | None = None,
-    payload: PayloadLike = None,
+    payload: PayloadRows = None,
 ) -> np.ndarray:
     """(k, 3K [+ 3], P) the rows of test poses ``qs``: the markers' positions in the tip frame (ρ0's
     J₀, whatever the instrument), and with ``orientation_length`` L [m], L times the tip frame's

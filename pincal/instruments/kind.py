@@ -22,7 +22,7 @@ import pinocchio as pin
 
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.robot import Robot
-from pincal.typing import PayloadLike
+from pincal.model.statics import PayloadRows
 
 POSE_COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
 """The six components of a pose: position [m] and rotation vector [rad], in the instrument's frame."""
@@ -82,7 +82,7 @@ class Kind(ABC):
 
     # ---------------------------------------------------------------------- prediction
     @abstractmethod
-    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """(m, r) the values the instrument would read on ``robot`` at joint readings ``qs`` (m, nq)
         [m, rad or px] (validated by the caller), with the payload rows of each configuration."""
 
@@ -90,13 +90,13 @@ class Kind(ABC):
         """(m, r) measured − predicted (NaN where a value was not measured)."""
         return measured - predicted
 
-    def seen(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def seen(self, robot: Robot, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """(m, r) True where the instrument can read the value at ``qs`` (a camera: the point is in
         its view); every value by default."""
         return np.ones((len(qs), self.size(robot)), dtype=bool)
 
     def weights(
-        self, engine: JacobianEngine, qs: np.ndarray, rows: np.ndarray, payload: PayloadLike = None
+        self, engine: JacobianEngine, qs: np.ndarray, rows: np.ndarray, payload: PayloadRows = None
     ) -> np.ndarray:
         """(m, r) the share of each value's information a measurement at ``qs`` is expected to
         deliver, given its rows (m, r, P) from :meth:`rows`: 1 where :meth:`seen`, 0 elsewhere by
@@ -112,11 +112,11 @@ class Kind(ABC):
         return np.ones(len(qs), dtype=bool)
 
     @abstractmethod
-    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """(m, r, P) the parameter Jacobian of the measured values at ``qs``, in the instrument's
         frame, for ``engine``'s parameter set on its robot."""
 
-    def tip_rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def tip_rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """The rows in each configuration's tip frame where the kind is rotation invariant (cheaper;
         the same information under direction-free noise); :meth:`rows` otherwise."""
         return self.rows(engine, qs, payload)
@@ -129,7 +129,7 @@ def marker_frame(robot: Robot, k: int) -> pin.SE3:
 
 
 def marker_frame_rows(
-    engine: JacobianEngine, qs: np.ndarray, k: int, payload: PayloadLike, pose: bool = True
+    engine: JacobianEngine, qs: np.ndarray, k: int, payload: PayloadRows, pose: bool = True
 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
     """(J, R, p): marker k's frame twist rows (m, 6, P) in its own axes (the marker's own
     parameters included), its orientations (m, 3, 3) and positions (m, 3) in the instrument's frame
@@ -147,7 +147,7 @@ def in_world(J: np.ndarray, R: np.ndarray) -> np.ndarray:
     return out
 
 
-def marker_poses(robot: Robot, qs: np.ndarray, payload: PayloadLike) -> tuple[np.ndarray, np.ndarray]:
+def marker_poses(robot: Robot, qs: np.ndarray, payload: PayloadRows) -> tuple[np.ndarray, np.ndarray]:
     """(R, p): every marker frame's orientation (m, K, 3, 3) and position (m, K, 3) in the
     instrument's frame (the markers' frames have the tip's axes)."""
     rotations, positions = robot.tip_poses(qs, check=False, payload=payload)

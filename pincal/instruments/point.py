@@ -11,7 +11,7 @@ import numpy as np
 from pincal.instruments.kind import Kind, numbered
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.robot import Robot
-from pincal.typing import PayloadLike
+from pincal.model.statics import PayloadRows
 
 
 @dataclass(frozen=True)
@@ -33,11 +33,11 @@ class Point(Kind):
     def blocks(self, robot: Robot) -> tuple[tuple[int, ...], ...]:
         return tuple((3 * k, 3 * k + 1, 3 * k + 2) for k in range(robot.n_markers))
 
-    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         return robot.points(qs, check=False, payload=payload).reshape(len(qs), -1)
 
-    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         return engine.jacobian(qs, frame="world", payload=payload)
 
-    def tip_rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def tip_rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         return engine.jacobian(qs, frame="tip", payload=payload)

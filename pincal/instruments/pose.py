@@ -36,7 +36,7 @@ from pincal.instruments.kind import (
 )
 from pincal.model.jacobian import JacobianEngine
 from pincal.model.robot import Robot
-from pincal.typing import PayloadLike
+from pincal.model.statics import PayloadRows
 
 
 def _units(components: tuple[int, ...]) -> tuple[str, ...]:
@@ -62,7 +62,7 @@ class Pose(Kind):
     def blocks(self, robot: Robot) -> tuple[tuple[int, ...], ...]:
         return tuple(tuple(range(6 * k, 6 * k + 6)) for k in range(robot.n_markers))
 
-    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         R, p = marker_poses(robot, qs, payload)
         return np.concatenate([p, rotation_vectors(R)], axis=2).reshape(len(qs), -1)
 
@@ -74,13 +74,13 @@ class Pose(Kind):
             out[i, k, 3:] = pin.log3(pin.exp3(a[i, k, 3:]) @ pin.exp3(b[i, k, 3:]).T)
         return out.reshape(m, -1)
 
-    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         return self._rows(engine, qs, payload, world=True)
 
-    def tip_rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def tip_rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         return self._rows(engine, qs, payload, world=False)
 
-    def _rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike, world: bool) -> np.ndarray:
+    def _rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows, world: bool) -> np.ndarray:
         blocks = []
         for k in range(engine.robot.n_markers):
             J, R, _ = marker_frame_rows(engine, qs, k, payload, pose=world)
@@ -158,12 +158,12 @@ class Partial(Kind):
             start += n
         return tuple(out)
 
-    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         R, p = marker_poses(robot, qs, payload)
         full = np.concatenate([p, rotation_vectors(R)], axis=2)
         return np.concatenate([full[:, k, list(self.mask(robot, k))] for k in range(robot.n_markers)], axis=1)
 
-    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         blocks = []
         for k in range(engine.robot.n_markers):
             mask = self.mask(engine.robot, k)

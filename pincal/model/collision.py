@@ -50,8 +50,7 @@ from pincal.errors import UrdfError
 from pincal.model.geometry import convex_hull, urdf_geometry
 from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
-from pincal.model.statics import payload_rows
-from pincal.typing import PayloadLike
+from pincal.model.statics import PayloadRows
 
 
 class FloorPoints(Protocol):
@@ -65,7 +64,7 @@ class FloorPoints(Protocol):
     names: list[str]
     """What each checked point is."""
 
-    def heights(self, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def heights(self, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """(m, kept) the checked points' heights above the plane [m] at the readings ``qs``."""
         ...
 
@@ -299,8 +298,8 @@ class CollisionWorld:
             are checked against its plane (:class:`FloorPoints`), or None.
         link_radius: the capsules' radius [m] when the URDF has no collision geometry.
         search: more folders for ``package://`` mesh paths.
-        payload: what the robot carries during the checks (a mass [kg] or a
-            :class:`~pincal.model.statics.Payload`; default none): it matters on a robot with
+        payload: what the robot carries during the checks, one payload row (1, 4) [kg, x, y, z]
+            (:func:`~pincal.model.statics.payload_rows`; default none): it matters on a robot with
             joint compliances, whose joints yield to it.
     """
 
@@ -313,7 +312,7 @@ class CollisionWorld:
         mount_points: FloorPoints | None = None,
         link_radius: float | None = None,
         search: Iterable[str] = (),
-        payload: PayloadLike = None,
+        payload: PayloadRows = None,
     ) -> None:
         import coal
 
@@ -377,9 +376,9 @@ class CollisionWorld:
         self.names = [p.name for p in pairs] + [f"{n} / floor" for n in getattr(mount_points, "names", [])]
         self.kinds = [p.kind for p in pairs] + ["floor"] * self.n_points
 
-    def weights_under(self, payload: PayloadLike) -> np.ndarray:
+    def weights_under(self, payload: PayloadRows) -> np.ndarray:
         """(size, nq) the motion weights of the readings while the robot carries ``payload`` (None,
-        a mass [kg], a Payload, or (r, 4) rows [kg, x, y, z]: under any of them): the weights bound
+        or (r, 4) rows [kg, x, y, z]: under any of them): the weights bound
         a move of θ, mapped onto that of the readings
         (:meth:`~pincal.model.kinematics.ForwardKinematics.motion_scale`)."""
         scale = self.forward.motion_scale(payload)
@@ -408,14 +407,14 @@ class CollisionWorld:
         """Number of distances per configuration (pairs, then floor points)."""
         return len(self.pairs) + self.n_points
 
-    def distances(self, q: np.ndarray, refine: bool = True, payload: PayloadLike = None) -> np.ndarray:
+    def distances(self, q: np.ndarray, refine: bool = True, payload: PayloadRows = None) -> np.ndarray:
         """(size,) distances [m] at the reading ``q`` (lower bounds; ≤ 0 when shapes touch or
         overlap, negative when a point is below the floor); ``refine=False``: convex hulls only;
         ``payload``: the one carried (default the world's)."""
         payload = self.payload if payload is None else payload
         return self._distances(q, self.forward.joint_values(q[None], payload)[0], refine, payload)
 
-    def _distances(self, q: np.ndarray, theta: np.ndarray, refine: bool, payload: PayloadLike) -> np.ndarray:
+    def _distances(self, q: np.ndarray, theta: np.ndarray, refine: bool, payload: PayloadRows) -> np.ndarray:
         """:meth:`distances` at the reading ``q`` whose joints stand at ``theta``."""
         out = np.empty(self.size)
         if self.pairs:
@@ -432,7 +431,7 @@ class CollisionWorld:
             out[len(self.pairs) :] = self.mount.heights(q[None], payload)[0]
         return out
 
-    def exact_distances(self, q: np.ndarray, pairs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def exact_distances(self, q: np.ndarray, pairs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """Distances [m] of the given pairs (indices below ``len(self.pairs)``) at the reading
         ``q``, on the meshes themselves rather than their hulls (a few milliseconds per mesh pair)."""
         pairs = np.asarray(pairs, dtype=int)
@@ -451,11 +450,12 @@ class CollisionWorld:
             out[i] = self.exact_data.distanceResults[int(k)].min_distance
         return out
 
-    def distances_many(self, qs: np.ndarray, refine: bool = True, payload: PayloadLike = None) -> np.ndarray:
-        """(m, size) :meth:`distances` at each of the readings ``qs`` (``payload``: the one carried,
-        or one per configuration; default the world's)."""
-        payload = self.payload if payload is None else payload
-        loads = None if payload is None else payload_rows(payload, len(qs))
+    def distances_many(self, qs: np.ndarray, refine: bool = True, payload: PayloadRows = None) -> np.ndarray:
+        """(m, size) :meth:`distances` at each of the readings ``qs`` (``payload``: (m, 4) the row
+        of each configuration; default the world's)."""
+        loads = payload
+        if loads is None and self.payload is not None:
+            loads = np.repeat(self.payload, len(qs), axis=0)
         thetas = self.forward.joint_values(qs, loads)
         out = [
             self._distances(q, theta, refine, None if loads is None else loads[i : i + 1])
@@ -463,7 +463,7 @@ class CollisionWorld:
         ]
         return np.array(out).reshape(len(qs), self.size)
 
-    def placements(self, q: np.ndarray, payload: PayloadLike = None) -> list[pin.SE3]:
+    def placements(self, q: np.ndarray, payload: PayloadRows = None) -> list[pin.SE3]:
         """Placement of every shape at the reading ``q`` (robot shapes, then obstacles), base frame."""
         payload = self.payload if payload is None else payload
         self.forward.place_geometry(self.geom, self.gdata, q, payload)

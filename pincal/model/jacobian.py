@@ -33,8 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import BadArgument
-from pincal.model.statics import payload_rows
-from pincal.typing import PayloadLike
+from pincal.model.statics import PayloadRows, carried
 
 FD_STEP = 1e-6
 """Central finite-difference step [m or rad]."""
@@ -165,21 +164,21 @@ class JacobianEngine:
         self.plain = self.rigid and len(self.points) == 1 and not self.needs_pose and not self.gain_cols.size
 
     def joint_values(
-        self, qs: np.ndarray, payload: PayloadLike = None
+        self, qs: np.ndarray, payload: PayloadRows = None
     ) -> tuple[np.ndarray, np.ndarray | None]:
         """(θ, τ): the joints' actual values (m, nq) at readings ``qs`` (:meth:`Robot.joint_values`),
         and the gravity torques (m, nq) on them under ``payload`` when the set has compliances
         (else None)."""
         if self.rigid:
             return (qs + self.offsets if self.has_offsets else qs), None
-        loads = payload_rows(payload, len(qs))
-        theta = self.robot.joint_values(qs, payload=loads, check=False, gravity=self.gravity)
+        loads = carried(payload, len(qs))
+        theta = self.robot.joint_values_under(qs, loads, self.gravity)
         if not self.compliance_cols.size:
             return theta, None
         assert self.gravity is not None  # built when the set has compliances
         return theta, self.gravity.torques(theta, loads)
 
-    def regressors(self, qs: np.ndarray, pose: bool = False, payload: PayloadLike = None):
+    def regressors(self, qs: np.ndarray, pose: bool = False, payload: PayloadRows = None):
         """Linear rows of the kinematic regressor at each marker, in the tip frame's axes, at the
         joint readings ``qs`` (under ``payload`` on a compliant robot).
 
@@ -294,7 +293,7 @@ class JacobianEngine:
             J += self.const
         return J
 
-    def jacobian(self, qs: np.ndarray, frame: str = "tip", payload: PayloadLike = None) -> np.ndarray:
+    def jacobian(self, qs: np.ndarray, frame: str = "tip", payload: PayloadRows = None) -> np.ndarray:
         """(m, 3K, P) parameter Jacobian at configurations ``qs`` (validated by the caller).
 
         Args:
@@ -302,8 +301,8 @@ class JacobianEngine:
             frame: ``"tip"``: each configuration's rows in its own tip frame (enough for every
                 criterion: M = Σ JᵢᵀJᵢ is unchanged by a rotation of each configuration's rows);
                 ``"world"``: in the instrument's frame.
-            payload: the payload at each configuration
-                (:func:`~pincal.model.statics.payload_rows`; default none).
+            payload: (m, 4) the payload rows of the configurations
+                (:func:`~pincal.model.statics.payload_rows`), or None (none).
         """
         if self.plain and frame == "tip":  # the common case (a rigid robot: no payload matters)
             thetas = qs + self.offsets if self.has_offsets else qs
@@ -341,7 +340,7 @@ class JacobianEngine:
         return J
 
     def frame_rows(
-        self, qs: np.ndarray, placement: pin.SE3 | None = None, payload: PayloadLike = None, pose: bool = True
+        self, qs: np.ndarray, placement: pin.SE3 | None = None, payload: PayloadRows = None, pose: bool = True
     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         """Twist rows of a frame fixed to the tip, and the frame's poses, at joint readings ``qs``.
 
@@ -354,7 +353,7 @@ class JacobianEngine:
         Args:
             qs: (m, nq) joint readings (validated by the caller).
             placement: F in the tip frame.
-            payload: the payload at each configuration (:func:`~pincal.model.statics.payload_rows`).
+            payload: (m, 4) the payload rows of the configurations, or None.
             pose: also return F's poses (else None, None, unless the set has ``base.*``): cheaper.
 
         Returns:
@@ -409,28 +408,28 @@ class JacobianEngine:
 
 
 def analytic_jacobian(
-    params, qs: np.ndarray, frame: str = "world", payload: PayloadLike = None
+    params, qs: np.ndarray, frame: str = "world", payload: PayloadRows = None
 ) -> np.ndarray:
-    """(m, 3K, P) analytic parameter Jacobian (see :meth:`ParameterSet.jacobian`)."""
+    """(m, 3K, P) analytic parameter Jacobian (see :meth:`ParameterSet.jacobian`) under the
+    (m, 4) payload rows ``payload``."""
     if frame not in ("world", "tip"):
         raise BadArgument(f"unknown Jacobian frame {frame!r}; valid: world, tip")
-    loads = payload_rows(payload, len(qs))
-    return JacobianEngine(params).jacobian(qs, frame=frame, payload=loads)
+    return JacobianEngine(params).jacobian(qs, frame=frame, payload=payload)
 
 
 def finite_difference_jacobian(
-    params, qs: np.ndarray, step: float = FD_STEP, payload: PayloadLike = None
+    params, qs: np.ndarray, step: float = FD_STEP, payload: PayloadRows = None
 ) -> np.ndarray:
-    """(m, 3K, P) world-frame Jacobian by central differences on perturbed robot copies; the step
-    of each parameter is ``step`` / its natural scale (:attr:`ParameterSet.scales`)."""
+    """(m, 3K, P) world-frame Jacobian by central differences on perturbed robot copies, under the
+    (m, 4) payload rows ``payload``; the step of each parameter is ``step`` / its natural scale
+    (:attr:`ParameterSet.scales`)."""
     m, n = len(qs), len(params)
-    loads = payload_rows(payload, m)
     J = np.empty((m, 3 * params.robot.n_markers, n))
     for col in range(n):
         h = step / params.scales[col]
         dx = np.zeros(n)
         dx[col] = h
-        plus = params.apply(dx).points(qs, check=False, payload=loads)
-        minus = params.apply(-dx).points(qs, check=False, payload=loads)
+        plus = params.apply(dx).points(qs, check=False, payload=payload)
+        minus = params.apply(-dx).points(qs, check=False, payload=payload)
         J[:, :, col] = ((plus - minus) / (2 * h)).reshape(m, -1)
     return J

@@ -40,8 +40,7 @@ import pinocchio as pin
 
 from pincal.errors import BadArgument
 from pincal.model.placements import JointPlacements
-from pincal.model.statics import Gravity, payload_rows
-from pincal.typing import PayloadLike
+from pincal.model.statics import Gravity, PayloadRows, carried
 
 if TYPE_CHECKING:  # robot.py imports this module
     from pincal.model.robot import Robot
@@ -99,7 +98,10 @@ class Placements:
 class ForwardKinematics:
     """The forward kinematics of one robot, gains and compliances included (see the module doc).
 
-    Holds a ``pinocchio.Data`` and the robot's gravity model: one per thread or process.
+    Holds a ``pinocchio.Data`` and the robot's gravity model: one per thread or process. It works
+    below the payload door (:mod:`pincal.model.statics`): a ``payload`` here is (m, 4) rows
+    [kg, x, y, z], one per configuration (:func:`~pincal.model.statics.payload_rows`), or None;
+    :meth:`pincal.Robot.points` and :meth:`pincal.Robot.joint_values` take any payload form.
 
     Args:
         robot: the robot (not modified).
@@ -129,27 +131,28 @@ class ForwardKinematics:
             self._gravity = self.robot.gravity_model()
         return self._gravity
 
-    def joint_values(self, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
-        """(m, nq) the joints' values θ at the readings ``qs`` (m, nq) under ``payload``."""
+    def joint_values(self, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
+        """(m, nq) the joints' values θ at the readings ``qs`` (m, nq) under the payload rows
+        ``payload`` (m, 4) [kg, x, y, z], or None (none)."""
         robot = self.robot
         if self.rigid:
             return qs + robot.joint_offsets
-        return robot.joint_values(qs, payload=payload, check=False, gravity=self.gravity)
+        return robot.joint_values_under(qs, payload, self.gravity)
 
     # ------------------------------------------------------------------ tip and markers
     def tip(
-        self, qs: np.ndarray, payload: PayloadLike = None, *, instrument: bool = True
+        self, qs: np.ndarray, payload: PayloadRows = None, *, instrument: bool = True
     ) -> tuple[np.ndarray, np.ndarray]:
         """Tip orientations (m, 3, 3) and positions (m, 3) [m] at readings ``qs``, in the instrument
         frame (``instrument=False``: the robot's base frame)."""
         base = self.robot.base if instrument else None
         return tip_poses(self.robot, self.joint_values(qs, payload), self.data, base)
 
-    def markers(self, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def markers(self, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """(m, K, 3) the markers at readings ``qs`` in the instrument frame [m]."""
         return marker_positions(self.robot, *self.tip(qs, payload))
 
-    def placements(self, qs: np.ndarray, payload: PayloadLike = None) -> Placements:
+    def placements(self, qs: np.ndarray, payload: PayloadRows = None) -> Placements:
         """Every joint's placement, the tip and the markers at readings ``qs``, base frame
         (Pinocchio's ``forwardKinematics`` per configuration)."""
         robot, model, data = self.robot, self.model, self.data
@@ -168,7 +171,7 @@ class ForwardKinematics:
         return Placements(thetas, rotations, translations, tip_rotations, tip_positions, markers)
 
     # ------------------------------------------------------------------ the mount's points
-    def chain_points(self, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def chain_points(self, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """(m, nq + 1 + K, 3) the moving joints' origins, the tip and the markers at readings
         ``qs``, in the base frame [m]: Pinocchio per configuration for fewer than :data:`BATCH`
         configurations, else all at once (:meth:`batch_chain_points`; the two agree to rounding)."""
@@ -187,7 +190,7 @@ class ForwardKinematics:
             out[i, len(joints) + 1 :] = robot.markers @ frame.rotation.T + frame.translation
         return out
 
-    def batch_chain_points(self, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def batch_chain_points(self, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """:meth:`chain_points` of all configurations in one batch
         (:class:`~pincal.model.placements.JointPlacements`)."""
         robot = self.robot
@@ -211,7 +214,7 @@ class ForwardKinematics:
 
     # ------------------------------------------------------------------ geometry
     def place_geometry(
-        self, geom: pin.GeometryModel, gdata: pin.GeometryData, q: np.ndarray, payload: PayloadLike = None
+        self, geom: pin.GeometryModel, gdata: pin.GeometryData, q: np.ndarray, payload: PayloadRows = None
     ) -> None:
         """Place the shapes of ``geom`` (on this robot's joints) at the reading ``q`` (nq,):
         ``gdata.oMg`` (Pinocchio's ``updateGeometryPlacements`` at θ)."""
@@ -232,13 +235,13 @@ class ForwardKinematics:
         return dtheta
 
     def frame_jacobian(
-        self, q: np.ndarray, payload: PayloadLike = None, reference: pin.ReferenceFrame = pin.LOCAL
+        self, q: np.ndarray, payload: PayloadRows = None, reference: pin.ReferenceFrame = pin.LOCAL
     ) -> tuple[pin.SE3, np.ndarray]:
         """(the tip frame's placement in the base frame, its (6, nq) Jacobian in ``reference``
-        with respect to the reading) at the reading ``q`` (nq,): Pinocchio's frame Jacobian at θ
-        times :meth:`reading_jacobian`."""
+        with respect to the reading) at the reading ``q`` (nq,) under the payload row ``payload``
+        (1, 4) (or None): Pinocchio's frame Jacobian at θ times :meth:`reading_jacobian`."""
         robot, model, data = self.robot, self.model, self.data
-        load = payload_rows(payload, 1)
+        load = carried(payload, 1)
         theta = self.joint_values(np.asarray(q, dtype=float)[None], load)[0]
         pin.framesForwardKinematics(model, data, theta)
         placement = pin.SE3(data.oMf[robot.tip_frame])
@@ -247,10 +250,10 @@ class ForwardKinematics:
             J = J @ self.reading_jacobian(theta, load[0])
         return placement, J
 
-    def motion_scale(self, payload: PayloadLike = None) -> np.ndarray | None:
+    def motion_scale(self, payload: PayloadRows = None) -> np.ndarray | None:
         """(nq, nq) S ≥ 0 with |Δθ| ≤ S |Δq| (elementwise) between any two readings of a straight
-        move, under the payload ``payload`` (None, a mass [kg], a Payload, or (r, 4) rows
-        [kg, x, y, z]: the bound holds under any of them); None for a rigid robot (S = I).
+        move, under the payload ``payload`` (None, or (r, 4) rows [kg, x, y, z]: the bound holds
+        under any of them); None for a rigid robot (S = I).
 
         With gains only, S = |I + K|. With compliances, ∂θ/∂q = (I − C T)⁻¹ (I + K), T = ∂τ/∂θ
         bounded elementwise by T̄ (:func:`torque_derivative_bound`): S = (I − |C| T̄)⁻¹ |I + K|,
@@ -265,7 +268,7 @@ class ForwardKinematics:
         scale = np.diag(np.abs(1.0 + robot.joint_gains))
         if not robot.joint_compliances.any():
             return scale
-        rows = payload_rows(payload, len(payload) if np.ndim(payload) == 2 else 1)  # type: ignore[arg-type]
+        rows = carried(payload, 1)
         loop = np.abs(robot.joint_compliances)[:, None] * torque_derivative_bound(robot, rows)
         if np.max(np.abs(np.linalg.eigvals(loop))) >= 0.5:
             raise BadArgument(

@@ -51,7 +51,7 @@ from pincal.errors import BadArgument, UnknownParameter
 from pincal.model.base_parameters import NEARLY_REDUNDANT, identifiability
 from pincal.model.catalogue import GROUPS, Parameter, catalogue, group, split_spec
 from pincal.model.jacobian import analytic_jacobian, finite_difference_jacobian
-from pincal.model.statics import require_masses
+from pincal.model.statics import payload_rows, require_masses
 from pincal.typing import ConfigurationsLike, PayloadLike, SeedLike
 
 if TYPE_CHECKING:  # a Robot builds its ParameterSets (Robot.parameters): robot.py imports this module
@@ -261,12 +261,13 @@ class ParameterSet:
             ``J.reshape(-1, P)`` is the stacked Jacobian.
         """
         qs = self.robot.configurations(plan)
+        loads = payload_rows(payload, len(qs))  # the door: rows below
         if method == "analytic":
-            return analytic_jacobian(self, qs, frame=frame, payload=payload)
+            return analytic_jacobian(self, qs, frame=frame, payload=loads)
         if method == "fd":
             if frame != "world":
                 raise BadArgument("finite differences give world-frame rows only (frame='world')")
-            return finite_difference_jacobian(self, qs, payload=payload)
+            return finite_difference_jacobian(self, qs, payload=loads)
         raise BadArgument(f"unknown Jacobian method {method!r}; valid: analytic, fd")
 
     @keywords_after(1)

@@ -31,7 +31,7 @@ from pincal.model.fixtures import Fixture, checked_fixtures
 from pincal.model.kinematics import marker_positions, tip_poses
 from pincal.model.origins import Origin, chain_origins, motion_axes
 from pincal.model.parameters import ParameterSet
-from pincal.model.statics import Gravity, chain_mass, mounted, payload_rows
+from pincal.model.statics import Gravity, PayloadRows, carried, chain_mass, mounted, payload_rows
 from pincal.typing import ArrayLike, ConfigurationsLike, PayloadLike, SeedLike
 
 LIMIT_TOLERANCE = 1e-9
@@ -357,6 +357,15 @@ class Robot:
         (see :meth:`points`; :mod:`pincal.model.statics`). ``gravity``: a :meth:`gravity_model`
         of this robot to reuse."""
         qs = self.configurations(q) if check else np.asarray(q, dtype=float)
+        # a door: the payload matters (and is checked) only when the joints yield to it
+        loads = payload_rows(payload, len(qs)) if self.joint_compliances.any() else None
+        return self.joint_values_under(qs, loads, gravity)
+
+    def joint_values_under(
+        self, qs: np.ndarray, loads: PayloadRows, gravity: Gravity | None = None
+    ) -> np.ndarray:
+        """:meth:`joint_values` at readings ``qs`` (m, nq) taken as they are, under the payload
+        rows ``loads`` (m, 4) [kg, x, y, z] or None (none): the path below the door."""
         start = qs + self.joint_offsets
         if not self.is_elastic:
             return start
@@ -364,7 +373,7 @@ class Robot:
         if not self.joint_compliances.any():
             return start
         gravity = self.gravity_model() if gravity is None else gravity
-        return gravity.deflected(start, self.joint_compliances, payload_rows(payload, len(qs)))
+        return gravity.deflected(start, self.joint_compliances, carried(loads, len(qs)))
 
     def joint_torques(
         self, q: ConfigurationsLike, *, payload: PayloadLike = None, check: bool = True
@@ -375,7 +384,7 @@ class Robot:
         qs = self.configurations(q) if check else np.asarray(q, dtype=float)
         gravity = self.gravity_model()
         loads = payload_rows(payload, len(qs))
-        return gravity.torques(self.joint_values(qs, payload=loads, check=False, gravity=gravity), loads)
+        return gravity.torques(self.joint_values_under(qs, loads, gravity), loads)
 
     def folded_origin(self, o: int) -> pin.SE3:
         """The URDF ``<origin>`` of chain joint ``o`` (0-based) with its joint offset folded in,

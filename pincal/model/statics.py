@@ -16,6 +16,29 @@ gravity call covers links and payload. Gravity is the model's (``pinocchio.Model
 The payload is a point mass (:class:`Payload`) at a centre fixed in the tip frame; a measurement
 or a plan gives one per configuration, as the rows [kg, x, y, z] of :func:`payload_rows`.
 
+Where payloads become rows (the door): a user gives a payload in any of the forms of
+:data:`pincal.typing.PayloadLike`, and :func:`payload_rows` turns it into rows once, at the top of
+the public function, method or class that takes it (``payload=``, ``task_payload=``,
+``payloads=``): :class:`Payload`, :meth:`~pincal.Robot.joint_values` (so
+:meth:`~pincal.Robot.points` and :meth:`~pincal.Robot.tip_poses`) and
+:meth:`~pincal.Robot.joint_torques`, :meth:`~pincal.ParameterSet.jacobian`,
+:meth:`~pincal.ParameterSet.identifiable`, :class:`~pincal.Plan`, :func:`~pincal.rho0` and
+:class:`~pincal.evaluation.TestPoseCriterion`, :func:`~pincal.evaluation.position_covariance`,
+:func:`~pincal.accuracy` and :class:`~pincal.evaluation.PredictedError` (a task's load: one row),
+:func:`~pincal.design` (its :class:`~pincal.Loads`), :func:`~pincal.random_errors`,
+:func:`~pincal.simulate_measurements`, :func:`~pincal.monte_carlo`, :func:`~pincal.compensate`, and
+the identification result's accuracy. Below the door only :data:`PayloadRows` travels: (m, 4) rows
+of the m configurations at hand, or None for none (:func:`carried` reads None as zeros, and
+:func:`repeated` carries a task's one row at n configurations), and no function below the door
+normalises what it receives: :class:`~pincal.model.kinematics.ForwardKinematics`,
+:meth:`~pincal.Robot.joint_values_under`, the Jacobian engines, the instruments, the calibration
+problem, the constraints' :class:`~pincal.planning.constraints.Kinematics` and the collision world
+take rows as they are. (Code below the door that asks a public door, e.g. the instruments'
+``robot.points``, hands it rows, which that door checks once more: O(m), on a compliant robot
+only. :class:`~pincal.MeasurementData` checks its own payload columns, naming the file's lines.)
+The doors are listed in tests/contracts/test_payload_door.py: a new call of :func:`payload_rows`
+is a new door, or a sign that rows are being normalised twice.
+
 θ is found by fixed-point iteration from θ₀ = q + Δq + k ⊙ q: each step shrinks the error by about
 ‖C ∂τ/∂θ‖ (C = diag c), 1e-3 for an industrial arm, so a few steps reach rounding.
 """
@@ -23,6 +46,7 @@ or a plan gives one per configuration, as the rows [kg, x, y, z] of :func:`paylo
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TypeAlias
 
 import numpy as np
 import pinocchio as pin
@@ -30,6 +54,10 @@ import pinocchio as pin
 from pincal.arguments import MAX_LENGTH
 from pincal.errors import BadArgument, NoInertias
 from pincal.typing import ArrayLike, PayloadLike
+
+PayloadRows: TypeAlias = "np.ndarray | None"
+"""A payload below the door: (m, 4) rows [kg, x, y, z] (the centre in the tip frame [m]), one per
+configuration at hand, as :func:`payload_rows` returns them; or None, nothing carried."""
 
 PAYLOAD_COLUMNS = ("payload_kg", "payload_x", "payload_y", "payload_z")
 """The payload columns of a plan or measurement file: mass [kg], centre of mass in the tip frame."""
@@ -135,6 +163,18 @@ def payload_rows(payload: PayloadLike, m: int) -> np.ndarray:
             argument="payload",
         )
     return arr
+
+
+def carried(loads: PayloadRows, m: int) -> np.ndarray:
+    """The (m, 4) rows ``loads`` as they are, or m rows of zeros for None (nothing carried): below
+    the door, no check and no copy."""
+    return np.zeros((m, 4)) if loads is None else loads
+
+
+def repeated(row: PayloadRows, n: int) -> PayloadRows:
+    """(n, 4) the one payload row ``row`` (1, 4) carried at each of n configurations (a task's
+    load, asked at any number of them), or None for None."""
+    return None if row is None else np.repeat(row, n, axis=0)
 
 
 def payload_columns(

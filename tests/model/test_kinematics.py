@@ -15,7 +15,7 @@ import pincal
 from pincal.campaign.schedule import plan_campaign
 from pincal.model.collision import CollisionWorld
 from pincal.model.kinematics import BATCH, ForwardKinematics, torque_derivative_bound
-from pincal.model.statics import Payload
+from pincal.model.statics import Payload, payload_rows
 from pincal.planning.constraints import Kinematics, Mount, Obstacle, Workcell
 from tests.support.kinematics_oracle import heights, oracle_frames, oracle_thetas
 
@@ -42,14 +42,15 @@ def test_the_service_is_pinocchios_framesforwardkinematics_per_configuration(whi
     robot = request.getfixturevalue(which).replace(base=BASE)
     qs = robot.random_configurations(40, 3)
     payload = Payload(150.0, (0.0, 0.1, 0.2))
+    rows = payload_rows(payload, len(qs))  # the service works below the payload door: rows
     forward = ForwardKinematics(robot)
     thetas = oracle_thetas(robot, qs, payload)
-    np.testing.assert_allclose(forward.joint_values(qs, payload), thetas, rtol=0, atol=1e-12)
-    placed = forward.placements(qs, payload)
-    rotations, positions = forward.tip(qs, payload)
-    markers = forward.markers(qs, payload)
-    chain = forward.chain_points(qs[: BATCH - 1], payload)  # Pinocchio's loop
-    batch = forward.batch_chain_points(qs, payload)  # the batch
+    np.testing.assert_allclose(forward.joint_values(qs, rows), thetas, rtol=0, atol=1e-12)
+    placed = forward.placements(qs, rows)
+    rotations, positions = forward.tip(qs, rows)
+    markers = forward.markers(qs, rows)
+    chain = forward.chain_points(qs[: BATCH - 1], rows[: BATCH - 1])  # Pinocchio's loop
+    batch = forward.batch_chain_points(qs, rows)  # the batch
     for i, (joints, tip, points) in enumerate(oracle_frames(robot, thetas)):
         for j, joint in enumerate(joints):
             np.testing.assert_allclose(placed.joint_translations[i, j], joint.translation, atol=1e-12)
@@ -82,7 +83,7 @@ def test_frame_jacobian_is_the_derivative_along_the_readings(calibrated):
     """J with respect to the reading (gains and compliance under a payload) against central
     differences of the tip placement: log6(T(q)⁻¹ T(q + h eⱼ)) / h."""
     forward = ForwardKinematics(calibrated)
-    payload = Payload(200.0, (0.0, 0.0, 0.15))
+    payload = Payload(200.0, (0.0, 0.0, 0.15)).row[None]
     q = np.radians([10, -70, 80, 20, 40, -30])
     placement, J = forward.frame_jacobian(q, payload)
     h = 1e-6
@@ -107,17 +108,18 @@ def test_motion_scale_bounds_the_joints_move_and_the_torque_bound_holds(calibrat
     (Pinocchio's gravity derivatives) at random configurations."""
     forward = ForwardKinematics(calibrated)
     payload = Payload(270.0, (0.0, 0.0, 0.3))
-    S = forward.motion_scale(payload)
+    S = forward.motion_scale(payload.row[None])
     assert S is not None and np.all(S >= 0)
     assert np.all(np.diag(S) >= np.abs(1 + GAINS))
     bound = torque_derivative_bound(calibrated, payload.row[None])
     gravity = calibrated.gravity_model()
     rng = np.random.default_rng(5)
     qs = calibrated.random_configurations(200, rng)
-    for theta in forward.joint_values(qs, payload):
+    for theta in forward.joint_values(qs, payload_rows(payload, len(qs))):
         assert np.all(np.abs(gravity.torque_derivatives(theta, payload.row)) <= bound + 1e-9)
     a, b = calibrated.random_configurations(100, rng), calibrated.random_configurations(100, rng)
-    moved = np.abs(forward.joint_values(b, payload) - forward.joint_values(a, payload))
+    rows = payload_rows(payload, len(a))
+    moved = np.abs(forward.joint_values(b, rows) - forward.joint_values(a, rows))
     assert np.all(moved <= np.abs(b - a) @ S.T + 1e-12)
     with pytest.raises(pincal.errors.BadArgument, match="too large to bound"):
         ForwardKinematics(calibrated.replace(joint_compliances=np.full(6, 1e-3))).motion_scale()
@@ -143,8 +145,8 @@ def test_a_calibrated_robot_is_mount_checked_with_its_calibrated_kinematics(nomi
     assert low_calibrated - low_loaded > 1e-4  # the compliances yield 0.1 mm or more
     loaded = Mount("plane", (0, 0, 1), 0.5 * (low_calibrated + low_loaded)).bind(calibrated)
     assert loaded.satisfied(Kinematics(calibrated, q[None]))[0]
-    assert not loaded.satisfied(Kinematics(calibrated, q[None], payload=heavy))[0]
-    margins = loaded.margins(Kinematics(calibrated, q[None], payload=heavy))[0]
+    assert not loaded.satisfied(Kinematics(calibrated, q[None], payload=heavy.row[None]))[0]
+    margins = loaded.margins(Kinematics(calibrated, q[None], payload=heavy.row[None]))[0]
     np.testing.assert_allclose(
         margins, heights(calibrated, q, heavy)[keep] - loaded.offset, rtol=0, atol=1e-12
     )

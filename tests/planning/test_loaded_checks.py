@@ -47,7 +47,7 @@ def pool(compliant):
     rng = np.random.default_rng(2)
     qs = rng.uniform(compliant.lower + margin, compliant.upper - margin, (20000, compliant.nq))
     bare = plane.heights(qs).min(axis=1)
-    loaded = plane.heights(qs, HEAVY).min(axis=1)
+    loaded = plane.heights(qs, np.repeat(LOADS[1:], len(qs), axis=0)).min(axis=1)  # rows below the door
     dipping = qs[(bare > 1e-4) & (loaded < -1e-4)][:40]
     free = qs[loaded > 0.05][:40]
     # The oracle agrees: these clear the plane unloaded, and not under the payload.

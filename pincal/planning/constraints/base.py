@@ -14,8 +14,8 @@ from pincal.arguments import MAX_LENGTH
 from pincal.errors import BadConstraint
 from pincal.model.kinematics import ForwardKinematics, marker_positions
 from pincal.model.robot import Robot
-from pincal.model.statics import payload_rows
-from pincal.typing import ConfigurationsLike, PayloadLike
+from pincal.model.statics import PayloadRows
+from pincal.typing import ConfigurationsLike
 
 TOLERANCE = 1e-9
 """Slack [m or rad] allowed when checking a constraint exactly (rounding)."""
@@ -52,12 +52,12 @@ class Kinematics:
         robot: Robot,
         qs: np.ndarray,
         data: pin.Data | None = None,
-        payload: PayloadLike = None,
+        payload: PayloadRows = None,
         *,
         forward: ForwardKinematics | None = None,
     ) -> None:
         self.robot, self.qs, self._data = robot, qs, data
-        self.payload = None if payload is None else payload_rows(payload, len(qs))
+        self.payload = payload
         if forward is not None:
             self.__dict__["forward"] = forward
 

@@ -29,8 +29,8 @@ import numpy as np
 from pincal.errors import BadConstraint
 from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
+from pincal.model.statics import PayloadRows
 from pincal.planning.constraints.base import TOLERANCE, Bound, Constraint, Kinematics, number, vector
-from pincal.typing import PayloadLike
 
 MOUNTS = ("floor", "wall", "ceiling", "none")
 """How a robot can be mounted (``none``: no plane kept, e.g. a robot on a pedestal that reaches
@@ -160,16 +160,16 @@ class MountBound(Bound):
     def empty(self) -> bool:
         return not len(self.keep)
 
-    def points(self, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def points(self, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """(m, n, 3) every candidate point (joint origins, tip, markers) in the base frame [m] at
         the readings ``qs``: :meth:`~pincal.model.kinematics.ForwardKinematics.chain_points`."""
         return self.forward.chain_points(qs, payload)
 
-    def batch_points(self, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def batch_points(self, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """:meth:`points` of all configurations in one batch (agrees to rounding)."""
         return self.forward.batch_chain_points(qs, payload)
 
-    def heights(self, qs: np.ndarray, payload: PayloadLike = None) -> np.ndarray:
+    def heights(self, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         """(m, kept) the kept points' heights above the plane [m] at the readings ``qs``."""
         return self.points(qs, payload)[:, self.keep] @ self.normal - self.offset
 

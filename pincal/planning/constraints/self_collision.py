@@ -25,9 +25,9 @@ from pincal.model.collision import touching_at_reference
 from pincal.model.geometry import convex_hulls, urdf_geometry
 from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
+from pincal.model.statics import PayloadRows
 from pincal.model.urdf import few
 from pincal.planning.constraints.base import Bound, Constraint, Kinematics, NothingChecked, number
-from pincal.typing import PayloadLike
 
 
 @dataclass(frozen=True)
@@ -226,7 +226,7 @@ class CollisionBound(Bound):
             ok[i] = not any(pin.computeCollision(geom, gdata, k) for k in np.flatnonzero(near[i]).tolist())
         return ok
 
-    def colliding_pairs(self, q: np.ndarray, payload: PayloadLike = None) -> list[tuple[str, str]]:
+    def colliding_pairs(self, q: np.ndarray, payload: PayloadRows = None) -> list[tuple[str, str]]:
         """Names of the geometry pairs in collision at one configuration (reading)."""
         theta = self.forward.joint_values(np.asarray(q, dtype=float)[None], payload)[0]
         pin.computeCollisions(self.model, self.data, self.exact, self.exact_data, theta, False)
