@@ -178,8 +178,7 @@ def monte_carlo(
     robot = params.robot
     qs = robot.configurations(plan)
     q0 = robot.configurations(test_pose, what="test pose")
-    loads = getattr(plan, "payload", None)
-    loads = None if loads is None else payload_rows(loads, len(qs))
+    loads = getattr(plan, "payload", None)  # a Plan's payload: rows already (Plan is a door)
     task = None if task_payload is None else payload_rows(task_payload, len(q0))
     predicted = float(
         rho0(

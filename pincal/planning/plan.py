@@ -71,8 +71,8 @@ class Plan:
         """A plan for ``robot`` from (m, nq) joint values, checked against its limits (and the
         payload of each configuration, see :func:`~pincal.model.statics.payload_rows`)."""
         qs = robot.configurations(q)
-        loads = None if payload is None else payload_rows(payload, len(qs))
-        return cls(qs, robot.joint_names, tuple(robot.revolute), loads)
+        # the payload becomes rows at the plan's own door (__post_init__)
+        return cls(qs, robot.joint_names, tuple(robot.revolute), payload)  # type: ignore[arg-type]
 
     def __len__(self) -> int:
         return len(self.q)
