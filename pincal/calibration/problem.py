@@ -4,8 +4,8 @@ Unknowns z = (x, b₂, ..., b_S): x the values of a :class:`~pincal.ParameterSet
 relative to the nominal robot, docs/method.md §2) shared by every session, and, when the set holds
 ``base.*``, one more base for each extra session (data file measured from another instrument
 placement): session s uses x with its base components replaced by b_s. The points of session s are
-``params.apply(x_s).points(q_s, payload=w_s)``, w_s the payload of each row (none when the data
-have no payload columns); for another measurement kind (a pose, distances, pixels:
+the markers of the robot ``params.apply(x_s)`` at q_s under w_s, the payload rows of the data (none
+when they have no payload columns); for another measurement kind (a pose, distances, pixels:
 :mod:`pincal.instruments`) its values are the kind's prediction on that robot, the residual its
 difference (a rotation's composed, not subtracted) and the Jacobian its rows. A value not measured
 (a target point out of view) has a zero residual and zero rows.
@@ -26,6 +26,7 @@ from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.noise import Noise
 from pincal.instruments.pose import Pose
 from pincal.model.jacobian import JacobianEngine
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.parameters import ParameterSet
 from pincal.model.robot import Robot
 from pincal.model.statics import PayloadRows
@@ -99,7 +100,7 @@ class Problem:
             )
         return np.concatenate(
             [
-                self.robot(z, s).points(d.q, check=False, payload=d.payload).reshape(-1)
+                ForwardKinematics(self.robot(z, s)).markers(d.q, d.payload).reshape(-1)
                 for s, d in enumerate(self.sessions)
             ]
         )

@@ -20,6 +20,7 @@ import numpy as np
 
 from pincal.calibration.noise import Noise
 from pincal.calibration.problem import Problem, fit_rms, measured_points
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.parameters import ParameterSet
 
 OUTLIER_SCORE = 5.0
@@ -302,7 +303,7 @@ def _marker_offset(problem: Problem, z: np.ndarray) -> float | None:
         return None
     data = problem.sessions[0]
     robot = problem.robot(z, 0)
-    r = (data.points - robot.points(data.q, check=False, payload=data.payload)).reshape(-1)
+    r = (data.points - ForwardKinematics(robot).markers(data.q, data.payload)).reshape(-1)
     J = np.hstack(
         [
             problem.jacobian(z)[: r.size, : len(problem.params)],

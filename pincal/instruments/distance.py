@@ -25,6 +25,7 @@ from pincal.errors import BadArgument
 from pincal.instruments.kind import Kind
 from pincal.model.fixtures import Fixture
 from pincal.model.jacobian import JacobianEngine
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
 from pincal.model.statics import PayloadRows
 
@@ -114,12 +115,12 @@ class Distance(Kind):
         return np.stack([points[:, k] - fixtures[j] for k, j in self.pairs], axis=1)
 
     def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
-        return np.linalg.norm(self._vectors(robot, robot.points(qs, check=False, payload=payload)), axis=2)
+        return np.linalg.norm(self._vectors(robot, ForwardKinematics(robot).markers(qs, payload)), axis=2)
 
     def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         robot, m = engine.robot, len(qs)
         J = engine.jacobian(qs, frame="world", payload=payload).reshape(m, robot.n_markers, 3, -1)
-        vectors = self._vectors(robot, robot.points(qs, check=False, payload=payload))
+        vectors = self._vectors(robot, ForwardKinematics(robot).markers(qs, payload))
         u = vectors / np.linalg.norm(vectors, axis=2, keepdims=True)
         out = np.stack(
             [np.einsum("mi,mip->mp", u[:, i], J[:, k]) for i, (k, _) in enumerate(self.pairs)], axis=1

@@ -27,6 +27,7 @@ from pincal.instruments.camera import MIN_DEPTH, Camera
 from pincal.instruments.kind import Kind
 from pincal.model.fixtures import Fixture
 from pincal.model.jacobian import JacobianEngine, _skew
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
 from pincal.model.statics import PayloadRows
 
@@ -143,7 +144,7 @@ class Image(Kind):
         """(m, N, 3) the target's points in the camera's frame [m]."""
         tool = robot.fixture(self.on_tool).placement
         cell = robot.fixture(self.in_cell).placement
-        R_t, p_t = robot.tip_poses(qs, check=False, payload=payload)
+        R_t, p_t = ForwardKinematics(robot).tip(qs, payload)
         R_f = np.matmul(R_t, tool.rotation)  # the tool fixture in the instrument's frame
         p_f = p_t + R_t @ tool.translation
         if self.eye_in_hand:

@@ -21,6 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.model.jacobian import JacobianEngine
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
 from pincal.model.statics import PayloadRows
 
@@ -150,7 +151,7 @@ def in_world(J: np.ndarray, R: np.ndarray) -> np.ndarray:
 def marker_poses(robot: Robot, qs: np.ndarray, payload: PayloadRows) -> tuple[np.ndarray, np.ndarray]:
     """(R, p): every marker frame's orientation (m, K, 3, 3) and position (m, K, 3) in the
     instrument's frame (the markers' frames have the tip's axes)."""
-    rotations, positions = robot.tip_poses(qs, check=False, payload=payload)
+    rotations, positions = ForwardKinematics(robot).tip(qs, payload)
     points = positions[:, None, :] + np.einsum("mij,kj->mki", rotations, robot.markers)
     return np.broadcast_to(rotations[:, None], (len(qs), robot.n_markers, 3, 3)), points
 

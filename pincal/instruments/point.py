@@ -10,6 +10,7 @@ import numpy as np
 
 from pincal.instruments.kind import Kind, numbered
 from pincal.model.jacobian import JacobianEngine
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.robot import Robot
 from pincal.model.statics import PayloadRows
 
@@ -34,7 +35,7 @@ class Point(Kind):
         return tuple((3 * k, 3 * k + 1, 3 * k + 2) for k in range(robot.n_markers))
 
     def predict(self, robot: Robot, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
-        return robot.points(qs, check=False, payload=payload).reshape(len(qs), -1)
+        return ForwardKinematics(robot).markers(qs, payload).reshape(len(qs), -1)
 
     def rows(self, engine: JacobianEngine, qs: np.ndarray, payload: PayloadRows = None) -> np.ndarray:
         return engine.jacobian(qs, frame="world", payload=payload)

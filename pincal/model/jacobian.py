@@ -33,6 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from pincal.errors import BadArgument
+from pincal.model.kinematics import ForwardKinematics
 from pincal.model.statics import PayloadRows, carried
 
 FD_STEP = 1e-6
@@ -429,7 +430,7 @@ def finite_difference_jacobian(
         h = step / params.scales[col]
         dx = np.zeros(n)
         dx[col] = h
-        plus = params.apply(dx).points(qs, check=False, payload=payload)
-        minus = params.apply(-dx).points(qs, check=False, payload=payload)
+        plus = ForwardKinematics(params.apply(dx)).markers(qs, payload)
+        minus = ForwardKinematics(params.apply(-dx)).markers(qs, payload)
         J[:, :, col] = ((plus - minus) / (2 * h)).reshape(m, -1)
     return J
