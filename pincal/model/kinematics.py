@@ -268,7 +268,7 @@ class ForwardKinematics:
         scale = np.diag(np.abs(1.0 + robot.joint_gains))
         if not robot.joint_compliances.any():
             return scale
-        rows = carried(payload, 1)
+        rows = carried(payload, None)
         loop = np.abs(robot.joint_compliances)[:, None] * torque_derivative_bound(robot, rows)
         if np.max(np.abs(np.linalg.eigvals(loop))) >= 0.5:
             raise BadArgument(

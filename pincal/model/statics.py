@@ -165,10 +165,30 @@ def payload_rows(payload: PayloadLike, m: int) -> np.ndarray:
     return arr
 
 
-def carried(loads: PayloadRows, m: int) -> np.ndarray:
-    """The (m, 4) rows ``loads`` as they are, or m rows of zeros for None (nothing carried): below
-    the door, no check and no copy."""
-    return np.zeros((m, 4)) if loads is None else loads
+def carried(loads: PayloadRows, m: int | None) -> np.ndarray:
+    """The (m, 4) rows ``loads`` as they are (any number of rows when ``m`` is None), or m rows of
+    zeros for None (nothing carried; one row when ``m`` is None): below
+    the door, no copy, and only the shape checked, so that a mass or a :class:`Payload` given to a
+    function below the door (:class:`~pincal.model.kinematics.ForwardKinematics`) is named, not
+    a NumPy error.
+
+    Raises:
+        BadArgument: ``loads`` is not None nor (m, 4) rows.
+    """
+    if loads is None:
+        return np.zeros((1 if m is None else m, 4))
+    if not (isinstance(loads, np.ndarray) and loads.ndim == 2 and loads.shape[1] == 4) or (
+        m is not None and len(loads) != m
+    ):
+        count = "" if m is None else f" for the {m} configuration(s)"
+        given = f"an array of shape {loads.shape}" if isinstance(loads, np.ndarray) else f"{loads!r:.60}"
+        raise BadArgument(
+            f"payload: below pincal's payload door this takes (m, 4) rows [kg, x, y, z]{count}, got "
+            f"{given}; turn a mass or a Payload into rows with "
+            "pincal.model.statics.payload_rows(payload, m)",
+            argument="payload",
+        )
+    return loads
 
 
 def repeated(row: PayloadRows, n: int) -> PayloadRows:

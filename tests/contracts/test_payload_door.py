@@ -127,3 +127,19 @@ def test_the_door_and_the_rows_below_it_agree(ur10, payload):
     below = ForwardKinematics(robot).markers(qs, payload_rows(payload, len(qs)))
     np.testing.assert_array_equal(through_door, below)
     assert np.abs(through_door - robot.points(qs)).max() > 1e-7  # the payload matters here
+
+
+def test_below_the_door_a_payload_that_is_not_rows_is_named(ur10):
+    """ForwardKinematics (public in pincal.model) takes rows: a mass or a Payload there is a
+    BadArgument naming the rows and the door, not a NumPy error from inside the deflection."""
+    from pincal.errors import BadArgument
+    from pincal.model.kinematics import ForwardKinematics
+
+    robot = ur10.replace(joint_compliances=np.full(ur10.nq, 3e-6))
+    forward, qs = ForwardKinematics(robot), robot.random_configurations(3, 1)
+    rows = np.array([[5.0, 0.0, 0.0, 0.1]] * 3)
+    np.testing.assert_array_equal(forward.markers(qs, rows), robot.points(qs, payload=rows))
+    for wrong in (5.0, pincal.Payload(5.0), rows[:2], rows[:, :3]):
+        with pytest.raises(BadArgument, match=r"\(m, 4\) rows \[kg, x, y, z\].*payload_rows"):
+            forward.markers(qs, wrong)
+    assert forward.motion_scale(rows[:2]).shape == (ur10.nq, ur10.nq)  # any number of rows: a bound
