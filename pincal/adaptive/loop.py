@@ -419,7 +419,9 @@ def _predicted(
 ) -> float:
     """The predicted error over the test region with the measured information only [m] (inf when it
     does not determine every parameter); an ``instrument``'s reference σ overrules ``sigma``."""
-    criterion = TestPoseCriterion(params, test_pose, sigma, "mean", measured, instrument=instrument)
+    criterion = TestPoseCriterion(
+        params, test_pose, None if instrument else sigma, "mean", measured, instrument=instrument
+    )
     P = len(params)
     try:
         return float(criterion.from_information(np.zeros((P, P)), 0))

@@ -212,7 +212,8 @@ def _plans_accuracy(
     for a in range(0, len(named), SUMMARISED_TOGETHER):
         group = named[a : a + SUMMARISED_TOGETHER]
         predicted = [
-            PredictedError(params, q, sigma, prior, task_payload, load, inst, checked) for _, q, load in group
+            PredictedError(params, q, None if inst else sigma, prior, task_payload, load, inst, checked)
+            for _, q, load in group
         ]
         wheres, sets = zip(*jacobians)
         summaries = ErrorSummary.of_rows(

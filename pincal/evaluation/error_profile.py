@@ -84,7 +84,9 @@ def error_profile(
         shells.append(np.clip(centres + step * u, robot.lower, robot.upper))
     out = []
     for name, plan in plans.items():
-        predicted = PredictedError(params, plan, sigma, prior, task_payload, instrument=inst)
+        predicted = PredictedError(
+            params, plan, None if inst else sigma, prior, task_payload, instrument=inst
+        )
         rho = np.array([np.sqrt(predicted.squared(s)) for s in shells])
         out.append(ErrorProfile(name, distance, np.median(rho, axis=1), np.percentile(rho, 95, axis=1)))
     return tuple(out)

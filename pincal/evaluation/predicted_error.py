@@ -16,12 +16,13 @@ from typing import Protocol
 
 import numpy as np
 
-from pincal.arguments import positive_int, positive_sigma
+from pincal.arguments import positive_int
 from pincal.deprecation import keywords_after
 from pincal.evaluation.information import factor
 from pincal.evaluation.plans import engine_for
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import ResolvedRegion
+from pincal.instruments.given import measured
 from pincal.instruments.instrument import Instrument
 from pincal.lapack import trtrs
 from pincal.model.parameters import ParameterSet
@@ -35,7 +36,8 @@ class PredictedError:
     Args:
         params: the parameters identified.
         plan: (m, nq) configurations or a Plan.
-        sigma: measurement noise per coordinate [m].
+        sigma: measurement noise per coordinate [m], the shorthand for points (default
+            :data:`~pincal.arguments.DEFAULT_SIGMA`; not with ``instrument``).
         prior: the errors' prior, or None.
         task_payload: the load under which ρ(q) is asked (one for every q: a mass [kg] or a
             :class:`~pincal.Payload`), or None; the plan's own payloads (:attr:`Plan.payload`)
@@ -55,7 +57,7 @@ class PredictedError:
         self,
         params: ParameterSet,
         plan: ConfigurationsLike,
-        sigma: float,
+        sigma: float | None = None,
         prior: Prior | None = None,
         task_payload: PayloadLike = None,
         payload: PayloadRows = None,
@@ -63,22 +65,22 @@ class PredictedError:
         checked: bool = False,
     ) -> None:
         self.params = params
-        self.sigma = positive_sigma(sigma) if instrument is None else instrument.reference
+        instrument, self.sigma = measured(instrument, sigma)  # the one door: not both
         self.prior = prior
         # the door of the task's load: one row (1, 4), carried at every q asked
         self.task_payload = None if task_payload is None else payload_rows(task_payload, 1)
         self.engine = engine_for(params)
-        measured = engine_for(params, instrument)
+        rows = engine_for(params, instrument)
         qs = np.asarray(plan) if checked else params.robot.configurations(plan)
         if payload is None:
             payload = getattr(plan, "payload", None)
-        J = measured.jacobian(qs, frame="tip", payload=payload).reshape(-1, len(params))
+        J = rows.jacobian(qs, frame="tip", payload=payload).reshape(-1, len(params))
         self.information = J.T @ J  # M, of the measurements alone
         self.m = len(qs)
         posterior = (
             self.information if prior is None else self.information + prior.information(params, self.sigma)
         )
-        self.L = factor(posterior, measured.rows, self.m)
+        self.L = factor(posterior, rows.rows, self.m)
 
     def squared(self, qs: np.ndarray, chunk: int = 4096) -> np.ndarray:
         """(n,) ρ² [m²] at configurations ``qs`` (trusted: within the limits)."""

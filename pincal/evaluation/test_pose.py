@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from pincal.arguments import DEFAULT_SIGMA, positive_sigma
+from pincal.arguments import DEFAULT_SIGMA
 from pincal.deprecation import keywords_after
 from pincal.errors import BadArgument
 from pincal.evaluation.information import (
@@ -115,14 +115,15 @@ class TestPoseCriterion:
         params: the parameters identified.
         test_poses: (nq,) or (k, nq) test configuration(s) [rad or m], or a
             :class:`~pincal.evaluation.region.TestRegion` (its sample configurations).
-        sigma: measurement noise standard deviation per coordinate [m].
+        sigma: measurement noise standard deviation per coordinate [m], the shorthand for points
+            (default :data:`~pincal.arguments.DEFAULT_SIGMA`; not with ``instrument``).
         aggregate: ``"mean"`` (root of the mean ρ0² over test poses), ``"worst"`` (largest ρ0)
             or ``"each"`` (one ρ0 per test pose).
         prior: the errors' prior (Bayesian criterion), or None.
         task_payload: the payload at the test pose(s) (a mass [kg], a :class:`~pincal.Payload`,
             or one per test pose); default none.
         instrument: what is measured and how well (:class:`~pincal.instruments.Instrument`): the plan's rows
-            are its whitened rows and ``sigma`` its reference σ; None: points with ``sigma``.
+            are its whitened rows and σ its reference σ; None: points with ``sigma``.
         orientation_length: L [m]: ρ0² also counts L² times the expected squared orientation
             error of the tool at the test poses [rad²] (docs/method.md §13.3); None: positions.
     """
@@ -133,7 +134,7 @@ class TestPoseCriterion:
         self,
         params: ParameterSet,
         test_poses: TestPoseLike,
-        sigma: float = DEFAULT_SIGMA,
+        sigma: float | None = None,
         aggregate: str = "mean",
         prior: Prior | None = None,
         task_payload: PayloadLike = None,
@@ -142,7 +143,7 @@ class TestPoseCriterion:
     ) -> None:
         if aggregate not in AGGREGATES:
             raise BadArgument(f"unknown aggregate {aggregate!r}; valid: {', '.join(AGGREGATES)}")
-        sigma = positive_sigma(sigma) if instrument is None else instrument.reference
+        instrument, sigma = measured(instrument, sigma)  # the one door: not both
         self.params = params
         self.instrument = instrument
         self.orientation_length = orientation_length_of(orientation_length)
@@ -323,8 +324,9 @@ def _evaluate(
             criterion = _criterion(params, test_pose, sigma, aggregate, prior, task_payload)
         else:  # an instrument's criterion is built for the call
             criterion = TestPoseCriterion(
-                params, test_pose, sigma, aggregate, prior, task_payload, instrument, orientation_length
-            )
+                params, test_pose, None if instrument else sigma, aggregate, prior, task_payload,
+                instrument, orientation_length,
+            )  # fmt: skip
         values = criterion.plans(qs, payload)
     if batched:
         return values

@@ -209,7 +209,7 @@ def _report(params, plan, settings: Settings, J) -> tuple[float, float | None, n
         each = TestPoseCriterion(
             params,
             test_poses,
-            sigma,
+            None if s.measured else sigma,
             "each",
             prior,
             instrument=s.measured,

@@ -388,7 +388,9 @@ def _draw_error_cloud(
     else:
         samples = robot.configurations(error_samples, what="error sample")
     try:
-        values = PredictedError(params, qs, sigma, prior, task_payload, instrument=instrument)(samples)
+        values = PredictedError(
+            params, qs, None if instrument else sigma, prior, task_payload, instrument=instrument
+        )(samples)
         add_error_cloud(vis, robot.points(samples)[:, 0], values, reach)
     except SingularPlan as exc:
         return None, values, f"no error cloud: {exc}"

@@ -142,7 +142,8 @@ def _sigma_calls(planar):
 
 SIGMA_OR_INSTRUMENT = (
     "rho0", "rho0_each", "accuracy", "error_profile", "design", "random_plans", "monte_carlo",
-    "simulate_measurements", "scene", "check_plan", "position_covariance",
+    "simulate_measurements", "scene", "check_plan", "position_covariance", "TestPoseCriterion",
+    "PredictedError",
 )  # fmt: skip
 """The functions whose ``sigma=`` is the shorthand of ``instrument=`` (pincal.instruments.given)."""
 

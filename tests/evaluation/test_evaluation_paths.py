@@ -403,7 +403,7 @@ def test_an_accuracy_reports_jacobians_are_each_sets_own(kr270_marker):
     ):
         measuring = {"sigma": SIGMA} if instrument is None else {"instrument": instrument}
         report = pincal.accuracy(params, plan, q0, prior=prior, samples=20, workspace=40, **measuring)
-        sigma = SIGMA if instrument is None else instrument.reference
+        sigma = SIGMA if instrument is None else None  # the instrument's own σ
         predicted = PredictedError(params, plan, sigma, prior, instrument=instrument)
         criterion = TestPoseCriterion(params, q0, sigma, "each", prior, instrument=instrument)
         noise, bias = criterion.split(predicted.information, len(plan))

@@ -160,14 +160,17 @@ def test_the_door_itself():
     assert isinstance(placed["instrument"].error, Tracker) and "sigma" not in placed and "Tracker" in hint
 
 
-def test_the_data_check_and_the_covariance_take_the_one_door_too(setting):
-    """check_plan and position_covariance: an Instrument, or sigma='s points (default σ), not both;
-    points given as an Instrument are sigma='s numbers."""
+def test_the_data_check_covariance_and_compiled_evaluations_take_the_one_door_too(setting):
+    """check_plan, position_covariance and the compiled evaluations (TestPoseCriterion,
+    PredictedError): an Instrument, or sigma='s points (default σ), not both; points given as an
+    Instrument are sigma='s numbers."""
     _, params, plan = setting
     points = Instrument(Point(), PerCoordinate(1e-5))
     calls = {
         "check_plan": lambda **kw: pincal.evaluation.check_plan(params, plan, **kw).as_dict(),
         "position_covariance": lambda **kw: pincal.evaluation.position_covariance(params, plan, Q0, **kw),
+        "TestPoseCriterion": lambda **kw: pincal.evaluation.TestPoseCriterion(params, Q0, **kw)(plan),
+        "PredictedError": lambda **kw: pincal.evaluation.PredictedError(params, plan, **kw)(Q0[None]),
     }
     for name, call in calls.items():
         with pytest.raises(BadArgument, match=r"give sigma= .* or instrument= .*not both"):

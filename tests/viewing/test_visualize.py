@@ -164,7 +164,7 @@ def test_an_instrument_sets_the_ellipsoids_and_a_tracker_where_it_is_drawn(kr_sc
     expected = pincal.evaluation.TestPoseCriterion(params, KR_Q0, aggregate="each", instrument=tracker)(plan)
     assert seen.rho0 == pytest.approx(expected, rel=1e-9)
     assert not np.allclose(seen.rho0, built.rho0, rtol=0.05)  # not σ per coordinate
-    predicted = pincal.evaluation.PredictedError(params, plan, SIGMA, instrument=tracker)(error_cloud)
+    predicted = pincal.evaluation.PredictedError(params, plan, instrument=tracker)(error_cloud)
     assert seen.error_values == pytest.approx(predicted, rel=1e-12)
     moved = visualize.scene(params, plan, KR_Q0, instrument=tracker, instrument_at=(0.0, 2.0, 1.0))
     assert np.allclose(matrix(node(moved, "instrument/body"))[:3, 3], [0.0, 2.0, 1.0])
