@@ -427,6 +427,7 @@ CLAIMS: tuple[Claim, ...] = (
         "0.0872 mm and delivered 0.1282 mm",
         measured(RESULTS, "## Camera designs"),
     ),
+    Claim("so the example above fixes `--starts 8`", GIVEN),  # the README camera design's option
     # Python API
     Claim(
         "gives the workflow, about 35 names",
