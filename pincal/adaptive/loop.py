@@ -28,9 +28,9 @@ advance when the noise, an outlier or an unreachable pose differ from what the p
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
-from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -38,21 +38,22 @@ import numpy as np
 
 from pincal.adaptive.kinds import of_data, own_rows, scaled
 from pincal.adaptive.measured import MeasuredPrior
-from pincal.arguments import DEFAULT_SIGMA, Seed, positive_int, positive_sigma
+from pincal.arguments import DEFAULT_SIGMA, positive_int, positive_sigma
 from pincal.calibration.identification import IdentificationResult, identify
 from pincal.calibration.measurements import MeasurementData
 from pincal.calibration.sanity import OUTLIER_SCORE, Outlier
+from pincal.deprecation import moved_keywords
 from pincal.errors import BadArgument, DegenerateOptimumWarning, PincalError, SingularPlan
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import TestPoseCriterion
 from pincal.instruments.given import keywords
 from pincal.instruments.instrument import Instrument
 from pincal.model.parameters import ParameterSet
-from pincal.planning.constraints import AnyConstraint, AvoidPoses, JointMargin, MountSpec, with_safety
+from pincal.planning.constraints import AvoidPoses, with_safety
 from pincal.planning.driver import design
-from pincal.planning.options import Safety, Search
+from pincal.planning.options import Safety, Search, check_value, regroup
 from pincal.planning.plan import Plan
-from pincal.typing import ConfigurationsLike, PoolLike, TestPoseLike
+from pincal.typing import ConfigurationsLike, TestPoseLike
 
 MATCH_TOLERANCE = 1e-3
 """A planned pose counts as measured when a measured configuration is within this of it on every
@@ -272,6 +273,19 @@ def assess(
     return replace(a, predicted=a.with_unexplained(rho))
 
 
+NEXT_SEARCH = Search(starts=8, seed=0, workers=1)
+"""How :func:`next_poses` searches by default: 8 starts, seed 0, in this process."""
+
+FLAT_NEXT = (
+    "constraints", "joint_margin", "mount", "clearance", "starts", "seed", "workers", "pool", "polish",
+    "progress",
+)  # fmt: skip
+"""next_poses()'s flat keywords of pincal 0.1, now in ``search=`` and ``safety=``."""
+
+
+@moved_keywords(
+    FLAT_NEXT, functools.partial(regroup, function="next_poses", defaults={"search": NEXT_SEARCH})
+)
 def next_poses(
     params: ParameterSet,
     data: MeasurementData,
@@ -282,17 +296,9 @@ def next_poses(
     target: float | None = None,
     sigma: float | None = None,
     prior: Prior | None = None,
-    constraints: Iterable[AnyConstraint] = (),
-    joint_margin: JointMargin = None,
-    mount: MountSpec = None,
-    clearance: float | None = None,
     reject: float = OUTLIER_SCORE,
-    starts: int = 8,
-    seed: Seed = 0,
-    workers: int | None = 1,
-    pool: PoolLike = None,
-    polish: bool | None = None,
-    progress: bool = False,
+    search: Search | None = None,
+    safety: Safety | None = None,
     instrument: Instrument | None = None,
 ) -> NextPoses:
     """The next ``k`` poses to measure given the data so far, or stop (see the module doc).
@@ -311,12 +317,13 @@ def next_poses(
             columns); while too few rows are kept to estimate it, the prediction is unknown and
             the campaign does not stop. Not with ``instrument``.
         prior: the errors' prior before any measurement, or None.
-        constraints, joint_margin, mount, clearance: the workcell and the safe defaults (the
-            clearance from the floor and the obstacles, the robot clear of itself), as for
-            :func:`pincal.design`.
         reject: rows beyond this many robust σ are outliers, dropped.
-        starts, seed, workers, pool, polish, progress: the next design's search (see
-            :func:`pincal.design`).
+        search: how the next design is searched (:class:`pincal.Search`, as :func:`pincal.design`
+            reads it); default :data:`NEXT_SEARCH`, 8 starts, seed 0, 1 worker.
+        safety: the workcell and the safe defaults (the clearance from the floor and the
+            obstacles, the robot clear of itself: :class:`pincal.Safety`, as for
+            :func:`pincal.design`). The flat keywords of pincal 0.1 (``starts=``,
+            ``constraints=``, ...) keep working until pincal 0.3, with a DeprecationWarning.
         instrument: what the data measure and how well (:class:`pincal.instruments.Instrument`
             of the data's kind: its error model weighs the data, makes σ known, measures the poses
             so far and the next ones); default: the data's kind (points, poses, partial poses,
@@ -330,6 +337,10 @@ def next_poses(
         BadArgument, BadMeasurementData, BadConfiguration: bad input.
     """
     robot = params.robot
+    search = NEXT_SEARCH if search is None else search
+    safety = Safety() if safety is None else safety
+    check_value(search, Search, "search")
+    check_value(safety, Safety, "safety")
     k = positive_int(k, "k (poses to choose next)")
     if target is not None:
         target = positive_sigma(target, "target")
@@ -350,20 +361,18 @@ def next_poses(
         return NextPoses(empty, True, a.predicted, None, message=message, **common)
     noise = DEFAULT_SIGMA if a.sigma_source == "unknown" else a.sigma  # unknown: to rank poses by only
     _check_enough(a.params, a.measured, noise, k, data.measure.size(robot))
-    cell = tuple(constraints) + ((AvoidPoses(a.unreachable, AVOID_DISTANCE),) if len(a.unreachable) else ())
-    cell = with_safety(robot, cell, joint_margin, mount, clearance=clearance)
+    avoid = (AvoidPoses(a.unreachable, AVOID_DISTANCE),) if len(a.unreachable) else ()
+    cell = tuple(safety.constraints) + avoid
+    cell = with_safety(robot, cell, safety.joint_margin, safety.mount, clearance=safety.clearance)
     with warnings.catch_warnings():
         # The next k poses alone need not determine every parameter: the data so far do the rest.
         warnings.simplefilter("ignore", DegenerateOptimumWarning)
-        search = Search(
-            starts=starts, seed=seed, workers=workers, pool=pool, polish=polish, progress=progress
-        )
         result = design(
             a.params,
             k,
             test_pose,
             prior=a.measured,
-            safety=Safety(constraints=cell),
+            safety=Safety(constraints=cell, min_conditioning=safety.min_conditioning),
             search=search,
             **keywords(a.instrument, noise),  # the data's instrument, or points with σ
         )

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pincal.adaptive.loop import _predicted, assess, next_poses
+from pincal.adaptive.loop import NEXT_SEARCH, _predicted, assess, next_poses
 from pincal.adaptive.measured import MeasuredPrior
 from pincal.arguments import DEFAULT_SIGMA, generator
 from pincal.calibration.measurements import MeasurementData
@@ -229,9 +229,8 @@ def rehearse(
             k,
             plan=attempted,
             target=target,
-            seed=seed + rounds,
             sigma=told,
-            **_next_options(search),
+            search=_next_search(search, seed + rounds),
         )
         if step.stop or len(qs) + k > max_poses:
             break
@@ -245,14 +244,17 @@ def rehearse(
     return out
 
 
-def _next_options(search: Search) -> dict:
-    """:func:`next_poses`'s search keywords of ``search`` (its own defaults for starts and workers
-    that ``search`` leaves to the design: adaptive starts, every CPU)."""
-    given = {"starts": search.starts, "workers": search.workers}
-    return {key: value for key, value in given.items() if value is not None} | {
-        "pool": search.pool,
-        "polish": search.polish,
-    }
+def _next_search(search: Search, seed: int) -> Search:
+    """An adaptive step's search: ``search``'s starts, workers, pool and polish, at ``seed``
+    (:func:`next_poses`'s own starts and workers where ``search`` leaves them to the design:
+    adaptive starts, every CPU)."""
+    return Search(
+        starts=NEXT_SEARCH.starts if search.starts is None else search.starts,
+        seed=seed,
+        workers=NEXT_SEARCH.workers if search.workers is None else search.workers,
+        pool=search.pool,
+        polish=search.polish,
+    )
 
 
 def summary(results: list[dict[str, Rehearsal]], target: float) -> dict[str, dict[str, float]]:

@@ -44,6 +44,7 @@ from pincal.cli.design import print_warnings
 from pincal.errors import BadArgument
 from pincal.instruments.error_model import PerCoordinate
 from pincal.instruments.instrument import Instrument
+from pincal.planning.options import Safety, Search
 
 HELP = COMMANDS["next"].help
 EXAMPLES = f"""\
@@ -185,13 +186,11 @@ def run(args: argparse.Namespace) -> int:
             plan=plan,
             target=target,
             prior=prior,
-            constraints=constraints,
             reject=args.reject,
-            starts=args.starts,
-            seed=args.seed,
-            workers=args.workers,
-            pool=pool,
-            progress=args.progress,
+            search=Search(
+                starts=args.starts, seed=args.seed, workers=args.workers, pool=pool, progress=args.progress
+            ),
+            safety=Safety(constraints=constraints),
             **measuring,
         )
     if args.out and not result.stop:

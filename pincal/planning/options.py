@@ -13,7 +13,8 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from concurrent.futures import Executor
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
+from typing import Any
 
 from pincal.errors import BadArgument
 from pincal.planning.constraints import AnyConstraint, JointMargin, MountSpec
@@ -122,11 +123,15 @@ ORDER_0_1 = (
 """design()'s keywords in pincal 0.1's order (what arguments by position after the third meant)."""
 
 
-def regroup(flat: dict, kwargs: dict, function: str = "design") -> tuple[dict, str]:
+def regroup(
+    flat: dict, kwargs: dict, function: str = "design", defaults: dict[str, Any] | None = None
+) -> tuple[dict, str]:
     """The keywords of today's :func:`pincal.design` (or of ``function``, which passes them on to
     it) for the flat ones ``flat`` of pincal 0.1 and the others ``kwargs``, with what to write
     instead (for the DeprecationWarning). ``measure=`` and an error model as ``instrument=`` are
-    :func:`pincal.instruments.given.old_instrument`'s.
+    :func:`pincal.instruments.given.old_instrument`'s. ``defaults``: ``function``'s own value of a
+    group where it is not the type's default (:func:`pincal.next_poses`'s 8 starts): the flat
+    keywords change only what they name, and the hint writes the rest.
 
     Raises:
         TypeError: a flat keyword and the value it belongs to are both given.
@@ -139,8 +144,11 @@ def regroup(flat: dict, kwargs: dict, function: str = "design") -> tuple[dict, s
             continue
         if group in kwargs:
             raise TypeError(f"{function}() got {', '.join(given)} and {group}=: put them in {group}=")
-        out[group] = kind(**given)
-        hints.append(f"{group}=pincal.{kind.__name__}({', '.join(f'{n}=...' for n in given)})")
+        base = (defaults or {}).get(group, kind())
+        out[group] = replace(base, **given)
+        kept = [f"{f.name}={getattr(base, f.name)!r}" for f in fields(kind) if f.name not in given
+                and getattr(base, f.name) != getattr(kind(), f.name)]  # fmt: skip
+        hints.append(f"{group}=pincal.{kind.__name__}({', '.join(kept + [f'{n}=...' for n in given])})")
     return out, "; ".join(hints)
 
 

@@ -12,6 +12,8 @@ import pincal
 
 Q0 = np.radians([0, -60, 60, 0, 45, 0])
 FAST = dict(starts=2, pool=300, workers=1, polish=False)
+SEARCH = pincal.Search(**FAST, seed=0)
+"""next_poses's search in the tests: few starts over a small pool."""
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from pincal.adaptive.loop import AVOID_DISTANCE, assess, next_poses
 from pincal.adaptive.measured import MeasuredPrior
 from pincal.adaptive.rehearsal import Faults, one_shot_plan, rehearse, summary
 from pincal.errors import BadArgument, SingularPlan
-from tests.adaptive.conftest import FAST
+from tests.adaptive.conftest import FAST, SEARCH
 
 SIGMA = 3e-5
 
@@ -59,7 +59,7 @@ def test_outliers_and_unreachable_poses_are_named_and_left_out(params, region, k
     points = np.array(data.points)
     points[4, 0, 2] += 2e-3  # a 2 mm reading error
     data = pincal.MeasurementData(data.q, points, data.joint_names)
-    step = next_poses(params, data, region, 3, plan=plan, sigma=SIGMA, **FAST)
+    step = next_poses(params, data, region, 3, plan=plan, sigma=SIGMA, search=SEARCH)
     assert [o.row for o in step.outliers] == [4] and step.used == 8 and step.measured == 9
     np.testing.assert_allclose(step.unreachable, plan.q[:1])
     # The information kept is that of the 8 good rows.
@@ -82,9 +82,9 @@ def test_stopping_rule(params, first, region):
     truth = pincal.random_errors(params, seed=5)
     data = pincal.simulate_measurements(truth, first, sigma=SIGMA, seed=6)
     predicted = assess(params, data, region, sigma=SIGMA).predicted
-    done = next_poses(params, data, region, 3, target=1.01 * predicted, sigma=SIGMA, **FAST)
+    done = next_poses(params, data, region, 3, target=1.01 * predicted, sigma=SIGMA, search=SEARCH)
     assert done.stop and len(done.plan) == 0 and done.predicted_after is None and "stop" in done.message
-    more = next_poses(params, data, region, 3, target=0.5 * predicted, sigma=SIGMA, **FAST)
+    more = next_poses(params, data, region, 3, target=0.5 * predicted, sigma=SIGMA, search=SEARCH)
     assert not more.stop and len(more.plan) == 3
 
 
@@ -92,7 +92,7 @@ def test_too_few_next_poses_are_refused(params, region, first):
     truth = pincal.random_errors(params, seed=5)
     data = pincal.simulate_measurements(truth, first.q[:1], sigma=SIGMA, seed=6)  # 3 of 12 coordinates
     with pytest.raises(SingularPlan, match="at least 3 poses"):
-        next_poses(params, data, region, 2, sigma=SIGMA, **FAST)
+        next_poses(params, data, region, 2, sigma=SIGMA, search=SEARCH)
 
 
 def test_adaptive_reaches_the_target_in_fewer_poses_than_one_shot(params, region):
@@ -153,3 +153,26 @@ def test_the_rehearsal_takes_a_search_and_its_0_1_options_until_0_3(params, regi
     assert before == after
     with pytest.raises(TypeError, match="design_options= and search="):
         rehearse(params, region, target, plan=new, design_options=FAST, search=pincal.Search())
+
+
+def test_next_poses_takes_a_search_and_a_safety_and_its_0_1_keywords_until_0_3(params, first, region):
+    """next_poses()'s flat keywords of pincal 0.1 become ``search=`` and ``safety=`` with a
+    DeprecationWarning at the caller's line, next_poses' own 8 starts and 1 worker kept (the hint
+    writes them), and the same next poses; a dict is no Search."""
+    data = pincal.simulate_measurements(pincal.random_errors(params, seed=1), first, sigma=SIGMA, seed=2)
+    flat = dict(pool=300, polish=False, seed=3, clearance=0.04)
+    message = r"next_poses\(\): the flat keywords .* search=pincal.Search\(starts=8, workers=1, pool="
+    with pytest.warns(DeprecationWarning, match=message) as caught:
+        old = next_poses(params, data, region, 3, plan=first, sigma=SIGMA, **flat)
+    assert caught[0].filename == __file__ and "safety=pincal.Safety(clearance=...)" in str(caught[0].message)
+    search = pincal.Search(starts=8, seed=3, workers=1, pool=300, polish=False)
+    safety = pincal.Safety(clearance=0.04)
+    new = next_poses(params, data, region, 3, plan=first, sigma=SIGMA, search=search, safety=safety)
+    assert old.plan.q.tobytes() == new.plan.q.tobytes() and old.message == new.message
+    assert (old.predicted, old.predicted_after) == (new.predicted, new.predicted_after)
+    with pytest.raises(BadArgument, match=r"search= takes a pincal.Search\(...\)"):
+        next_poses(params, data, region, 3, sigma=SIGMA, search=dict(FAST))
+    with pytest.raises(BadArgument, match=r"safety= takes a pincal.Safety\(...\)"):
+        next_poses(params, data, region, 3, sigma=SIGMA, search=SEARCH, safety={"clearance": 0.04})
+    with pytest.raises(TypeError, match="starts and search="):
+        next_poses(params, data, region, 3, sigma=SIGMA, starts=2, search=SEARCH)

@@ -14,7 +14,7 @@ from pincal.adaptive.loop import assess, next_poses
 from pincal.errors import BadArgument, SingularPlan
 from pincal.evaluation.region import resolve_test_poses
 from pincal.instruments import Instrument, Partial, PerCoordinate, Point, Pose, Tracker
-from tests.adaptive.conftest import FAST, Q0
+from tests.adaptive.conftest import FAST, Q0, SEARCH
 
 MOCAP = Instrument(Pose(), PerCoordinate(2e-5, 1e-4))
 
@@ -35,13 +35,13 @@ def test_pose_data_are_measured_as_poses(params, region, poses):
     assert a.predicted == pytest.approx(now, rel=1e-9)
     as_points = pincal.rho0(a.params, poses.q, region, sigma=2e-5)
     assert abs(as_points - now) > 0.05 * now  # what reading them as points predicted
-    step = next_poses(params, poses, region, 2, instrument=MOCAP, **FAST)
+    step = next_poses(params, poses, region, 2, instrument=MOCAP, search=SEARCH)
     after = pincal.rho0(a.params, np.vstack([poses.q, step.plan.q]), region, instrument=MOCAP)
     assert step.predicted_after == pytest.approx(after, rel=1e-9)
     assert f"{after * 1e3:.4g} mm" in step.message
     # sigma= is the length σ of the data's kind (angles at pincal's default, 1e-4 rad), as identify
     # takes it: the same instrument here.
-    same = next_poses(params, poses, region, 2, sigma=2e-5, **FAST)
+    same = next_poses(params, poses, region, 2, sigma=2e-5, search=SEARCH)
     assert same.predicted_after == step.predicted_after and np.array_equal(same.plan.q, step.plan.q)
 
 
@@ -49,13 +49,13 @@ def test_rows_per_configuration_are_the_kinds(params, region, poses, first):
     """One pose measured brings 6 of the 12 parameters: two more poses complete them (one point
     brings 3: at least 3 poses more)."""
     one = poses.subset([0])
-    step = next_poses(params, one, region, 2, instrument=MOCAP, **FAST)
+    step = next_poses(params, one, region, 2, instrument=MOCAP, search=SEARCH)
     assert len(step.plan) == 2 and math.isfinite(step.predicted_after)
     after = pincal.rho0(params, np.vstack([one.q, step.plan.q]), region, instrument=MOCAP)
     assert step.predicted_after == pytest.approx(after, rel=1e-9)  # no fit from one pose: nominal robot
     points = pincal.simulate_measurements(pincal.random_errors(params, seed=1), first.q[:1], sigma=2e-5)
     with pytest.raises(SingularPlan, match="at least 3 poses"):
-        next_poses(params, points, region, 2, sigma=2e-5, **FAST)
+        next_poses(params, points, region, 2, sigma=2e-5, search=SEARCH)
 
 
 def test_partial_data_with_sigma_re_estimated(kr270_marker, region):
@@ -71,18 +71,18 @@ def test_partial_data_with_sigma_re_estimated(kr270_marker, region):
     estimated = Instrument(Partial(("x", "y")), PerCoordinate(a.sigma))
     rho = pincal.rho0(a.params, data.q[a.used], region, instrument=estimated)
     assert a.predicted == pytest.approx(a.with_unexplained(rho), rel=1e-9)
-    step = next_poses(params, data, region, 2, **FAST)
+    step = next_poses(params, data, region, 2, search=SEARCH)
     after = pincal.rho0(a.params, np.vstack([data.q[a.used], step.plan.q]), region, instrument=estimated)
     assert step.predicted_after == pytest.approx(a.with_unexplained(after), rel=1e-9)
 
 
 def test_what_is_refused(params, region, poses):
     with pytest.raises(BadArgument, match="the data hold"):
-        next_poses(params, poses, region, 2, instrument=Instrument(Point(), Tracker()), **FAST)
+        next_poses(params, poses, region, 2, instrument=Instrument(Point(), Tracker()), search=SEARCH)
     with pytest.raises(BadArgument, match="not both"):
-        next_poses(params, poses, region, 2, instrument=MOCAP, sigma=2e-5, **FAST)
+        next_poses(params, poses, region, 2, instrument=MOCAP, sigma=2e-5, search=SEARCH)
     with pytest.raises(BadArgument, match=r"Instrument\(Pose"):
-        next_poses(params, poses, region, 2, instrument=PerCoordinate(2e-5), **FAST)
+        next_poses(params, poses, region, 2, instrument=PerCoordinate(2e-5), search=SEARCH)
 
 
 def test_the_prediction_from_pose_data_is_delivered(params, region, poses, kr270_marker):
@@ -91,7 +91,7 @@ def test_the_prediction_from_pose_data_is_delivered(params, region, poses, kr270
     it delivers over the test region is the one next_poses predicted, within the Monte-Carlo's own
     scatter (as the instruments' Monte-Carlo tests allow)."""
     a = assess(params, poses, region, instrument=MOCAP)
-    step = next_poses(params, poses, region, 2, instrument=MOCAP, **FAST)
+    step = next_poses(params, poses, region, 2, instrument=MOCAP, search=SEARCH)
     tests, _ = resolve_test_poses(kr270_marker, region)
     plan = np.vstack([poses.q, step.plan.q])
     mc = pincal.monte_carlo(a.params, plan, tests, trials=40, seed=3, instrument=MOCAP)
@@ -110,7 +110,9 @@ def test_cli_next_with_pose_data(tmp_path, cli, params, poses, first, kr270_mark
     payload = cli.json(*argv, "--sigma", "2e-5", "--sigma-rot", "1e-4")
     data = pincal.MeasurementData.from_csv(measured, kr270_marker, degrees=True, kind=Pose())
     region = pincal.around(Q0, math.radians(10))  # the CLI's --around 10deg
-    step = next_poses(params, data, region, 2, plan=first, instrument=MOCAP, starts=2, workers=1)
+    step = next_poses(
+        params, data, region, 2, plan=first, instrument=MOCAP, search=pincal.Search(starts=2, workers=1)
+    )
     assert payload["sigma_source"] == "given" and payload["sigma"] == 2e-5
     assert payload["predicted"] == pytest.approx(step.predicted, rel=1e-12)
     assert payload["predicted_after"] == pytest.approx(step.predicted_after, rel=1e-12)
@@ -126,8 +128,8 @@ def test_pose_data_with_their_own_uncertainties(params, region, poses):
     a, b = assess(params, own, region), assess(params, poses, region, instrument=MOCAP)
     assert a.sigma_source == "data" and a.sigma == 2e-5
     assert a.predicted == pytest.approx(b.predicted, rel=1e-9)
-    step = next_poses(params, own, region, 2, **FAST)
-    again = next_poses(params, poses, region, 2, instrument=MOCAP, **FAST)
+    step = next_poses(params, own, region, 2, search=SEARCH)
+    again = next_poses(params, poses, region, 2, instrument=MOCAP, search=SEARCH)
     assert step.predicted_after == pytest.approx(again.predicted_after, rel=1e-9)
 
 

@@ -19,6 +19,8 @@ from pincal.errors import BadArgument
 
 SIGMA = 3e-5
 FAST = dict(starts=2, pool=300, workers=1, polish=False)
+SEARCH = pincal.Search(**FAST, seed=0)
+"""next_poses's search in the tests: few starts over a small pool."""
 
 
 def test_identifiable_keeps_the_base_when_the_set_holds_it(ur10, kr270_marker):
@@ -87,7 +89,7 @@ def test_next_never_falls_back_to_a_default_sigma(kr270_marker):
     data = pincal.simulate_measurements(pincal.random_errors(params, seed=1), plan, SIGMA, seed=2)
     a = assess(params, data, region)
     assert a.sigma_source == "unknown" and math.isnan(a.predicted) and math.isnan(a.sigma)
-    step = next_poses(params, data, region, 3, target=1.0, **FAST)  # a 1 m target
+    step = next_poses(params, data, region, 3, target=1.0, search=SEARCH)  # a 1 m target
     assert not step.stop and len(step.plan) == 3 and step.predicted_after is None
     assert "no prediction yet" in step.message
     text = "\n".join(step.lines())
@@ -95,7 +97,7 @@ def test_next_never_falls_back_to_a_default_sigma(kr270_marker):
     out = step.as_dict()
     assert out["sigma"] is None and out["predicted"] is None and out["sigma_source"] == "unknown"
     # Given σ, the same data predict (and the stopping rule can fire).
-    given = next_poses(params, data, region, 3, target=1.0, sigma=SIGMA, **FAST)
+    given = next_poses(params, data, region, 3, target=1.0, sigma=SIGMA, search=SEARCH)
     assert given.stop and given.sigma_source == "given" and math.isfinite(given.predicted)
 
 
@@ -128,7 +130,7 @@ def test_next_refuses_a_reject_that_is_not_a_number(kr270_marker):
         pincal.random_errors(params, seed=1), kr270_marker.random_configurations(8, 1), SIGMA, seed=2
     )
     with pytest.raises(BadArgument, match="reject"):
-        next_poses(params, data, np.zeros(6), 3, reject=float("nan"), **FAST)
+        next_poses(params, data, np.zeros(6), 3, reject=float("nan"), search=SEARCH)
 
 
 @pytest.fixture(scope="module")
