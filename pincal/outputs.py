@@ -62,7 +62,9 @@ def _umask() -> int:
     return 0o022
 
 
-def _same_file(a: Path, b: Path) -> bool:
+def same_file(a: Path, b: Path) -> bool:
+    """Whether paths ``a`` and ``b`` name one file (a link or another spelling of it; paths that do
+    not exist yet: the same resolved path)."""
     try:
         return os.path.samefile(a, b)
     except OSError:
@@ -103,7 +105,7 @@ def check_output(
                 "input; choose another output path"
             )
     for name, other in inputs:
-        if other is not None and _same_file(path, Path(other)):
+        if other is not None and same_file(path, Path(other)):
             raise OverwriteRefused(
                 f"{what} {text} is {name}: pincal never overwrites an input; choose another output path"
             )

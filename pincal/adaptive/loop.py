@@ -429,7 +429,7 @@ def _predicted(
     """The predicted error over the test region with the measured information only [m] (inf when it
     does not determine every parameter); an ``instrument``'s reference σ overrules ``sigma``."""
     criterion = TestPoseCriterion(
-        params, test_pose, None if instrument else sigma, "mean", measured, instrument=instrument
+        params, test_pose, aggregate="mean", prior=measured, **keywords(instrument, sigma)
     )
     P = len(params)
     try:

@@ -22,7 +22,7 @@ from pincal.campaign.timing import Timing
 from pincal.deprecation import moved_keywords
 from pincal.errors import BadArgument, PincalError
 from pincal.evaluation.prior import Prior
-from pincal.instruments.given import measured
+from pincal.instruments.given import keywords, measured
 from pincal.instruments.instrument import Instrument
 from pincal.model.parameters import ParameterSet
 from pincal.planning.constraints import with_safety
@@ -182,7 +182,7 @@ def accuracy_vs_time(
     instrument, sigma = measured(instrument, sigma)
     rows_each = 3 * robot.n_markers if instrument is None else instrument.kind.size(robot)
     minimum = -(-len(params) // rows_each)
-    how = {"sigma": sigma} if instrument is None else {"instrument": instrument}
+    how = keywords(instrument, sigma)
     for m in sizes:
         if prior is None and m < minimum:
             skipped.append((m, f"fewer than the {minimum} poses that identify the {len(params)} parameters"))

@@ -31,7 +31,7 @@ from pincal.evaluation.predicted_error import PredictedError, worst_found
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.residual_criterion import check_points
 from pincal.evaluation.test_pose_worst import TestPoseWorst
-from pincal.instruments.given import measured, takes_instrument
+from pincal.instruments.given import keywords, measured, takes_instrument
 from pincal.instruments.instrument import Instrument
 from pincal.kept import REPORTS
 from pincal.model.parameters import ParameterSet
@@ -212,7 +212,15 @@ def _plans_accuracy(
     for a in range(0, len(named), SUMMARISED_TOGETHER):
         group = named[a : a + SUMMARISED_TOGETHER]
         predicted = [
-            PredictedError(params, q, None if inst else sigma, prior, task_payload, load, inst, checked)
+            PredictedError(
+                params,
+                q,
+                prior=prior,
+                task_payload=task_payload,
+                payload=load,
+                checked=checked,
+                **keywords(inst, sigma),
+            )  # fmt: skip
             for _, q, load in group
         ]
         wheres, sets = zip(*jacobians)

@@ -15,7 +15,7 @@ from pincal.evaluation.accuracy_samples import prismatic_per_radian
 from pincal.evaluation.predicted_error import PredictedError
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import resolve_test_poses
-from pincal.instruments.given import measured, takes_instrument
+from pincal.instruments.given import keywords, measured, takes_instrument
 from pincal.instruments.instrument import Instrument
 from pincal.model.parameters import ParameterSet
 from pincal.typing import ConfigurationsLike, PayloadLike, TestPoseLike
@@ -85,7 +85,7 @@ def error_profile(
     out = []
     for name, plan in plans.items():
         predicted = PredictedError(
-            params, plan, None if inst else sigma, prior, task_payload, instrument=inst
+            params, plan, prior=prior, task_payload=task_payload, **keywords(inst, sigma)
         )
         rho = np.array([np.sqrt(predicted.squared(s)) for s in shells])
         out.append(ErrorProfile(name, distance, np.median(rho, axis=1), np.percentile(rho, 95, axis=1)))

@@ -50,7 +50,7 @@ from pincal.evaluation.prior import Prior
 from pincal.evaluation.region import TestRegion, resolve_test_poses
 from pincal.evaluation.test_pose_worst import TestPoseWorst
 from pincal.evaluation.weighted_trace import WeightedTrace
-from pincal.instruments.given import measured, takes_instrument
+from pincal.instruments.given import keywords, measured, takes_instrument
 from pincal.instruments.instrument import Instrument, orientation_length_of, tool_rows
 from pincal.kept import CRITERIA
 from pincal.lapack import trsm, trsm_batch
@@ -324,8 +324,8 @@ def _evaluate(
             criterion = _criterion(params, test_pose, sigma, aggregate, prior, task_payload)
         else:  # an instrument's criterion is built for the call
             criterion = TestPoseCriterion(
-                params, test_pose, None if instrument else sigma, aggregate, prior, task_payload,
-                instrument, orientation_length,
+                params, test_pose, aggregate=aggregate, prior=prior, task_payload=task_payload,
+                orientation_length=orientation_length, **keywords(instrument, sigma),
             )  # fmt: skip
         values = criterion.plans(qs, payload)
     if batched:

@@ -61,7 +61,7 @@ from pincal.model.mjcf import (
     vector_text,
 )
 from pincal.model.robot import Robot
-from pincal.outputs import all_or_nothing, atomic_write_text
+from pincal.outputs import all_or_nothing, atomic_write_text, same_file
 from pincal.version import __version__
 
 MARKER_SITE = "pincal_marker{}"
@@ -110,7 +110,7 @@ def export_mjcf(
             "or URDF file to write the calibrated geometry into"
         )
     src, out = Path(given), Path(path)
-    if _same_file(src, out):
+    if same_file(src, out):
         raise OverwriteRefused(f"refusing to overwrite the source {str(src)!r}: choose another output path")
     if is_mjcf(src):
         text, markers, base = _edited(robot, src, out, offsets, result)
@@ -152,15 +152,6 @@ def writes_mjcf(robot: Robot, out: str | os.PathLike) -> bool:
             )
         return True
     return False
-
-
-def _same_file(a: Path, b: Path) -> bool:
-    if a.resolve() == b.resolve():
-        return True
-    try:
-        return a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
-        return False
 
 
 def _rerooted(robot: Robot) -> bool:

@@ -64,7 +64,7 @@ from pincal.errors import (
 from pincal.model.loading import load_robot
 from pincal.model.robot import Robot
 from pincal.model.urdf import expanded_text, model_from_text, prepare
-from pincal.outputs import all_or_nothing, atomic_write_text
+from pincal.outputs import all_or_nothing, atomic_write_text, same_file
 from pincal.version import __version__
 
 ROUND_TRIP_TOLERANCE = 1e-9
@@ -195,7 +195,7 @@ def export_urdf(
             "calibrated origins into"
         )
     source, out = Path(source), Path(path)
-    if _same_file(source, out):
+    if same_file(source, out):
         raise OverwriteRefused(
             f"refusing to overwrite the source URDF {str(source)!r}: choose another output path"
         )
@@ -246,15 +246,6 @@ def _serialise(root: etree._Element, original: bytes) -> str:
 
 def _text(node: etree._Element) -> str:
     return etree.tostring(node, encoding="unicode", with_tail=False)
-
-
-def _same_file(a: Path, b: Path) -> bool:
-    if a.resolve() == b.resolve():
-        return True
-    try:
-        return a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
-        return False
 
 
 def _parse(text: bytes, source: Path) -> etree._ElementTree:

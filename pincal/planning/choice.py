@@ -209,11 +209,10 @@ def _report(params, plan, settings: Settings, J) -> tuple[float, float | None, n
         each = TestPoseCriterion(
             params,
             test_poses,
-            None if s.measured else sigma,
-            "each",
-            prior,
-            instrument=s.measured,
+            aggregate="each",
+            prior=prior,
             orientation_length=s.orientation_length,
+            **keywords(s.measured, sigma),
         )(plan.q)
     if each is not None:
         rho0 = float(each.max()) if criterion == "test-pose-worst" else float(np.sqrt(np.mean(each**2)))

@@ -43,7 +43,7 @@ from pincal.evaluation.predicted_error import PredictedError
 from pincal.evaluation.prior import Prior
 from pincal.evaluation.test_pose import position_covariance
 from pincal.instruments.error_model import ErrorModel, Tracker
-from pincal.instruments.given import instrument_of
+from pincal.instruments.given import instrument_of, keywords
 from pincal.instruments.instrument import Instrument
 from pincal.model.collision import reach as robot_reach
 from pincal.model.parameters import ParameterSet
@@ -353,7 +353,7 @@ def _error_ellipsoids(
                 qs,
                 q0,
                 task_payload=task_payload,
-                **({"sigma": sigma} if instrument is None else {"instrument": instrument}),
+                **keywords(instrument, sigma),
             )
         except SingularPlan as exc:
             note = f"no error ellipsoid: {exc}"
@@ -389,7 +389,7 @@ def _draw_error_cloud(
         samples = robot.configurations(error_samples, what="error sample")
     try:
         values = PredictedError(
-            params, qs, None if instrument else sigma, prior, task_payload, instrument=instrument
+            params, qs, prior=prior, task_payload=task_payload, **keywords(instrument, sigma)
         )(samples)
         add_error_cloud(vis, robot.points(samples)[:, 0], values, reach)
     except SingularPlan as exc:
